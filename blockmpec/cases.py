@@ -1,0 +1,262 @@
+"""Parametric generators of the reference structures, and the built-in case registry.
+
+Every generator validates its parameters (clear :class:`OptionError` naming the
+parameter) and returns a validated :class:`~blockmpec.geometry.Structure`.
+Loads are proportional to block area (unit density): dead load = weight,
+live load = horizontal body force equal to the weight.
+"""
+
+from __future__ import annotations
+
+import inspect
+import math
+from dataclasses import dataclass
+from typing import Any, Callable
+
+import numpy as np
+
+from blockmpec.errors import OptionError, UnknownNameError
+from blockmpec.geometry import Structure, make_structure
+
+
+def _positive(name: str, value: float) -> float:
+    try:
+        v = float(value)
+    except (TypeError, ValueError):
+        raise OptionError(f"{name}: expected a number; got {value!r}") from None
+    if not math.isfinite(v) or v <= 0:
+        raise OptionError(f"{name}: must be a finite number > 0; got {value!r}")
+    return v
+
+
+def _count(name: str, value: int, minimum: int = 1) -> int:
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < minimum:
+        raise OptionError(f"{name}: must be an integer >= {minimum}; got {value!r}")
+    return int(value)
+
+
+def _rect(x0: float, y0: float, x1: float, y1: float) -> np.ndarray:
+    return np.array([[x0, y0], [x1, y0], [x1, y1], [x0, y1]])
+
+
+def single_block(width: float = 1.0, height: float = 2.0, mu: float = 0.65, dilatancy: float = 0.0) -> Structure:
+    """One ``width x height`` block on a fixed base.
+
+    Closed form (associative and non-associative alike): ``lam = min(mu, width/height)``.
+    """
+    b, h = _positive("width", width), _positive("height", height)
+    base = _rect(-b, -0.5 * h, 2 * b, 0.0)
+    block = _rect(0.0, 0.0, b, h)
+    return make_structure(
+        [base, block], [True, False], friction=mu, dilatancy=dilatancy, name="single-block",
+        metadata={"case": "single-block", "width": b, "height": h},
+    )
+
+
+def two_blocks(eta: float = 3.0, mu: float = 0.65, width: float = 1.0, dilatancy: float = 0.0) -> Structure:
+    """The paper's two-block problem: two ``b x h`` blocks side by side on a fixed base.
+
+    ``eta = h / b`` is the slenderness.  Each block carries its weight ``W`` as
+    dead load and a horizontal force ``W`` (towards +x) as live load.
+
+    Closed forms: associative ``lam = min(mu, 1/[eta(1-mu^2)+mu], (1+2mu^2)/[eta(1+mu^2)-mu], 2/eta)``
+    (rocking terms only where their denominator is positive); non-associative
+    minimum ``mu`` if ``mu <= 1/eta`` else ``1/eta``.
+    """
+    b = _positive("width", width)
+    h = _positive("eta", eta) * b
+    base = _rect(-b, -0.5 * b, 3 * b, 0.0)
+    left = _rect(0.0, 0.0, b, h)
+    right = _rect(b, 0.0, 2 * b, h)
+    return make_structure(
+        [base, left, right], [True, False, False], friction=mu, dilatancy=dilatancy, name="two-blocks",
+        metadata={"case": "two-blocks", "eta": float(eta), "width": b},
+    )
+
+
+def _voussoirs(n: int, radius: float, thickness: float, x_centre: float = 0.0, y_centre: float = 0.0) -> list[np.ndarray]:
+    """Straight-sided voussoirs of a semicircular arch, from angle 0 (right) to pi (left)."""
+    ri, ro = radius - thickness / 2, radius + thickness / 2
+    angles = np.linspace(0.0, np.pi, n + 1)
+    out = []
+    for a0, a1 in zip(angles[:-1], angles[1:]):
+        c0, s0, c1, s1 = math.cos(a0), math.sin(a0), math.cos(a1), math.sin(a1)
+        poly = np.array([[ri * c0, ri * s0], [ro * c0, ro * s0], [ro * c1, ro * s1], [ri * c1, ri * s1]])
+        poly[np.abs(poly) < 1e-15] = 0.0
+        out.append(poly + [x_centre, y_centre])
+    return out
+
+
+def round_arch(
+    n_voussoirs: int = 10, radius: float = 1.0, thickness: float = 0.15, mu: float = 0.65, dilatancy: float = 0.0
+) -> Structure:
+    """Semicircular arch of straight-sided voussoirs on two fixed springings.
+
+    ``radius`` is the centre-line radius.  With the defaults and ``mu = 0.65`` the
+    associative collapse multiplier is 0.16034 (the paper's Table 1).
+    """
+    n = _count("n_voussoirs", n_voussoirs, 2)
+    r, t = _positive("radius", radius), _positive("thickness", thickness)
+    if t >= 2 * r:
+        raise OptionError(f"thickness: must be smaller than twice the radius ({2 * r}); got {t}")
+    ri, ro = r - t / 2, r + t / 2
+    springs = [_rect(ri, -t, ro, 0.0), _rect(-ro, -t, -ri, 0.0)]
+    blocks = springs + _voussoirs(n, r, t)
+    fixed = [True, True] + [False] * n
+    return make_structure(
+        blocks, fixed, friction=mu, dilatancy=dilatancy, name="round-arch",
+        metadata={"case": "round-arch", "n_voussoirs": n, "radius": r, "thickness": t},
+    )
+
+
+def arch_on_buttresses(
+    n_voussoirs: int = 10,
+    radius: float = 1.0,
+    thickness: float = 0.15,
+    buttress_width: float = 0.5,
+    buttress_courses: int = 8,
+    mu: float = 0.65,
+    dilatancy: float = 0.0,
+) -> Structure:
+    """A round arch springing from two buttresses on a fixed base.
+
+    Each buttress is a column of ``buttress_courses`` blocks of width
+    ``buttress_width`` and height ``buttress_width / 2`` (aspect 1:2); its inner
+    face is flush with the arch intrados at the springing.  Defaults give 26 free
+    blocks.  The paper's exact geometry (its reference [2]) is not given, so the
+    multipliers differ from its Table 1.
+    """
+    n = _count("n_voussoirs", n_voussoirs, 2)
+    courses = _count("buttress_courses", buttress_courses)
+    r, t = _positive("radius", radius), _positive("thickness", thickness)
+    w = _positive("buttress_width", buttress_width)
+    if t >= 2 * r:
+        raise OptionError(f"thickness: must be smaller than twice the radius ({2 * r}); got {t}")
+    ri = r - t / 2
+    if w < t:
+        raise OptionError(f"buttress_width: must be at least the arch thickness {t}; got {w}")
+    h = w / 2
+    height = courses * h
+    blocks = [_rect(-ri - w - w, -h, ri + w + w, 0.0)]
+    for side in (1, -1):
+        x_in, x_out = side * ri, side * (ri + w)
+        for k in range(courses):
+            blocks.append(_rect(min(x_in, x_out), k * h, max(x_in, x_out), (k + 1) * h))
+    blocks += _voussoirs(n, r, t, y_centre=height)
+    fixed = [True] + [False] * (len(blocks) - 1)
+    return make_structure(
+        blocks, fixed, friction=mu, dilatancy=dilatancy, name="arch-on-buttresses",
+        metadata={"case": "arch-on-buttresses", "n_voussoirs": n, "radius": r, "thickness": t,
+                  "buttress_width": w, "buttress_courses": courses},
+    )
+
+
+def wall(
+    courses: int = 5,
+    blocks_per_course: int = 4,
+    bond: str = "running",
+    block_length: float = 1.0,
+    block_height: float | None = None,
+    openings: list | tuple = (),
+    mu: float = 0.65,
+    dilatancy: float = 0.0,
+) -> Structure:
+    """A masonry wall on a fixed base.
+
+    Parameters
+    ----------
+    courses, blocks_per_course : int
+        Rows of blocks and full blocks per row.
+    bond : {"running", "stack"}
+        Running bond shifts every other course by half a block, with half blocks
+        at both ends (so those courses hold ``blocks_per_course + 1`` blocks).
+    block_length, block_height : float
+        Block size; height defaults to half the length (aspect 1:2).
+    openings : list of (x0, y0, x1, y1)
+        Rectangles, in wall coordinates (origin at the bottom-left corner), whose
+        blocks are removed: every block with its centroid inside is left out.
+    """
+    nc, nb = _count("courses", courses), _count("blocks_per_course", blocks_per_course)
+    if bond not in ("running", "stack"):
+        raise OptionError(f"bond: must be 'running' or 'stack'; got {bond!r}")
+    lb = _positive("block_length", block_length)
+    hb = lb / 2 if block_height is None else _positive("block_height", block_height)
+    total = nb * lb
+    holes = []
+    for k, o in enumerate(openings):
+        try:
+            x0, y0, x1, y1 = (float(v) for v in o)
+        except (TypeError, ValueError):
+            raise OptionError(f"openings[{k}]: expected (x0, y0, x1, y1); got {o!r}") from None
+        holes.append((min(x0, x1), min(y0, y1), max(x0, x1), max(y0, y1)))
+    blocks = [_rect(-lb, -hb, total + lb, 0.0)]
+    for r in range(nc):
+        y0, y1 = r * hb, (r + 1) * hb
+        if bond == "running" and r % 2 == 1:
+            xs = np.concatenate([[0.0], lb / 2 + lb * np.arange(nb), [total]])
+        else:
+            xs = lb * np.arange(nb + 1)
+        for x0, x1 in zip(xs[:-1], xs[1:]):
+            cx, cy = 0.5 * (x0 + x1), 0.5 * (y0 + y1)
+            if any(a < cx < c and b < cy < d for a, b, c, d in holes):
+                continue
+            blocks.append(_rect(x0, y0, x1, y1))
+    fixed = [True] + [False] * (len(blocks) - 1)
+    return make_structure(
+        blocks, fixed, friction=mu, dilatancy=dilatancy, name="wall",
+        metadata={"case": "wall", "courses": nc, "blocks_per_course": nb, "bond": bond,
+                  "block_length": lb, "block_height": hb, "openings": [list(h) for h in holes]},
+    )
+
+
+# --------------------------------------------------------------------------- registry
+
+
+@dataclass(frozen=True)
+class CaseSpec:
+    """A built-in case: CLI name, generator and its keyword parameters with defaults."""
+
+    name: str
+    generator: Callable[..., Structure]
+    summary: str
+
+    @property
+    def parameters(self) -> dict[str, Any]:
+        """Parameter name -> default value."""
+        sig = inspect.signature(self.generator)
+        return {k: p.default for k, p in sig.parameters.items()}
+
+    def build(self, **params: Any) -> Structure:
+        """Build the case; unknown keys raise OptionError listing the valid ones."""
+        known = self.parameters
+        unknown = sorted(set(params) - set(known))
+        if unknown:
+            raise OptionError(
+                f"case {self.name!r} has no parameter {unknown[0]!r}; valid parameters: {', '.join(known)}"
+            )
+        return self.generator(**params)
+
+
+CASES: dict[str, CaseSpec] = {
+    spec.name: spec
+    for spec in (
+        CaseSpec("two-blocks", two_blocks, "two b x h blocks side by side on a fixed base (paper Sect. 3)"),
+        CaseSpec("single-block", single_block, "one block on a fixed base; lam = min(mu, b/h)"),
+        CaseSpec("round-arch", round_arch, "semicircular arch on two fixed springings (paper Fig. 7)"),
+        CaseSpec("arch-on-buttresses", arch_on_buttresses, "round arch on two block buttresses (paper Fig. 8)"),
+        CaseSpec("wall", wall, "running- or stack-bond wall on a fixed base (paper Figs 9-10)"),
+    )
+}
+
+
+def get_case(name: str) -> CaseSpec:
+    """Look up a built-in case by name."""
+    try:
+        return CASES[name]
+    except KeyError:
+        raise UnknownNameError(f"unknown case {name!r}; built-in cases: {', '.join(CASES)}") from None
+
+
+def build_case(name: str, **params: Any) -> Structure:
+    """Build a built-in case by name with parameters."""
+    return get_case(name).build(**params)

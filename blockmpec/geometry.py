@@ -1,0 +1,616 @@
+"""Rigid-block structures: blocks as convex polygons, interfaces, material and loads.
+
+Conventions (stated once, used everywhere)
+------------------------------------------
+* A block is a convex polygon with its vertices in counter-clockwise order.
+  Blocks marked ``fixed`` are supports (base, springings): they carry no unknowns.
+* An interface ``k`` joins a *minus* block and a *plus* block along the segment
+  ``start[k] -> end[k]`` of length ``L``.  Its unit tangent is
+  ``tau = (end - start) / L`` and its unit normal ``nu`` is ``tau`` rotated by +90°;
+  ``nu`` points from the minus block into the plus block.  Equivalently the shear
+  direction ``tau`` is ``nu`` rotated by -90°.
+* Interface forces ``(t, n, m)`` are the shear, normal and moment (about the
+  segment midpoint) that the plus block exerts on the minus block:
+  force ``t * tau + n * nu``.  Compression is ``n <= 0``.
+* Material: friction coefficient ``mu = tan(phi)`` and dilatancy coefficient
+  ``tan(psi)`` per structure, with optional per-interface overrides (NaN = use the
+  structure's value).  ``0 <= tan(psi) <= tan(phi)`` is required.
+* Loads act at block centroids.  Dead load: self-weight ``W = density * area``,
+  downward.  Live load: horizontal body force ``live_direction * live_factor * W``
+  (pseudo-static seismic action), plus optional point loads per block, each dead
+  or live.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Literal
+
+import numpy as np
+from scipy.sparse import coo_array
+from scipy.sparse.csgraph import connected_components
+from scipy.spatial import cKDTree
+
+from blockmpec.errors import GeometryError, StructureError
+
+#: Default relative tolerance for geometric tests (scaled by block size).
+DEFAULT_GEOMETRY_TOL = 1e-6
+
+
+@dataclass(frozen=True)
+class PointLoad:
+    """A concentrated force applied to one block.
+
+    Attributes
+    ----------
+    block : int
+        Index of the loaded block.
+    point : tuple[float, float]
+        Point of application.
+    force : tuple[float, float]
+        Force vector ``(fx, fy)``.
+    kind : {"dead", "live"}
+        A dead load is added to ``f_d``; a live load to ``f_l`` (scaled by lambda).
+    """
+
+    block: int
+    point: tuple[float, float]
+    force: tuple[float, float]
+    kind: Literal["dead", "live"] = "dead"
+
+
+@dataclass(frozen=True, eq=False)
+class Interfaces:
+    """Contact segments between blocks, as arrays of length ``c``.
+
+    Attributes
+    ----------
+    minus, plus : ndarray of int, shape (c,)
+        Block indices; the normal points from ``minus`` into ``plus``.
+    start, end : ndarray, shape (c, 2)
+        Segment end points; ``nu = rot90(end - start) / L``.
+    friction, dilatancy : ndarray, shape (c,)
+        Per-interface ``tan(phi)`` and ``tan(psi)`` overrides; NaN means "use the
+        structure's value".
+    """
+
+    minus: np.ndarray
+    plus: np.ndarray
+    start: np.ndarray
+    end: np.ndarray
+    friction: np.ndarray
+    dilatancy: np.ndarray
+
+    def __len__(self) -> int:
+        return int(self.minus.shape[0])
+
+    @classmethod
+    def empty(cls) -> Interfaces:
+        """An empty interface set."""
+        z = np.zeros(0)
+        return cls(np.zeros(0, int), np.zeros(0, int), np.zeros((0, 2)), np.zeros((0, 2)), z, z)
+
+    @property
+    def length(self) -> np.ndarray:
+        """Segment lengths ``L``, shape (c,)."""
+        return np.linalg.norm(self.end - self.start, axis=1)
+
+    @property
+    def midpoint(self) -> np.ndarray:
+        """Segment midpoints, shape (c, 2)."""
+        return 0.5 * (self.start + self.end)
+
+    @property
+    def tangent(self) -> np.ndarray:
+        """Unit tangents ``tau``, shape (c, 2)."""
+        return (self.end - self.start) / self.length[:, None]
+
+    @property
+    def normal(self) -> np.ndarray:
+        """Unit normals ``nu`` (from minus into plus), shape (c, 2)."""
+        tau = self.tangent
+        return np.column_stack([-tau[:, 1], tau[:, 0]])
+
+
+@dataclass(frozen=True, eq=False)
+class Structure:
+    """A validated 2D rigid-block structure.
+
+    Build it with :func:`make_structure` (which validates and detects interfaces)
+    or load it with :func:`blockmpec.structure_file.load_structure`.
+
+    Attributes
+    ----------
+    vertices : ndarray, shape (n_blocks, k_max, 2)
+        Block vertices, counter-clockwise; block ``i`` uses the first
+        ``n_vertices[i]`` rows, the rest repeat its last vertex.
+    n_vertices : ndarray of int, shape (n_blocks,)
+    fixed : ndarray of bool, shape (n_blocks,)
+    density : ndarray, shape (n_blocks,)
+    interfaces : Interfaces
+    friction : float
+        Default ``mu = tan(phi)``.
+    dilatancy : float
+        Default ``tan(psi)``.
+    live_direction : {+1, -1}
+        Sign of the horizontal live load.
+    live_factor : float
+        Live body force as a fraction of the weight.
+    point_loads : tuple of PointLoad
+    name : str
+    """
+
+    vertices: np.ndarray
+    n_vertices: np.ndarray
+    fixed: np.ndarray
+    density: np.ndarray
+    interfaces: Interfaces
+    friction: float
+    dilatancy: float = 0.0
+    live_direction: int = 1
+    live_factor: float = 1.0
+    point_loads: tuple[PointLoad, ...] = ()
+    name: str = "structure"
+    metadata: dict = field(default_factory=dict)
+
+    @property
+    def n_blocks(self) -> int:
+        """Number of blocks, fixed ones included."""
+        return int(self.n_vertices.shape[0])
+
+    @property
+    def n_free(self) -> int:
+        """Number of free (non-fixed) blocks."""
+        return int((~self.fixed).sum())
+
+    def polygon(self, i: int) -> np.ndarray:
+        """Vertices of block ``i``, shape (k, 2)."""
+        return self.vertices[i, : self.n_vertices[i]]
+
+    @property
+    def area(self) -> np.ndarray:
+        """Block areas, shape (n_blocks,)."""
+        return polygon_areas(self.vertices)
+
+    @property
+    def centroid(self) -> np.ndarray:
+        """Block centroids, shape (n_blocks, 2)."""
+        return polygon_centroids(self.vertices)
+
+    @property
+    def weight(self) -> np.ndarray:
+        """Block weights ``density * area``, shape (n_blocks,)."""
+        return self.density * self.area
+
+    def interface_friction(self) -> np.ndarray:
+        """Effective ``tan(phi)`` per interface, shape (c,)."""
+        f = self.interfaces.friction
+        return np.where(np.isnan(f), self.friction, f)
+
+    def interface_dilatancy(self) -> np.ndarray:
+        """Effective ``tan(psi)`` per interface, shape (c,)."""
+        d = self.interfaces.dilatancy
+        return np.where(np.isnan(d), self.dilatancy, d)
+
+    def with_material(self, friction: float | None = None, dilatancy: float | None = None) -> Structure:
+        """A copy with other default material coefficients (overrides kept), validated."""
+        from dataclasses import replace
+
+        s = replace(
+            self,
+            friction=self.friction if friction is None else float(friction),
+            dilatancy=self.dilatancy if dilatancy is None else float(dilatancy),
+        )
+        _check_material(s)
+        return s
+
+
+# --------------------------------------------------------------------------- polygons
+
+
+def _shoelace_terms(vertices: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    p = vertices
+    q = np.roll(vertices, -1, axis=1)
+    cross = p[..., 0] * q[..., 1] - q[..., 0] * p[..., 1]
+    return p, q, cross
+
+
+def polygon_areas(vertices: np.ndarray) -> np.ndarray:
+    """Signed areas (positive when counter-clockwise) of padded polygons (n, k, 2)."""
+    _, _, cross = _shoelace_terms(vertices)
+    return 0.5 * cross.sum(axis=1)
+
+
+def polygon_centroids(vertices: np.ndarray) -> np.ndarray:
+    """Centroids of padded polygons (n, k, 2) -> (n, 2)."""
+    p, q, cross = _shoelace_terms(vertices)
+    a = 0.5 * cross.sum(axis=1)
+    cx = ((p[..., 0] + q[..., 0]) * cross).sum(axis=1) / (6 * a)
+    cy = ((p[..., 1] + q[..., 1]) * cross).sum(axis=1) / (6 * a)
+    return np.column_stack([cx, cy])
+
+
+def pad_polygons(polygons: list) -> tuple[np.ndarray, np.ndarray]:
+    """Pad a list of (k_i, 2) vertex arrays to (n, k_max, 2), repeating the last vertex.
+
+    Raises
+    ------
+    GeometryError
+        If a polygon is not an array of shape (k, 2) with k >= 3 and finite entries.
+    """
+    arrays = []
+    for i, poly in enumerate(polygons):
+        try:
+            a = np.asarray(poly, dtype=float)
+        except (TypeError, ValueError) as exc:
+            raise GeometryError(f"block {i}: vertices must be a list of [x, y] pairs of numbers ({exc})") from None
+        if a.ndim != 2 or a.shape[1] != 2 or a.shape[0] < 3:
+            raise GeometryError(
+                f"block {i}: vertices must have shape (k, 2) with k >= 3; got shape {a.shape}"
+            )
+        if not np.all(np.isfinite(a)):
+            raise GeometryError(f"block {i}: vertices contain NaN or infinite coordinates")
+        arrays.append(a)
+    if not arrays:
+        raise StructureError("a structure needs at least one block; got none")
+    n_vertices = np.array([a.shape[0] for a in arrays])
+    k_max = int(n_vertices.max())
+    out = np.empty((len(arrays), k_max, 2))
+    for i, a in enumerate(arrays):
+        out[i, : a.shape[0]] = a
+        out[i, a.shape[0] :] = a[-1]
+    return out, n_vertices
+
+
+def _edges(vertices: np.ndarray, n_vertices: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """All real edges: (block index, start point, end point), arrays of length n_edges."""
+    n, k_max, _ = vertices.shape
+    i = np.arange(k_max)[None, :]
+    valid = i < n_vertices[:, None]
+    nxt = np.where(i + 1 < n_vertices[:, None], i + 1, 0)
+    block = np.broadcast_to(np.arange(n)[:, None], (n, k_max))[valid]
+    p = vertices[valid.nonzero()[0], i.repeat(n, 0)[valid]]
+    q = vertices[valid.nonzero()[0], nxt[valid]]
+    return block, p, q
+
+
+def block_sizes(vertices: np.ndarray, n_vertices: np.ndarray) -> np.ndarray:
+    """Characteristic size of each block: its bounding-box diagonal."""
+    lo = vertices.min(axis=1)
+    hi = vertices.max(axis=1)
+    return np.linalg.norm(hi - lo, axis=1)
+
+
+# --------------------------------------------------------------------------- validation
+
+
+def _check_polygons(vertices: np.ndarray, n_vertices: np.ndarray, tol: float) -> None:
+    size = block_sizes(vertices, n_vertices)
+    area = polygon_areas(vertices)
+    bad = np.flatnonzero(~(np.abs(area) > tol * size**2))
+    if bad.size:
+        i = int(bad[0])
+        raise GeometryError(f"block {i}: polygon is degenerate (area {area[i]:.3g}); vertices {vertices[i, :n_vertices[i]].tolist()}")
+    bad = np.flatnonzero(area < 0)
+    if bad.size:
+        i = int(bad[0])
+        raise GeometryError(
+            f"block {i}: vertices are in clockwise order; give them counter-clockwise "
+            f"(reverse the list {vertices[i, :n_vertices[i]].tolist()})"
+        )
+    block, p, q = _edges(vertices, n_vertices)
+    edge_len = np.linalg.norm(q - p, axis=1)
+    short = np.flatnonzero(edge_len <= tol * size[block])
+    if short.size:
+        i = int(block[short[0]])
+        raise GeometryError(f"block {i}: two consecutive vertices coincide (zero-length edge)")
+    # convexity: the turn at every vertex is to the left (cross product >= 0)
+    d = (q - p) / edge_len[:, None]
+    starts = np.concatenate([[0], np.cumsum(n_vertices)[:-1]])
+    nxt = np.arange(d.shape[0]) + 1
+    last = starts + n_vertices - 1
+    nxt[last] = starts
+    turn = d[:, 0] * d[nxt, 1] - d[:, 1] * d[nxt, 0]
+    reflex = np.flatnonzero(turn < -tol)
+    if reflex.size:
+        i = int(block[reflex[0]])
+        raise GeometryError(f"block {i}: polygon is not convex (reflex angle at vertex {reflex[0] - starts[i] + 1})")
+
+
+def _check_material(s: Structure) -> None:
+    for name, value in (("friction", s.friction), ("dilatancy", s.dilatancy)):
+        if not np.isfinite(value) or value < 0:
+            raise StructureError(f"{name}: must be a finite number >= 0; got {value}")
+    if s.dilatancy > s.friction:
+        raise StructureError(
+            f"dilatancy: tan(psi) = {s.dilatancy} exceeds the friction coefficient tan(phi) = {s.friction}; "
+            "the dilatancy angle must not exceed the friction angle"
+        )
+    if len(s.interfaces):
+        mu = s.interface_friction()
+        tp = s.interface_dilatancy()
+        bad = np.flatnonzero(~np.isfinite(mu) | (mu < 0))
+        if bad.size:
+            raise StructureError(f"interface {bad[0]}: friction must be a finite number >= 0; got {mu[bad[0]]}")
+        bad = np.flatnonzero(~np.isfinite(tp) | (tp < 0))
+        if bad.size:
+            raise StructureError(f"interface {bad[0]}: dilatancy must be a finite number >= 0; got {tp[bad[0]]}")
+        bad = np.flatnonzero(tp > mu)
+        if bad.size:
+            k = int(bad[0])
+            raise StructureError(
+                f"interface {k} (blocks {s.interfaces.minus[k]}-{s.interfaces.plus[k]}): dilatancy tan(psi) = {tp[k]} "
+                f"exceeds friction tan(phi) = {mu[k]}"
+            )
+
+
+def candidate_pairs(vertices: np.ndarray, tol: float) -> tuple[np.ndarray, np.ndarray]:
+    """Pairs ``(a, b)``, ``a < b``, of blocks whose bounding boxes overlap or touch.
+
+    Boxes are grown by ``tol`` times the smaller block's size.  Blocks are grouped
+    in size classes (powers of two) so that a few large blocks (a long base) do not
+    inflate the search radius of the many small ones; each pair of classes is
+    searched with a k-d tree of box centres.
+    """
+    n = vertices.shape[0]
+    if n < 2:
+        return np.zeros(0, int), np.zeros(0, int)
+    lo, hi = vertices.min(axis=1), vertices.max(axis=1)
+    centre = 0.5 * (lo + hi)
+    radius = 0.5 * np.linalg.norm(hi - lo, axis=1) * (1 + 2 * tol)
+    cls = np.floor(np.log2(radius)).astype(int)
+    classes = np.unique(cls)
+    groups = [np.flatnonzero(cls == k) for k in classes]
+    trees = [cKDTree(centre[g]) for g in groups]
+    found_a, found_b = [], []
+    for x, (ga, ta) in enumerate(zip(groups, trees)):
+        for gb, tb in zip(groups[x:], trees[x:]):
+            r = radius[ga].max() + radius[gb].max()
+            if gb is ga:
+                p = ta.query_pairs(r, output_type="ndarray")
+                found_a.append(ga[p[:, 0]])
+                found_b.append(ga[p[:, 1]])
+            else:
+                m = ta.sparse_distance_matrix(tb, r, output_type="ndarray")
+                found_a.append(ga[m["i"]])
+                found_b.append(gb[m["j"]])
+    a, b = np.concatenate(found_a), np.concatenate(found_b)
+    a, b = np.minimum(a, b), np.maximum(a, b)
+    size = 2 * radius
+    pad = tol * np.minimum(size[a], size[b])[:, None]
+    keep = np.all((lo[a] <= hi[b] + pad) & (lo[b] <= hi[a] + pad), axis=1)
+    return a[keep], b[keep]
+
+
+def _padded_edges(vertices: np.ndarray, n_vertices: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Edge start points and edge vectors per block, shape (n, k_max, 2); padded edges are zero."""
+    k_max = vertices.shape[1]
+    i = np.arange(k_max)[None, :]
+    nxt = np.where(i + 1 < n_vertices[:, None], i + 1, 0)
+    q = np.take_along_axis(vertices, nxt[..., None], axis=1)
+    e = np.where((i < n_vertices[:, None])[..., None], q - vertices, 0.0)
+    return vertices, e
+
+
+def _check_overlaps(vertices: np.ndarray, n_vertices: np.ndarray, tol: float, pairs=None) -> None:
+    """Raise if two blocks overlap by more than ``tol`` times their size (separating axis test)."""
+    a, b = candidate_pairs(vertices, tol) if pairs is None else pairs
+    if a.size == 0:
+        return
+    size = block_sizes(vertices, n_vertices)
+    slack = tol * np.minimum(size[a], size[b])
+    _, e = _padded_edges(vertices, n_vertices)
+    normals = np.stack([e[..., 1], -e[..., 0]], axis=-1)
+    lengths = np.linalg.norm(normals, axis=-1, keepdims=True)
+    normals = np.where(lengths > 0, normals / np.where(lengths > 0, lengths, 1), normals[:, :1] / lengths[:, :1])
+    for start in range(0, a.size, 20000):
+        sa, sb, sl = a[start : start + 20000], b[start : start + 20000], slack[start : start + 20000]
+        axes = np.concatenate([normals[sa], normals[sb]], axis=1)  # (p, 2k, 2)
+        proj_a = np.einsum("pkd,pjd->pkj", axes, vertices[sa])
+        proj_b = np.einsum("pkd,pjd->pkj", axes, vertices[sb])
+        gap = np.maximum(proj_b.min(-1) - proj_a.max(-1), proj_a.min(-1) - proj_b.max(-1))
+        overlapping = np.flatnonzero(gap.max(axis=1) < -sl)
+        if overlapping.size:
+            i, j = int(sa[overlapping[0]]), int(sb[overlapping[0]])
+            raise GeometryError(f"blocks {i} and {j} overlap (penetration {-gap[overlapping[0]].max():.3g})")
+
+
+def detect_interfaces(vertices: np.ndarray, n_vertices: np.ndarray, tol: float = DEFAULT_GEOMETRY_TOL) -> Interfaces:
+    """Find contacts where edges of two blocks are collinear, opposite and overlap.
+
+    Two edges match when their outward normals are opposite to within ``tol``,
+    both ends of one lie within ``tol * size`` of the other's line, and they
+    overlap over more than ``tol * size`` (``size`` = the larger block's
+    bounding-box diagonal).  The interface segment is the overlap; its minus block
+    is the lower block index.  Vectorised over the candidate block pairs of
+    :func:`candidate_pairs` and all their edge combinations.
+    """
+    a, b = candidate_pairs(vertices, tol)
+    if a.size == 0:
+        return Interfaces.empty()
+    p_all, e_all = _padded_edges(vertices, n_vertices)
+    size = block_sizes(vertices, n_vertices)
+    found = []
+    for start in range(0, a.size, 50000):
+        ba, bb = a[start : start + 50000], b[start : start + 50000]
+        pa, ea = p_all[ba][:, :, None, :], e_all[ba][:, :, None, :]   # (P, k, 1, 2)
+        pb, eb = p_all[bb][:, None, :, :], e_all[bb][:, None, :, :]   # (P, 1, k, 2)
+        la = np.linalg.norm(ea, axis=-1)
+        lb = np.linalg.norm(eb, axis=-1)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            da = ea / la[..., None]
+            db = eb / lb[..., None]
+        oa = np.stack([da[..., 1], -da[..., 0]], axis=-1)
+        ob = np.stack([db[..., 1], -db[..., 0]], axis=-1)
+        scale = np.maximum(size[ba], size[bb])[:, None, None]
+        ok = (la > 0) & (lb > 0)
+        ok &= (oa * ob).sum(-1) < -(1 - tol)
+        qb = pb + eb
+        off_p = (oa * (pb - pa)).sum(-1)
+        off_q = (oa * (qb - pa)).sum(-1)
+        ok &= (np.abs(off_p) <= tol * scale) & (np.abs(off_q) <= tol * scale)
+        s1 = (da * (pb - pa)).sum(-1)
+        s2 = (da * (qb - pa)).sum(-1)
+        lo = np.maximum(0.0, np.minimum(s1, s2))
+        hi = np.minimum(la, np.maximum(s1, s2))
+        ok &= hi - lo > tol * scale
+        pair, ka, _ = np.nonzero(ok)
+        d_ok = np.broadcast_to(da, ok.shape + (2,))[ok]
+        found.append((ba[pair], bb[pair], p_all[ba[pair], ka], d_ok, lo[ok], hi[ok]))
+    minus = np.concatenate([f[0] for f in found])
+    plus = np.concatenate([f[1] for f in found])
+    p0 = np.concatenate([f[2] for f in found])
+    d = np.concatenate([f[3] for f in found])
+    lo = np.concatenate([f[4] for f in found])
+    hi = np.concatenate([f[5] for f in found])
+    order = np.lexsort((plus, minus))
+    minus, plus, p0, d, lo, hi = minus[order], plus[order], p0[order], d[order], lo[order], hi[order]
+    # normal from minus into plus = outward normal of the minus edge = rot90(-d): start at hi, end at lo
+    start_pt = p0 + hi[:, None] * d
+    end_pt = p0 + lo[:, None] * d
+    nan = np.full(minus.size, np.nan)
+    return Interfaces(minus.astype(int), plus.astype(int), start_pt, end_pt, nan, nan.copy())
+
+
+def _check_interfaces(s: Structure, tol: float) -> None:
+    itf = s.interfaces
+    c = len(itf)
+    n = s.n_blocks
+    for name in ("minus", "plus"):
+        arr = getattr(itf, name)
+        bad = np.flatnonzero((arr < 0) | (arr >= n))
+        if bad.size:
+            raise StructureError(f"interface {bad[0]}: {name} block {arr[bad[0]]} does not exist (there are {n} blocks)")
+    bad = np.flatnonzero(itf.minus == itf.plus)
+    if bad.size:
+        raise StructureError(f"interface {bad[0]}: minus and plus block are the same block {itf.minus[bad[0]]}")
+    if c:
+        if not (np.all(np.isfinite(itf.start)) and np.all(np.isfinite(itf.end))):
+            k = int(np.flatnonzero(~np.isfinite(np.c_[itf.start, itf.end]).all(axis=1))[0])
+            raise GeometryError(f"interface {k}: end points contain NaN or infinite coordinates")
+        size = block_sizes(s.vertices, s.n_vertices)
+        scale = np.maximum(size[itf.minus], size[itf.plus])
+        bad = np.flatnonzero(itf.length <= tol * scale)
+        if bad.size:
+            raise GeometryError(f"interface {bad[0]}: segment has zero length")
+
+
+def _check_connectivity(s: Structure) -> None:
+    if not s.fixed.any():
+        raise StructureError("no block is fixed: mark at least one block (a base or springing) as fixed")
+    if s.fixed.all():
+        raise StructureError("every block is fixed: there is nothing that can collapse")
+    itf = s.interfaces
+    touched = np.zeros(s.n_blocks, bool)
+    touched[itf.minus] = True
+    touched[itf.plus] = True
+    lonely = np.flatnonzero(~touched & ~s.fixed)
+    if lonely.size:
+        raise StructureError(
+            f"block {lonely[0]} touches no other block (free blocks without interfaces: {lonely[:10].tolist()}); "
+            "move it into contact or remove it"
+        )
+    graph = coo_array((np.ones(len(itf)), (itf.minus, itf.plus)), shape=(s.n_blocks, s.n_blocks))
+    _, label = connected_components(graph, directed=False)
+    supported = np.zeros(label.max() + 1, bool)
+    supported[label[s.fixed]] = True
+    floating = np.flatnonzero(~supported[label])
+    if floating.size:
+        raise StructureError(
+            f"blocks {floating[:10].tolist()} are not connected to any fixed block through interfaces"
+        )
+
+
+def validate(s: Structure, tol: float = DEFAULT_GEOMETRY_TOL, check_overlap: bool = True) -> Structure:
+    """Check a structure; return it unchanged or raise a GeometryError/StructureError."""
+    _check_polygons(s.vertices, s.n_vertices, tol)
+    bad = np.flatnonzero(~np.isfinite(s.density) | (s.density <= 0))
+    if bad.size:
+        raise StructureError(f"block {bad[0]}: density must be a finite number > 0; got {s.density[bad[0]]}")
+    if check_overlap:
+        _check_overlaps(s.vertices, s.n_vertices, 10 * tol)
+    _check_interfaces(s, tol)
+    _check_material(s)
+    _check_connectivity(s)
+    if s.live_direction not in (1, -1):
+        raise StructureError(f"live_direction: must be +1 or -1; got {s.live_direction}")
+    if not np.isfinite(s.live_factor):
+        raise StructureError(f"live_factor: must be finite; got {s.live_factor}")
+    for k, pl in enumerate(s.point_loads):
+        if not 0 <= pl.block < s.n_blocks:
+            raise StructureError(f"point load {k}: block {pl.block} does not exist (there are {s.n_blocks} blocks)")
+        if pl.kind not in ("dead", "live"):
+            raise StructureError(f"point load {k}: kind must be 'dead' or 'live'; got {pl.kind!r}")
+        if not (np.all(np.isfinite(pl.point)) and np.all(np.isfinite(pl.force))):
+            raise StructureError(f"point load {k} on block {pl.block}: point and force must be finite")
+    live_point = any(pl.kind == "live" and not s.fixed[pl.block] and np.any(pl.force) for pl in s.point_loads)
+    if s.live_factor == 0 and not live_point:
+        raise StructureError(
+            "zero live load: live_factor is 0 and no live point load acts on a free block, "
+            "so the collapse multiplier is undefined"
+        )
+    return s
+
+
+def make_structure(
+    polygons: list,
+    fixed: list | np.ndarray,
+    *,
+    friction: float,
+    dilatancy: float = 0.0,
+    density: float | list | np.ndarray = 1.0,
+    interfaces: Interfaces | None = None,
+    live_direction: int = 1,
+    live_factor: float = 1.0,
+    point_loads: tuple[PointLoad, ...] | list = (),
+    name: str = "structure",
+    metadata: dict | None = None,
+    tol: float = DEFAULT_GEOMETRY_TOL,
+    check_overlap: bool = True,
+) -> Structure:
+    """Build and validate a structure from polygons.
+
+    Parameters
+    ----------
+    polygons : list of array_like, each shape (k, 2)
+        Block vertices, counter-clockwise, convex.
+    fixed : array_like of bool, shape (n_blocks,)
+        Support blocks.
+    friction, dilatancy : float
+        Default ``tan(phi)`` and ``tan(psi)``.
+    density : float or array_like
+        Weight per unit area, per block or for all.
+    interfaces : Interfaces, optional
+        Explicit interfaces; detected automatically (:func:`detect_interfaces`) when omitted.
+    tol : float
+        Relative geometric tolerance.
+
+    Raises
+    ------
+    GeometryError, StructureError
+        With the offending block, interface or field named.
+    """
+    vertices, n_vertices = pad_polygons(list(polygons))
+    n = vertices.shape[0]
+    fixed_arr = np.asarray(fixed, dtype=bool).reshape(-1)
+    if fixed_arr.shape[0] != n:
+        raise StructureError(f"fixed: expected {n} flags (one per block); got {fixed_arr.shape[0]}")
+    dens = np.broadcast_to(np.asarray(density, dtype=float), (n,)).copy()
+    _check_polygons(vertices, n_vertices, tol)
+    if interfaces is None:
+        interfaces = detect_interfaces(vertices, n_vertices, tol)
+    s = Structure(
+        vertices=vertices,
+        n_vertices=n_vertices,
+        fixed=fixed_arr,
+        density=dens,
+        interfaces=interfaces,
+        friction=float(friction),
+        dilatancy=float(dilatancy),
+        live_direction=int(live_direction),
+        live_factor=float(live_factor),
+        point_loads=tuple(point_loads),
+        name=name,
+        metadata=dict(metadata or {}),
+    )
+    return validate(s, tol, check_overlap)

@@ -1,0 +1,167 @@
+"""One result type for every solver, with an explicit status.
+
+A solver returns a :class:`Solution` (its raw iterate).  :func:`blockmpec.solve`
+times it, runs the shared verifier (:mod:`blockmpec.verify`) and wraps everything
+in a :class:`Result`.  A solver's claimed success is downgraded to
+``Status.NUMERICAL`` when the verifier disagrees.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from enum import Enum
+from typing import Any
+
+import numpy as np
+
+
+class Status(str, Enum):
+    """Why a solve stopped and what its point is."""
+
+    OPTIMAL = "optimal"  #: certified optimum (LP optimal, MILP gap closed)
+    LOCALLY_OPTIMAL = "locally_optimal"  #: local optimum of a non-convex problem (NLP)
+    CONVERGED = "converged"  #: an iterative method met its stopping test (a solution of the MCP)
+    ACCEPTABLE = "acceptable"  #: Ipopt's "solved to acceptable level"
+    ITERATION_LIMIT = "iteration_limit"
+    TIME_LIMIT = "time_limit"
+    INFEASIBLE = "infeasible"
+    UNBOUNDED = "unbounded"  #: the static LP is unbounded: the live load never causes collapse
+    NUMERICAL = "numerical"  #: the solver claimed success but the verifier disagrees
+    ERROR = "error"
+    SKIPPED = "skipped"  #: the method does not fit the case, or its backend is missing
+
+    @property
+    def is_success(self) -> bool:
+        """True for the statuses that claim a valid answer."""
+        return self in _SUCCESS
+
+    def __str__(self) -> str:
+        return self.value
+
+
+_SUCCESS = frozenset({Status.OPTIMAL, Status.LOCALLY_OPTIMAL, Status.CONVERGED, Status.ACCEPTABLE})
+
+
+@dataclass
+class Solution:
+    """A solver's raw iterate; any field may be ``None`` if the solver has none.
+
+    Attributes
+    ----------
+    multiplier : float
+        Collapse load multiplier ``lam``.
+    x : ndarray, shape (3c,)
+        Interface forces ``(t, n, m)`` per interface.
+    u : ndarray, shape (3b,)
+        Collapse mechanism (block velocities), normalised ``f_l^T u = 1``.
+    z_u, z_f : ndarray, shape (2c,)
+        Unilateral and friction flow multipliers.
+    """
+
+    multiplier: float | None = None
+    x: np.ndarray | None = None
+    u: np.ndarray | None = None
+    z_u: np.ndarray | None = None
+    z_f: np.ndarray | None = None
+
+
+@dataclass
+class Result:
+    """The outcome of one solve.
+
+    Attributes
+    ----------
+    method : str
+        Registered method name (``static-lp``, ``fixed-point`` ...).
+    status : Status
+    problem : {"associative", "non-associative"}
+        Which problem the result answers; it decides the flow operator used by the verifier.
+    multiplier : float or None
+        Collapse load multiplier ``lam``.
+    solution : Solution
+    residuals : dict[str, float]
+        Relative residuals from :func:`blockmpec.verify.residuals`.
+    verified : bool
+        True when every residual is at most ``verify_tol``.
+    build_time_s, solve_time_s : float
+        Set-up (model building, compiling, loading) and solve wall times, measured apart.
+    iterations : int
+    trace : list of dict
+        Per-iteration records (method-specific keys, always ``iteration`` and ``time_s``).
+    message, raw_status : str
+        Human-readable explanation and the backend's native status.
+    options : dict
+        The options the method ran with.
+    extra : dict
+        Open-ended diagnostics (gap, bounds, number of LP solves...).
+    """
+
+    method: str
+    status: Status
+    problem: str
+    multiplier: float | None = None
+    solution: Solution = field(default_factory=Solution)
+    residuals: dict[str, float] = field(default_factory=dict)
+    verified: bool = False
+    verify_tol: float = 1e-6
+    build_time_s: float = 0.0
+    solve_time_s: float = 0.0
+    iterations: int = 0
+    trace: list[dict[str, Any]] = field(default_factory=list)
+    message: str = ""
+    raw_status: str = ""
+    options: dict[str, Any] = field(default_factory=dict)
+    extra: dict[str, Any] = field(default_factory=dict)
+
+    @property
+    def success(self) -> bool:
+        """True only when the status claims success *and* the verifier agrees."""
+        return self.status.is_success and self.verified
+
+    @property
+    def max_residual(self) -> float:
+        """Largest residual (NaN when there are none)."""
+        vals = [v for v in self.residuals.values() if v is not None]
+        return max(vals) if vals else math.nan
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-ready summary (no arrays); the keys of ``blockmpec solve --json``."""
+        return {
+            "method": self.method,
+            "problem": self.problem,
+            "status": self.status.value,
+            "success": self.success,
+            "verified": self.verified,
+            "multiplier": _json_float(self.multiplier),
+            "residuals": {k: _json_float(v) for k, v in self.residuals.items()},
+            "max_residual": _json_float(self.max_residual),
+            "time_s": self.solve_time_s,
+            "build_time_s": self.build_time_s,
+            "iterations": self.iterations,
+            "message": self.message,
+            "raw_status": self.raw_status,
+            "options": {k: _jsonable(v) for k, v in self.options.items()},
+            "extra": {k: _jsonable(v) for k, v in self.extra.items()},
+        }
+
+
+def _json_float(v: float | None) -> float | None:
+    if v is None:
+        return None
+    v = float(v)
+    return v if math.isfinite(v) else None
+
+
+def _jsonable(v: Any) -> Any:
+    if isinstance(v, (np.floating, float)):
+        return _json_float(v)
+    if isinstance(v, np.integer):
+        return int(v)
+    if isinstance(v, np.ndarray):
+        return v.tolist()
+    if isinstance(v, (list, tuple)):
+        return [_jsonable(x) for x in v]
+    if isinstance(v, dict):
+        return {str(k): _jsonable(x) for k, x in v.items()}
+    return v

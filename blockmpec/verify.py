@@ -1,0 +1,95 @@
+r"""The one verifier: residuals of problem (3) for any solver's iterate.
+
+Given ``(lam, x, u, z_u, z_f)`` every residual is relative (scale-free):
+
+=============================  =================================================================
+``equilibrium``                ``||E x + f_d + lam f_l|| / (||E||_row |x| + ||f_d|| + |lam| ||f_l||)``
+``compatibility``              ``||E^T u + N_u z_u + V z_f|| / (|E^T u| + |N_u z_u| + |V z_f|)``
+``normalisation``              ``|1 - f_l^T u|``
+``unilateral_admissibility``   ``||(N_u^T x)_+|| / ||N_u^T x||``
+``friction_admissibility``     ``||(N_f^T x)_+|| / ||N_f^T x||`` (the paper's Table 2 measure)
+``multiplier_sign``            ``||(z)_-|| / ||z||`` over ``z = (z_u, z_f)``
+``unilateral_complementarity`` ``|z_u|^T |N_u^T x| / (||z_u|| ||N_u^T x||)``
+``friction_complementarity``   ``|z_f|^T |N_f^T x| / (||z_f|| ||N_f^T x||)``
+=============================  =================================================================
+
+``V`` is ``N_f`` for the associative problem and ``V_f`` (dilatancy ``tan(psi)``)
+for the non-associative one.  Norms are Euclidean; a residual whose denominator
+vanishes is 0 when its numerator does too.  The duality gap of the associative
+problem, ``lam - (-f_d^T u)``, vanishes when these all do.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from blockmpec.operators import Operators
+from blockmpec.result import Solution
+
+RESIDUAL_NAMES = (
+    "equilibrium",
+    "compatibility",
+    "normalisation",
+    "unilateral_admissibility",
+    "friction_admissibility",
+    "multiplier_sign",
+    "unilateral_complementarity",
+    "friction_complementarity",
+)
+
+
+def _ratio(num: float, den: float) -> float:
+    if den <= 0 or not np.isfinite(den):
+        return 0.0 if num == 0 else float("inf")
+    return float(num / den)
+
+
+def positive_part_ratio(v: np.ndarray) -> float:
+    """``||(v)_+|| / ||v||``: the share of ``v`` that violates ``v <= 0``."""
+    return _ratio(np.linalg.norm(np.maximum(v, 0.0)), np.linalg.norm(v))
+
+
+def _complementarity(z: np.ndarray, s: np.ndarray) -> float:
+    return _ratio(float(np.abs(z) @ np.abs(s)), np.linalg.norm(z) * np.linalg.norm(s))
+
+
+def residuals(ops: Operators, sol: Solution, associative: bool) -> dict[str, float]:
+    """All residuals of (3) at ``sol`` (only those whose fields are present).
+
+    Parameters
+    ----------
+    ops : Operators
+    sol : Solution
+    associative : bool
+        Use ``N_f`` (True) or ``V_f`` (False) as friction flow operator.
+
+    Returns
+    -------
+    dict[str, float]
+        Keys from :data:`RESIDUAL_NAMES`; a missing field makes its residuals absent.
+    """
+    out: dict[str, float] = {}
+    lam, x, u, z_u, z_f = sol.multiplier, sol.x, sol.u, sol.z_u, sol.z_f
+    if lam is not None and x is not None:
+        Ex = ops.E @ x
+        scale = float(np.linalg.norm(abs(ops.E) @ np.abs(x)) + np.linalg.norm(ops.f_d) + abs(lam) * np.linalg.norm(ops.f_l))
+        out["equilibrium"] = _ratio(np.linalg.norm(Ex + ops.f_d + lam * ops.f_l), scale)
+    if u is not None and z_u is not None and z_f is not None:
+        flow = ops.N_f if associative else ops.V_f
+        a, b, c = ops.E.T @ u, ops.N_u @ z_u, flow @ z_f
+        scale = float(np.linalg.norm(a) + np.linalg.norm(b) + np.linalg.norm(c))
+        out["compatibility"] = _ratio(np.linalg.norm(a + b + c), scale)
+    if u is not None:
+        out["normalisation"] = float(abs(1.0 - ops.f_l @ u))
+    if x is not None:
+        s_u = ops.N_u.T @ x
+        s_f = ops.N_f.T @ x
+        out["unilateral_admissibility"] = positive_part_ratio(s_u)
+        out["friction_admissibility"] = positive_part_ratio(s_f)
+    if z_u is not None and z_f is not None:
+        z = np.concatenate([z_u, z_f])
+        out["multiplier_sign"] = _ratio(np.linalg.norm(np.minimum(z, 0.0)), np.linalg.norm(z))
+        if x is not None:
+            out["unilateral_complementarity"] = _complementarity(z_u, s_u)
+            out["friction_complementarity"] = _complementarity(z_f, s_f)
+    return out

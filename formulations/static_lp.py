@@ -1,0 +1,73 @@
+r"""The static LP (1) and the modified associative LP (5).
+
+Static theorem (1)::
+
+    max  lam
+    s.t. E x + f_d + lam f_l = 0        (equilibrium, one row per free-block dof)
+         N_u^T x <= 0                    (no tension: |m| <= -n L/2)
+         N_f^T x <= 0                    (Coulomb: |t| <= -mu n)
+
+Modified LP (5) of the fixed-point method: the friction rows use ``tan(psi)`` and
+a cohesion ``-n*_k (tan(phi) - tan(psi))`` per interface::
+
+    |t_k| <= -n_k tan(psi) - n*_k (tan(phi) - tan(psi))
+    i.e. [N_psi^T x]_{2k+j} <= cohesion_k,  j = 0, 1.
+
+The cohesion is a mutable ``Param``: only the right-hand side changes between
+fixed-point iterations.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pyomo.environ as pyo
+
+from blockmpec.operators import Operators
+from formulations._pyomo import PyomoProblem, sparse_rows
+
+
+def static_lp(ops: Operators, friction: np.ndarray | None = None, cohesion: np.ndarray | None = None,
+              name: str = "static-lp") -> PyomoProblem:
+    """Build (1), or (5) when ``friction``/``cohesion`` are given.
+
+    Parameters
+    ----------
+    ops : Operators
+    friction : ndarray, shape (c,), optional
+        Friction coefficient per interface in the friction rows (default ``ops.friction``).
+    cohesion : ndarray, shape (c,), optional
+        Right-hand side of both friction rows of each interface (default 0).
+    """
+    c = ops.n_interfaces
+    b3 = ops.E.shape[0]
+    N_f = ops.N_f if friction is None else ops.friction_operator(friction)
+    coh = np.zeros(c) if cohesion is None else np.asarray(cohesion, float)
+    m = pyo.ConcreteModel(name=name)
+    m.lam = pyo.Var()
+    m.x = pyo.Var(range(3 * c))
+    xs = list(m.x.values())
+    lam = [m.lam]
+    eq = sparse_rows([(ops.E, xs), (ops.f_l.reshape(-1, 1), lam)], b3)
+    m.equilibrium = pyo.Constraint(range(b3), rule=lambda _, i: eq(i) == -float(ops.f_d[i]))
+    uni = sparse_rows([(ops.N_u.T, xs)], 2 * c)
+    m.unilateral = pyo.Constraint(range(2 * c), rule=lambda _, i: uni(i) <= 0.0)
+    m.cohesion = pyo.Param(range(c), mutable=True, initialize=dict(enumerate(coh.tolist())))
+    fr = sparse_rows([(N_f.T, xs)], 2 * c)
+    m.friction = pyo.Constraint(range(2 * c), rule=lambda mm, i: fr(i) <= mm.cohesion[i // 2])
+    m.objective = pyo.Objective(expr=m.lam, sense=pyo.maximize)
+    return PyomoProblem(
+        name=name,
+        model=m,
+        variables={"lam": lam, "x": xs},
+        constraints={
+            "equilibrium": list(m.equilibrium.values()),
+            "unilateral": list(m.unilateral.values()),
+            "friction": list(m.friction.values()),
+        },
+    )
+
+
+def modified_lp(ops: Operators, n_star: np.ndarray) -> PyomoProblem:
+    """The modified associative LP (5) at normal forces ``n_star`` (shape (c,))."""
+    cohesion = -np.asarray(n_star, float) * (ops.friction - ops.dilatancy)
+    return static_lp(ops, friction=ops.dilatancy, cohesion=cohesion, name="modified-lp")

@@ -1,0 +1,118 @@
+"""A thin wrapper over highspy for compiled :class:`~formulations.LinearProgram` s.
+
+Shared by every HiGHS-based adapter.  highspy is imported when a model is loaded,
+never at module import.
+
+Dual signs: HiGHS reports row duals ``y`` with ``c - A^T y = reduced costs`` for the
+minimisation it solves; for a ``<=`` row active in a minimisation ``y <= 0``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from blockmpec.result import Status
+from formulations import LinearProgram
+
+#: LP algorithms a user may choose.  "auto" = dual simplex on small models, interior
+#: point with crossover (so that a basis exists for warm starts) on large ones.
+ALGORITHMS = ("auto", "simplex", "dual-simplex", "primal-simplex", "ipm")
+AUTO_IPM_ROWS = 20000
+
+
+@dataclass
+class LPOutcome:
+    """One HiGHS solve: status, primal column values, row duals and bookkeeping."""
+
+    status: Status
+    raw_status: str
+    objective: float
+    v: np.ndarray
+    row_dual: np.ndarray
+    iterations: int
+    message: str = ""
+
+
+_STATUS_MAP = {
+    "kOptimal": Status.OPTIMAL,
+    "kInfeasible": Status.INFEASIBLE,
+    "kUnbounded": Status.UNBOUNDED,
+    "kUnboundedOrInfeasible": Status.UNBOUNDED,
+    "kTimeLimit": Status.TIME_LIMIT,
+    "kIterationLimit": Status.ITERATION_LIMIT,
+}
+
+
+class HighsLP:
+    """A HiGHS instance holding one compiled LP; re-solves after bound changes are warm."""
+
+    def __init__(self, lp: LinearProgram, algorithm: str = "auto", time_limit: float = float("inf"),
+                 threads: int = 0) -> None:
+        import highspy
+
+        if algorithm not in ALGORITHMS:
+            raise ValueError(f"algorithm must be one of {ALGORITHMS}; got {algorithm!r}")
+        self.lp = lp
+        h = highspy.Highs()
+        h.setOptionValue("output_flag", False)
+        if np.isfinite(time_limit):
+            h.setOptionValue("time_limit", float(time_limit))
+        if threads:
+            h.setOptionValue("threads", int(threads))
+        A = lp.A.tocsc()
+        model = highspy.HighsLp()
+        model.num_col_ = A.shape[1]
+        model.num_row_ = A.shape[0]
+        model.col_cost_ = lp.c
+        model.col_lower_ = lp.col_lower
+        model.col_upper_ = lp.col_upper
+        model.row_lower_ = lp.row_lower
+        model.row_upper_ = lp.row_upper
+        model.a_matrix_.format_ = highspy.MatrixFormat.kColwise
+        model.a_matrix_.start_ = A.indptr
+        model.a_matrix_.index_ = A.indices
+        model.a_matrix_.value_ = A.data
+        h.passModel(model)
+        self.highs = h
+        self._highspy = highspy
+        self.algorithm = algorithm
+        self._first = True
+
+    def _set_algorithm(self, algorithm: str) -> None:
+        h = self.highs
+        if algorithm == "auto":
+            algorithm = "ipm" if self._first and self.lp.A.shape[0] > AUTO_IPM_ROWS else "dual-simplex"
+        if algorithm == "ipm":
+            h.setOptionValue("solver", "ipm")
+            h.setOptionValue("run_crossover", "on")
+        else:
+            h.setOptionValue("solver", "simplex")
+            strategy = {"simplex": 0, "dual-simplex": 1, "primal-simplex": 4}[algorithm]
+            h.setOptionValue("simplex_strategy", strategy)
+
+    def solve(self) -> LPOutcome:
+        """Solve (warm from the previous basis if there is one)."""
+        h = self.highs
+        self._set_algorithm(self.algorithm)
+        h.run()
+        self._first = False
+        raw = h.getModelStatus().name
+        status = _STATUS_MAP.get(raw, Status.ERROR)
+        info = h.getInfo()
+        iterations = int(max(info.simplex_iteration_count, 0) + max(info.ipm_iteration_count, 0))
+        sol = h.getSolution()
+        v = np.asarray(sol.col_value, float)
+        y = np.asarray(sol.row_dual, float)
+        if v.size != self.lp.c.size:
+            v = np.full(self.lp.c.size, np.nan)
+            y = np.full(self.lp.A.shape[0], np.nan)
+        obj = float(info.objective_function_value) if status is Status.OPTIMAL else float("nan")
+        return LPOutcome(status, raw, obj, v, y, iterations, message=h.modelStatusToString(h.getModelStatus()))
+
+    def set_row_upper(self, rows: np.ndarray, upper: np.ndarray) -> None:
+        """Change the upper bounds of ``rows`` (lower bounds kept)."""
+        rows = np.asarray(rows, dtype=np.int32)
+        self.lp.row_upper[rows] = upper
+        self.highs.changeRowsBounds(rows.size, rows, self.lp.row_lower[rows], np.asarray(upper, float))

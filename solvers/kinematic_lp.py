@@ -1,0 +1,53 @@
+"""``kinematic-lp``: the associative kinematic LP (2) with HiGHS.
+
+The interface forces are the duals of the compatibility rows (``x = y_c``) and
+the multiplier is the dual of the normalisation row, which equals the optimal
+value ``-f_d^T u``.
+"""
+
+from __future__ import annotations
+
+from blockmpec.registry import register_solver
+from blockmpec.result import Solution, Status
+from blockmpec.solver import RunOutput, SolverBase
+from solvers.static_lp import LPOptions
+
+
+@register_solver
+class KinematicLP(SolverBase):
+    """Associative limit analysis by the kinematic theorem (2), solved by HiGHS."""
+
+    name = "kinematic-lp"
+    problem = "associative"
+    summary = "associative kinematic LP (2) with HiGHS; forces from the duals"
+    requires = ("highspy", "pyomo")
+    Options = LPOptions
+
+    def setup(self, ops):
+        from formulations import compile_linear, kinematic_lp
+        from solvers._highs import HighsLP
+
+        self.ops = ops
+        self.lp = compile_linear(kinematic_lp(ops))
+        self.highs = HighsLP(self.lp, self.options.algorithm, self.options.time_limit)
+
+    def run(self) -> RunOutput:
+        out = self.highs.solve()
+        lp = self.lp
+        sol = Solution()
+        message = out.message
+        if out.status is Status.OPTIMAL:
+            sol = Solution(
+                multiplier=float(out.objective * lp.objective_sign + lp.objective_offset),
+                x=lp.row_values("compatibility", out.row_dual),
+                u=lp.values("u", out.v),
+                z_u=lp.values("z_u", out.v),
+                z_f=lp.values("z_f", out.v),
+            )
+        elif out.status is Status.INFEASIBLE:
+            message = "the kinematic LP is infeasible: no mechanism exists for this live load"
+            out.status = Status.UNBOUNDED  # dual of an unbounded static LP: no collapse
+        elif out.status is Status.UNBOUNDED:
+            message = "the kinematic LP is unbounded: no equilibrium exists (e.g. unstable under dead load)"
+            out.status = Status.INFEASIBLE
+        return RunOutput(out.status, sol, out.iterations, message=message, raw_status=out.raw_status)

@@ -1,0 +1,68 @@
+"""``static-lp``: the associative static LP (1) with HiGHS.
+
+The collapse mechanism comes from the duals: ``u = -y_eq`` (equilibrium rows) and
+``z = -y`` (inequality rows), which with HiGHS's sign convention gives
+``E^T u + N_u z_u + N_f z_f = 0`` and ``f_l^T u = 1``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+from blockmpec.registry import register_solver
+from blockmpec.result import Solution, Status
+from blockmpec.solver import RunOutput, SolverBase
+
+
+@dataclass
+class LPOptions:
+    """Options of the HiGHS LP adapters."""
+
+    algorithm: str = field(default="auto", metadata={"help": "auto | simplex | dual-simplex | primal-simplex | ipm"})
+    time_limit: float = field(default=float("inf"), metadata={"help": "seconds"})
+
+    def __post_init__(self) -> None:
+        from solvers._highs import ALGORITHMS
+
+        if self.algorithm not in ALGORITHMS:
+            raise ValueError(f"algorithm must be one of {', '.join(ALGORITHMS)}; got {self.algorithm!r}")
+        if not self.time_limit > 0:
+            raise ValueError(f"time_limit must be > 0 seconds; got {self.time_limit}")
+
+
+@register_solver
+class StaticLP(SolverBase):
+    """Associative limit analysis by the static theorem (1), solved by HiGHS."""
+
+    name = "static-lp"
+    problem = "associative"
+    summary = "associative static LP (1) with HiGHS; mechanism from the duals"
+    requires = ("highspy", "pyomo")
+    Options = LPOptions
+
+    def setup(self, ops):
+        from formulations import compile_linear, static_lp
+        from solvers._highs import HighsLP
+
+        self.ops = ops
+        self.lp = compile_linear(static_lp(ops))
+        self.highs = HighsLP(self.lp, self.options.algorithm, self.options.time_limit)
+
+    def run(self) -> RunOutput:
+        out = self.highs.solve()
+        lp = self.lp
+        sol = Solution()
+        if out.status is Status.OPTIMAL:
+            sol = Solution(
+                multiplier=float(lp.values("lam", out.v)[0]),
+                x=lp.values("x", out.v),
+                u=-lp.row_values("equilibrium", out.row_dual),
+                z_u=-lp.row_values("unilateral", out.row_dual),
+                z_f=-lp.row_values("friction", out.row_dual),
+            )
+        message = out.message
+        if out.status is Status.UNBOUNDED:
+            message = "the static LP is unbounded: no collapse mechanism exists for this live load"
+        elif out.status is Status.INFEASIBLE:
+            message = "the static LP is infeasible: no equilibrium exists (e.g. unstable under dead load)"
+        return RunOutput(out.status, sol, out.iterations, message=message, raw_status=out.raw_status)
