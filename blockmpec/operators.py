@@ -27,6 +27,16 @@ Operators (scipy.sparse CSR)
 ``V_f`` (3c x 2c)
     friction flow directions: ``N_f`` with ``tan(psi)`` in place of ``tan(phi)``.
 
+Scaling
+-------
+The solvers see a nondimensional problem: lengths are divided by
+``length_scale`` (median size of the free blocks) and forces by ``force_scale``
+(mean weight of the free blocks).  ``lam`` is unchanged; ``x`` holds ``t, n`` in
+units of ``force_scale`` and ``m`` in units of ``force_scale * length_scale``
+(:meth:`Operators.forces_to_physical` converts back).  Without this, a wall of
+1 km blocks (weights ~1e6, moments ~1e9) defeats the solvers' absolute
+tolerances.
+
 Compatibility (flow rule) reads ``E^T u + N_u z_u + V_f z_f = 0`` and the
 normalisation ``f_l^T u = 1``.  Interfaces between two fixed blocks carry no
 unknown that matters and are dropped at assembly.
@@ -39,7 +49,7 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.sparse as sp
 
-from blockmpec.geometry import Structure
+from blockmpec.geometry import Structure, block_sizes
 
 
 @dataclass(frozen=True, eq=False)
@@ -56,7 +66,9 @@ class Operators:
     interface_ids : ndarray of int, shape (c,)
         Structure interface index of each kept interface.
     length : ndarray, shape (c,)
-        Interface lengths ``L``.
+        Interface lengths ``L`` (in units of ``length_scale``).
+    length_scale, force_scale : float
+        The units of the nondimensional problem (see the module docstring).
     friction, dilatancy : ndarray, shape (c,)
         ``tan(phi)`` and ``tan(psi)`` per interface.
     """
@@ -72,6 +84,14 @@ class Operators:
     length: np.ndarray
     friction: np.ndarray
     dilatancy: np.ndarray
+    length_scale: float = 1.0
+    force_scale: float = 1.0
+
+    def forces_to_physical(self, x: np.ndarray) -> np.ndarray:
+        """Interface forces ``x`` in the structure's units (``t, n`` x force_scale, ``m`` x force*length)."""
+        out = np.asarray(x, float) * self.force_scale
+        out[2::3] *= self.length_scale
+        return out
 
     @property
     def n_interfaces(self) -> int:
@@ -145,11 +165,15 @@ def assemble(structure: Structure) -> Operators:
     dof = np.full(s.n_blocks, -1)
     dof[free_blocks] = np.arange(b)
 
-    mid = itf.midpoint[ids]
+    sizes = block_sizes(s.vertices, s.n_vertices)[free_blocks]
+    length_scale = float(np.median(sizes)) if b else 1.0
+    weight = s.weight[free_blocks]
+    force_scale = float(weight.mean()) if b else 1.0
+    mid = itf.midpoint[ids] / length_scale
     tau = itf.tangent[ids]
     nu = itf.normal[ids]
-    length = itf.length[ids]
-    centroid = s.centroid
+    length = itf.length[ids] / length_scale
+    centroid = s.centroid / length_scale
 
     # E: generalised force (Fx, Fy, M about centroid) of x_k on the minus block; minus that on plus.
     rows, cols, vals = [], [], []
@@ -187,7 +211,7 @@ def assemble(structure: Structure) -> Operators:
     N_f = _friction_matrix(friction)
     V_f = _friction_matrix(dilatancy)
 
-    weight = s.weight[free_blocks]
+    weight = weight / force_scale
     f_d = np.zeros(3 * b)
     f_l = np.zeros(3 * b)
     f_d[1::3] = -weight
@@ -197,8 +221,8 @@ def assemble(structure: Structure) -> Operators:
         if i < 0:
             continue
         target = f_l if pl.kind == "live" else f_d
-        arm = np.asarray(pl.point, float) - centroid[pl.block]
-        fx, fy = pl.force
+        arm = np.asarray(pl.point, float) / length_scale - centroid[pl.block]
+        fx, fy = np.asarray(pl.force, float) / force_scale
         target[3 * i] += fx
         target[3 * i + 1] += fy
         target[3 * i + 2] += arm[0] * fy - arm[1] * fx
@@ -214,4 +238,6 @@ def assemble(structure: Structure) -> Operators:
         length=length,
         friction=friction,
         dilatancy=dilatancy,
+        length_scale=length_scale,
+        force_scale=force_scale,
     )

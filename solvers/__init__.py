@@ -2,12 +2,20 @@
 
 Modules whose name starts with an underscore are shared helpers, not methods.
 Importing this package imports no solver backend (highspy, cyipopt): each adapter
-imports its backend inside ``setup``/``run``.
+imports its backend inside ``setup``/``run``.  A module that fails to import is
+recorded in :data:`FAILED_PLUGINS` (and listed by ``blockmpec methods``) instead
+of breaking every other method.
 """
 
 import importlib
 import pkgutil
 
+#: module name -> "ExceptionType: message" for plug-ins that failed to import
+FAILED_PLUGINS: dict[str, str] = {}
+
 for _info in pkgutil.iter_modules(__path__):
     if not _info.name.startswith("_"):
-        importlib.import_module(f"{__name__}.{_info.name}")
+        try:
+            importlib.import_module(f"{__name__}.{_info.name}")
+        except Exception as _exc:  # noqa: BLE001 - reported, not hidden
+            FAILED_PLUGINS[_info.name] = f"{type(_exc).__name__}: {_exc}"

@@ -1,0 +1,125 @@
+"""Geometry, interface detection, operator assembly and loads."""
+
+import numpy as np
+import pytest
+
+import blockmpec as bm
+from blockmpec.geometry import detect_interfaces
+
+
+def test_two_blocks_interfaces_and_normals():
+    s = bm.cases.two_blocks(eta=3)
+    itf = s.interfaces
+    assert len(itf) == 3
+    centroid = s.centroid
+    # the normal points from the minus block into the plus block
+    for k in range(len(itf)):
+        d = centroid[itf.plus[k]] - centroid[itf.minus[k]]
+        assert d @ itf.normal[k] > 0
+    np.testing.assert_allclose(sorted(itf.length), [1.0, 1.0, 3.0])
+
+
+@pytest.mark.parametrize(("courses", "per"), [(1, 1), (2, 3), (5, 4), (6, 7)])
+def test_running_bond_interface_count(courses, per):
+    s = bm.cases.wall(courses=courses, blocks_per_course=per)
+    n_long = courses // 2  # offset courses hold per + 1 blocks
+    assert s.n_free == courses * per + n_long
+    vertical = courses * (per - 1) + n_long  # joints within a course
+    bed = per  # base to first course
+    for r in range(1, courses):
+        bed += 2 * per  # between an aligned and an offset course every block meets two
+    assert len(s.interfaces) == vertical + bed
+
+
+def test_stack_bond_interface_count():
+    s = bm.cases.wall(courses=3, blocks_per_course=4, bond="stack")
+    assert len(s.interfaces) == 3 * 3 + 3 * 4
+
+
+def test_opening_removes_blocks():
+    full = bm.cases.wall(courses=6, blocks_per_course=6, bond="stack")
+    holed = bm.cases.wall(courses=6, blocks_per_course=6, bond="stack", openings=[(2, 1, 4, 2)])
+    assert full.n_free - holed.n_free == 4
+
+
+def test_arch_geometry_and_weight():
+    s = bm.cases.round_arch()
+    assert s.n_free == 10 and len(s.interfaces) == 11
+    # straight-sided voussoirs: total area is slightly less than the annulus' half
+    annulus = 0.5 * np.pi * ((1.075) ** 2 - (0.925) ** 2)
+    area = s.area[~s.fixed].sum()
+    assert 0.98 * annulus < area < annulus
+
+
+def test_arch_on_buttresses_has_26_free_blocks():
+    s = bm.cases.arch_on_buttresses()
+    assert s.n_free == 26
+
+
+def test_operators_shapes_and_sparsity():
+    s = bm.cases.wall()
+    ops = bm.assemble(s)
+    # 18 full blocks (1 x 0.5) and 4 half blocks: median size is a full block's diagonal, mean weight 10/22
+    assert ops.length_scale == pytest.approx(np.hypot(1, 0.5)) and ops.force_scale == pytest.approx(10 / 22)
+    b, c = s.n_free, len(s.interfaces)
+    assert ops.E.shape == (3 * b, 3 * c)
+    assert ops.N_u.shape == ops.N_f.shape == ops.V_f.shape == (3 * c, 2 * c)
+    assert ops.E.nnz <= 2 * 7 * c
+    # f_d is the weight, f_l the horizontal body force of the same size
+    np.testing.assert_allclose(-ops.f_d[1::3] * ops.force_scale, s.weight[~s.fixed])
+    np.testing.assert_allclose(ops.f_l[0::3] * ops.force_scale, s.weight[~s.fixed])
+
+
+def test_equilibrium_operator_is_minus_jump_transpose():
+    # for a rigid motion of a free block, the jump at its interfaces is the block's velocity at the midpoint
+    s = bm.cases.two_blocks(eta=2)
+    ops = bm.assemble(s)
+    u = np.zeros(6)
+    u[3:6] = [0.3, -0.2, 0.5]  # move the right block (free block 1 = structure block 2)
+    jump = -(ops.E.T @ u)  # B u, per interface (tau, nu, rotation) of plus relative to minus
+    itf = s.interfaces
+    g = s.centroid[2]
+    assert ops.length_scale == pytest.approx(np.hypot(1, 2))
+    ell = ops.length_scale
+    for k in range(3):
+        sign = int(itf.plus[k] == 2) - int(itf.minus[k] == 2)
+        r = (itf.midpoint[k] - g) / ell  # arms in the nondimensional problem
+        v = np.array([0.3 - 0.5 * r[1], -0.2 + 0.5 * r[0]])
+        np.testing.assert_allclose(jump[3 * k : 3 * k + 2], sign * np.array([v @ itf.tangent[k], v @ itf.normal[k]]), atol=1e-12)
+        assert jump[3 * k + 2] == pytest.approx(sign * 0.5)
+
+
+def test_point_loads_enter_load_vectors():
+    s0 = bm.cases.single_block(width=1, height=2)
+    s = bm.make_structure(
+        [s0.polygon(0), s0.polygon(1)], s0.fixed, friction=0.65,
+        point_loads=[bm.PointLoad(1, (0.5, 2.0), (1.0, 0.0), "live"), bm.PointLoad(1, (1.0, 1.0), (0.0, -3.0), "dead")],
+    )
+    ops = bm.assemble(s)
+    force, moment = ops.force_scale, ops.force_scale * ops.length_scale
+    unit = np.array([force, force, moment])
+    np.testing.assert_allclose(ops.f_l * unit, [2.0 + 1.0, 0.0, -1.0])  # body force W=2 plus 1 at height 2 (arm 1)
+    np.testing.assert_allclose(ops.f_d * unit, [0.0, -2.0 - 3.0, -1.5])  # weight plus 3 down at arm +0.5
+
+
+def test_uniform_scaling_keeps_multiplier():
+    base = bm.cases.wall(courses=3, blocks_per_course=3)
+    ref = bm.solve(base, "static-lp").multiplier
+    for factor in (1e-3, 1e3):
+        polys = [base.polygon(i) * factor for i in range(base.n_blocks)]
+        s = bm.make_structure(polys, base.fixed, friction=base.friction)
+        assert bm.solve(s, "static-lp").multiplier == pytest.approx(ref, rel=1e-7)
+
+
+def test_interfaces_found_between_blocks_of_very_different_size():
+    big = [[-100, -1], [100, -1], [100, 0], [-100, 0]]
+    tiny = [[0, 0], [0.01, 0], [0.01, 0.01], [0, 0.01]]
+    vertices, n_vertices = bm.geometry.pad_polygons([big, tiny])
+    itf = detect_interfaces(vertices, n_vertices)
+    assert len(itf) == 1 and itf.length[0] == pytest.approx(0.01)
+
+
+def test_large_wall_assembles_quickly_enough_to_test():
+    s = bm.cases.wall(courses=50, blocks_per_course=50)
+    ops = bm.assemble(s)
+    assert ops.E.shape[0] == 3 * s.n_free
