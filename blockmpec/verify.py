@@ -9,9 +9,16 @@ Given ``(lam, x, u, z_u, z_f)`` every residual is relative (scale-free):
 ``unilateral_admissibility``   ``||(N_u^T x)_+|| / ||N_u^T x||``
 ``friction_admissibility``     ``||(N_f^T x)_+|| / ||N_f^T x||`` (the paper's Table 2 measure)
 ``multiplier_sign``            ``||(z)_-|| / ||z||`` over ``z = (z_u, z_f)``
-``unilateral_complementarity`` ``|z_u|^T |N_u^T x| / (||z_u|| ||N_u^T x||)``
-``friction_complementarity``   ``|z_f|^T |N_f^T x| / (||z_f|| ||N_f^T x||)``
+``unilateral_complementarity`` ``|z_u|^T |N_u^T x| / (||E^T u|| ||x||)``
+``friction_complementarity``   ``|z_f|^T |N_f^T x| / (||E^T u|| ||x||)``
 =============================  =================================================================
+
+The complementarity products are works (multiplier x constraint value); they are
+measured against ``||E^T u|| ||x||``, the size of the mechanism's interface jumps
+times the size of the forces, which is positive whenever ``f_l^T u = 1``.  (A
+cosine such as ``|z|^T|s| / (||z|| ||s||)`` would flag a group of multipliers that
+are all round-off, e.g. ``z_u ~ 1e-9`` in a pure sliding mechanism.)  Without ``u``
+the denominator falls back to ``||z|| ||s||``.
 
 ``V`` is ``N_f`` for the associative problem and ``V_f`` (dilatancy ``tan(psi)``)
 for the non-associative one.  Norms are Euclidean; a residual whose denominator
@@ -49,8 +56,9 @@ def positive_part_ratio(v: np.ndarray) -> float:
     return _ratio(np.linalg.norm(np.maximum(v, 0.0)), np.linalg.norm(v))
 
 
-def _complementarity(z: np.ndarray, s: np.ndarray) -> float:
-    return _ratio(float(np.abs(z) @ np.abs(s)), np.linalg.norm(z) * np.linalg.norm(s))
+def _complementarity(z: np.ndarray, s: np.ndarray, scale: float | None) -> float:
+    work = float(np.abs(z) @ np.abs(s))
+    return _ratio(work, np.linalg.norm(z) * np.linalg.norm(s) if scale is None else scale)
 
 
 def residuals(ops: Operators, sol: Solution, associative: bool) -> dict[str, float]:
@@ -90,6 +98,7 @@ def residuals(ops: Operators, sol: Solution, associative: bool) -> dict[str, flo
         z = np.concatenate([z_u, z_f])
         out["multiplier_sign"] = _ratio(np.linalg.norm(np.minimum(z, 0.0)), np.linalg.norm(z))
         if x is not None:
-            out["unilateral_complementarity"] = _complementarity(z_u, s_u)
-            out["friction_complementarity"] = _complementarity(z_f, s_f)
+            scale = None if u is None else float(np.linalg.norm(ops.E.T @ u) * np.linalg.norm(x))
+            out["unilateral_complementarity"] = _complementarity(z_u, s_u, scale)
+            out["friction_complementarity"] = _complementarity(z_f, s_f, scale)
     return out

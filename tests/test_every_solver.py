@@ -1,0 +1,65 @@
+"""One generic suite run over every registered method (benchopt/Pyomo style).
+
+Closed form used: a single b x h block on a fixed base has a statically
+determinate interface, so every solution of (3), associative or not, has
+``lam = min(mu, b/h)``.
+"""
+
+import math
+
+import pytest
+
+import blockmpec as bm
+from blockmpec.result import Status
+
+METHODS = bm.list_solvers()
+
+
+@pytest.fixture(params=METHODS, ids=str)
+def method(request):
+    reason = bm.get_solver(request.param).unavailable_reason()
+    if reason:
+        pytest.skip(reason)
+    return request.param
+
+
+@pytest.mark.parametrize(("width", "height", "mu"), [(1.0, 2.0, 0.65), (1.0, 1.0, 0.3)])
+def test_single_block_closed_form(method, width, height, mu):
+    res = bm.solve(bm.cases.single_block(width=width, height=height, mu=mu), method)
+    assert res.success, f"{method}: {res.status} {res.message} {res.residuals}"
+    assert res.multiplier == pytest.approx(min(mu, width / height), rel=1e-6)
+
+
+def test_result_is_complete_and_timed(method):
+    res = bm.solve(bm.cases.two_blocks(eta=2, mu=0.65), method)
+    assert isinstance(res.status, Status)
+    assert res.method == method
+    assert res.build_time_s >= 0 and res.solve_time_s > 0
+    assert res.iterations >= 0
+    d = res.to_dict()
+    for key in ("method", "status", "success", "multiplier", "residuals", "time_s", "iterations"):
+        assert key in d
+    if res.status.is_success:
+        assert set(res.residuals) >= {"equilibrium", "friction_admissibility", "compatibility"}
+        assert all(math.isfinite(v) for v in res.residuals.values())
+
+
+def test_claimed_success_is_downgraded_when_verifier_disagrees(method):
+    # an absurdly strict tolerance can never be met: success must not be claimed
+    res = bm.solve(bm.cases.two_blocks(eta=2, mu=0.65), method, verify_tol=-1.0)
+    assert not res.success
+    assert res.status is not Status.OPTIMAL or not res.verified
+    if res.status is Status.NUMERICAL:
+        assert "verifier disagrees" in res.message
+
+
+def test_options_are_validated(method):
+    with pytest.raises(bm.OptionError, match=rf"method '{method}' has no option 'no_such_option'"):
+        bm.solve(bm.cases.single_block(), method, no_such_option=1)
+
+
+def test_skip_is_a_status_not_an_exception(method, monkeypatch):
+    cls = bm.get_solver(method)
+    monkeypatch.setattr(cls, "requires", ("a_module_that_does_not_exist",))
+    res = bm.solve(bm.cases.single_block(), method)
+    assert res.status is Status.SKIPPED and "a_module_that_does_not_exist" in res.message
