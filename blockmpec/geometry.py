@@ -472,6 +472,16 @@ def detect_interfaces(vertices: np.ndarray, n_vertices: np.ndarray, tol: float =
     return Interfaces(minus.astype(int), plus.astype(int), start_pt, end_pt, nan, nan.copy())
 
 
+def _distance_to_boundary(points: np.ndarray, vertices: np.ndarray, n_vertices: np.ndarray) -> np.ndarray:
+    """Distance from ``points[k]`` to the boundary of polygon ``k`` (padded arrays)."""
+    p, e = _padded_edges(vertices, n_vertices)
+    rel = points[:, None, :] - p
+    ee = (e * e).sum(-1)
+    t = np.clip(np.where(ee > 0, (rel * e).sum(-1) / np.where(ee > 0, ee, 1), 0.0), 0.0, 1.0)
+    d = np.linalg.norm(rel - t[..., None] * e, axis=-1)
+    return d.min(axis=1)
+
+
 def _check_interfaces(s: Structure, tol: float) -> None:
     itf = s.interfaces
     c = len(itf)
@@ -493,6 +503,26 @@ def _check_interfaces(s: Structure, tol: float) -> None:
         bad = np.flatnonzero(itf.length <= tol * scale)
         if bad.size:
             raise GeometryError(f"interface {bad[0]}: segment has zero length")
+        for name, blocks in (("minus", itf.minus), ("plus", itf.plus)):
+            for point_name, pts in (("start", itf.start), ("end", itf.end)):
+                dist = _distance_to_boundary(pts, s.vertices[blocks], s.n_vertices[blocks])
+                bad = np.flatnonzero(dist > 10 * tol * scale)
+                if bad.size:
+                    k = int(bad[0])
+                    raise GeometryError(
+                        f"interface {k}: {point_name} point {pts[k].tolist()} is not on the boundary of its "
+                        f"{name} block {blocks[k]} (distance {dist[k]:.3g})"
+                    )
+        centroid = s.centroid
+        side = np.einsum("kd,kd->k", centroid[itf.plus] - centroid[itf.minus], itf.normal)
+        bad = np.flatnonzero(side <= 0)
+        if bad.size:
+            k = int(bad[0])
+            raise GeometryError(
+                f"interface {k}: its normal (end - start rotated by +90 degrees) points from block {itf.plus[k]} "
+                f"into block {itf.minus[k]}, but it must point from the minus block {itf.minus[k]} into the plus "
+                f"block {itf.plus[k]}; swap 'start' and 'end' (or 'minus' and 'plus')"
+            )
 
 
 def _check_connectivity(s: Structure) -> None:

@@ -16,10 +16,12 @@ import numpy as np
 from blockmpec.result import Status
 from formulations import LinearProgram
 
-#: LP algorithms a user may choose.  "auto" = dual simplex on small models, interior
-#: point with crossover (so that a basis exists for warm starts) on large ones.
+#: LP algorithms a user may choose.  "auto" = dual simplex on small models (at most
+#: AUTO_IPM_ROWS rows) and for warm re-solves; a cold solve of a larger model uses the
+#: interior point method with crossover (so that a basis exists for warm starts).
+#: Measured on a 1,000-block wall: dual simplex 97 s, primal simplex 27 s, IPM 11-14 s.
 ALGORITHMS = ("auto", "simplex", "dual-simplex", "primal-simplex", "ipm")
-AUTO_IPM_ROWS = 20000
+AUTO_IPM_ROWS = 2000
 
 
 @dataclass

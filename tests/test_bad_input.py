@@ -137,6 +137,22 @@ def test_bad_structure_file(tmp_path, mutate, pattern):
         bm.load_structure(path)
 
 
+def test_reversed_explicit_interface_is_rejected():
+    s = make([BASE, SQUARE], [True, False])
+    itf = s.interfaces
+    flipped = bm.Interfaces(itf.minus, itf.plus, itf.end, itf.start, itf.friction, itf.dilatancy)
+    with pytest.raises(bm.GeometryError, match=r"interface 0: its normal .* points from block 1 into block 0.*swap 'start' and 'end'"):
+        make([BASE, SQUARE], [True, False], interfaces=flipped)
+
+
+def test_explicit_interface_off_the_blocks_is_rejected():
+    s = make([BASE, SQUARE], [True, False])
+    itf = s.interfaces
+    moved = bm.Interfaces(itf.minus, itf.plus, itf.start + [0, 0.3], itf.end + [0, 0.3], itf.friction, itf.dilatancy)
+    with pytest.raises(bm.GeometryError, match=r"interface 0: start point .* is not on the boundary of its minus block 0"):
+        make([BASE, SQUARE], [True, False], interfaces=moved)
+
+
 def test_structure_file_not_json(tmp_path):
     path = tmp_path / "broken.json"
     path.write_text("{ not json")
