@@ -249,6 +249,49 @@ CASES: dict[str, CaseSpec] = {
 }
 
 
+def closed_form(name: str, problem: str, **params: Any) -> float | None:
+    """Closed-form collapse multiplier of a built-in case, where one is known.
+
+    Parameters
+    ----------
+    name : str
+        Case name.
+    problem : {"associative", "non-associative"}
+        For "non-associative" the value is the *minimum* over solutions of (3)
+        (zero dilatancy assumed; None when ``dilatancy`` is not 0).
+    **params
+        The case's parameters (defaults filled in).
+
+    Returns
+    -------
+    float or None
+        ``None`` when no closed form is known.
+    """
+    spec = get_case(name)
+    p = {**spec.parameters, **params}
+    if problem not in ("associative", "non-associative"):
+        raise OptionError(f"problem: must be 'associative' or 'non-associative'; got {problem!r}")
+    mu = float(p["mu"])
+    if problem == "non-associative" and float(p.get("dilatancy", 0.0)) not in (0.0, mu):
+        return None
+    associative = problem == "associative" or float(p.get("dilatancy", 0.0)) == mu
+    if name == "single-block":
+        return min(mu, float(p["width"]) / float(p["height"]))
+    if name == "two-blocks":
+        eta = float(p["eta"])
+        if not associative:
+            return mu if mu <= 1.0 / eta else 1.0 / eta
+        candidates = [mu, 2.0 / eta]
+        d1 = eta * (1 - mu**2) + mu
+        if d1 > 0:
+            candidates.append(1.0 / d1)
+        d2 = eta * (1 + mu**2) - mu
+        if d2 > 0:
+            candidates.append((1 + 2 * mu**2) / d2)
+        return min(candidates)
+    return None
+
+
 def get_case(name: str) -> CaseSpec:
     """Look up a built-in case by name."""
     try:

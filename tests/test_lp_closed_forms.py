@@ -103,3 +103,14 @@ def test_unstable_under_dead_load_is_reported_as_infeasible():
         res = bm.solve(s, method)
         assert res.status is bm.Status.INFEASIBLE, (method, res.status, res.message)
         assert not res.success and "equilibrium" in res.message
+
+
+def test_closed_form_table_spot_values():
+    cf = bm.cases.closed_form
+    assert round(cf("two-blocks", "associative", eta=3, mu=0.65), 5) == 0.41973
+    assert cf("two-blocks", "non-associative", eta=3, mu=0.65) == pytest.approx(1 / 3)
+    assert cf("two-blocks", "non-associative", eta=1, mu=0.3) == pytest.approx(0.3)
+    assert cf("single-block", "non-associative", width=1, height=4, mu=0.65) == pytest.approx(0.25)
+    assert cf("round-arch", "associative") is None
+    # with dilatancy equal to friction the non-associative problem is the associative one
+    assert cf("two-blocks", "non-associative", eta=3, mu=0.65, dilatancy=0.65) == cf("two-blocks", "associative", eta=3, mu=0.65)
