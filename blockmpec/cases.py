@@ -265,7 +265,9 @@ def closed_form(name: str, problem: str, **params: Any) -> float | None:
     Returns
     -------
     float or None
-        ``None`` when no closed form is known.
+        ``None`` when no closed form is known.  For the associative two-block
+        problem the paper's formula is returned only where it holds (not for
+        ``mu > 1`` with ``eta < 1``; see tests/test_extreme.py).
     """
     spec = get_case(name)
     p = {**spec.parameters, **params}
@@ -279,6 +281,11 @@ def closed_form(name: str, problem: str, **params: Any) -> float | None:
         return min(mu, float(p["width"]) / float(p["height"]))
     if name == "two-blocks":
         eta = float(p["eta"])
+        if associative and mu > 1 and eta < 1:
+            # The paper's A2-1 expression 1/[eta(1-mu^2)+mu] falls below the LP optimum here, and the
+            # LP optimum is bracketed by an admissible stress field and a mechanism (both verified):
+            # the four-mechanism formula is not valid for squat blocks with mu > 1.
+            return None
         if not associative:
             return mu if mu <= 1.0 / eta else 1.0 / eta
         candidates = [mu, 2.0 / eta]

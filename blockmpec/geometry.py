@@ -420,8 +420,8 @@ def detect_interfaces(vertices: np.ndarray, n_vertices: np.ndarray, tol: float =
 
     Two edges match when their outward normals are opposite to within ``tol``,
     both ends of one lie within ``tol * size`` of the other's line, and they
-    overlap over more than ``tol * size`` (``size`` = the larger block's
-    bounding-box diagonal).  The interface segment is the overlap; its minus block
+    overlap over more than ``tol * size`` (``size`` = the smaller block's
+    bounding-box diagonal, so that a tiny block on a huge one is still found).  The interface segment is the overlap; its minus block
     is the lower block index.  Vectorised over the candidate block pairs of
     :func:`candidate_pairs` and all their edge combinations.
     """
@@ -442,7 +442,7 @@ def detect_interfaces(vertices: np.ndarray, n_vertices: np.ndarray, tol: float =
             db = eb / lb[..., None]
         oa = np.stack([da[..., 1], -da[..., 0]], axis=-1)
         ob = np.stack([db[..., 1], -db[..., 0]], axis=-1)
-        scale = np.maximum(size[ba], size[bb])[:, None, None]
+        scale = np.minimum(size[ba], size[bb])[:, None, None]
         ok = (la > 0) & (lb > 0)
         ok &= (oa * ob).sum(-1) < -(1 - tol)
         qb = pb + eb
@@ -499,7 +499,7 @@ def _check_interfaces(s: Structure, tol: float) -> None:
             k = int(np.flatnonzero(~np.isfinite(np.c_[itf.start, itf.end]).all(axis=1))[0])
             raise GeometryError(f"interface {k}: end points contain NaN or infinite coordinates")
         size = block_sizes(s.vertices, s.n_vertices)
-        scale = np.maximum(size[itf.minus], size[itf.plus])
+        scale = np.minimum(size[itf.minus], size[itf.plus])
         bad = np.flatnonzero(itf.length <= tol * scale)
         if bad.size:
             raise GeometryError(f"interface {bad[0]}: segment has zero length")
