@@ -69,6 +69,9 @@ class Operators:
         Interface lengths ``L`` (in units of ``length_scale``).
     length_scale, force_scale : float
         The units of the nondimensional problem (see the module docstring).
+    minus_dof, plus_dof : ndarray of int, shape (c,)
+        Free-block index (row block of ``E``) of each interface's minus and plus
+        block, -1 for a fixed block.
     friction, dilatancy : ndarray, shape (c,)
         ``tan(phi)`` and ``tan(psi)`` per interface.
     """
@@ -86,6 +89,8 @@ class Operators:
     dilatancy: np.ndarray
     length_scale: float = 1.0
     force_scale: float = 1.0
+    minus_dof: np.ndarray | None = None
+    plus_dof: np.ndarray | None = None
 
     def forces_to_physical(self, x: np.ndarray) -> np.ndarray:
         """Interface forces ``x`` in the structure's units (``t, n`` x force_scale, ``m`` x force*length)."""
@@ -240,4 +245,6 @@ def assemble(structure: Structure) -> Operators:
         dilatancy=dilatancy,
         length_scale=length_scale,
         force_scale=force_scale,
+        minus_dof=dof[minus],
+        plus_dof=dof[plus],
     )

@@ -8,6 +8,7 @@ Given ``(lam, x, u, z_u, z_f)`` every residual is relative (scale-free):
 ``normalisation``              ``|1 - f_l^T u|``
 ``unilateral_admissibility``   ``||(N_u^T x)_+|| / ||N_u^T x||``
 ``friction_admissibility``     ``||(N_f^T x)_+|| / ||N_f^T x||`` (the paper's Table 2 measure)
+``local_admissibility``        ``max_k v_k / (|t_k| + |n_k| + 2|m_k|/L_k + w_k)``, see below
 ``multiplier_sign``            ``||(z)_-|| / ||z||`` over ``z = (z_u, z_f)``
 ``unilateral_complementarity`` ``|z_u|^T |N_u^T x| / (||E^T u|| ||x||)``
 ``friction_complementarity``   ``|z_f|^T |N_f^T x| / (||E^T u|| ||x||)``
@@ -26,6 +27,13 @@ relative to the absolute size of its own terms, and the worst is reported.  A
 global norm would let a solver neglect a block a million times lighter than the
 rest (its whole load is round-off in a global norm); summing absolute terms in
 the denominator keeps cancellation noise at round-off level.
+
+The two admissibility measures of the paper are global norms; a violation at
+one light block disappears in them.  ``local_admissibility`` looks at each
+interface: ``v_k = max((+-2m/L + n)_+, (+-t + mu n)_+ / (1 + mu))`` (force units)
+against the interface's own forces plus ``w_k``, the smaller load
+``||f_d,i|| + |lam| ||f_l,i||`` of its adjacent free blocks (a floor that keeps an
+unloaded interface's round-off from raising an alarm).
 
 ``V`` is ``N_f`` for the associative problem and ``V_f`` (dilatancy ``tan(psi)``)
 for the non-associative one.  Norms are Euclidean; a residual whose denominator
@@ -46,6 +54,7 @@ RESIDUAL_NAMES = (
     "normalisation",
     "unilateral_admissibility",
     "friction_admissibility",
+    "local_admissibility",
     "multiplier_sign",
     "unilateral_complementarity",
     "friction_complementarity",
@@ -67,6 +76,21 @@ def _worst_triplet(residual: np.ndarray, terms: list[np.ndarray]) -> float:
     with np.errstate(divide="ignore", invalid="ignore"):
         ratio = np.where(den > 0, num / np.where(den > 0, den, 1.0), np.where(num > 0, np.inf, 0.0))
     return float(ratio.max())
+
+
+def _local_admissibility(ops: Operators, x: np.ndarray, s_u: np.ndarray, s_f: np.ndarray, lam: float) -> float:
+    c = ops.n_interfaces
+    if c == 0:
+        return 0.0
+    t, n, m = x[0::3], x[1::3], x[2::3]
+    half = ops.length / 2
+    v_u = np.maximum(s_u.reshape(c, 2) / half[:, None], 0.0).max(axis=1)
+    v_f = np.maximum(s_f.reshape(c, 2), 0.0).max(axis=1) / (1 + ops.friction)
+    load = np.linalg.norm(ops.f_d.reshape(-1, 3), axis=1) + abs(lam) * np.linalg.norm(ops.f_l.reshape(-1, 3), axis=1)
+    load = np.append(load, np.inf)  # index -1 (a fixed block) -> no floor from that side
+    floor = np.minimum(load[ops.minus_dof], load[ops.plus_dof])
+    den = np.abs(t) + np.abs(n) + np.abs(m) / half + floor
+    return float((np.maximum(v_u, v_f) / den).max())
 
 
 def positive_part_ratio(v: np.ndarray) -> float:
@@ -112,6 +136,8 @@ def residuals(ops: Operators, sol: Solution, associative: bool) -> dict[str, flo
         s_f = ops.N_f.T @ x
         out["unilateral_admissibility"] = positive_part_ratio(s_u)
         out["friction_admissibility"] = positive_part_ratio(s_f)
+        if lam is not None and ops.minus_dof is not None:
+            out["local_admissibility"] = _local_admissibility(ops, x, s_u, s_f, lam)
     if z_u is not None and z_f is not None:
         z = np.concatenate([z_u, z_f])
         out["multiplier_sign"] = _ratio(np.linalg.norm(np.minimum(z, 0.0)), np.linalg.norm(z))

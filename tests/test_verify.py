@@ -47,3 +47,22 @@ def test_positive_part_ratio():
     assert positive_part_ratio(np.array([-1.0, -2.0])) == 0.0
     assert positive_part_ratio(np.array([3.0, -4.0])) == pytest.approx(0.6)
     assert positive_part_ratio(np.zeros(3)) == 0.0
+
+
+def test_local_measures_see_a_violation_that_global_norms_hide():
+    # a 1e-2 block on a 1 x 1 block: move the light block's interface force out of its admissible set
+    polys = [
+        [[-2, -0.1], [3, -0.1], [3, 0], [-2, 0]],
+        [[0, 0], [1, 0], [1, 1], [0, 1]],
+        [[0.5, 1], [0.51, 1], [0.51, 1.02], [0.5, 1.02]],
+    ]
+    s = bm.make_structure(polys, [True, False, False], friction=0.65)
+    ops = bm.assemble(s)
+    sol = bm.solve(s, "static-lp").solution
+    k = int(np.flatnonzero(ops.plus_dof == 1)[0])  # the light block's interface
+    x = sol.x.copy()
+    x[3 * k] += 2 * abs(x[3 * k + 1])  # shear far beyond mu |n|
+    res = residuals(ops, Solution(sol.multiplier, x, sol.u, sol.z_u, sol.z_f), True)
+    assert res["friction_admissibility"] < 1e-3  # the paper's global measure barely notices
+    assert res["local_admissibility"] > 0.1
+    assert res["equilibrium"] > 0.1  # and the light block is out of equilibrium
