@@ -2,6 +2,9 @@
 
 * :func:`static_lp`      problem (1), and the modified associative LP (5) of the fixed point;
 * :func:`kinematic_lp`   problem (2);
+* :func:`mcp`            the non-associative MCP (3), with ``pyomo.mpec`` complementarity pairs;
+* :func:`mpec`           the MPEC (4): (3) plus ``min lam``;
+* :func:`evaluate_mcp`   evaluates a solution through the Pyomo model (a cross-check of the verifier);
 
 Each builder returns a :class:`PyomoProblem`: the ``ConcreteModel`` plus handles to
 its variable and constraint groups, so that adapters never search components by
@@ -11,6 +14,11 @@ solver adapters work on those.  The models know nothing of any solver.
 
 from formulations._pyomo import LinearProgram, PyomoProblem, compile_linear
 from formulations.kinematic_lp import kinematic_lp
+from formulations.mcp import evaluate_mcp, mcp
+from formulations.mpec import mpec
 from formulations.static_lp import modified_lp, static_lp
 
-__all__ = ["LinearProgram", "PyomoProblem", "compile_linear", "kinematic_lp", "modified_lp", "static_lp"]
+__all__ = [
+    "LinearProgram", "PyomoProblem", "compile_linear", "evaluate_mcp", "kinematic_lp", "mcp", "modified_lp", "mpec",
+    "static_lp",
+]

@@ -60,6 +60,12 @@ def sparse_rows(blocks: list[tuple[sp.sparray, list]], n_rows: int):
     return body
 
 
+def linear_dot(coef: np.ndarray, variables: list) -> LinearExpression:
+    """``sum_i coef[i] * variables[i]`` over the nonzero coefficients, as one LinearExpression."""
+    nz = np.flatnonzero(coef)
+    return LinearExpression(constant=0.0, linear_coefs=coef[nz].tolist(), linear_vars=[variables[i] for i in nz])
+
+
 @dataclass
 class LinearProgram:
     r"""A compiled linear model: :math:`\min c^T v` s.t. ``row_lower <= A v <= row_upper``,

@@ -12,15 +12,10 @@ compatibility rows are the interface forces ``x``.
 from __future__ import annotations
 
 import pyomo.environ as pyo
-from pyomo.core.expr.numeric_expr import LinearExpression
 
 from blockmpec.operators import Operators
-from formulations._pyomo import PyomoProblem, sparse_rows
+from formulations._pyomo import PyomoProblem, linear_dot, sparse_rows
 
-
-def _dot(coef, variables) -> LinearExpression:
-    nz = coef.nonzero()[0]
-    return LinearExpression(constant=0.0, linear_coefs=coef[nz].tolist(), linear_vars=[variables[i] for i in nz])
 
 
 def kinematic_lp(ops: Operators) -> PyomoProblem:
@@ -34,8 +29,8 @@ def kinematic_lp(ops: Operators) -> PyomoProblem:
     us, zu, zf = list(m.u.values()), list(m.z_u.values()), list(m.z_f.values())
     comp = sparse_rows([(ops.E.T, us), (ops.N_u, zu), (ops.N_f, zf)], 3 * c)
     m.compatibility = pyo.Constraint(range(3 * c), rule=lambda _, i: comp(i) == 0.0)
-    m.normalisation = pyo.Constraint(expr=_dot(ops.f_l, us) == 1.0)
-    m.objective = pyo.Objective(expr=_dot(-ops.f_d, us), sense=pyo.minimize)
+    m.normalisation = pyo.Constraint(expr=linear_dot(ops.f_l, us) == 1.0)
+    m.objective = pyo.Objective(expr=linear_dot(-ops.f_d, us), sense=pyo.minimize)
     return PyomoProblem(
         name="kinematic-lp",
         model=m,

@@ -1,0 +1,124 @@
+r"""``slp``: the sequential-LP heuristic of Gilbert, Casapulla & Ahmed (2006).
+
+Reference: M. Gilbert, C. Casapulla, H.M. Ahmed, "Limit analysis of masonry block
+structures with non-associative frictional joints using linear programming",
+Computers & Structures 84 (2006) 873-887.  Each iteration solves an associative
+LP whose Coulomb surface is replaced by a modified surface fixed by the normal
+forces of the previous iteration; iterations stop when the collapse multiplier
+no longer changes.
+
+Reading implemented here (the full text was not available to check the exact
+form of ``alpha``; this reading is stated so it can be checked).  LP ``k`` at
+normal forces ``n*`` has friction rows, per interface::
+
+    |t| <= -tan(psi) n - (tan(phi) - tan(psi)) ((1 - alpha) n* + alpha n)
+         = -s n - (tan(phi) - s) n*,     s = tan(psi) + alpha (tan(phi) - tan(psi))
+
+a line through the Coulomb point ``(n*, -tan(phi) n*)`` whose slope departs from
+the dilatancy slope by the fraction ``alpha`` of the way to Coulomb's: ``alpha``
+says how far each LP's surface may follow normal forces away from the previous
+ones (``alpha = 0``: eq. (5) of the fixed-point method; ``alpha = 1``: the
+associative LP).  Relaxation: ``n* <- beta n + (1 - beta) n*``.  Published
+defaults ``alpha = 0.01``, ``beta = 0.6``.  Stopping test, as published, on the
+multiplier: ``|lam_k - lam_{k-1}| <= tol``, compared from the second LP step on
+(at least 2 steps: the first step at the associative forces usually returns
+``lam_1 = lam_assoc`` and would stop at once).  The default ``tol = 1e-6`` is this
+package's choice, not a published value.  The step LPs are the fixed point's
+(:mod:`solvers._lp_sequence`): built once, warm re-solves; ``tie_break`` defaults
+to ``"none"`` as published.
+
+With ``alpha = 0``, ``beta = 1`` an SLP step is exactly a fixed-point step (same
+LP, same update).
+
+What the result means.  Nothing checks ``n = n*``, so at the stop the forces may
+violate Coulomb's condition ``N_f^T x <= 0`` by up to ``(tan(phi) - s) |n - n*|``
+per row; the Nodargi et al. paper reports a friction-admissibility error around
+10% for this method.  With ``alpha > 0`` the mechanism (duals of the LP) also has
+dilatancy ``s > tan(psi)``, so compatibility with ``V_f`` is not exact either.  The
+shared verifier checks (3) with ``V_f``: expect it to mark an SLP result
+unverified (status NUMERICAL) -- that is the honest outcome, not a failure of the
+code.  ``extra["friction_admissibility"]`` and the trace report the error.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+from blockmpec.registry import register_solver
+from blockmpec.result import Status
+from blockmpec.solver import RunOutput, SolverBase
+
+
+@dataclass
+class SLPOptions:
+    """Options of the SLP heuristic."""
+
+    alpha: float = field(default=0.01, metadata={
+        "help": "in [0, 1]: slope of each LP's friction surface, tan(psi) + alpha (tan(phi) - tan(psi))"})
+    beta: float = field(default=0.6, metadata={"help": "relaxation in (0, 1]: n* <- beta n + (1 - beta) n*"})
+    tol: float = field(default=1e-6, metadata={"help": "stop when |lam_k - lam_(k-1)| <= tol (k >= 2)"})
+    max_iterations: int = field(default=500, metadata={"help": "most LP steps"})
+    tie_break: str = field(default="none", metadata={
+        "help": "none (as published) | closest: among optimal LP forces take those closest to n*"})
+    algorithm: str = field(default="auto", metadata={"help": "HiGHS: auto | simplex | dual-simplex | primal-simplex | ipm"})
+    time_limit: float = field(default=float("inf"), metadata={"help": "seconds for the whole iteration"})
+
+    def __post_init__(self) -> None:
+        from solvers._highs import ALGORITHMS
+        from solvers._lp_sequence import TIE_BREAKS
+
+        if not (0 <= self.alpha <= 1):
+            raise ValueError(f"alpha must be in [0, 1]; got {self.alpha}")
+        if not (0 < self.beta <= 1):
+            raise ValueError(f"beta must be in (0, 1]; got {self.beta}")
+        if not (self.tol > 0):
+            raise ValueError(f"tol must be > 0; got {self.tol}")
+        if isinstance(self.max_iterations, bool) or int(self.max_iterations) != self.max_iterations \
+                or self.max_iterations < 2:
+            raise ValueError(f"max_iterations must be an integer >= 2; got {self.max_iterations}")
+        self.max_iterations = int(self.max_iterations)
+        if self.tie_break not in TIE_BREAKS:
+            raise ValueError(f"tie_break must be one of {', '.join(TIE_BREAKS)}; got {self.tie_break!r}")
+        if self.algorithm not in ALGORITHMS:
+            raise ValueError(f"algorithm must be one of {', '.join(ALGORITHMS)}; got {self.algorithm!r}")
+        if not self.time_limit > 0:
+            raise ValueError(f"time_limit must be > 0 seconds; got {self.time_limit}")
+
+
+@register_solver
+class SLP(SolverBase):
+    """Non-associative limit analysis by the SLP heuristic of Gilbert et al. (2006)."""
+
+    name = "slp"
+    problem = "non-associative"
+    summary = "SLP heuristic (Gilbert et al. 2006): LP sequence stopped on the multiplier; friction not enforced"
+    requires = ("highspy", "pyomo")
+    Options = SLPOptions
+
+    def setup(self, ops):
+        from solvers._lp_sequence import LPSequence
+
+        self.ops = ops
+        o = self.options
+        self.sequence = LPSequence(ops, alpha=o.alpha, tie_break=o.tie_break, algorithm=o.algorithm,
+                                   need_associative=True)
+
+    def run(self) -> RunOutput:
+        from solvers._lp_sequence import run_sequence
+
+        o = self.options
+        out, facts = run_sequence(self.sequence, start="associative", relaxation=o.beta, stop_on="multiplier",
+                                  tol=o.tol, max_iterations=o.max_iterations, time_limit=o.time_limit,
+                                  min_iterations=2)
+        out.extra.update(lam_associative=facts["lam_start"], tie_break_failures=facts["tie_break_failures"])
+        if out.trace:
+            last = out.trace[-1]
+            out.extra["friction_admissibility"] = last["friction_admissibility"]
+            out.extra["n_change"] = last["n_change"]
+        if out.status is Status.CONVERGED:
+            last = out.trace[-1]
+            out.message = (f"multiplier settled in {out.iterations} LP steps (|lam_k - lam_(k-1)| = "
+                           f"{last['lam_change']:.2e} <= {o.tol:g}); SLP does not check normal forces: "
+                           f"||n - n*||/||n|| = {last['n_change']:.2e}, friction admissibility error "
+                           f"{last['friction_admissibility']:.2e}")
+        return out

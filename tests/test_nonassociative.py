@@ -1,0 +1,226 @@
+"""Non-associative limit analysis: the fixed-point method and the SLP heuristic.
+
+Checks against the closed-form two-block results of Nodargi, Intrigila & Bisegna
+(Sect. 3: minimum non-associative multiplier mu if mu <= 1/eta else 1/eta, and every
+solution of (3) at most the associative multiplier), the round arch (no sliding in
+the associative mechanism, so associative and non-associative lam agree: 0.16034
+in the paper's Table 1), and the shared verifier of (3).
+"""
+
+import math
+
+import numpy as np
+import pytest
+
+pytest.importorskip("highspy")
+pytest.importorskip("pyomo")
+
+import blockmpec as bm  # noqa: E402
+from blockmpec.errors import OptionError  # noqa: E402
+
+RESIDUAL_TOL = 1e-7
+
+
+def associative(case):
+    res = bm.solve(case, "static-lp")
+    assert res.status is bm.Status.OPTIMAL
+    return res
+
+
+def assert_mcp_solution(res):
+    assert res.status is bm.Status.CONVERGED, res.message
+    assert res.residuals, "no residuals"
+    worst = max(res.residuals, key=res.residuals.get)
+    assert res.residuals[worst] <= RESIDUAL_TOL, f"{worst} = {res.residuals[worst]:.3g}"
+
+
+def na_minimum(eta, mu):
+    return mu if mu <= 1 / eta else 1 / eta
+
+
+# ------------------------------------------------------------------ two blocks
+
+
+@pytest.mark.parametrize("eta", [1, 2, 3, 4, 5])
+@pytest.mark.parametrize("mu", [0.3, 0.5, 0.65, 0.8, 1.0, 1.2])
+def test_two_blocks_fixed_point_between_bounds(eta, mu):
+    case = bm.cases.two_blocks(eta=eta, mu=mu)
+    lam_assoc = associative(case).multiplier
+    res = bm.solve(case, "fixed-point")
+    assert_mcp_solution(res)
+    assert na_minimum(eta, mu) - 1e-9 <= res.multiplier <= lam_assoc + 1e-9
+
+
+def test_two_blocks_paper_point():
+    """eta = 3, mu = 0.65: associative 0.41973 (paper), NA minimum 1/3 (paper)."""
+    case = bm.cases.two_blocks(eta=3, mu=0.65)
+    lam_assoc = associative(case).multiplier
+    assert round(lam_assoc, 5) == 0.41973
+    for tie_break in ("closest", "none"):
+        res = bm.solve(case, "fixed-point", tie_break=tie_break)
+        assert_mcp_solution(res)
+        assert 1 / 3 - 1e-9 <= res.multiplier <= lam_assoc + 1e-9
+        print(f"two_blocks(3, 0.65) fixed-point tie_break={tie_break}: lam = {res.multiplier:.6f}")
+
+
+# ------------------------------------------------------------------ round arch
+
+
+def test_round_arch_same_for_all_methods():
+    case = bm.cases.round_arch()
+    ref = associative(case)
+    z = np.concatenate([ref.solution.z_u, ref.solution.z_f])
+    # the associative mechanism has no sliding ...
+    assert np.abs(ref.solution.z_f).max() <= 1e-9 * np.abs(z).max()
+    # ... so the non-associative analysis gives the same multiplier (paper Table 1)
+    for method in ("static-lp", "fixed-point", "slp"):
+        res = bm.solve(case, method)
+        assert round(res.multiplier, 5) == 0.16034, method
+    assert_mcp_solution(bm.solve(case, "fixed-point"))
+
+
+# ------------------------------------------------------------------ walls
+
+
+@pytest.mark.parametrize("courses,blocks", [(10, 5), (10, 20)])
+def test_fixed_point_converges_on_running_bond_walls(courses, blocks):
+    case = bm.cases.wall(courses, blocks)
+    lam_assoc = associative(case).multiplier
+    res = bm.solve(case, "fixed-point")
+    assert_mcp_solution(res)
+    assert res.multiplier <= lam_assoc + 1e-9
+    tr = res.trace[-1]
+    assert tr["n_change"] <= 1e-9
+    assert res.extra["lp_solves"] >= res.iterations
+
+
+# ------------------------------------------------------------------ built-in cases
+
+
+BUILT_IN = {
+    "round-arch": bm.cases.round_arch,
+    "arch-on-buttresses": bm.cases.arch_on_buttresses,
+    "wall": bm.cases.wall,
+}
+
+
+@pytest.mark.parametrize("name", list(BUILT_IN))
+def test_fixed_point_and_slp_below_associative(name):
+    case = BUILT_IN[name]()
+    lam_assoc = associative(case).multiplier
+    fp = bm.solve(case, "fixed-point")
+    assert_mcp_solution(fp)
+    assert fp.multiplier <= lam_assoc + 1e-9
+    assert fp.residuals["friction_admissibility"] <= 1e-6
+    slp = bm.solve(case, "slp")
+    assert slp.multiplier is not None and slp.multiplier <= lam_assoc + 1e-9
+    assert math.isfinite(slp.residuals["friction_admissibility"])
+    assert math.isfinite(slp.extra["friction_admissibility"])
+    assert slp.iterations >= 2
+    # an unverified SLP answer is never reported as a success
+    assert slp.success == slp.verified
+
+
+@pytest.mark.parametrize("name", list(BUILT_IN) + ["two-blocks"])
+@pytest.mark.parametrize("tie_break", ["closest", "none"])
+def test_tie_break_choice_keeps_convergence(name, tie_break):
+    case = bm.build_case(name)
+    lam_assoc = associative(case).multiplier
+    res = bm.solve(case, "fixed-point", tie_break=tie_break)
+    assert_mcp_solution(res)
+    assert res.multiplier <= lam_assoc + 1e-9
+
+
+@pytest.mark.parametrize("name", list(BUILT_IN) + ["two-blocks"])
+@pytest.mark.parametrize("tie_break", ["closest", "none"])
+def test_associative_friction_gives_associative_multiplier(name, tie_break):
+    case = bm.build_case(name, dilatancy=0.65)  # psi = phi
+    lam_assoc = associative(case).multiplier
+    res = bm.solve(case, "fixed-point", tie_break=tie_break)
+    assert_mcp_solution(res)
+    assert res.multiplier == pytest.approx(lam_assoc, abs=1e-9)
+    assert res.iterations == 1
+
+
+@pytest.mark.parametrize("tie_break", ["closest", "none"])
+def test_relaxation_still_converges(tie_break):
+    case = bm.cases.wall(10, 5)
+    res = bm.solve(case, "fixed-point", tie_break=tie_break, relaxation=0.5)
+    assert_mcp_solution(res)
+    assert res.multiplier <= associative(case).multiplier + 1e-9
+
+
+# ------------------------------------------------------------------ SLP vs fixed point
+
+
+@pytest.mark.parametrize("tie_break", ["closest", "none"])
+def test_slp_with_alpha0_beta1_is_the_fixed_point_step(tie_break):
+    case = bm.cases.wall(10, 5)
+    k = 6
+    fp = bm.solve(case, "fixed-point", tie_break=tie_break, max_iterations=k, tol=1e-300)
+    slp = bm.solve(case, "slp", alpha=0.0, beta=1.0, tie_break=tie_break, max_iterations=k, tol=1e-300)
+    m = min(len(fp.trace), len(slp.trace))
+    assert m >= 2
+    for a, b in zip(fp.trace[:m], slp.trace[:m]):
+        assert a["multiplier"] == b["multiplier"]
+        assert a["n_change"] == b["n_change"]
+    if len(fp.trace) == len(slp.trace):
+        np.testing.assert_array_equal(fp.solution.x, slp.solution.x)
+
+
+def test_slp_stops_on_multiplier_not_normal_forces():
+    res = bm.solve(bm.cases.wall(10, 5), "slp")
+    assert res.iterations >= 2
+    last = res.trace[-1]
+    assert last["lam_change"] <= res.options["tol"]
+    if not res.verified:
+        assert res.status is bm.Status.NUMERICAL
+        assert "does not check normal forces" in res.message
+
+
+# ------------------------------------------------------------------ statuses and options
+
+
+def test_infeasible_step_is_passed_through():
+    # zero start: no cohesion and tan(psi) = 0 leave the arch no shear capacity at all
+    res = bm.solve(bm.cases.round_arch(), "fixed-point", start="zero")
+    assert res.status is bm.Status.INFEASIBLE
+
+
+def test_iteration_limit_returns_last_iterate():
+    res = bm.solve(bm.cases.wall(10, 5), "fixed-point", max_iterations=2)
+    assert res.status is bm.Status.ITERATION_LIMIT
+    assert res.iterations == 2 and len(res.trace) == 2
+    assert res.multiplier == res.trace[-1]["multiplier"]
+    assert res.solution.x is not None and res.solution.u is not None
+
+
+def test_time_limit_status():
+    res = bm.solve(bm.cases.wall(10, 5), "fixed-point", time_limit=1e-9)
+    assert res.status is bm.Status.TIME_LIMIT
+
+
+def test_trace_fields():
+    res = bm.solve(bm.cases.wall(), "fixed-point", tie_break="none")
+    for k, row in enumerate(res.trace, start=1):
+        assert row["iteration"] == k
+        for key in ("time_s", "multiplier", "n_change", "friction_admissibility"):
+            assert math.isfinite(row[key])
+    assert res.extra["lp_solves"] == res.iterations + 1  # associative start + one LP per step
+
+
+@pytest.mark.parametrize("method,options", [
+    ("fixed-point", {"relaxation": 0.0}),
+    ("fixed-point", {"relaxation": 1.5}),
+    ("fixed-point", {"tol": 0.0}),
+    ("fixed-point", {"tie_break": "nearest"}),
+    ("fixed-point", {"start": "cold"}),
+    ("fixed-point", {"max_iterations": 0}),
+    ("slp", {"alpha": -0.1}),
+    ("slp", {"beta": 0.0}),
+    ("slp", {"max_iterations": 1}),
+])
+def test_bad_options(method, options):
+    name = next(iter(options))
+    with pytest.raises(OptionError, match=name):
+        bm.solve(bm.cases.two_blocks(), method, **options)
