@@ -7,7 +7,8 @@ A solver adapter declares:
 * ``Options``: a dataclass of its options (validated in ``__post_init__``);
 * ``setup(ops)``: untimed preparation (build the Pyomo model, compile, load);
 * ``run()``: the timed solve, returning a :class:`RunOutput` with the raw iterate;
-* optionally ``skip_reason(ops)``: why the method does not fit a case.
+* optionally ``skip_reason(ops)``: why the method does not fit a case;
+* ``exact_solution = False`` for a heuristic whose answers need not satisfy (3).
 
 :func:`solve` does the rest for every solver alike: assembly, timing of set-up and
 solve apart, the shared verifier, status downgrade and the :class:`Result`.
@@ -59,6 +60,10 @@ class SolverBase:
     summary: ClassVar[str] = ""
     requires: ClassVar[tuple[str, ...]] = ()
     Options: ClassVar[type] = NoOptions
+    #: False for heuristics whose converged iterates are not meant to satisfy every
+    #: residual of (3) (e.g. the SLP's tilted friction surface leaves dilatancy);
+    #: their results are reported, and usually come out unverified.
+    exact_solution: ClassVar[bool] = True
 
     def __init__(self, **options: Any) -> None:
         fields = {f.name for f in dataclasses.fields(self.Options)}

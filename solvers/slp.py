@@ -91,6 +91,7 @@ class SLP(SolverBase):
 
     name = "slp"
     problem = "non-associative"
+    exact_solution = False
     summary = "SLP heuristic (Gilbert et al. 2006): LP sequence stopped on the multiplier; friction not enforced"
     requires = ("highspy", "pyomo")
     Options = SLPOptions

@@ -26,7 +26,11 @@ def method(request):
 @pytest.mark.parametrize(("width", "height", "mu"), [(1.0, 2.0, 0.65), (1.0, 1.0, 0.3)])
 def test_single_block_closed_form(method, width, height, mu):
     res = bm.solve(bm.cases.single_block(width=width, height=height, mu=mu), method)
-    assert res.success, f"{method}: {res.status} {res.message} {res.residuals}"
+    if bm.get_solver(method).exact_solution:
+        assert res.success, f"{method}: {res.status} {res.message} {res.residuals}"
+    else:  # a heuristic: the right lam, and a status that says whether (3) holds
+        assert res.status in (Status.CONVERGED, Status.NUMERICAL), (res.status, res.message)
+        assert res.success == (res.max_residual <= res.verify_tol)
     assert res.multiplier == pytest.approx(min(mu, width / height), rel=1e-6)
 
 

@@ -1,0 +1,184 @@
+r"""``mcp-newton``: a solution of the MCP (3) by a semismooth Newton method (stand-in for PATH).
+
+Problem
+-------
+The MCP (3) is stated directly from the operators (the same problem as (3); no
+Pyomo model).  With ``s = -[N_u, N_f]^T x`` and ``z = (z_u, z_f)`` it is the square
+system in ``w = (lam, x, u, z)`` (``1 + 3c + 3b + 4c`` unknowns and equations)::
+
+    E x + f_d + lam f_l = 0                  (equilibrium)
+    E^T u + N_u z_u + V_f z_f = 0            (compatibility, non-associative flow)
+    f_l^T u = 1                              (normalisation)
+    phi(z_i, s_i) = 0,  i = 1..4c            (complementarity)
+
+where ``phi(a, b) = a + b - sqrt(a^2 + b^2)`` is the Fischer–Burmeister function
+(zero iff ``a, b >= 0`` and ``a b = 0``), applied to scaled pairs.  Rows and
+unknowns are scaled by typical magnitudes from the starting point; see
+:class:`solvers._mcp_system.MCPSystem`.
+
+Method
+------
+Semismooth Newton with an Armijo line search on ``Psi = ||Phi||^2 / 2`` and a
+Levenberg–Marquardt fallback (``nu = regularisation * ||Phi||``), then steepest
+descent, when the Newton direction does not exist or is not a descent direction
+(:func:`solvers._mcp_system.semismooth_newton`).  It starts from the associative
+solution (static LP (1) with HiGHS and its duals), which satisfies (3) except the
+friction flow.
+
+The Jacobian is singular at every solution of a hyperstatic structure (the forces
+``x`` of the rigid part are not unique), and the Fischer–Burmeister merit can have
+stationary points that are not solutions.  With ``continuation`` the dilatancy is
+therefore moved from the friction value (where the associative solution solves
+(3) exactly) to its own value, ``tan(psi_t) = (1 - t) tan(phi) + t tan(psi)``,
+``t: 0 -> 1``: each step is a Newton solve of at most ``step_iterations``
+iterations from the previous solution; the step in ``t`` starts at 1 (direct
+solve), is halved after a failure and doubled after a success.
+
+The answer is *a* solution of (3), not necessarily the minimum of (4); its
+multiplier lies between the non-associative minimum and the associative one.
+
+Status: ``CONVERGED`` when ``||Phi||_inf <= tol``; ``ITERATION_LIMIT``,
+``TIME_LIMIT`` or ``NUMERICAL`` (stalled line search) with the last iterate.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+
+from blockmpec.registry import register_solver
+from blockmpec.result import Status
+from blockmpec.solver import RunOutput, SolverBase
+
+
+@dataclass
+class NewtonOptions:
+    """Options of the semismooth Newton method."""
+
+    tol: float = field(default=1e-12, metadata={"help": "stop when the scaled ||Phi||_inf <= tol"})
+    max_iterations: int = field(default=2000, metadata={"help": "Newton iterations in total"})
+    step_iterations: int = field(default=30, metadata={"help": "Newton iterations per continuation step"})
+    step_tol: float = field(default=1e-7,
+                            metadata={"help": "tolerance of the intermediate continuation steps (the last uses tol)"})
+    continuation: bool = field(default=True,
+                               metadata={"help": "continuation in the dilatancy from tan(phi) to tan(psi)"})
+    min_step: float = field(default=1e-4, metadata={"help": "smallest continuation step before giving up"})
+    sigma: float = field(default=1e-4, metadata={"help": "Armijo sufficient-decrease constant, in (0, 0.5)"})
+    backtrack: float = field(default=0.5, metadata={"help": "step reduction factor of the line search, in (0, 1)"})
+    max_backtracks: int = field(default=40, metadata={"help": "step reductions before a direction is given up"})
+    regularisation: float = field(default=1.0,
+                                  metadata={"help": "Levenberg-Marquardt fallback: nu = regularisation * ||Phi||"})
+    time_limit: float = field(default=float("inf"), metadata={"help": "seconds"})
+
+    def __post_init__(self) -> None:
+        for name in ("tol", "step_tol"):
+            v = getattr(self, name)
+            if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
+                raise ValueError(f"{name} must be a finite number > 0; got {v!r}")
+        for name in ("max_iterations", "step_iterations", "max_backtracks"):
+            v = getattr(self, name)
+            if isinstance(v, bool) or not isinstance(v, int) or v < 0:
+                raise ValueError(f"{name} must be an integer >= 0; got {v!r}")
+        if not (isinstance(self.sigma, (int, float)) and 0 < self.sigma < 0.5):
+            raise ValueError(f"sigma must be in (0, 0.5); got {self.sigma!r}")
+        if not (isinstance(self.backtrack, (int, float)) and 0 < self.backtrack < 1):
+            raise ValueError(f"backtrack must be in (0, 1); got {self.backtrack!r}")
+        if not (isinstance(self.regularisation, (int, float)) and math.isfinite(self.regularisation)
+                and self.regularisation > 0):
+            raise ValueError(f"regularisation must be a finite number > 0; got {self.regularisation!r}")
+        if not isinstance(self.continuation, bool):
+            raise ValueError(f"continuation must be true or false; got {self.continuation!r}")
+        if not (isinstance(self.min_step, (int, float)) and 0 < self.min_step <= 1):
+            raise ValueError(f"min_step must be in (0, 1]; got {self.min_step!r}")
+        if not (isinstance(self.time_limit, (int, float)) and self.time_limit > 0):
+            raise ValueError(f"time_limit must be > 0 seconds; got {self.time_limit!r}")
+
+
+@register_solver
+class MCPNewton(SolverBase):
+    """Semismooth (Fischer–Burmeister) Newton method for the MCP (3)."""
+
+    name = "mcp-newton"
+    problem = "non-associative"
+    summary = "MCP (3): Fischer-Burmeister semismooth Newton from the associative solution (PATH stand-in)"
+    requires = ("highspy", "pyomo", "scipy")
+    Options = NewtonOptions
+
+    def setup(self, ops):
+        from solvers._mcp_system import AssociativeLP
+
+        self.ops = ops
+        self.start_lp = AssociativeLP(ops, self.options.time_limit)
+
+    def run(self) -> RunOutput:
+        from solvers._mcp_system import MCPSystem, semismooth_newton, with_dilatancy
+
+        opt = self.options
+        ops = self.ops
+        t_start = time.perf_counter()
+        start = self.start_lp.solve()
+        if start.status is not Status.OPTIMAL:
+            status = start.status if start.status in (Status.UNBOUNDED, Status.INFEASIBLE, Status.TIME_LIMIT) \
+                else Status.ERROR
+            return RunOutput(status, message=f"associative start failed: {start.status.value} ({start.message})",
+                             raw_status="static LP")
+        solution = start.solution
+        trace: list[dict] = []
+        total = 0
+        t_done, dt = 0.0, 1.0
+        status, message = Status.ITERATION_LIMIT, ""
+        n_steps = n_failed = 0
+        while True:
+            remaining = opt.time_limit - (time.perf_counter() - t_start)
+            budget = opt.max_iterations - total
+            if remaining <= 0 or budget <= 0:
+                status = Status.TIME_LIMIT if remaining <= 0 else Status.ITERATION_LIMIT
+                message = f"{status.value} at continuation parameter t = {t_done:.4g}"
+                break
+            t_next = min(1.0, t_done + dt)
+            final = t_next >= 1.0
+            step_ops = ops if final else with_dilatancy(ops, (1 - t_next) * ops.friction + t_next * ops.dilatancy)
+            system = MCPSystem(step_ops, solution)
+            limit = budget if not opt.continuation else min(budget, opt.step_iterations)
+            out = semismooth_newton(
+                system, system.pack(solution), tol=opt.tol if final else max(opt.tol, opt.step_tol),
+                max_iterations=limit, sigma=opt.sigma,
+                backtrack=opt.backtrack, max_backtracks=opt.max_backtracks, regularisation=opt.regularisation,
+                time_limit=remaining,
+            )
+            for rec in out.trace:
+                trace.append(dict(rec, iteration=total + rec["iteration"], continuation=t_next))
+            total += out.iterations
+            if out.status is Status.CONVERGED:
+                n_steps += 1
+                solution, t_done = out.solution, t_next
+                if final:
+                    status, message = Status.CONVERGED, out.message
+                    break
+                dt = min(2 * dt, 1.0)
+                continue
+            n_failed += 1
+            if not opt.continuation or out.status is Status.TIME_LIMIT:
+                solution, status, message = out.solution, out.status, out.message
+                break
+            dt /= 2
+            if dt < opt.min_step:
+                status = Status.NUMERICAL
+                message = (f"continuation stalled at t = {t_done:.4g} (step < {opt.min_step:g}); "
+                           f"last attempt: {out.message}")
+                if t_done == 0.0:
+                    solution = out.solution
+                break
+        kinds = [r["direction"] for r in trace]
+        extra = {"associative_multiplier": start.solution.multiplier,
+                 "continuation_reached": t_done,
+                 "continuation_steps": n_steps,
+                 "continuation_failures": n_failed,
+                 "newton_steps": kinds.count("newton"),
+                 "levenberg_marquardt_steps": kinds.count("levenberg-marquardt"),
+                 "gradient_steps": kinds.count("gradient")}
+        if status is not Status.CONVERGED and t_done < 1.0 and n_steps > 0:
+            message += " (the returned iterate solves (3) with an intermediate dilatancy only)"
+        return RunOutput(status, solution, iterations=total, trace=trace, message=message,
+                         raw_status=status.value, extra=extra)

@@ -1,0 +1,402 @@
+r"""``nlp``: the MPEC (4) by a relaxed-complementarity NLP (Ferris & Tin-Loi 2001 style).
+
+Problem
+-------
+The MPEC (4) is ``min lam`` over the solutions of the MCP (3).  It is stated here
+directly from the operators (the same problem as (3)/(4); no Pyomo model), with
+slacks ``s = (s_u, s_f) = -[N_u, N_f]^T x`` and ``z = (z_u, z_f)``::
+
+    min  lam
+    s.t. E x + lam f_l = -f_d                   (equilibrium, 3b rows)
+         E^T u + N_u z_u + V_f z_f = 0          (compatibility, 3c rows)
+         f_l^T u = 1                            (normalisation)
+         s + [N_u, N_f]^T x = 0                 (slack definitions, 4c rows)
+         z_i s_i / P <= eps                     (relaxed complementarity, 4c rows)
+         z >= 0, s >= 0
+
+(Scholtes relaxation).  ``P = max(z0) * max(s0)`` is the product of the typical
+magnitudes of ``z`` and ``s`` at the starting point, so ``eps`` is scale-free.
+``eps`` is driven from ``eps_initial`` down to ``eps_final`` by the factor
+``eps_factor``; each stage is warm-started from the previous one (primal point and,
+with ``warm_start``, Ipopt's multipliers).  Every stage is solved by Ipopt through
+cyipopt, with exact sparse derivatives: the Jacobian is the constant matrix of the
+linear rows plus two nonzeros per product row (``s_i/P`` and ``z_i/P``), and the
+Hessian of the Lagrangian has one nonzero per pair,
+``d^2 L / dz_i ds_i = y_i / P`` (``y_i`` the multiplier of product row ``i``).
+Ipopt runs with ``mumps_pivtol = 1e-8`` (the default 1e-6 makes MUMPS reallocate
+endlessly on these degenerate systems), ``mu_strategy = adaptive`` (about half the
+iterations of the monotone strategy on walls) and ``bound_relax_factor =
+min(1e-8, eps/10)`` (Ipopt's own bound relaxation must not exceed ``eps``);
+``ipopt_options`` override any of these.
+
+The default start is the associative solution (static LP (1) with HiGHS, mechanism
+from its duals), which satisfies every row except compatibility with ``V_f``.  The
+associative multiplier is an upper bound of every solution of (3) (its ``x`` is
+statically admissible), and the NLP reaches a *local* minimum of (4), so
+``lam_NA_min <= lam_nlp <= lam_assoc``.  When ``V_f = N_f`` (associative case) the
+answer is the LP multiplier.
+
+A stage that fails after a warm start is tried once more from the same primal
+point without Ipopt's multipliers.  With ``polish`` the last stage's point is
+finished by a few semismooth Newton steps on (3) (the products ``z_i s_i`` of order
+``eps`` become exact zeros) and round-off entries of ``u`` and ``z`` are zeroed; the
+polished point is kept only if Newton converged and ``lam`` moved by at most
+``1e-6 max(1, |lam|)``.
+
+Status: ``LOCALLY_OPTIMAL`` when Ipopt solved every stage, ``ACCEPTABLE`` when some
+stage ended at Ipopt's "solved to acceptable level", otherwise the stage's failure
+(``ITERATION_LIMIT``, ``TIME_LIMIT``, ``INFEASIBLE`` or ``ERROR``) with the last iterate.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from blockmpec.registry import register_solver
+from blockmpec.result import Solution, Status
+from blockmpec.solver import RunOutput, SolverBase
+
+#: Ipopt ApplicationReturnStatus -> (our status, short name)
+_IPOPT_STATUS = {
+    0: (Status.LOCALLY_OPTIMAL, "Solve_Succeeded"),
+    1: (Status.ACCEPTABLE, "Solved_To_Acceptable_Level"),
+    2: (Status.INFEASIBLE, "Infeasible_Problem_Detected"),
+    3: (Status.ERROR, "Search_Direction_Becomes_Too_Small"),
+    4: (Status.ERROR, "Diverging_Iterates"),
+    5: (Status.ERROR, "User_Requested_Stop"),
+    6: (Status.ERROR, "Feasible_Point_Found"),
+    -1: (Status.ITERATION_LIMIT, "Maximum_Iterations_Exceeded"),
+    -2: (Status.ERROR, "Restoration_Failed"),
+    -3: (Status.ERROR, "Error_In_Step_Computation"),
+    -4: (Status.TIME_LIMIT, "Maximum_CpuTime_Exceeded"),
+    -5: (Status.TIME_LIMIT, "Maximum_WallTime_Exceeded"),
+    -10: (Status.ERROR, "Not_Enough_Degrees_Of_Freedom"),
+    -11: (Status.ERROR, "Invalid_Problem_Definition"),
+    -12: (Status.ERROR, "Invalid_Option"),
+    -13: (Status.ERROR, "Invalid_Number_Detected"),
+}
+
+_INF = 1e20
+STARTS = ("associative", "cold")
+
+
+@dataclass
+class NLPOptions:
+    """Options of the relaxed-complementarity NLP."""
+
+    eps_initial: float = field(default=1e-4, metadata={"help": "relaxation of the first stage (scale-free)"})
+    eps_final: float = field(default=1e-9, metadata={"help": "relaxation of the last stage"})
+    eps_factor: float = field(default=0.1, metadata={"help": "eps of the next stage = factor * eps, in (0, 1)"})
+    max_iter: int = field(default=3000, metadata={"help": "Ipopt iterations per stage"})
+    time_limit: float = field(default=float("inf"), metadata={"help": "total seconds over all stages"})
+    start: str = field(default="associative",
+                       metadata={"help": "associative (static LP solution) | cold (Ipopt's default push from 0)"})
+    warm_start: bool = field(default=True,
+                             metadata={"help": "pass Ipopt the previous stage's multipliers (warm_start_init_point)"})
+    tol: float = field(default=1e-9, metadata={"help": "Ipopt tol"})
+    polish: bool = field(default=True, metadata={
+        "help": "finish with semismooth Newton steps on (3) from the last stage (kept only if lam moves <= 1e-6)"})
+    polish_iterations: int = field(default=20, metadata={"help": "Newton iterations of the polish"})
+    ipopt_options: dict = field(default_factory=dict,
+                                metadata={"help": "extra Ipopt options {name: value}; floats as floats"})
+
+    def __post_init__(self) -> None:
+        for name in ("eps_initial", "eps_final", "tol"):
+            v = getattr(self, name)
+            if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
+                raise ValueError(f"{name} must be a finite number > 0; got {v!r}")
+        if self.eps_final > self.eps_initial:
+            raise ValueError(f"eps_final ({self.eps_final}) must be <= eps_initial ({self.eps_initial})")
+        if not (isinstance(self.eps_factor, (int, float)) and 0 < self.eps_factor < 1):
+            raise ValueError(f"eps_factor must be in (0, 1); got {self.eps_factor!r}")
+        for name in ("max_iter", "polish_iterations"):
+            v = getattr(self, name)
+            if isinstance(v, bool) or not isinstance(v, int) or v < 0:
+                raise ValueError(f"{name} must be an integer >= 0; got {v!r}")
+        if not (isinstance(self.time_limit, (int, float)) and self.time_limit > 0):
+            raise ValueError(f"time_limit must be > 0 seconds; got {self.time_limit!r}")
+        if self.start not in STARTS:
+            raise ValueError(f"start must be one of {', '.join(STARTS)}; got {self.start!r}")
+        for name in ("warm_start", "polish"):
+            if not isinstance(getattr(self, name), bool):
+                raise ValueError(f"{name} must be true or false; got {getattr(self, name)!r}")
+        if not isinstance(self.ipopt_options, dict):
+            raise ValueError(f"ipopt_options must be a dict {{name: value}}; got {self.ipopt_options!r}")
+        for k, v in self.ipopt_options.items():
+            if not isinstance(k, str) or isinstance(v, bool) or not isinstance(v, (str, int, float)):
+                raise ValueError(f"ipopt_options[{k!r}] must map a name to a str, int or float; got {v!r}")
+
+    def schedule(self) -> list[float]:
+        """The eps of every stage, from ``eps_initial`` down to ``eps_final`` (included)."""
+        eps = [float(self.eps_initial)]
+        while eps[-1] > self.eps_final * (1 + 1e-12):
+            eps.append(max(eps[-1] * self.eps_factor, float(self.eps_final)))
+        return eps
+
+
+class _RelaxedMPEC:
+    """cyipopt callbacks of the relaxed NLP; variables ``v = (lam, x, u, z, s)``."""
+
+    def __init__(self, ops, scale: float) -> None:
+        import scipy.sparse as sp
+
+        from solvers._mcp_system import constraint_operator, flow_operator
+
+        b3, c3 = ops.E.shape
+        p = 2 * ops.N_u.shape[1]  # number of pairs, 4c
+        self.n_lam, self.n_x, self.n_u, self.n_pairs = 1, c3, b3, p
+        o = np.cumsum([0, 1, c3, b3, p, p])
+        self.i_lam, self.i_x, self.i_u, self.i_z, self.i_s = (slice(o[k], o[k + 1]) for k in range(5))
+        self.n = int(o[-1])
+        N = constraint_operator(ops)
+        F = flow_operator(ops)
+        Z = None
+        fl = sp.csr_array(ops.f_l.reshape(-1, 1))
+        A = sp.bmat(
+            [
+                [fl, ops.E, Z, Z, Z],  # equilibrium
+                [Z, Z, ops.E.T, F, Z],  # compatibility
+                [Z, Z, sp.csr_array(ops.f_l.reshape(1, -1)), Z, Z],  # normalisation
+                [Z, N.T, Z, Z, sp.eye_array(p)],  # slack definitions
+            ],
+            format="coo",
+        )
+        self.m_lin = A.shape[0]
+        self.m = self.m_lin + p
+        self.A = A.tocsr()
+        self.A.sum_duplicates()
+        A = self.A.tocoo()
+        self.scale = float(scale)
+        pair = np.arange(p)
+        z_cols = self.i_z.start + pair
+        s_cols = self.i_s.start + pair
+        prod_rows = self.m_lin + pair
+        self.z_cols, self.s_cols = z_cols, s_cols
+        self._jac_rows = np.concatenate([A.row, prod_rows, prod_rows]).astype(np.int32)
+        self._jac_cols = np.concatenate([A.col, z_cols, s_cols]).astype(np.int32)
+        self._jac_lin = A.data.astype(float)
+        # Lagrangian Hessian: d2(z_i s_i)/dz_i ds_i; lower triangle (s columns after z columns).
+        self._hess_rows = s_cols.astype(np.int32)
+        self._hess_cols = z_cols.astype(np.int32)
+        self.rhs = np.concatenate([-ops.f_d, np.zeros(c3), [1.0], np.zeros(p)])
+        self.grad = np.zeros(self.n)
+        self.grad[0] = 1.0
+        self.iterations = 0
+
+    # ---- cyipopt interface
+    def objective(self, v):
+        return float(v[0])
+
+    def gradient(self, v):
+        return self.grad
+
+    def constraints(self, v):
+        z, s = v[self.i_z], v[self.i_s]
+        return np.concatenate([self.A @ v, z * s / self.scale])
+
+    def jacobianstructure(self):
+        return self._jac_rows, self._jac_cols
+
+    def jacobian(self, v):
+        z, s = v[self.i_z], v[self.i_s]
+        return np.concatenate([self._jac_lin, s / self.scale, z / self.scale])
+
+    def hessianstructure(self):
+        return self._hess_rows, self._hess_cols
+
+    def hessian(self, v, lagrange, obj_factor):
+        return np.asarray(lagrange[self.m_lin:], float) / self.scale
+
+    def intermediate(self, alg_mod, iter_count, obj_value, inf_pr, inf_du, mu, d_norm, regularization_size,
+                     alpha_du, alpha_pr, ls_trials):
+        self.iterations = int(iter_count)
+        return True
+
+    # ---- helpers
+    def bounds(self, eps: float):
+        lb = np.full(self.n, -_INF)
+        ub = np.full(self.n, _INF)
+        lb[self.i_z] = 0.0
+        lb[self.i_s] = 0.0
+        cl = np.concatenate([self.rhs, np.full(self.n_pairs, -_INF)])
+        cu = np.concatenate([self.rhs, np.full(self.n_pairs, float(eps))])
+        return lb, ub, cl, cu
+
+    def split(self, v) -> Solution:
+        z = v[self.i_z]
+        h = self.n_pairs // 2
+        return Solution(multiplier=float(v[0]), x=v[self.i_x].copy(), u=v[self.i_u].copy(),
+                        z_u=z[:h].copy(), z_f=z[h:].copy())
+
+
+@register_solver
+class RelaxedNLP(SolverBase):
+    """MPEC (4) by Scholtes-relaxed complementarity, Ipopt (cyipopt), eps homotopy."""
+
+    name = "nlp"
+    problem = "non-associative"
+    summary = "MPEC (4): Scholtes-relaxed NLP solved by Ipopt over a decreasing eps schedule"
+    requires = ("cyipopt", "highspy", "pyomo")
+    Options = NLPOptions
+
+    def setup(self, ops):
+        from solvers._mcp_system import AssociativeLP
+
+        self.ops = ops
+        self.start_lp = AssociativeLP(ops, self.options.time_limit) if self.options.start == "associative" else None
+        self.nlp = None  # built in run(): its scale depends on the starting point
+
+    def _start_point(self):
+        """``(v0, P, failure status or None, message)``.
+
+        ``v0`` is the associative solution with ``s0 = -N^T x0``, or None for a cold start.
+        ``P = max(z0) max(s0)``; cold: ``max|f_d| / sum|f_l|`` (a force times the size
+        of ``z`` implied by ``f_l^T u = 1``).
+        """
+        ops = self.ops
+        if self.start_lp is None:
+            force = float(np.max(np.abs(ops.f_d))) if ops.f_d.size else 1.0
+            scale = force / max(float(np.sum(np.abs(ops.f_l))), 1e-300)
+            return None, (scale if scale > 0 else 1.0), None, "cold start"
+        start = self.start_lp.solve()
+        if start.status is not Status.OPTIMAL:
+            return None, 1.0, start.status, f"associative start failed: {start.status.value} ({start.message})"
+        sol = start.solution
+        from solvers._mcp_system import constraint_operator
+
+        s0 = np.maximum(-(constraint_operator(ops).T @ sol.x), 0.0)
+        z0 = np.maximum(np.concatenate([sol.z_u, sol.z_f]), 0.0)
+        zs = float(np.max(z0)) if z0.size else 0.0
+        ss = float(np.max(s0)) if s0.size else 0.0
+        scale = (zs if zs > 0 else 1.0) * (ss if ss > 0 else 1.0)
+        v0 = np.concatenate([[sol.multiplier], sol.x, sol.u, z0, s0])
+        return v0, scale, None, f"associative start lam = {sol.multiplier:.9g}"
+
+    def run(self) -> RunOutput:
+        import cyipopt
+
+        opt = self.options
+        t_start = time.perf_counter()
+        v0, scale, fail, start_msg = self._start_point()
+        if fail is not None:
+            return RunOutput(fail if fail in (Status.UNBOUNDED, Status.INFEASIBLE, Status.TIME_LIMIT) else Status.ERROR,
+                             message=start_msg, raw_status="static LP")
+        nlp = _RelaxedMPEC(self.ops, scale)
+        self.nlp = nlp
+        if v0 is None:
+            v0 = np.zeros(nlp.n)
+        v = v0
+        mult = None
+        trace: list[dict[str, Any]] = []
+        total_iter = 0
+        final = Status.LOCALLY_OPTIMAL
+        raw = ""
+        message = ""
+        for k, eps in enumerate(opt.schedule()):
+            attempts = [True, False] if opt.warm_start and mult is not None else [False]
+            for use_mult in attempts:
+                remaining = opt.time_limit - (time.perf_counter() - t_start)
+                if remaining <= 0:
+                    status, name, info = Status.TIME_LIMIT, "time_limit", {"status_msg": "time limit before the stage"}
+                    v_new = v
+                    break
+                t0 = time.perf_counter()
+                v_new, info = self._solve_stage(cyipopt, nlp, eps, v, mult if use_mult else None, remaining)
+                dt = time.perf_counter() - t0
+                code = int(info["status"])
+                status, name = _IPOPT_STATUS.get(code, (Status.ERROR, f"ipopt_status_{code}"))
+                total_iter += nlp.iterations
+                trace.append({"iteration": len(trace) + 1, "stage": k + 1, "eps": eps, "multiplier": float(v_new[0]),
+                              "ipopt_status": name, "ipopt_iterations": nlp.iterations,
+                              "warm_multipliers": use_mult, "time_s": dt})
+                raw = name
+                # a failed warm-started stage is tried once more from the same primal point, cold
+                if status.is_success or status is Status.TIME_LIMIT:
+                    break
+            if status in (Status.LOCALLY_OPTIMAL, Status.ACCEPTABLE):
+                v = np.asarray(v_new, float)
+                mult = (np.asarray(info["mult_g"], float), np.asarray(info["mult_x_L"], float),
+                        np.asarray(info["mult_x_U"], float))
+                if status is Status.ACCEPTABLE:
+                    final = Status.ACCEPTABLE
+                continue
+            # a failed stage: keep its iterate if it is finite, report and stop
+            if np.all(np.isfinite(v_new)):
+                v = np.asarray(v_new, float)
+            final = status
+            message = f"stage {k + 1} (eps = {eps:.3g}) ended with Ipopt status {name}: {info.get('status_msg', b'')!r}"
+            break
+        solution = nlp.split(v)
+        n_stages = len({t["stage"] for t in trace})
+        extra = {"stages": n_stages, "ipopt_solves": len(trace), "scale": scale, "start": opt.start}
+        if not message:
+            message = f"{n_stages} stages ({len(trace)} Ipopt solves), final eps = {trace[-1]['eps']:.3g}; {start_msg}"
+            if opt.polish and opt.polish_iterations > 0:
+                solution, note = self._polish(solution, trace, t_start)
+                message += f"; {note}"
+                extra["polish"] = note
+        return RunOutput(final, solution, iterations=total_iter, trace=trace, message=message, raw_status=raw,
+                         extra=extra)
+
+    def _solve_stage(self, cyipopt, nlp: _RelaxedMPEC, eps: float, v: np.ndarray, mult, remaining: float):
+        """One Ipopt solve of the relaxed NLP at ``eps`` from ``v`` (with multipliers ``mult`` if given)."""
+        opt = self.options
+        lb, ub, cl, cu = nlp.bounds(eps)
+        problem = cyipopt.Problem(n=nlp.n, m=nlp.m, problem_obj=nlp, lb=lb, ub=ub, cl=cl, cu=cu)
+        problem.add_option("print_level", 0)
+        problem.add_option("sb", "yes")
+        problem.add_option("mumps_pivtol", 1e-8)
+        problem.add_option("tol", float(opt.tol))
+        problem.add_option("mu_strategy", "adaptive")
+        problem.add_option("max_iter", int(opt.max_iter))
+        # Ipopt relaxes bounds by bound_relax_factor: keep that well below eps
+        problem.add_option("bound_relax_factor", float(min(1e-8, 0.1 * eps)))
+        if math.isfinite(remaining):
+            problem.add_option("max_wall_time", float(max(remaining, 1e-3)))
+        if mult is not None:
+            problem.add_option("warm_start_init_point", "yes")
+            problem.add_option("warm_start_bound_push", 1e-9)
+            problem.add_option("warm_start_bound_frac", 1e-9)
+            problem.add_option("warm_start_slack_bound_push", 1e-9)
+            problem.add_option("warm_start_slack_bound_frac", 1e-9)
+            problem.add_option("warm_start_mult_bound_push", 1e-9)
+            problem.add_option("mu_init", float(max(min(1e-4, eps), 1e-9)))
+        for name, value in opt.ipopt_options.items():
+            problem.add_option(name, value)
+        nlp.iterations = 0
+        if mult is not None:
+            return problem.solve(v, lagrange=mult[0], zl=mult[1], zu=mult[2])
+        return problem.solve(v)
+
+    def _polish(self, solution: Solution, trace: list, t_start: float) -> tuple[Solution, str]:
+        """Semismooth Newton steps on (3) from the NLP point (:mod:`solvers._mcp_system`).
+
+        The relaxed point leaves products ``z_i s_i`` of order ``eps`` and bound
+        multipliers of order Ipopt's tolerance; a few Fischer–Burmeister Newton steps
+        make them exact.  The polished point is kept only if Newton converged and
+        ``|lam_polished - lam| <= 1e-6 max(1, |lam|)`` (the same local solution).
+        """
+        from solvers._mcp_system import MCPSystem, semismooth_newton
+
+        remaining = self.options.time_limit - (time.perf_counter() - t_start)
+        if remaining <= 0:
+            return solution, "no time left for the polish"
+        t0 = time.perf_counter()
+        system = MCPSystem(self.ops, solution)
+        out = semismooth_newton(system, system.pack(solution), tol=1e-12,
+                                max_iterations=self.options.polish_iterations, time_limit=remaining)
+        dt = time.perf_counter() - t0
+        lam, lam_new = solution.multiplier, out.solution.multiplier
+        ok = out.status is Status.CONVERGED and abs(lam_new - lam) <= 1e-6 * max(1.0, abs(lam))
+        trace.append({"iteration": len(trace) + 1, "stage": "polish", "eps": 0.0, "multiplier": float(lam_new),
+                      "ipopt_status": "", "ipopt_iterations": 0, "newton_iterations": out.iterations,
+                      "newton_status": out.status.value, "accepted": ok, "time_s": dt})
+        if ok:
+            note = f"polished by {out.iterations} Newton steps (lam {lam:.10g} -> {lam_new:.10g})"
+            return out.solution, note
+        return solution, f"polish rejected ({out.status.value}, lam {lam:.10g} -> {lam_new:.10g}); raw NLP point kept"

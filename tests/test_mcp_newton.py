@@ -1,0 +1,102 @@
+"""The ``mcp-newton`` method: a solution of the MCP (3) by semismooth Newton (PATH stand-in).
+
+Checks: the two-block bounds of Nodargi, Intrigila & Bisegna (Sect. 3: every
+solution of (3) lies between the non-associative minimum ``mu`` if ``mu <= 1/eta``
+else ``1/eta`` and the associative multiplier), the round arch of their Table 1
+(0.16034), the associative control, the Fischer–Burmeister function, and failures
+reported as statuses.
+"""
+
+import numpy as np
+import pytest
+
+pytest.importorskip("highspy")
+pytest.importorskip("pyomo")
+
+import blockmpec as bm  # noqa: E402
+from blockmpec.result import Status  # noqa: E402
+from conftest import two_block_associative, two_block_nonassociative_min  # noqa: E402
+
+TOL = 1e-6
+
+
+def assert_mcp_solution(res):
+    assert res.status is Status.CONVERGED, f"{res.status.value}: {res.message}"
+    assert res.residuals
+    worst = max(res.residuals, key=res.residuals.get)
+    assert res.residuals[worst] <= TOL, f"{worst} = {res.residuals[worst]:.3g}"
+
+
+@pytest.mark.parametrize("eta", [1, 2, 3, 4, 5])
+@pytest.mark.parametrize("mu", [0.3, 0.65, 1.0])
+def test_two_blocks_between_bounds(eta, mu):
+    res = bm.solve(bm.cases.two_blocks(eta=eta, mu=mu), "mcp-newton")
+    assert_mcp_solution(res)
+    assert two_block_nonassociative_min(eta, mu) - 1e-9 <= res.multiplier <= two_block_associative(eta, mu) + 1e-9
+
+
+def test_round_arch_table_1():
+    res = bm.solve(bm.cases.round_arch(), "mcp-newton")
+    assert_mcp_solution(res)
+    assert round(res.multiplier, 5) == 0.16034
+
+
+@pytest.mark.parametrize("case", [bm.cases.two_blocks(eta=3, mu=0.65, dilatancy=0.65),
+                                  bm.cases.wall(5, 4, mu=0.65, dilatancy=0.65)], ids=["two-blocks", "wall-5x4"])
+def test_associative_control_gives_the_lp_multiplier(case):
+    lp = bm.solve(case, "static-lp")
+    res = bm.solve(case, "mcp-newton")
+    assert_mcp_solution(res)
+    assert res.multiplier == pytest.approx(lp.multiplier, abs=1e-9)
+
+
+def test_wall_needs_iterations_and_stays_below_the_lp():
+    case = bm.cases.wall(5, 4)
+    lp = bm.solve(case, "static-lp")
+    res = bm.solve(case, "mcp-newton")
+    assert_mcp_solution(res)
+    assert res.iterations > 0
+    assert res.multiplier <= lp.multiplier + 1e-9
+    for t in res.trace:
+        assert {"iteration", "merit", "step", "time_s", "direction"} <= set(t)
+        assert 0 < t["step"] <= 1
+
+
+def test_iteration_limit_is_a_status():
+    res = bm.solve(bm.cases.wall(5, 4), "mcp-newton", max_iterations=1)
+    assert res.status is Status.ITERATION_LIMIT
+    assert not res.success
+
+
+def test_without_continuation():
+    res = bm.solve(bm.cases.two_blocks(eta=2, mu=0.65), "mcp-newton", continuation=False)
+    assert_mcp_solution(res)
+    assert res.multiplier <= two_block_associative(2, 0.65) + 1e-9
+
+
+@pytest.mark.parametrize("bad", [dict(tol=0.0), dict(sigma=0.7), dict(backtrack=1.0), dict(max_iterations=-1),
+                                 dict(regularisation=-1.0), dict(continuation="yes"), dict(min_step=2.0)])
+def test_bad_options(bad):
+    with pytest.raises(bm.OptionError, match=next(iter(bad))):
+        bm.solve(bm.cases.single_block(), "mcp-newton", **bad)
+
+
+def test_fischer_burmeister():
+    from solvers._mcp_system import fischer_burmeister
+
+    rng = np.random.default_rng(1)
+    a, b = rng.normal(size=200), rng.normal(size=200)
+    phi, da, db = fischer_burmeister(a, b)
+    # zero exactly on the complementarity set, nonzero off it
+    zero, _, _ = fischer_burmeister(np.array([0.0, 2.0, 0.0]), np.array([3.0, 0.0, 0.0]))
+    np.testing.assert_allclose(zero, 0.0, atol=1e-15)
+    assert np.all(np.abs(phi[(a < 0) | (b < 0)]) > 0)
+    # gradient = finite differences away from the kink at the origin
+    h = 1e-7
+    np.testing.assert_allclose(da, (fischer_burmeister(a + h, b)[0] - fischer_burmeister(a - h, b)[0]) / (2 * h),
+                               atol=1e-6)
+    np.testing.assert_allclose(db, (fischer_burmeister(a, b + h)[0] - fischer_burmeister(a, b - h)[0]) / (2 * h),
+                               atol=1e-6)
+    # at the kink: an element (1 - xi, 1 - rho) with xi^2 + rho^2 <= 1 of the generalised gradient
+    _, da0, db0 = fischer_burmeister(np.zeros(1), np.zeros(1))
+    assert (1 - da0[0]) ** 2 + (1 - db0[0]) ** 2 <= 1 + 1e-12

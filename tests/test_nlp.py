@@ -1,0 +1,120 @@
+"""The ``nlp`` method: MPEC (4) by a Scholtes-relaxed NLP solved with Ipopt.
+
+Checks: the closed-form two-block results of Nodargi, Intrigila & Bisegna (Sect. 3:
+non-associative minimum ``mu`` if ``mu <= 1/eta`` else ``1/eta``; every solution of
+(3) lies below the associative multiplier), the round arch of their Table 1
+(0.16034), the associative control (``tan psi = tan phi``: the MPEC is the KKT
+system of the LP, so the answer is the LP multiplier), exact derivatives of the
+Ipopt callbacks, and failures reported as statuses.
+"""
+
+import numpy as np
+import pytest
+
+pytest.importorskip("cyipopt")
+pytest.importorskip("highspy")
+pytest.importorskip("pyomo")
+
+import blockmpec as bm  # noqa: E402
+from blockmpec.result import Status  # noqa: E402
+from conftest import two_block_associative, two_block_nonassociative_min  # noqa: E402
+
+TOL = 1e-6
+
+
+def assert_verified(res):
+    assert res.status.is_success, f"{res.status.value}: {res.message}"
+    assert res.residuals
+    worst = max(res.residuals, key=res.residuals.get)
+    assert res.residuals[worst] <= TOL, f"{worst} = {res.residuals[worst]:.3g}"
+
+
+@pytest.mark.parametrize(("eta", "mu"), [(3, 0.65), (2, 1.0), (5, 0.3), (1, 0.65), (4, 0.65), (2, 0.3)])
+def test_two_blocks_between_bounds(eta, mu):
+    res = bm.solve(bm.cases.two_blocks(eta=eta, mu=mu), "nlp")
+    assert_verified(res)
+    assert two_block_nonassociative_min(eta, mu) - TOL <= res.multiplier <= two_block_associative(eta, mu) + TOL
+
+
+def test_two_blocks_paper_point_reaches_minimum():
+    """eta = 3, mu = 0.65: associative 0.41973, non-associative minimum 1/3 (paper, Sect. 3)."""
+    res = bm.solve(bm.cases.two_blocks(eta=3, mu=0.65), "nlp")
+    assert_verified(res)
+    assert res.multiplier == pytest.approx(1 / 3, abs=TOL)
+    assert res.multiplier < two_block_associative(3, 0.65) - 0.08  # a 25 % reduction, not the LP answer
+
+
+def test_round_arch_table_1():
+    res = bm.solve(bm.cases.round_arch(), "nlp")
+    assert_verified(res)
+    assert round(res.multiplier, 5) == 0.16034
+
+
+@pytest.mark.parametrize("case", [bm.cases.two_blocks(eta=3, mu=0.65, dilatancy=0.65),
+                                  bm.cases.wall(3, 2, mu=0.65, dilatancy=0.65)], ids=["two-blocks", "wall-3x2"])
+def test_associative_control_gives_the_lp_multiplier(case):
+    lp = bm.solve(case, "static-lp")
+    assert lp.status is Status.OPTIMAL
+    res = bm.solve(case, "nlp")
+    assert_verified(res)
+    assert res.multiplier == pytest.approx(lp.multiplier, abs=TOL)
+
+
+def test_trace_records_every_stage():
+    res = bm.solve(bm.cases.two_blocks(eta=3, mu=0.65), "nlp", eps_initial=1e-3, eps_final=1e-7, polish=False)
+    stages = [t for t in res.trace if t["stage"] != "polish"]
+    np.testing.assert_allclose([t["eps"] for t in stages], [1e-3, 1e-4, 1e-5, 1e-6, 1e-7])
+    for t in stages:
+        assert {"eps", "multiplier", "ipopt_status", "ipopt_iterations", "time_s"} <= set(t)
+    assert res.iterations == sum(t["ipopt_iterations"] for t in stages)
+
+
+def test_iteration_limit_is_a_status():
+    res = bm.solve(bm.cases.two_blocks(eta=3, mu=0.65), "nlp", max_iter=1)
+    assert res.status is Status.ITERATION_LIMIT
+    assert not res.success
+
+
+def test_time_limit_is_a_status():
+    res = bm.solve(bm.cases.wall(5, 4), "nlp", time_limit=1e-6)
+    assert res.status is Status.TIME_LIMIT
+    assert not res.success
+
+
+@pytest.mark.parametrize("bad", [dict(eps_factor=1.5), dict(eps_final=1.0, eps_initial=1e-3), dict(start="hot"),
+                                 dict(max_iter=2.5), dict(ipopt_options={"tol": None})])
+def test_bad_options(bad):
+    with pytest.raises(bm.OptionError, match=next(iter(bad)) if "eps_initial" not in bad else "eps_final"):
+        bm.solve(bm.cases.single_block(), "nlp", **bad)
+
+
+def test_callbacks_have_exact_derivatives():
+    """Jacobian and Lagrangian Hessian of the relaxed NLP against finite differences."""
+    from solvers.nlp import _RelaxedMPEC
+
+    ops = bm.assemble(bm.cases.two_blocks(eta=3, mu=0.65))
+    nlp = _RelaxedMPEC(ops, scale=2.5)
+    rng = np.random.default_rng(0)
+    v = rng.normal(size=nlp.n)
+    rows, cols = nlp.jacobianstructure()
+    J = np.zeros((nlp.m, nlp.n))
+    np.add.at(J, (rows, cols), nlp.jacobian(v))
+    h = 1e-6
+    J_fd = np.column_stack([(nlp.constraints(v + h * e) - nlp.constraints(v - h * e)) / (2 * h)
+                            for e in np.eye(nlp.n)])
+    np.testing.assert_allclose(J, J_fd, atol=1e-7)
+    y = rng.normal(size=nlp.m)
+    hr, hc = nlp.hessianstructure()
+    assert np.all(hr >= hc)  # lower triangle
+    H = np.zeros((nlp.n, nlp.n))
+    np.add.at(H, (hr, hc), nlp.hessian(v, y, 1.0))
+    H = H + np.tril(H, -1).T
+
+    def grad_lagrangian(w):
+        Jw = np.zeros((nlp.m, nlp.n))
+        np.add.at(Jw, (rows, cols), nlp.jacobian(w))
+        return nlp.gradient(w) + Jw.T @ y
+
+    H_fd = np.column_stack([(grad_lagrangian(v + h * e) - grad_lagrangian(v - h * e)) / (2 * h)
+                            for e in np.eye(nlp.n)])
+    np.testing.assert_allclose(H, H_fd, atol=1e-6)
