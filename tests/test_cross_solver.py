@@ -1,0 +1,65 @@
+"""Cross-checks between independent methods on the built-in cases.
+
+* Every verified non-associative result is at least the certified MILP minimum
+  (minus 1e-7) wherever the MILP certified its value.
+* Every non-associative result is at most the associative multiplier.
+* The MCP's non-uniqueness: at eta = 3, mu = 1.5 the certified minimum is 1/3
+  while the associative solution (lam = 2/3) also solves (3), and heuristics
+  started from it may stop there.
+"""
+
+import pytest
+
+import blockmpec as bm
+from blockmpec.result import Status
+
+CASES = {
+    "two-blocks-3-0.65": bm.cases.two_blocks(eta=3, mu=0.65),
+    "two-blocks-2-0.3": bm.cases.two_blocks(eta=2, mu=0.3),
+    "single-block": bm.cases.single_block(),
+    "round-arch": bm.cases.round_arch(),
+    "arch-on-buttresses": bm.cases.arch_on_buttresses(),
+    "wall-2x2": bm.cases.wall(courses=2, blocks_per_course=2),
+    "wall-3x2": bm.cases.wall(courses=3, blocks_per_course=2),
+}
+NON_ASSOCIATIVE = [m for m in bm.list_solvers("non-associative") if m != "milp"]
+
+
+@pytest.fixture(scope="module")
+def certified():
+    out = {}
+    for name, s in CASES.items():
+        res = bm.solve(s, "milp", time_limit=60.0)
+        out[name] = (res, bm.solve(s, "static-lp").multiplier)
+    return out
+
+
+@pytest.mark.parametrize("case", list(CASES))
+def test_milp_certifies_the_small_built_in_cases(certified, case):
+    res, assoc = certified[case]
+    assert res.status is Status.OPTIMAL and res.success, (res.status, res.message)
+    assert res.multiplier <= assoc + 1e-9
+
+
+@pytest.mark.parametrize("method", NON_ASSOCIATIVE)
+@pytest.mark.parametrize("case", list(CASES))
+def test_no_verified_result_beats_the_certified_minimum(certified, case, method):
+    ref, assoc = certified[case]
+    res = bm.solve(CASES[case], method, time_limit=60.0)
+    if res.success:
+        assert res.multiplier >= ref.multiplier - 1e-7, (res.multiplier, ref.multiplier)
+        assert res.multiplier <= assoc + 1e-9
+
+
+def test_non_uniqueness_at_eta3_mu1p5():
+    s = bm.cases.two_blocks(eta=3, mu=1.5)
+    assoc = bm.solve(s, "static-lp")
+    minimum = bm.solve(s, "milp")
+    fixed = bm.solve(s, "fixed-point")
+    assert assoc.multiplier == pytest.approx(2 / 3, rel=1e-9)
+    assert minimum.status is Status.OPTIMAL and minimum.multiplier == pytest.approx(1 / 3, abs=1e-7)
+    # the fixed point, started from the associative solution, returns a verified solution of (3) ...
+    assert fixed.success
+    # ... which lies between the certified minimum and the associative value (here: at the top)
+    assert 1 / 3 - 1e-7 <= fixed.multiplier <= 2 / 3 + 1e-9
+    assert fixed.multiplier == pytest.approx(2 / 3, rel=1e-7)
