@@ -8,7 +8,6 @@ and no traceback (``--debug`` shows it).
 from __future__ import annotations
 
 import argparse
-import csv
 import json
 import sys
 import time
@@ -24,10 +23,13 @@ from blockmpec.solver import option_fields, solve
 from blockmpec.structure_file import load_structure, save_structure
 
 #: The built-in benchmark suite of ``blockmpec compare``: label -> (case, parameters).
+#: Sizes keep the default run (every method, with the time limits of
+#: ``BENCHMARK_METHOD_OPTIONS``) within a few minutes on 2 cores.
 BENCHMARK_SUITE: dict[str, tuple[str, dict[str, Any]]] = {
     "two-blocks": ("two-blocks", {"eta": 3.0, "mu": 0.65}),
     "round-arch": ("round-arch", {}),
     "arch-on-buttresses": ("arch-on-buttresses", {}),
+    "wall-4x2-stack": ("wall", {"courses": 4, "blocks_per_course": 2, "bond": "stack"}),
     "wall-5x4": ("wall", {"courses": 5, "blocks_per_course": 4}),
     "wall-10x5": ("wall", {"courses": 10, "blocks_per_course": 5}),
 }
@@ -122,6 +124,8 @@ def cmd_methods(args: argparse.Namespace) -> int:
 
 
 def cmd_compare(args: argparse.Namespace) -> int:
+    from blockmpec.compare import BENCHMARK_METHOD_OPTIONS, ProgressBar, compare, write_tables
+
     labels = list(BENCHMARK_SUITE) if not args.cases else [c.strip() for c in args.cases.split(",") if c.strip()]
     for label in labels:
         if label not in BENCHMARK_SUITE:
@@ -131,59 +135,51 @@ def cmd_compare(args: argparse.Namespace) -> int:
         get_solver(m)
     if args.repeat < 1:
         raise OptionError(f"--repeat: must be >= 1; got {args.repeat}")
+    options: dict[str, dict[str, Any]] = {m: dict(BENCHMARK_METHOD_OPTIONS.get(m, {})) for m in methods}
+    for key, value in parse_pairs(args.option, "-O").items():
+        method, dot, name = key.partition(".")
+        if not dot or method not in options:
+            raise OptionError(f"-O {key}={value}: expected METHOD.OPTION=VALUE "
+                              f"with METHOD one of {', '.join(methods)}")
+        options[method][name] = value
     out_dir = Path(args.out)
-    out_dir.mkdir(parents=True, exist_ok=True)
-    rows = []
-    total = len(labels) * len(methods) * args.repeat
-    done = 0
-    for label in labels:
-        case, params = BENCHMARK_SUITE[label]
-        structure = get_case(case).build(**params)
-        for method in methods:
-            for rep in range(args.repeat):
-                done += 1
-                print(f"[{done}/{total}] {label} · {method}", file=sys.stderr, flush=True)
-                r = solve(structure, method)
-                rows.append({
-                    "case": label, "method": method, "repetition": rep, "status": r.status.value,
-                    "success": r.success, "multiplier": r.multiplier,
-                    "friction_admissibility": r.residuals.get("friction_admissibility"),
-                    "max_residual": r.max_residual, "build_time_s": r.build_time_s, "solve_time_s": r.solve_time_s,
-                    "iterations": r.iterations, "message": r.message,
-                })
-    path = out_dir / "results.csv"
-    with path.open("w", newline="") as fh:
-        writer = csv.DictWriter(fh, fieldnames=list(rows[0]))
-        writer.writeheader()
-        writer.writerows(rows)
-    print(_table(rows, labels, methods, "multiplier", "{:.5f}", "Collapse multiplier lambda"))
+    t0 = time.perf_counter()
+    results: dict = {}
+    df = compare({lbl: BENCHMARK_SUITE[lbl] for lbl in labels}, [(m, m, options[m]) for m in methods],
+                 repeat=args.repeat, progress=None if args.quiet else ProgressBar(), results=results)
+    wall_time = time.perf_counter() - t0
+    paths = write_tables(df, out_dir)
+    print(_table(df, "multiplier", "{:.5f}", "Collapse multiplier lambda (cf. the paper's Table 1)", reference=True))
     print()
-    print(_table(rows, labels, methods, "friction_admissibility", "{:.1e}",
-                 "Friction admissibility error ||(N_f^T x)+|| / ||N_f^T x||"))
-    print(f"\nwrote {path}")
+    print(_table(df, "friction_admissibility", "{:.1e}",
+                 "Friction admissibility error ||(N_f^T x)+|| / ||N_f^T x|| (cf. the paper's Table 2)"))
+    print()
+    print(_table(df, "solve_time_s", "{:.3g}", "Solve time [s] (set-up excluded"
+                 + (f"; median of {args.repeat} runs)" if args.repeat > 1 else ")"), median=True))
+    anomalies = df[df["anomaly"].astype(str) != ""]
+    for _, r in anomalies.iterrows():
+        print(f"ANOMALY {r['case']} · {r['method_label']}: {r['anomaly']} (lam {r['multiplier']:.8g}, "
+              f"reference {r['reference']:.8g})")
+    if not args.no_figures:
+        from blockmpec.plot import comparison_figures
+
+        try:
+            paths += comparison_figures(df, results, out_dir)
+        except Exception as exc:  # figures are a convenience: tables are already written
+            print(f"figures failed: {type(exc).__name__}: {exc}", file=sys.stderr)
+    print(f"\nran {len(df)} solves in {wall_time:.1f} s; wrote {len(paths)} file(s) into {out_dir.resolve()}")
+    for p in paths[:2]:
+        print(f"  {p}")
     return 0
 
 
-def _table(rows: list[dict], labels: list[str], methods: list[str], key: str, fmt: str, title: str) -> str:
-    cell: dict[tuple[str, str], str] = {}
-    for r in rows:
-        if r["repetition"]:
-            continue
-        v = r[key]
-        if r["status"] == "skipped":
-            text = "skip"
-        elif v is None or r["status"] in ("error", "infeasible", "unbounded"):
-            text = "×"
-        else:
-            text = fmt.format(v) + ("" if r["success"] else "*")
-        cell[(r["case"], r["method"])] = text
-    width = max(len(m) for m in methods + ["case"]) + 2
-    first = max(len(lbl) for lbl in labels + ["case"]) + 2
-    lines = [title, "case".ljust(first) + "".join(m.rjust(width) for m in methods)]
-    for lbl in labels:
-        lines.append(lbl.ljust(first) + "".join(cell.get((lbl, m), "").rjust(width) for m in methods))
-    lines.append("* = not verified (a residual of (3) exceeds the tolerance); × = failed; skip = method does not fit")
-    return "\n".join(lines)
+def _table(df, key: str, fmt: str, title: str, reference: bool = False, median: bool = False) -> str:
+    """A ``case x method`` text table of column ``key`` of the comparison table ``df``."""
+    from blockmpec.compare import text_table
+
+    note = ("NA reference: c = certified minimum (MILP), b = best verified value of the run, f = closed form"
+            if reference else "")
+    return text_table(df, key, fmt, title, reference=reference, note=note, median=median)
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -216,6 +212,10 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--methods", default="", help="comma-separated method names (default: all)")
     p.add_argument("--repeat", type=int, default=1, help="repetitions per case and method")
     p.add_argument("--out", default="blockmpec-output", help="output folder (default: ./blockmpec-output)")
+    p.add_argument("-O", "--option", action="append", metavar="METHOD.KEY=VALUE",
+                   help="method option, e.g. -O milp.time_limit=120 (overrides the suite's defaults)")
+    p.add_argument("--no-figures", action="store_true", help="write the tables only")
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=cmd_compare)
     return parser
 

@@ -5,11 +5,10 @@ Each case documents its outcome; the non-associative methods have their own.
 
 import itertools
 
-import numpy as np
 import pytest
 
 import blockmpec as bm
-from conftest import assert_success, two_block_associative
+from conftest import assert_success
 
 
 @pytest.mark.parametrize(("eta", "mu"), list(itertools.product([0.05, 0.5, 5, 50], [1e-4, 1e-2, 1.0, 10.0, 100.0])))
