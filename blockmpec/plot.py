@@ -120,9 +120,8 @@ def convergence(traces: dict[str, list[dict[str, Any]]], path: str | Path, *, ti
     path : path of the PNG.
 
     Four panels: ``lam`` vs iteration, ``lam`` vs time, ``n_change`` vs iteration
-    and vs time (log scale; only methods whose trace has ``n_change``).  A trace
-    whose ``time_s`` decreases somewhere is read as per-iteration durations and
-    summed (see :func:`_elapsed`).
+    and vs time (log scale; only methods whose trace has ``n_change``).  Every
+    method records ``time_s`` as time elapsed since its run started.
     """
     plt = _pyplot()
     fig, axes = plt.subplots(2, 2, figsize=(8.0, 6.0), sharex="col", layout="constrained")
@@ -130,7 +129,7 @@ def convergence(traces: dict[str, list[dict[str, Any]]], path: str | Path, *, ti
     for i, (label, tr) in enumerate(series):
         m = _MARKERS[i % len(_MARKERS)]
         it = np.array([_num(r.get("iteration")) for r in tr])
-        ts = _elapsed(np.array([_num(r.get("time_s")) for r in tr]))
+        ts = np.array([_num(r.get("time_s")) for r in tr])
         lam = np.array([_num(r.get("multiplier")) for r in tr])
         kw = dict(marker=m, ms=3.5, lw=1.0, label=label, color=plt.get_cmap("tab10")(i % 10))
         axes[0, 0].plot(it, lam, **kw)
@@ -291,18 +290,6 @@ def _finite(v: Any) -> bool:
         return v is not None and math.isfinite(float(v))
     except (TypeError, ValueError):
         return False
-
-
-def _elapsed(t: np.ndarray) -> np.ndarray:
-    """Elapsed time of trace records.
-
-    ``time_s`` is elapsed time since the start of the run for most methods; a
-    trace whose ``time_s`` decreases somewhere records per-iteration durations
-    instead, and is summed.
-    """
-    if t.size > 1 and np.all(np.isfinite(t)) and np.any(np.diff(t) < 0):
-        return np.cumsum(t)
-    return t
 
 
 def _num(v: Any) -> float:

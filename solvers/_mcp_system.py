@@ -118,7 +118,8 @@ class NewtonOutcome:
         The last iterate.
     iterations : int
     trace : list of dict
-        Per iteration: merit, residual (inf-norm of the scaled ``Phi``), step length, direction kind, time_s.
+        Per iteration: merit, residual (inf-norm of the scaled ``Phi``), step length, direction kind, time_s
+        (elapsed since the call started).
     message : str
     """
 
@@ -326,7 +327,7 @@ def semismooth_newton(system: MCPSystem, w0: np.ndarray, *, tol: float = 1e-10, 
         Phi, J = system.residual(w, jacobian=True)
         merit = 0.5 * float(Phi @ Phi)
         trace.append({"iteration": k, "merit": merit, "residual": float(np.max(np.abs(Phi))), "step": t,
-                      "direction": kind, "multiplier": float(w[0]), "time_s": time.perf_counter() - t0})
+                      "direction": kind, "multiplier": float(w[0]), "time_s": time.perf_counter() - t_start})
     res = float(np.max(np.abs(Phi)))
     status = Status.CONVERGED if res <= tol else Status.ITERATION_LIMIT
     return NewtonOutcome(status, system.unpack(w), max_iterations, trace,

@@ -140,6 +140,7 @@ class MCPNewton(SolverBase):
             final = t_next >= 1.0
             step_ops = ops if final else with_dilatancy(ops, (1 - t_next) * ops.friction + t_next * ops.dilatancy)
             system = MCPSystem(step_ops, solution)
+            offset = time.perf_counter() - t_start  # trace times are elapsed since the run started
             limit = budget if not opt.continuation else min(budget, opt.step_iterations)
             out = semismooth_newton(
                 system, system.pack(solution), tol=opt.tol if final else max(opt.tol, opt.step_tol),
@@ -148,7 +149,8 @@ class MCPNewton(SolverBase):
                 time_limit=remaining,
             )
             for rec in out.trace:
-                trace.append(dict(rec, iteration=total + rec["iteration"], continuation=t_next))
+                trace.append(dict(rec, iteration=total + rec["iteration"], continuation=t_next,
+                                  time_s=offset + rec["time_s"]))
             total += out.iterations
             if out.status is Status.CONVERGED:
                 n_steps += 1

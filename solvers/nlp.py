@@ -313,7 +313,8 @@ class RelaxedNLP(SolverBase):
                 total_iter += nlp.iterations
                 trace.append({"iteration": len(trace) + 1, "stage": k + 1, "eps": eps, "multiplier": float(v_new[0]),
                               "ipopt_status": name, "ipopt_iterations": nlp.iterations,
-                              "warm_multipliers": use_mult, "time_s": dt})
+                              "warm_multipliers": use_mult, "stage_time_s": dt,
+                              "time_s": time.perf_counter() - t_start})
                 raw = name
                 # a failed warm-started stage is tried once more from the same primal point, cold
                 if status.is_success or status is Status.TIME_LIMIT:
@@ -395,7 +396,8 @@ class RelaxedNLP(SolverBase):
         ok = out.status is Status.CONVERGED and abs(lam_new - lam) <= 1e-6 * max(1.0, abs(lam))
         trace.append({"iteration": len(trace) + 1, "stage": "polish", "eps": 0.0, "multiplier": float(lam_new),
                       "ipopt_status": "", "ipopt_iterations": 0, "newton_iterations": out.iterations,
-                      "newton_status": out.status.value, "accepted": ok, "time_s": dt})
+                      "newton_status": out.status.value, "accepted": ok, "stage_time_s": dt,
+                      "time_s": time.perf_counter() - t_start})
         if ok:
             note = f"polished by {out.iterations} Newton steps (lam {lam:.10g} -> {lam_new:.10g})"
             return out.solution, note

@@ -67,3 +67,11 @@ def test_skip_is_a_status_not_an_exception(method, monkeypatch):
     monkeypatch.setattr(cls, "requires", ("a_module_that_does_not_exist",))
     res = bm.solve(bm.cases.single_block(), method)
     assert res.status is Status.SKIPPED and "a_module_that_does_not_exist" in res.message
+
+
+def test_trace_times_are_elapsed_and_increasing(method):
+    res = bm.solve(bm.cases.wall(courses=3, blocks_per_course=2), method)
+    times = [rec["time_s"] for rec in res.trace]
+    assert all(b >= a for a, b in zip(times, times[1:])), times
+    if times:
+        assert times[-1] <= res.solve_time_s + 1e-6

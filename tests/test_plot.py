@@ -68,10 +68,3 @@ def test_translation_is_scaled_to_the_requested_amplitude():
     np.testing.assert_allclose(shift0, np.tile([0.1 * size, 0.0], (len(shift0), 1)), atol=1e-12)
     np.testing.assert_allclose(shift1, 0.5 * shift0, atol=1e-12)
     assert scale * ops.length_scale == pytest.approx(0.1 * size)
-
-
-def test_trace_times_are_read_as_elapsed_time():
-    from blockmpec.plot import _elapsed
-
-    np.testing.assert_allclose(_elapsed(np.array([0.1, 0.3, 0.7])), [0.1, 0.3, 0.7])  # already elapsed
-    np.testing.assert_allclose(_elapsed(np.array([0.5, 0.2, 0.1])), [0.5, 0.7, 0.8])  # per-iteration durations
