@@ -266,7 +266,6 @@ def semismooth_newton(system: MCPSystem, w0: np.ndarray, *, tol: float = 1e-10, 
         if time.perf_counter() - t_start > time_limit:
             return NewtonOutcome(Status.TIME_LIMIT, system.unpack(w), k - 1, trace,
                                  f"time limit: ||Phi||_inf = {res:.3g} after {k - 1} iterations")
-        t0 = time.perf_counter()
         grad = J.T @ Phi
 
         JTJ = (J.T @ J).tocsc()
