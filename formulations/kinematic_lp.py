@@ -17,7 +17,6 @@ from blockmpec.operators import Operators
 from formulations._pyomo import PyomoProblem, linear_dot, sparse_rows
 
 
-
 def kinematic_lp(ops: Operators) -> PyomoProblem:
     """Build (2) from the operators."""
     c = ops.n_interfaces

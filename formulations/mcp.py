@@ -32,7 +32,6 @@ from blockmpec.result import Solution
 from formulations._pyomo import PyomoProblem, linear_dot, sparse_rows
 
 
-
 def mcp(ops: Operators, name: str = "mcp") -> PyomoProblem:
     """Build the MCP (3).
 

@@ -52,6 +52,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
+from blockmpec import options as check
 from blockmpec.registry import register_solver
 from blockmpec.result import Status
 from blockmpec.solver import RunOutput, SolverBase
@@ -74,22 +75,13 @@ class FixedPointOptions:
         from solvers._highs import ALGORITHMS
         from solvers._lp_sequence import STARTS, TIE_BREAKS
 
-        if not (self.tol > 0):
-            raise ValueError(f"tol must be > 0; got {self.tol}")
-        if isinstance(self.max_iterations, bool) or int(self.max_iterations) != self.max_iterations \
-                or self.max_iterations < 1:
-            raise ValueError(f"max_iterations must be an integer >= 1; got {self.max_iterations}")
-        self.max_iterations = int(self.max_iterations)
-        if not (0 < self.relaxation <= 1):
-            raise ValueError(f"relaxation must be in (0, 1]; got {self.relaxation}")
-        if self.start not in STARTS:
-            raise ValueError(f"start must be one of {', '.join(STARTS)}; got {self.start!r}")
-        if self.tie_break not in TIE_BREAKS:
-            raise ValueError(f"tie_break must be one of {', '.join(TIE_BREAKS)}; got {self.tie_break!r}")
-        if self.algorithm not in ALGORITHMS:
-            raise ValueError(f"algorithm must be one of {', '.join(ALGORITHMS)}; got {self.algorithm!r}")
-        if not self.time_limit > 0:
-            raise ValueError(f"time_limit must be > 0 seconds; got {self.time_limit}")
+        check.positive(self, "tol")
+        check.integer(self, "max_iterations", minimum=1)
+        check.interval(self, "relaxation", 0, 1, closed="right")
+        check.choice(self, "start", STARTS)
+        check.choice(self, "tie_break", TIE_BREAKS)
+        check.choice(self, "algorithm", ALGORITHMS)
+        check.positive(self, "time_limit", finite=False)
 
 
 @register_solver

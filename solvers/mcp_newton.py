@@ -43,10 +43,10 @@ Status: ``CONVERGED`` when ``||Phi||_inf <= tol``; ``ITERATION_LIMIT``,
 
 from __future__ import annotations
 
-import math
 import time
 from dataclasses import dataclass, field
 
+from blockmpec import options as check
 from blockmpec.registry import register_solver
 from blockmpec.result import Status
 from blockmpec.solver import RunOutput, SolverBase
@@ -72,27 +72,13 @@ class NewtonOptions:
     time_limit: float = field(default=float("inf"), metadata={"help": "seconds"})
 
     def __post_init__(self) -> None:
-        for name in ("tol", "step_tol"):
-            v = getattr(self, name)
-            if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
-                raise ValueError(f"{name} must be a finite number > 0; got {v!r}")
-        for name in ("max_iterations", "step_iterations", "max_backtracks"):
-            v = getattr(self, name)
-            if isinstance(v, bool) or not isinstance(v, int) or v < 0:
-                raise ValueError(f"{name} must be an integer >= 0; got {v!r}")
-        if not (isinstance(self.sigma, (int, float)) and 0 < self.sigma < 0.5):
-            raise ValueError(f"sigma must be in (0, 0.5); got {self.sigma!r}")
-        if not (isinstance(self.backtrack, (int, float)) and 0 < self.backtrack < 1):
-            raise ValueError(f"backtrack must be in (0, 1); got {self.backtrack!r}")
-        if not (isinstance(self.regularisation, (int, float)) and math.isfinite(self.regularisation)
-                and self.regularisation > 0):
-            raise ValueError(f"regularisation must be a finite number > 0; got {self.regularisation!r}")
-        if not isinstance(self.continuation, bool):
-            raise ValueError(f"continuation must be true or false; got {self.continuation!r}")
-        if not (isinstance(self.min_step, (int, float)) and 0 < self.min_step <= 1):
-            raise ValueError(f"min_step must be in (0, 1]; got {self.min_step!r}")
-        if not (isinstance(self.time_limit, (int, float)) and self.time_limit > 0):
-            raise ValueError(f"time_limit must be > 0 seconds; got {self.time_limit!r}")
+        check.positive(self, "tol", "step_tol", "regularisation")
+        check.integer(self, "max_iterations", "step_iterations", "max_backtracks", minimum=0)
+        check.interval(self, "sigma", 0, 0.5)
+        check.interval(self, "backtrack", 0, 1)
+        check.boolean(self, "continuation")
+        check.interval(self, "min_step", 0, 1, closed="right")
+        check.positive(self, "time_limit", finite=False)
 
 
 @register_solver

@@ -57,6 +57,7 @@ from typing import Any
 
 import numpy as np
 
+from blockmpec import options as check
 from blockmpec.registry import register_solver
 from blockmpec.result import Solution, Status
 from blockmpec.solver import RunOutput, SolverBase
@@ -106,25 +107,14 @@ class NLPOptions:
                                 metadata={"help": "extra Ipopt options {name: value}; floats as floats"})
 
     def __post_init__(self) -> None:
-        for name in ("eps_initial", "eps_final", "tol"):
-            v = getattr(self, name)
-            if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
-                raise ValueError(f"{name} must be a finite number > 0; got {v!r}")
+        check.positive(self, "eps_initial", "eps_final", "tol")
         if self.eps_final > self.eps_initial:
             raise ValueError(f"eps_final ({self.eps_final}) must be <= eps_initial ({self.eps_initial})")
-        if not (isinstance(self.eps_factor, (int, float)) and 0 < self.eps_factor < 1):
-            raise ValueError(f"eps_factor must be in (0, 1); got {self.eps_factor!r}")
-        for name in ("max_iter", "polish_iterations"):
-            v = getattr(self, name)
-            if isinstance(v, bool) or not isinstance(v, int) or v < 0:
-                raise ValueError(f"{name} must be an integer >= 0; got {v!r}")
-        if not (isinstance(self.time_limit, (int, float)) and self.time_limit > 0):
-            raise ValueError(f"time_limit must be > 0 seconds; got {self.time_limit!r}")
-        if self.start not in STARTS:
-            raise ValueError(f"start must be one of {', '.join(STARTS)}; got {self.start!r}")
-        for name in ("warm_start", "polish"):
-            if not isinstance(getattr(self, name), bool):
-                raise ValueError(f"{name} must be true or false; got {getattr(self, name)!r}")
+        check.interval(self, "eps_factor", 0, 1)
+        check.integer(self, "max_iter", "polish_iterations", minimum=0)
+        check.positive(self, "time_limit", finite=False)
+        check.choice(self, "start", STARTS)
+        check.boolean(self, "warm_start", "polish")
         if not isinstance(self.ipopt_options, dict):
             raise ValueError(f"ipopt_options must be a dict {{name: value}}; got {self.ipopt_options!r}")
         for k, v in self.ipopt_options.items():

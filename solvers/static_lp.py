@@ -9,6 +9,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
+from blockmpec import options as check
 from blockmpec.registry import register_solver
 from blockmpec.result import Solution, Status
 from blockmpec.solver import RunOutput, SolverBase
@@ -24,10 +25,8 @@ class LPOptions:
     def __post_init__(self) -> None:
         from solvers._highs import ALGORITHMS
 
-        if self.algorithm not in ALGORITHMS:
-            raise ValueError(f"algorithm must be one of {', '.join(ALGORITHMS)}; got {self.algorithm!r}")
-        if not self.time_limit > 0:
-            raise ValueError(f"time_limit must be > 0 seconds; got {self.time_limit}")
+        check.choice(self, "algorithm", ALGORITHMS)
+        check.positive(self, "time_limit", finite=False)
 
 
 @register_solver
