@@ -28,9 +28,10 @@ Each row is compared with one reference value ``lam_ref`` per (case, problem):
 
 non-associative rows (the minimum of the MPEC (4) is the target)
     1. ``"certified"``: the smallest multiplier of a successful run of a
-       *certifying* method -- one whose class sets ``certifies_minimum = True``
-       or whose name is ``"milp"`` -- with status ``optimal`` (a closed
-       branch-and-bound gap: a proven global minimum of (4));
+       *certifying* method -- one whose class sets ``certifies_minimum = True``,
+       as ``milp`` does -- with status ``optimal`` (a closed branch-and-bound
+       gap: a proven global minimum of (4)); a run asked to maximise
+       (``extra["sense"] == "max"``) is never taken as the minimum;
     2. else ``"best"``: the smallest *verified* non-associative multiplier of
        the run (every verified point solves (3), so this is an upper bound on
        the minimum);
@@ -228,14 +229,11 @@ def normalise_methods(methods: Any) -> list[MethodRun]:
 def certifies_minimum(method: str) -> bool:
     """True for a method whose ``optimal`` status certifies the global minimum of (4).
 
-    A solver class declares it with ``certifies_minimum = True``; the ``milp``
-    method counts as certifying by name too.
+    A solver class declares it with ``certifies_minimum = True`` (``milp`` does);
+    a run of it with ``extra["sense"] == "max"`` certifies a maximum instead and is
+    never taken as the minimum.
     """
-    try:
-        cls = get_solver(method)
-    except Exception:
-        return method == "milp"
-    return bool(getattr(cls, "certifies_minimum", False)) or method == "milp"
+    return bool(getattr(get_solver(method), "certifies_minimum", False))
 
 
 # --------------------------------------------------------------------------- progress
@@ -405,8 +403,9 @@ def _result_fields(res: Result) -> dict[str, Any]:
     out: dict[str, Any] = {
         "problem": res.problem, "status": res.status.value, "success": bool(res.success),
         "verified": bool(res.verified),
+        # a certifying method's optimum is the certified minimum -- unless it was asked to maximise
         "certified": bool(res.problem == "non-associative" and res.status is Status.OPTIMAL and res.success
-                          and certifies_minimum(res.method)),
+                          and certifies_minimum(res.method) and res.extra.get("sense", "min") == "min"),
         "multiplier": None if res.multiplier is None else float(res.multiplier),
         "max_residual": None if not res.residuals else float(res.max_residual),
         "build_time_s": float(res.build_time_s), "solve_time_s": float(res.solve_time_s),

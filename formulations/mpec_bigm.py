@@ -1,6 +1,9 @@
 r"""The MPEC (4) as a mixed-integer linear program: one binary per complementarity pair.
 
-Problem (4) is ``min lam`` over the solutions of the MCP (3)::
+Problem (4) is ``min lam`` over the solutions of the MCP (3) (``sense="min"``);
+``sense="max"`` gives ``max lam`` over the same set, the largest non-associative
+multiplier.  Everything below (switches, normalisation, cuts) is a property of
+the *set* of solutions of (3), so it holds for both senses::
 
     E x + f_d + lam f_l = 0                       (equilibrium)
     E^T u + N_u z_u + V_f z_f = 0                 (compatibility, non-associative flow)
@@ -31,8 +34,9 @@ the normalisation ::
 and back (divide ``u, z`` by ``tau``).  Under this normalisation ``0 <= z_i <= 1``
 exactly, so ``z_i <= y_i`` is the *exact* bound, not a big-M.  The model imposes
 ``tau >= tau_min``.  With ``tau_min = 0`` the MILP is a **relaxation** of (4)
-(its optimum is a certified lower bound; a point with ``tau > 0`` is a solution
-of (3)); with ``tau_min > 0`` every feasible point is a solution of (3).
+(for ``sense="min"`` its optimum is a certified lower bound on the minimum, for
+``sense="max"`` an upper bound on the maximum; a point with ``tau > 0`` is a
+solution of (3)); with ``tau_min > 0`` every feasible point is a solution of (3).
 
 Valid cuts
 ----------
@@ -94,6 +98,7 @@ def mpec_bigm(
     lam_lower: float = -1.0,
     lam_upper: float = 1.0,
     tau_min: float = 0.0,
+    sense: str = "min",
 ) -> PyomoProblem:
     """Build the mixed-integer form of (4) described in the module docstring.
 
@@ -106,6 +111,9 @@ def mpec_bigm(
         Bounds of ``lam`` (``lam_upper`` also enters ``dead_work_cut``).
     tau_min : float
         Lower bound of ``tau = f_l^T u`` (0: relaxation; > 0: restriction).
+    sense : {"min", "max"}
+        Minimise (problem (4)) or maximise ``lam``.  :func:`compile_mixed_integer`
+        returns the cost of ``min lam`` or ``min -lam`` (``objective_sign = -1``).
 
     Returns
     -------
@@ -116,6 +124,8 @@ def mpec_bigm(
         live_work, dead_work_cut, dead_work_lower, work_mccormick,
         sliding_direction`` (``dead_work_lower`` and ``work_mccormick`` start deactivated).
     """
+    if sense not in ("min", "max"):
+        raise ValueError(f"sense must be 'min' or 'max'; got {sense!r}")
     c = ops.n_interfaces
     b3 = ops.E.shape[0]
     Mu = np.ones(2 * c) if slack_bound_unilateral is None else np.asarray(slack_bound_unilateral, float)
@@ -168,7 +178,7 @@ def mpec_bigm(
     m.work_mccormick.deactivate()
     m.dead_work_lower = pyo.Constraint(expr=_dot(-ops.f_d, us) - m.lam_kinematic * m.tau >= 0.0)
     m.dead_work_lower.deactivate()
-    m.objective = pyo.Objective(expr=m.lam, sense=pyo.minimize)
+    m.objective = pyo.Objective(expr=m.lam, sense=pyo.minimize if sense == "min" else pyo.maximize)
     return PyomoProblem(
         name="mpec-bigm",
         model=m,

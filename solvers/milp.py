@@ -1,5 +1,10 @@
 r"""``milp``: certified global minimum of the MPEC (4) by a mixed-integer program.
 
+With ``sense="max"`` the same machinery certifies the global *maximum* of ``lam``
+over the solutions of the MCP (3) (the largest non-associative multiplier); see
+"Maximisation" below.  Such a result is never the minimum of (4): it records
+``extra["sense"] = "max"``.
+
 Model: :mod:`formulations.mpec_bigm` (one binary per complementarity pair,
 multipliers normalised by ``1^T z = 1`` so that ``z_i <= y_i`` is exact), built
 with Pyomo and compiled by :func:`formulations.mpec_bigm.compile_mixed_integer`
@@ -38,10 +43,29 @@ Run (all timed):
 
 Status ``OPTIMAL`` only when HiGHS closed the gap (``mip_rel_gap`` or
 ``mip_abs_gap``, plus ``CERTIFICATE_TOL`` for the solver tolerances), no slack
-sits at its big-M and the polished multiplier does not undercut the dual bound.
+sits at its big-M, ``bigm_scale >= 1`` (shrunken bounds are not proven, so they never
+certify, even when no slack reaches them) and the polished multiplier does not
+undercut the dual bound.
 A slack at its big-M gives LOCALLY_OPTIMAL (the polished point solves (3), but
 the certificate is void); a time limit gives TIME_LIMIT with the best polished
 point and its gap.
+
+Maximisation (``sense="max"``)
+------------------------------
+Every bound, cut and fixing above is a property of the *set* of solutions of
+(3), not of the objective, so the MILP with ``tau >= 0`` is a relaxation for
+either sense: HiGHS's dual bound is then an upper bound on the maximum.  In
+detail: ``lam_upper`` (the associative multiplier) bounds every solution from
+above and ``max(lam_lower, lam_kinematic)`` from below; the slack and multiplier
+bounds and the fixed binaries hold at every solution; the associative-pattern
+incumbent, when it exists, solves (3) and is feasible for both senses (for the
+maximum it attains the upper bound ``lam_upper`` itself, so it is optimal); the
+``tau = 0`` fallback re-solves the restriction ``tau >= tau_restart`` whose point
+is a lower bound on the maximum while the relaxation's dual bound stays the
+certified upper bound.  The polish maximises ``lam`` over the face of the
+pattern (any point of the face, with the pattern's mechanism, solves (3)).  The
+certificate flips: the polished multiplier must not *exceed* the dual bound,
+and the gap is ``dual_bound - lam >= 0``.
 """
 
 from __future__ import annotations
@@ -65,7 +89,8 @@ class MILPOptions:
     mip_abs_gap: float = field(default=1e-9, metadata={"help": "HiGHS absolute gap on lam"})
     feasibility_tol: float = field(default=1e-9, metadata={
         "help": "HiGHS mip_ and primal_feasibility_tolerance (the dual bound is exact up to about this)"})
-    bigm_scale: float = field(default=1.0, metadata={"help": "factor on the proven slack bounds (< 1 only to test detection)"})
+    bigm_scale: float = field(default=1.0, metadata={
+        "help": "factor on the proven slack bounds (< 1 only to test detection; never certifies)"})
     slack_bounds: str = field(default="row", metadata={"help": "row: one LP per slack | normal: one LP per interface"})
     multiplier_bounds: bool = field(default=True, metadata={"help": "tighten z_i <= y_i to z_i <= zmax_i y_i by LPs"})
     incumbent: bool = field(default=True, metadata={
@@ -73,6 +98,8 @@ class MILPOptions:
     warm_bounds: bool = field(default=False, metadata={
         "help": "warm-start the bound LPs (faster; HiGHS warm re-solves were measured to err, see _bounds)"})
     threads: int = field(default=1, metadata={"help": "HiGHS threads"})
+    sense: str = field(default="min", metadata={
+        "help": "min: the MPEC (4), min lam over solutions of (3) | max: max lam over the same set"})
     verbose: bool = field(default=False, metadata={"help": "print the HiGHS log"})
 
     def __post_init__(self) -> None:
@@ -86,6 +113,8 @@ class MILPOptions:
             raise ValueError(f"feasibility_tol must be in [1e-12, 1e-4]; got {self.feasibility_tol}")
         if not (self.bigm_scale > 0 and np.isfinite(self.bigm_scale)):
             raise ValueError(f"bigm_scale must be a finite number > 0; got {self.bigm_scale}")
+        if self.sense not in ("min", "max"):
+            raise ValueError(f"sense must be 'min' or 'max'; got {self.sense!r}")
         if self.slack_bounds not in ("row", "normal"):
             raise ValueError(f"slack_bounds must be 'row' or 'normal'; got {self.slack_bounds!r}")
         for name in ("multiplier_bounds", "incumbent", "warm_bounds", "verbose"):
@@ -110,11 +139,18 @@ ACTIVE_TOL = 1e-7
 
 @register_solver
 class MILPSolver(SolverBase):
-    """Global minimum of the non-associative multiplier by a big-M MILP (HiGHS)."""
+    """Global minimum (or, ``sense="max"``, maximum) of the non-associative multiplier by a big-M MILP (HiGHS).
+
+    ``certifies_minimum``: status OPTIMAL with ``sense="min"`` (``extra["sense"] == "min"``)
+    is a proven global minimum of (4).  With ``sense="max"`` OPTIMAL certifies the
+    maximum instead; the comparator must not take it as the minimum.
+    """
 
     name = "milp"
     problem = "non-associative"
-    summary = "certified global minimum of the MPEC (4): big-M MILP with LP-proven bounds, HiGHS"
+    summary = ("certified global minimum of the MPEC (4) (sense=max: maximum of lam over solutions of (3)): "
+               "big-M MILP with LP-proven bounds, HiGHS")
+    certifies_minimum = True
     requires = ("highspy", "pyomo")
     Options = MILPOptions
 
@@ -126,7 +162,7 @@ class MILPSolver(SolverBase):
         from solvers._highs import HighsLP
 
         self.ops = ops
-        self.problem_milp = mpec_bigm(ops)
+        self.problem_milp = mpec_bigm(ops, sense=self.options.sense)
         self.static = compile_linear(static_lp(ops))
         # the non-associative kinematic LP: flow by V_f (tan psi)
         self.kinematic = compile_linear(kinematic_lp(dataclasses.replace(ops, N_f=ops.V_f)))
@@ -275,7 +311,7 @@ class MILPSolver(SolverBase):
 
     def _polish(self, active_u: np.ndarray, active_f: np.ndarray):
         """Exact LPs for the pattern; returns (Solution or None, message)."""
-        # (lam, x): min lam, slack = 0 on active rows
+        # (lam, x): min lam (sense="max": max lam), slack = 0 on active rows
         lp = self.static
         hl = self.polish_static
         h = hl.highs
@@ -284,7 +320,7 @@ class MILPSolver(SolverBase):
         lower = np.where(active, 0.0, -np.inf)
         h.changeRowsBounds(rows.size, rows, lower, np.zeros(rows.size))
         cost = np.zeros(lp.c.size)
-        cost[lp.columns["lam"][0]] = 1.0
+        cost[lp.columns["lam"][0]] = 1.0 if self.options.sense == "min" else -1.0
         h.changeColsCost(cost.size, np.arange(cost.size, dtype=np.int32), cost)
         rx = hl.solve()
         if rx.status is not Status.OPTIMAL:
@@ -303,7 +339,8 @@ class MILPSolver(SolverBase):
 
         The associative LP's ``(lam, x)`` is statically admissible; with ``z`` allowed
         only on its active constraints, any ``(u, z)`` of the compatibility LP makes
-        the triple a solution of (3) (an upper bound on the minimum), else None.
+        the triple a solution of (3) (an upper bound on the minimum; for the maximum it
+        attains the upper bound ``lam_associative``, so it is the maximum), else None.
         """
         ops = self.ops
         x = bd["x_associative"]
@@ -322,6 +359,9 @@ class MILPSolver(SolverBase):
         from formulations.mpec_bigm import compile_mixed_integer
 
         opt = self.options
+        maximise = opt.sense == "max"
+        # "bound" is the dual bound's side: a lower bound on the minimum, an upper bound on the maximum
+        bound_word = "upper" if maximise else "lower"
         t_start = time.perf_counter()
         deadline = t_start + opt.time_limit
         ops = self.ops
@@ -331,7 +371,7 @@ class MILPSolver(SolverBase):
         if fail:
             st = bd.get("lp_status", Status.ERROR)
             st = st if st in (Status.UNBOUNDED, Status.INFEASIBLE, Status.TIME_LIMIT) else Status.ERROR
-            return RunOutput(st, message=fail, extra={"bound_time_s": t_bounds})
+            return RunOutput(st, message=fail, extra={"bound_time_s": t_bounds, "sense": opt.sense})
         smax = bd["smax"]
         scale = float(max(smax.max(), 1e-300))
         proven = smax * (1.0 + BOUND_MARGIN_REL) + BOUND_MARGIN_ABS * scale
@@ -361,6 +401,8 @@ class MILPSolver(SolverBase):
         t0 = time.perf_counter()
         lp, integrality = compile_mixed_integer(self.problem_milp)
         t_compile = time.perf_counter() - t0
+        # HiGHS minimises lp.c^T v = sign * lam (sign = -1 for the maximum); lam-space value = sign * objective
+        sign = float(lp.objective_sign)
         y_cols = np.concatenate([lp.columns["y_u"], lp.columns["y_f"]])
         fixed_active = smax <= 1e-12 * scale  # constraint active on all of S: y_i = 1
         lp.col_lower[y_cols[fixed_active]] = 1.0
@@ -411,8 +453,9 @@ class MILPSolver(SolverBase):
         raw_name = raw.name
         info = h.getInfo()
         nodes = int(info.mip_node_count)
-        dual_bound = float(info.mip_dual_bound)
+        dual_bound = sign * float(info.mip_dual_bound)  # in lam: <= min lam (min), >= max lam (max)
         extra = {
+            "sense": opt.sense,
             "lam_upper_associative": bd["lam_associative"],
             "lam_lower_static": bd["lam_static_min"],
             "lam_lower_kinematic": bd.get("lam_kinematic"),
@@ -435,7 +478,8 @@ class MILPSolver(SolverBase):
         }
         trace = [{"iteration": 0, "time_s": t_bounds, "stage": "bounds", "multiplier": bd["lam_upper"]},
                  {"iteration": 1, "time_s": time.perf_counter() - t_start, "stage": "milp",
-                  "multiplier": float(info.objective_function_value), "dual_bound": dual_bound, "nodes": nodes}]
+                  "multiplier": sign * float(info.objective_function_value), "dual_bound": dual_bound,
+                  "nodes": nodes}]
         has_point = int(info.primal_solution_status) == 2
         if raw_name == "kInfeasible" or not has_point:
             if raw_name == "kInfeasible":
@@ -448,7 +492,7 @@ class MILPSolver(SolverBase):
                            "solution of (3): a numerical failure (tolerances), not a proof of infeasibility")
                     st = Status.NUMERICAL
             elif raw_name == "kTimeLimit" and incumbent is not None:
-                extra["gap_abs"] = max(incumbent.multiplier - dual_bound, 0.0)
+                extra["gap_abs"] = max(0.0, sign * (incumbent.multiplier - dual_bound))
                 return RunOutput(Status.TIME_LIMIT, incumbent, nodes, trace,
                                  f"time limit: the associative-pattern solution lam {incumbent.multiplier:.10g}, "
                                  f"dual bound {dual_bound:.10g}", raw_name, extra)
@@ -462,8 +506,8 @@ class MILPSolver(SolverBase):
         active = np.concatenate([lp.values("y_u", v), lp.values("y_f", v)]) >= 0.5
         if self._mechanism(active) is None and time.perf_counter() < deadline:
             # The relaxation's optimum has tau = 0 (no mechanism with f_l^T u > 0 for its pattern).  Its
-            # dual bound stays the certified lower bound; re-solve the restriction tau >= tau_restart,
-            # whose points all solve (3), for an upper bound.
+            # dual bound stays the certified bound (lower for min, upper for max); re-solve the
+            # restriction tau >= tau_restart, whose points all solve (3), for a point on the other side.
             tau_restart = 1e-6 * (bd["zmax"][-1] if np.isfinite(bd.get("zmax", [np.inf])[-1]) else 1.0)
             h.changeColBounds(int(lp.columns["tau"][0]), float(tau_restart), highspy.kHighsInf)
             h.setOptionValue("time_limit", h.getRunTime() + max(deadline - time.perf_counter(), 1e-3))
@@ -476,7 +520,7 @@ class MILPSolver(SolverBase):
             if int(info2.primal_solution_status) != 2:
                 return RunOutput(Status.NUMERICAL, Solution(), nodes, trace,
                                  f"the relaxation's optimum has tau = 0 and the restriction tau >= {tau_restart:.3g} "
-                                 f"found no point ({raw_name}); the MILP lower bound {dual_bound:.10g} stands",
+                                 f"found no point ({raw_name}); the MILP {bound_word} bound {dual_bound:.10g} stands",
                                  raw_name, extra)
             v = np.asarray(h.getSolution().col_value, float)
         y = np.concatenate([lp.values("y_u", v), lp.values("y_f", v)])
@@ -492,31 +536,33 @@ class MILPSolver(SolverBase):
         extra["n_active_pairs"] = int(active.sum())
         if sol is None:
             return RunOutput(Status.NUMERICAL, Solution(), nodes, trace,
-                             f"{pmsg}; the MILP lower bound {dual_bound:.10g} stands", raw_name, extra)
+                             f"{pmsg}; the MILP {bound_word} bound {dual_bound:.10g} stands", raw_name, extra)
         lam = sol.multiplier
         extra["polished_minus_milp"] = lam - extra["milp_multiplier"]
-        gap_abs = max(lam - dual_bound, 0.0)
+        gap_abs = max(0.0, sign * (lam - dual_bound))  # min: lam - bound; max: bound - lam
         extra["gap_abs"] = gap_abs
         extra["gap_rel"] = gap_abs / max(abs(lam), 1e-12)
         trace.append({"iteration": 2, "time_s": time.perf_counter() - t_start, "stage": "polish",
                       "multiplier": lam, "dual_bound": dual_bound})
         tol = CERTIFICATE_TOL * max(1.0, abs(lam))
         closed = gap_abs <= max(opt.mip_abs_gap, opt.mip_rel_gap * abs(lam)) + tol
-        undercut = lam < dual_bound - tol
+        # a point of (3) beyond the relaxation's bound (below it for min, above it for max) is impossible
+        undercut = sign * (lam - dual_bound) < -tol
         if raw_name == "kOptimal" and closed and not undercut:
-            st, msg = Status.OPTIMAL, f"certified global minimum; gap {gap_abs:.2e}, {nodes} nodes"
+            st, msg = Status.OPTIMAL, (f"certified global {'maximum' if maximise else 'minimum'}; "
+                                       f"gap {gap_abs:.2e}, {nodes} nodes")
         elif raw_name == "kTimeLimit":
             st, msg = Status.TIME_LIMIT, f"time limit: best lam {lam:.10g}, dual bound {dual_bound:.10g}"
         elif undercut:
             st = Status.NUMERICAL
-            msg = (f"the polished point lam {lam:.10g} undercuts the MILP dual bound {dual_bound:.10g}: "
-                   "certificate void")
+            msg = (f"the polished point lam {lam:.10g} {'exceeds' if maximise else 'undercuts'} the MILP dual "
+                   f"bound {dual_bound:.10g}: certificate void")
         elif raw_name == "kOptimal":
             st = Status.LOCALLY_OPTIMAL
             msg = (f"HiGHS optimal but the polished lam {lam:.10g} and the dual bound {dual_bound:.10g} differ "
                    f"by {gap_abs:.2e}")
             if "tau_restart" in extra:
-                msg += (f" (the relaxation's optimum had tau = 0; lam is the minimum over tau >= "
+                msg += (f" (the relaxation's optimum had tau = 0; lam is the {opt.sense}imum over tau >= "
                         f"{extra['tau_restart']:.3g}, not certified globally)")
         else:
             st, msg = Status.ERROR, f"HiGHS: {h.modelStatusToString(raw)}"
@@ -524,5 +570,12 @@ class MILPSolver(SolverBase):
             # the point solves (3) (polished), but the bounds that define the MILP were too small
             st = Status.TIME_LIMIT if raw_name == "kTimeLimit" else Status.LOCALLY_OPTIMAL
             msg = (f"{len(extra['bigm_active'])} slack(s) at their big-M bound (bigm_scale = {opt.bigm_scale}): "
-                   f"the point solves (3) but the certificate of global minimality is void. {msg}")
+                   f"the point solves (3) but the certificate of global {'maxim' if maximise else 'minim'}ality "
+                   f"is void. {msg}")
+        elif opt.bigm_scale < 1 and st is Status.OPTIMAL:
+            # No slack reached its (shrunken) M, but the MILP was solved over a restriction of the solution
+            # set of (3): a better point may lie in the cut-off part, so nothing is certified.
+            st = Status.LOCALLY_OPTIMAL
+            msg = (f"bigm_scale = {opt.bigm_scale} < 1: the slack bounds are not proven, so the certificate of "
+                   f"global {'maxim' if maximise else 'minim'}ality is void (no slack reached them). {msg}")
         return RunOutput(st, sol, nodes, trace, msg, raw_name, extra)

@@ -85,14 +85,11 @@ def test_references_are_per_case_and_problem():
 
 
 def test_two_blocks_certified_minimum_matches_closed_form():
-    if "milp" not in bm.list_solvers():
-        pytest.skip("milp method not registered")
     res: dict = {}
     df = compare(TWO_BLOCKS, ["static-lp", "fixed-point", "milp"], results=res)
     row = df.set_index("method_label")
     assert row.loc["static-lp", "multiplier"] == pytest.approx(ASSOC, abs=5e-6)
-    if row.loc["milp", "status"] != "optimal":
-        pytest.skip(f"milp did not certify: {row.loc['milp', 'message']}")
+    assert row.loc["milp", "status"] == "optimal", row.loc["milp", "message"]
     assert row.loc["milp", "certified"]
     assert row.loc["fixed-point", "reference_source"] == "certified"
     assert row.loc["fixed-point", "reference"] == pytest.approx(NA_MIN, rel=1e-8)
@@ -217,3 +214,14 @@ def test_cli_compare_takes_method_options(tmp_path, capsys):
     df = pd.read_csv(tmp_path / "results.csv")
     assert df.loc[df["method"] == "fixed-point", "p_method_relaxation"].iloc[0] == 0.5
     assert main(["compare", "--methods", "static-lp", "-O", "nlp.tol=1", "--out", str(tmp_path)]) == 2
+
+
+def test_a_certified_maximum_is_never_the_minimum_reference():
+    cases = {"two-blocks": ("two-blocks", {"eta": 3.0, "mu": 0.65})}
+    only_max = compare(cases, [("milp", {"sense": "max"})])
+    row = only_max.iloc[0]
+    assert row["status"] == "optimal" and abs(row["multiplier"] - 0.4197271773) < 1e-7
+    assert not row["certified"] and row["reference_source"] != "certified"
+    both = compare(cases, [("milp", {"sense": "max"}), "milp"])
+    assert set(both["reference_source"]) == {"certified"}
+    assert abs(both["reference"].iloc[0] - 1 / 3) < 1e-9

@@ -1,12 +1,16 @@
-"""The ``milp`` method: certified global minimum of the non-associative MPEC (4).
+"""The ``milp`` method: certified global minimum of the non-associative MPEC (4), and maximum.
 
 Checks: the closed-form two-block minimum over a grid (with a closed gap), a case
 where the global minimum lies far below the associative value, published
 arch values, ``lam_milp <= lam_associative`` on built-in cases, round-off
 residuals after polishing, and that too small big-M bounds are reported instead
-of silently giving a wrong answer.
+of silently giving a wrong answer.  With ``sense="max"``: the paper's statement
+that on the two-block problem the largest non-associative multiplier equals the
+associative one (its Fig. 6c = Fig. 6a) over the same grid, ``min <= max`` on
+built-in cases, and the flipped certificate logic.
 """
 
+import functools
 import itertools
 
 import numpy as np
@@ -23,14 +27,36 @@ POLISHED_TOL = 1e-7
 pytest.importorskip("highspy")
 
 
-def assert_certified(res: bm.Result) -> None:
+def assert_certified(res: bm.Result, sense: str = "min") -> None:
     assert res.status is Status.OPTIMAL, f"{res.status.value}: {res.message}"
     assert res.verified
+    assert res.extra["sense"] == sense
     assert res.extra["bigm_active"] == []
     # closed gap: the polished (exact) multiplier meets the branch-and-bound dual bound
     assert res.extra["gap_abs"] <= 1e-7 * max(1.0, abs(res.multiplier))
-    assert res.extra["dual_bound"] <= res.multiplier + 1e-7
+    if sense == "min":  # the dual bound is a lower bound on the minimum ...
+        assert res.extra["dual_bound"] <= res.multiplier + 1e-7
+        assert "minimum" in res.message
+    else:  # ... and an upper bound on the maximum
+        assert res.extra["dual_bound"] >= res.multiplier - 1e-7
+        assert "maximum" in res.message and "minimum" not in res.message
     assert max(res.residuals.values()) <= POLISHED_TOL, res.residuals
+
+
+SMALL_CASES = {
+    "round-arch": bm.cases.round_arch,
+    "arch-on-buttresses": bm.cases.arch_on_buttresses,
+    "wall-2x2": lambda: bm.cases.wall(2, 2),
+    "wall-3x2-stack": lambda: bm.cases.wall(3, 2, bond="stack"),
+    "two-blocks": lambda: bm.cases.two_blocks(eta=3, mu=0.65),
+    "single-block": lambda: bm.cases.single_block(width=1, height=2, mu=0.65),
+}
+
+
+@functools.cache
+def solved(case_id: str, method: str, **options) -> bm.Result:
+    """One run per (case, method, options) for the whole module (the arches take ~1 s each)."""
+    return bm.solve(SMALL_CASES[case_id](), method, **options)
 
 
 @pytest.mark.parametrize(("eta", "mu"), list(itertools.product(ETAS, MUS)))
@@ -59,26 +85,16 @@ def test_two_blocks_global_minimum_below_associative_and_heuristic_value():
 
 
 def test_round_arch_published_value():
-    res = bm.solve(bm.cases.round_arch(), "milp")
+    res = solved("round-arch", "milp")
     assert_certified(res)
     assert round(res.multiplier, 5) == 0.16034
 
 
-@pytest.mark.parametrize(
-    "structure",
-    [
-        bm.cases.round_arch(),
-        bm.cases.arch_on_buttresses(),
-        bm.cases.wall(2, 2),
-        bm.cases.wall(3, 2, bond="stack"),
-        bm.cases.two_blocks(eta=3, mu=0.65),
-        bm.cases.single_block(width=1, height=2, mu=0.65),
-    ],
-    ids=["round-arch", "arch-on-buttresses", "wall-2x2", "wall-3x2-stack", "two-blocks", "single-block"],
-)
-def test_not_above_associative(structure):
-    assoc = bm.solve(structure, "static-lp")
-    res = bm.solve(structure, "milp")
+@pytest.mark.parametrize("case_id", list(SMALL_CASES))
+def test_not_above_associative(case_id):
+    structure = SMALL_CASES[case_id]()
+    assoc = solved(case_id, "static-lp")
+    res = solved(case_id, "milp")
     assert_certified(res)
     assert res.multiplier <= assoc.multiplier + 1e-9
     # every recorded big-M bound covers the slack of the returned solution
@@ -163,7 +179,7 @@ def test_spurious_zero_live_work_point_is_not_certified(monkeypatch):
 @pytest.mark.parametrize(
     ("option", "value"),
     [("time_limit", 0.0), ("mip_rel_gap", -1e-3), ("mip_abs_gap", -1.0), ("bigm_scale", 0.0),
-     ("slack_bounds", "tight"), ("threads", 0)],
+     ("slack_bounds", "tight"), ("threads", 0), ("sense", "maximum"), ("sense", "")],
 )
 def test_bad_options(option, value):
     with pytest.raises(bm.errors.OptionError, match=option):
@@ -174,3 +190,75 @@ def test_normal_force_bounds_give_the_same_minimum():
     res = bm.solve(bm.cases.two_blocks(eta=3, mu=1.5), "milp", slack_bounds="normal")
     assert_certified(res)
     assert res.multiplier == pytest.approx(1 / 3, abs=1e-9)
+
+
+# ----------------------------------------------------------------------------- sense="max"
+
+
+@pytest.mark.parametrize(("eta", "mu"), list(itertools.product(ETAS, MUS)))
+def test_two_blocks_maximum_is_the_associative_multiplier(eta, mu):
+    """Paper Sect. 3 / Fig. 6c = Fig. 6a: the largest non-associative multiplier is the associative one.
+
+    Checked with the associative-pattern incumbent (default) and without it, so that the
+    maximum is found and certified by branch and bound alone.
+    """
+    structure = bm.cases.two_blocks(eta=eta, mu=mu)
+    assoc = bm.solve(structure, "static-lp")
+    assert assoc.status is Status.OPTIMAL
+    for incumbent in (True, False):
+        res = bm.solve(structure, "milp", sense="max", incumbent=incumbent)
+        assert_certified(res, "max")
+        assert abs(res.multiplier - assoc.multiplier) <= 1e-7, (incumbent, res.multiplier, assoc.multiplier)
+        assert res.extra["lam_upper_associative"] == pytest.approx(assoc.multiplier, abs=1e-9)
+
+
+@pytest.mark.parametrize("case_id", list(SMALL_CASES))
+def test_minimum_not_above_maximum(case_id):
+    lo = solved(case_id, "milp")
+    hi = solved(case_id, "milp", sense="max")
+    assoc = solved(case_id, "static-lp")
+    assert_certified(lo, "min")
+    assert_certified(hi, "max")
+    assert lo.multiplier <= hi.multiplier + 1e-9
+    assert hi.multiplier <= assoc.multiplier + 1e-9
+
+
+def test_round_arch_maximum_equals_minimum():
+    lo = solved("round-arch", "milp")
+    hi = solved("round-arch", "milp", sense="max")
+    assert_certified(hi, "max")
+    assert round(hi.multiplier, 5) == round(lo.multiplier, 5) == 0.16034
+
+
+@pytest.mark.parametrize("scale", [0.95, 0.8, 0.5, 0.01])
+@pytest.mark.parametrize("mu", [0.65, 1.5])
+def test_maximum_with_too_small_bigm_is_not_certified(scale, mu):
+    """Shrunken slack bounds give a restriction: never a certified maximum, even when no slack
+    reaches its bound (at mu = 0.65, bigm_scale = 0.95 the maximiser's slacks all stay below)."""
+    res = bm.solve(bm.cases.two_blocks(eta=3, mu=mu), "milp", sense="max", bigm_scale=scale)
+    assert res.status is not Status.OPTIMAL
+    assert "bigm_scale" in res.message
+    if res.status is not Status.INFEASIBLE:
+        assert "certificate" in res.message and "maximality" in res.message
+
+
+def test_maximum_after_a_zero_live_work_relaxation_point(monkeypatch):
+    """The tau = 0 fallback under maximisation: when the relaxation's pattern admits no mechanism,
+    the restriction tau >= tau_restart supplies a point of (3) (a lower bound on the maximum) and the
+    relaxation's dual bound stays the upper bound; the answer is the associative value 2/3."""
+    from solvers.milp import MILPSolver
+
+    mechanism = MILPSolver._mechanism
+    calls = {"n": 0}
+
+    def first_call_fails(self, active):
+        calls["n"] += 1
+        return None if calls["n"] == 1 else mechanism(self, active)
+
+    monkeypatch.setattr(MILPSolver, "_mechanism", first_call_fails)
+    res = bm.solve(bm.cases.two_blocks(eta=3, mu=1.5), "milp", sense="max", incumbent=False)
+    assert calls["n"] >= 2 and "tau_restart" in res.extra
+    assert res.status is Status.OPTIMAL, res.message  # the restriction's point meets the relaxation's bound
+    assert res.extra["dual_bound"] >= 2 / 3 - 1e-7
+    assert res.multiplier == pytest.approx(2 / 3, abs=1e-9)
+    assert max(res.residuals.values()) <= POLISHED_TOL
