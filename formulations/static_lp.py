@@ -15,19 +15,27 @@ a cohesion ``-n*_k (tan(phi) - tan(psi))`` per interface::
 
 The cohesion is a mutable ``Param``: only the right-hand side changes between
 fixed-point iterations.
+
+``split_multiplier=True`` gives every free block its own copy ``lam_i`` of the
+multiplier in its equilibrium rows, tied by the chain ``lam_0 = lam_1 = ... =
+lam_{b-1}``.  The problem is the same; but ``lam`` no longer has a column with
+one entry per block, which makes the normal matrix ``A D A^T`` of an
+interior-point method dense (order ``b x b``) -- on a 10,000-block wall that
+turned a minutes-long solve into a quarter of an hour.
 """
 
 from __future__ import annotations
 
 import numpy as np
 import pyomo.environ as pyo
+import scipy.sparse as sp
 
 from blockmpec.operators import Operators
 from formulations._pyomo import PyomoProblem, sparse_rows
 
 
 def static_lp(ops: Operators, friction: np.ndarray | None = None, cohesion: np.ndarray | None = None,
-              name: str = "static-lp") -> PyomoProblem:
+              name: str = "static-lp", split_multiplier: bool = False) -> PyomoProblem:
     """Build (1), or (5) when ``friction``/``cohesion`` are given.
 
     Parameters
@@ -37,6 +45,8 @@ def static_lp(ops: Operators, friction: np.ndarray | None = None, cohesion: np.n
         Friction coefficient per interface in the friction rows (default ``ops.friction``).
     cohesion : ndarray, shape (c,), optional
         Right-hand side of both friction rows of each interface (default 0).
+    split_multiplier : bool
+        One copy of ``lam`` per free block, chained by equalities (see the module docstring).
     """
     c = ops.n_interfaces
     b3 = ops.E.shape[0]
@@ -47,7 +57,18 @@ def static_lp(ops: Operators, friction: np.ndarray | None = None, cohesion: np.n
     m.x = pyo.Var(range(3 * c))
     xs = list(m.x.values())
     lam = [m.lam]
-    eq = sparse_rows([(ops.E, xs), (ops.f_l.reshape(-1, 1), lam)], b3)
+    constraints = {}
+    if split_multiplier and b3 > 3:
+        b = b3 // 3
+        m.lam_copy = pyo.Var(range(1, b))
+        copies = lam + list(m.lam_copy.values())
+        rows = np.arange(b3)
+        F_l = sp.csr_array((ops.f_l, (rows, rows // 3)), shape=(b3, b))
+        eq = sparse_rows([(ops.E, xs), (F_l, copies)], b3)
+        m.multiplier_chain = pyo.Constraint(range(1, b), rule=lambda _, i: copies[i] - copies[i - 1] == 0.0)
+        constraints["multiplier_chain"] = list(m.multiplier_chain.values())
+    else:
+        eq = sparse_rows([(ops.E, xs), (ops.f_l.reshape(-1, 1), lam)], b3)
     m.equilibrium = pyo.Constraint(range(b3), rule=lambda _, i: eq(i) == -float(ops.f_d[i]))
     uni = sparse_rows([(ops.N_u.T, xs)], 2 * c)
     m.unilateral = pyo.Constraint(range(2 * c), rule=lambda _, i: uni(i) <= 0.0)
@@ -63,6 +84,7 @@ def static_lp(ops: Operators, friction: np.ndarray | None = None, cohesion: np.n
             "equilibrium": list(m.equilibrium.values()),
             "unilateral": list(m.unilateral.values()),
             "friction": list(m.friction.values()),
+            **constraints,
         },
     )
 
