@@ -13,7 +13,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from blockmpec.result import Status
+from blockmpec.result import Solution, Status
 from formulations import LinearProgram
 
 #: LP algorithms a user may choose.  "auto" = dual simplex on small models (at most
@@ -45,6 +45,23 @@ _STATUS_MAP = {
     "kTimeLimit": Status.TIME_LIMIT,
     "kIterationLimit": Status.ITERATION_LIMIT,
 }
+
+
+def static_lp_solution(lp: LinearProgram, outcome: LPOutcome) -> Solution:
+    """``(lam, x, u, z_u, z_f)`` from a solve of a static LP built by ``formulations.static_lp``.
+
+    The LP is solved as ``min -lam``; with HiGHS's dual signs the mechanism is
+    ``u = -y_eq`` (equilibrium rows) and the flow multipliers are ``z = -y`` (the
+    ``<=`` rows), so that ``E^T u + N_u z_u + N z_f = 0`` and ``f_l^T u = 1``, where
+    ``N`` is the friction operator the LP was built with.
+    """
+    return Solution(
+        multiplier=float(lp.values("lam", outcome.v)[0]),
+        x=lp.values("x", outcome.v),
+        u=-lp.row_values("equilibrium", outcome.row_dual),
+        z_u=-lp.row_values("unilateral", outcome.row_dual),
+        z_f=-lp.row_values("friction", outcome.row_dual),
+    )
 
 
 class HighsLP:

@@ -45,6 +45,7 @@ from blockmpec.operators import Operators, normal
 from blockmpec.result import Solution, Status
 from blockmpec.solver import RunOutput
 from blockmpec.verify import positive_part_ratio
+from solvers._highs import static_lp_solution
 
 TIE_BREAKS = ("closest", "none")
 STARTS = ("associative", "zero")
@@ -148,16 +149,6 @@ class LPSequence:
             highs.highs.setOptionValue("time_limit", float(remaining))
         return True
 
-    @staticmethod
-    def _solution(lp, out) -> Solution:
-        return Solution(
-            multiplier=float(lp.values("lam", out.v)[0]),
-            x=lp.values("x", out.v),
-            u=-lp.row_values("equilibrium", out.row_dual),
-            z_u=-lp.row_values("unilateral", out.row_dual),
-            z_f=-lp.row_values("friction", out.row_dual),
-        )
-
     def associative(self, deadline: float = float("inf")) -> Step:
         """Solve the associative static LP (1) (the ``"associative"`` start)."""
         if self.assoc_highs is None:
@@ -169,7 +160,7 @@ class LPSequence:
         if out.status is not Status.OPTIMAL:
             return Step(out.status, out.raw_status, f"associative start LP: {out.message}",
                         lp_iterations=out.iterations)
-        return Step(Status.OPTIMAL, out.raw_status, out.message, self._solution(self.assoc_lp, out), out.iterations)
+        return Step(Status.OPTIMAL, out.raw_status, out.message, static_lp_solution(self.assoc_lp, out), out.iterations)
 
     def step(self, n_star: np.ndarray, deadline: float = float("inf")) -> Step:
         """Solve the step LP at ``n_star`` (then the tie-break LP if enabled).
@@ -186,7 +177,7 @@ class LPSequence:
         self.lp_solves += 1
         if out.status is not Status.OPTIMAL:
             return Step(out.status, out.raw_status, f"modified LP: {out.message}", lp_iterations=out.iterations)
-        sol = self._solution(lp, out)
+        sol = static_lp_solution(lp, out)
         iterations = out.iterations
         if self.tie_highs is None:
             return Step(Status.OPTIMAL, out.raw_status, out.message, sol, iterations)

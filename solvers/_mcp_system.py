@@ -25,50 +25,6 @@ from blockmpec.operators import Operators
 from blockmpec.result import Solution, Status
 
 
-@dataclass
-class AssociativeStart:
-    """The associative solution used as starting point.
-
-    Attributes
-    ----------
-    status : Status
-        Status of the static LP solve (only ``OPTIMAL`` gives a usable point).
-    solution : Solution
-        ``(lam, x, u, z_u, z_f)`` of the associative problem (flow with ``N_f``).
-    message : str
-    """
-
-    status: Status
-    solution: Solution
-    message: str = ""
-
-
-class AssociativeLP:
-    """The static LP (1) compiled and loaded in HiGHS (build in ``setup``, solve in ``run``)."""
-
-    def __init__(self, ops: Operators, time_limit: float = float("inf")) -> None:
-        from formulations import compile_linear, static_lp
-        from solvers._highs import HighsLP
-
-        self.lp = compile_linear(static_lp(ops))
-        self.highs = HighsLP(self.lp, "auto", time_limit)
-
-    def solve(self) -> AssociativeStart:
-        """Solve (1); the mechanism is read from the duals (signs as in ``static-lp``)."""
-        out = self.highs.solve()
-        lp = self.lp
-        if out.status is not Status.OPTIMAL:
-            return AssociativeStart(out.status, Solution(), out.message)
-        sol = Solution(
-            multiplier=float(lp.values("lam", out.v)[0]),
-            x=lp.values("x", out.v).copy(),
-            u=-lp.row_values("equilibrium", out.row_dual),
-            z_u=-lp.row_values("unilateral", out.row_dual),
-            z_f=-lp.row_values("friction", out.row_dual),
-        )
-        return AssociativeStart(out.status, sol, out.message)
-
-
 def constraint_operator(ops: Operators) -> sp.csr_array:
     """``N = [N_u, N_f]`` (3c x 4c): the slacks of all pairs are ``s = -N^T x``."""
     return sp.hstack([ops.N_u, ops.N_f], format="csr")

@@ -92,10 +92,11 @@ class MCPNewton(SolverBase):
     Options = NewtonOptions
 
     def setup(self, ops):
-        from solvers._mcp_system import AssociativeLP
+        from solvers.static_lp import StaticLP
 
         self.ops = ops
-        self.start_lp = AssociativeLP(ops, self.options.time_limit)
+        self.start_lp = StaticLP(time_limit=self.options.time_limit)  # the associative start
+        self.start_lp.setup(ops)
 
     def run(self) -> RunOutput:
         from solvers._mcp_system import MCPSystem, semismooth_newton, with_dilatancy
@@ -103,7 +104,7 @@ class MCPNewton(SolverBase):
         opt = self.options
         ops = self.ops
         t_start = time.perf_counter()
-        start = self.start_lp.solve()
+        start = self.start_lp.run()
         if start.status is not Status.OPTIMAL:
             status = start.status if start.status in (Status.UNBOUNDED, Status.INFEASIBLE, Status.TIME_LIMIT) \
                 else Status.ERROR

@@ -235,10 +235,13 @@ class RelaxedNLP(SolverBase):
     Options = NLPOptions
 
     def setup(self, ops):
-        from solvers._mcp_system import AssociativeLP
+        from solvers.static_lp import StaticLP
 
         self.ops = ops
-        self.start_lp = AssociativeLP(ops, self.options.time_limit) if self.options.start == "associative" else None
+        self.start_lp = None
+        if self.options.start == "associative":  # the associative start is the static-lp adapter itself
+            self.start_lp = StaticLP(time_limit=self.options.time_limit)
+            self.start_lp.setup(ops)
         self.nlp = None  # built in run(): its scale depends on the starting point
 
     def _start_point(self):
@@ -253,7 +256,7 @@ class RelaxedNLP(SolverBase):
             force = float(np.max(np.abs(ops.f_d))) if ops.f_d.size else 1.0
             scale = force / max(float(np.sum(np.abs(ops.f_l))), 1e-300)
             return None, (scale if scale > 0 else 1.0), None, "cold start"
-        start = self.start_lp.solve()
+        start = self.start_lp.run()
         if start.status is not Status.OPTIMAL:
             return None, 1.0, start.status, f"associative start failed: {start.status.value} ({start.message})"
         sol = start.solution

@@ -1,8 +1,8 @@
 """``static-lp``: the associative static LP (1) with HiGHS.
 
-The collapse mechanism comes from the duals: ``u = -y_eq`` (equilibrium rows) and
-``z = -y`` (inequality rows), which with HiGHS's sign convention gives
-``E^T u + N_u z_u + N_f z_f = 0`` and ``f_l^T u = 1``.
+The collapse mechanism comes from the duals (:func:`solvers._highs.static_lp_solution`):
+``u = -y_eq`` (equilibrium rows) and ``z = -y`` (inequality rows), which with
+HiGHS's sign convention gives ``E^T u + N_u z_u + N_f z_f = 0`` and ``f_l^T u = 1``.
 """
 
 from __future__ import annotations
@@ -48,17 +48,10 @@ class StaticLP(SolverBase):
         self.highs = HighsLP(self.lp, self.options.algorithm, self.options.time_limit)
 
     def run(self) -> RunOutput:
+        from solvers._highs import static_lp_solution
+
         out = self.highs.solve()
-        lp = self.lp
-        sol = Solution()
-        if out.status is Status.OPTIMAL:
-            sol = Solution(
-                multiplier=float(lp.values("lam", out.v)[0]),
-                x=lp.values("x", out.v),
-                u=-lp.row_values("equilibrium", out.row_dual),
-                z_u=-lp.row_values("unilateral", out.row_dual),
-                z_f=-lp.row_values("friction", out.row_dual),
-            )
+        sol = static_lp_solution(self.lp, out) if out.status is Status.OPTIMAL else Solution()
         message = out.message
         if out.status is Status.UNBOUNDED:
             message = "the static LP is unbounded: no collapse mechanism exists for this live load"

@@ -120,14 +120,11 @@ def test_closed_form_table_spot_values():
 def test_split_multiplier_formulation_is_the_same_lp(name):
     # lam copied per block and chained by equalities: same optimum, same verified mechanism from the duals
     from formulations import compile_linear, static_lp
-    from solvers._highs import HighsLP
+    from solvers._highs import HighsLP, static_lp_solution
 
     structure = _suite()[name]
     ops = bm.assemble(structure)
     lp = compile_linear(static_lp(ops, split_multiplier=True))
-    out = HighsLP(lp, "dual-simplex").solve()
-    sol = bm.Solution(float(lp.values("lam", out.v)[0]), lp.values("x", out.v),
-                      -lp.row_values("equilibrium", out.row_dual), -lp.row_values("unilateral", out.row_dual),
-                      -lp.row_values("friction", out.row_dual))
+    sol = static_lp_solution(lp, HighsLP(lp, "dual-simplex").solve())
     assert sol.multiplier == pytest.approx(bm.solve(structure, "static-lp").multiplier, rel=1e-9)
     assert max(bm.residuals(ops, sol, associative=True).values()) < 1e-9
