@@ -23,6 +23,17 @@ def assert_success(res: bm.Result, multiplier: float | None = None, rtol: float 
         np.testing.assert_allclose(res.multiplier, multiplier, rtol=rtol)
 
 
+def assert_residuals_within(res: bm.Result, tol: float, status: bm.Status | None = None) -> None:
+    """The run claims success (or exactly ``status``) and every residual of (3) is at most ``tol``."""
+    if status is None:
+        assert res.status.is_success, f"{res.status.value}: {res.message}"
+    else:
+        assert res.status is status, f"{res.status.value}: {res.message}"
+    assert res.residuals, "no residuals"
+    worst = max(res.residuals, key=res.residuals.get)
+    assert res.residuals[worst] <= tol, f"{worst} = {res.residuals[worst]:.3g}"
+
+
 @pytest.fixture(scope="session")
 def builtin_structures():
     """One default instance of every built-in case."""

@@ -15,16 +15,13 @@ pytest.importorskip("pyomo")
 
 import blockmpec as bm  # noqa: E402
 from blockmpec.result import Status  # noqa: E402
-from conftest import two_block_associative, two_block_nonassociative_min  # noqa: E402
+from conftest import assert_residuals_within, two_block_associative, two_block_nonassociative_min  # noqa: E402
 
 TOL = 1e-6
 
 
 def assert_mcp_solution(res):
-    assert res.status is Status.CONVERGED, f"{res.status.value}: {res.message}"
-    assert res.residuals
-    worst = max(res.residuals, key=res.residuals.get)
-    assert res.residuals[worst] <= TOL, f"{worst} = {res.residuals[worst]:.3g}"
+    assert_residuals_within(res, TOL, Status.CONVERGED)
 
 
 @pytest.mark.parametrize("eta", [1, 2, 3, 4, 5])

@@ -17,6 +17,7 @@ pytest.importorskip("pyomo")
 
 import blockmpec as bm  # noqa: E402
 from blockmpec.errors import OptionError  # noqa: E402
+from conftest import assert_residuals_within, two_block_nonassociative_min  # noqa: E402
 
 RESIDUAL_TOL = 1e-7
 
@@ -28,14 +29,7 @@ def associative(case):
 
 
 def assert_mcp_solution(res):
-    assert res.status is bm.Status.CONVERGED, res.message
-    assert res.residuals, "no residuals"
-    worst = max(res.residuals, key=res.residuals.get)
-    assert res.residuals[worst] <= RESIDUAL_TOL, f"{worst} = {res.residuals[worst]:.3g}"
-
-
-def na_minimum(eta, mu):
-    return mu if mu <= 1 / eta else 1 / eta
+    assert_residuals_within(res, RESIDUAL_TOL, bm.Status.CONVERGED)
 
 
 # ------------------------------------------------------------------ two blocks
@@ -48,7 +42,7 @@ def test_two_blocks_fixed_point_between_bounds(eta, mu):
     lam_assoc = associative(case).multiplier
     res = bm.solve(case, "fixed-point")
     assert_mcp_solution(res)
-    assert na_minimum(eta, mu) - 1e-9 <= res.multiplier <= lam_assoc + 1e-9
+    assert two_block_nonassociative_min(eta, mu) - 1e-9 <= res.multiplier <= lam_assoc + 1e-9
 
 
 def test_two_blocks_paper_point():
