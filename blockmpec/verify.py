@@ -10,8 +10,8 @@ Given ``(lam, x, u, z_u, z_f)`` every residual is relative (scale-free):
 ``friction_admissibility``     ``||(N_f^T x)_+|| / ||N_f^T x||`` (the paper's Table 2 measure)
 ``local_admissibility``        ``max_k v_k / (|t_k| + |n_k| + 2|m_k|/L_k + w_k)``, see below
 ``multiplier_sign``            ``||(z)_-|| / ||z||`` over ``z = (z_u, z_f)``
-``unilateral_complementarity`` ``|z_u|^T |N_u^T x| / (||E^T u|| ||x||)``
-``friction_complementarity``   ``|z_f|^T |N_f^T x| / (||E^T u|| ||x||)``
+``unilateral_complementarity`` ``|z_u|^T |N_u^T x| / min(||E^T u|| ||x||, max(1, |lam|))``
+``friction_complementarity``   ``|z_f|^T |N_f^T x| / min(||E^T u|| ||x||, max(1, |lam|))``
 =============================  =================================================================
 
 The complementarity products are works (multiplier x constraint value); they are
@@ -19,7 +19,13 @@ measured against ``||E^T u|| ||x||``, the size of the mechanism's interface jump
 times the size of the forces, which is positive whenever ``f_l^T u = 1``.  (A
 cosine such as ``|z|^T|s| / (||z|| ||s||)`` would flag a group of multipliers that
 are all round-off, e.g. ``z_u ~ 1e-9`` in a pure sliding mechanism.)  Without ``u``
-the denominator falls back to ``||z|| ||s||``.
+the denominator falls back to ``||z|| ||s||``.  The works are also read in units of
+``lam``: with ``f_l^T u = 1``, equilibrium gives
+``lam = -f_d^T u + z_u^T (N_u^T x) + z_f^T (V^T x)``, so a work ``W`` moves ``lam`` by
+``W`` and ``W / max(1, |lam|)`` is a relative error of ``lam``.  That reading wins
+when ``||E^T u|| ||x||`` is large, e.g. a tiny block on a huge one (a rocking slack
+of 2.5e-9 on the tiny block against ``z_u ~ 1.8e5`` is a work of ~5e-4 in ``lam``,
+which the product of norms, dominated by the huge block's forces, hid as 2e-9).
 
 Equilibrium is measured block by block (``i`` runs over free blocks, three rows
 each), relative to the absolute size of that block's own terms, and the worst
@@ -145,6 +151,8 @@ def residuals(ops: Operators, sol: Solution, associative: bool) -> dict[str, flo
         out["multiplier_sign"] = _ratio(np.linalg.norm(np.minimum(z, 0.0)), np.linalg.norm(z))
         if x is not None:
             scale = None if u is None else float(np.linalg.norm(ops.E.T @ u) * np.linalg.norm(x))
+            if scale is not None and lam is not None:
+                scale = min(scale, max(1.0, abs(float(lam))))
             out["unilateral_complementarity"] = _complementarity(z_u, s_u, scale)
             out["friction_complementarity"] = _complementarity(z_f, s_f, scale)
     return out

@@ -111,10 +111,30 @@ class HighsLP:
             strategy = {"simplex": 0, "dual-simplex": 1, "primal-simplex": 4}[algorithm]
             h.setOptionValue("simplex_strategy", strategy)
 
-    def solve(self) -> LPOutcome:
-        """Solve (warm from the previous basis if there is one)."""
+    def basis_status(self) -> tuple[np.ndarray, np.ndarray] | None:
+        """The current basis as integer arrays (``highspy.HighsBasisStatus`` values) of columns and rows."""
+        basis = self.highs.getBasis()
+        if not basis.valid:
+            return None
+        return (np.fromiter((int(s) for s in basis.col_status), int, len(basis.col_status)),
+                np.fromiter((int(s) for s in basis.row_status), int, len(basis.row_status)))
+
+    def set_basis(self, col_status: np.ndarray, row_status: np.ndarray) -> bool:
+        """Install a basis (integer ``HighsBasisStatus`` values); the next solve starts from it."""
+        hs = self._highspy
+        basis = hs.HighsBasis()
+        basis.col_status = [hs.HighsBasisStatus(int(v)) for v in col_status]
+        basis.row_status = [hs.HighsBasisStatus(int(v)) for v in row_status]
+        basis.valid = True
+        ok = self.highs.setBasis(basis) == hs.HighsStatus.kOk
+        if ok:
+            self._first = False
+        return ok
+
+    def solve(self, algorithm: str | None = None) -> LPOutcome:
+        """Solve (warm from the previous basis if there is one); ``algorithm`` overrides once."""
         h = self.highs
-        self._set_algorithm(self.algorithm)
+        self._set_algorithm(algorithm or self.algorithm)
         h.run()
         self._first = False
         raw = h.getModelStatus().name

@@ -100,6 +100,9 @@ class LPSequence:
         self.slope = ops.dilatancy + alpha * (ops.friction - ops.dilatancy)
         self.cohesion_factor = ops.friction - self.slope  # cohesion_k = -factor_k n*_k
         self.lp_solves = 0
+        self.alpha = float(alpha)
+        self._step_cold = True  # the next step LP solve is its first
+        self._tie_cold = True
 
         step = static_lp(ops, friction=self.slope, cohesion=np.zeros(c), name="modified-lp")
         self.step_lp = compile_linear(step)
@@ -140,6 +143,43 @@ class LPSequence:
                 highs.highs.setOptionValue("primal_feasibility_tolerance", float(feasibility_tol))
                 highs.highs.setOptionValue("dual_feasibility_tolerance", float(feasibility_tol))
 
+    # ------------------------------------------------------------------ warm starts
+    def _start_from_associative_basis(self) -> str | None:
+        """Give the first step LP the associative LP's optimal basis (it is primal feasible).
+
+        With ``n* = n_assoc`` the step LP's friction rows
+        ``+-t + tan(psi) n <= -(tan(phi) - tan(psi)) n*`` are active at ``x_assoc`` exactly
+        where the associative rows ``+-t + tan(phi) n <= 0`` are, so the associative
+        basis describes the same (feasible) vertex: primal simplex starts from it instead
+        of a cold solve.  Returns the algorithm for that solve, or None (basis refused).
+        """
+        statuses = self.assoc_highs.basis_status()
+        if statuses is None:
+            return None
+        col, row = _map_basis(self.assoc_lp, self.step_lp, *statuses, ("x", "lam"),
+                              ("equilibrium", "unilateral", "friction"))
+        return "primal-simplex" if self.step_highs.set_basis(col, row) else None
+
+    def _start_tie_break_from_step_basis(self, n: np.ndarray, n_star: np.ndarray) -> str | None:
+        """Give the first tie-break LP the step LP's basis, extended to a primal feasible one.
+
+        The step LP's optimal vertex with ``d_k = |n_k - n*_k|`` is feasible for the
+        tie-break LP: ``d_k`` basic, the deviation row that holds ``d_k`` nonbasic at its
+        bound, the other deviation row and the ``lam`` floor basic (``2c + 1`` new basic
+        variables for ``2c + 1`` new rows).
+        """
+        statuses = self.step_highs.basis_status()
+        if statuses is None:
+            return None
+        tie = self.tie_lp
+        col, row = _map_basis(self.step_lp, tie, *statuses, ("x", "lam"), ("equilibrium", "unilateral", "friction"))
+        col[tie.columns["d"]] = BASIC
+        up_tight = n >= n_star  # d = n - n*: row n - d <= n* holds d
+        row[tie.rows["deviation_up"]] = np.where(up_tight, AT_UPPER, BASIC)
+        row[tie.rows["deviation_down"]] = np.where(up_tight, BASIC, AT_UPPER)
+        row[tie.rows["floor"]] = BASIC
+        return "primal-simplex" if self.tie_highs.set_basis(col, row) else None
+
     # ------------------------------------------------------------------ helpers
     def _set_time_limit(self, highs, deadline: float) -> bool:
         remaining = deadline - time.perf_counter()
@@ -173,7 +213,11 @@ class LPSequence:
         self.step_highs.set_row_upper(lp.rows["friction"], rhs)
         if not self._set_time_limit(self.step_highs, deadline):
             return Step(Status.TIME_LIMIT, "", "time limit reached before a step LP")
-        out = self.step_highs.solve()
+        first_algorithm = None
+        if self._step_cold and self.assoc_highs is not None and self.alpha == 0.0:
+            first_algorithm = self._start_from_associative_basis()
+        self._step_cold = False
+        out = self.step_highs.solve(first_algorithm)
         self.lp_solves += 1
         if out.status is not Status.OPTIMAL:
             return Step(out.status, out.raw_status, f"modified LP: {out.message}", lp_iterations=out.iterations)
@@ -190,7 +234,9 @@ class LPSequence:
         self.tie_highs.set_row_upper(tie.rows["floor"], np.array([-(lam - tie_break_delta(lam))]))
         if not self._set_time_limit(self.tie_highs, deadline):
             return Step(Status.TIME_LIMIT, "", "time limit reached before a tie-break LP", sol, iterations)
-        tout = self.tie_highs.solve()
+        first_algorithm = self._start_tie_break_from_step_basis(normal(sol.x), n_star) if self._tie_cold else None
+        self._tie_cold = False
+        tout = self.tie_highs.solve(first_algorithm)
         self.lp_solves += 1
         iterations += tout.iterations
         if tout.status is not Status.OPTIMAL:
@@ -199,6 +245,26 @@ class LPSequence:
         sol.x = tie.values("x", tout.v)
         sol.multiplier = float(tie.values("lam", tout.v)[0])
         return Step(Status.OPTIMAL, out.raw_status, out.message, sol, iterations, True)
+
+
+#: highspy.HighsBasisStatus values
+AT_LOWER, BASIC, AT_UPPER, FREE_NONBASIC = 0, 1, 2, 3
+
+
+def _map_basis(src, dst, col_status, row_status, column_groups, row_groups):
+    """Basis statuses of ``src`` carried to ``dst`` through named column and row groups.
+
+    Entries of ``dst`` outside the groups are left ``AT_LOWER`` (the caller sets them).
+    """
+    col = np.full(dst.c.size, AT_LOWER)
+    row = np.full(dst.A.shape[0], AT_LOWER)
+    for g in column_groups:
+        src_cols, dst_cols = src.columns[g], dst.columns[g]
+        keep = (src_cols >= 0) & (dst_cols >= 0)
+        col[dst_cols[keep]] = col_status[src_cols[keep]]
+    for g in row_groups:
+        row[dst.rows[g]] = row_status[src.rows[g]]
+    return col, row
 
 
 def run_sequence(

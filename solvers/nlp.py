@@ -45,7 +45,10 @@ polished point is kept only if Newton converged and ``lam`` moved by at most
 
 Status: ``LOCALLY_OPTIMAL`` when Ipopt solved every stage, ``ACCEPTABLE`` when some
 stage ended at Ipopt's "solved to acceptable level", otherwise the stage's failure
-(``ITERATION_LIMIT``, ``TIME_LIMIT``, ``INFEASIBLE`` or ``ERROR``) with the last iterate.
+(``ITERATION_LIMIT``, ``TIME_LIMIT``, ``NUMERICAL`` or ``ERROR``) with the last iterate.
+Ipopt's "Infeasible_Problem_Detected" is local (a stationary point of the constraint
+violation), so it maps to ``NUMERICAL``, not ``INFEASIBLE``; only an infeasible
+associative start LP (no equilibrium at all) gives ``INFEASIBLE``.
 """
 
 from __future__ import annotations
@@ -66,7 +69,9 @@ from blockmpec.solver import RunOutput, SolverBase
 _IPOPT_STATUS = {
     0: (Status.LOCALLY_OPTIMAL, "Solve_Succeeded"),
     1: (Status.ACCEPTABLE, "Solved_To_Acceptable_Level"),
-    2: (Status.INFEASIBLE, "Infeasible_Problem_Detected"),
+    # Ipopt converged to a point of local infeasibility of the relaxed NLP: no proof
+    # that (3) has no solution (e.g. eta = 0.05, mu = 100, where milp certifies one)
+    2: (Status.NUMERICAL, "Infeasible_Problem_Detected"),
     3: (Status.ERROR, "Search_Direction_Becomes_Too_Small"),
     4: (Status.ERROR, "Diverging_Iterates"),
     5: (Status.ERROR, "User_Requested_Stop"),

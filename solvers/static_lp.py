@@ -1,4 +1,4 @@
-"""``static-lp``: the associative static LP (1) with HiGHS.
+"""``static-lp``: the associative static LP (1) with HiGHS or the block interior-point method.
 
 The collapse mechanism comes from the duals (:func:`solvers._highs.static_lp_solution`):
 ``u = -y_eq`` (equilibrium rows) and ``z = -y`` (inequality rows), which with
@@ -19,39 +19,44 @@ from blockmpec.solver import RunOutput, SolverBase
 class LPOptions:
     """Options of the HiGHS LP adapters."""
 
-    algorithm: str = field(default="auto", metadata={"help": "auto | simplex | dual-simplex | primal-simplex | ipm"})
+    algorithm: str = field(default="auto", metadata={
+        "help": "auto | simplex | dual-simplex | primal-simplex | ipm (HiGHS) | block-ipm (solvers._block_ipm)"})
     time_limit: float = field(default=float("inf"), metadata={"help": "seconds"})
 
     def __post_init__(self) -> None:
-        from solvers._highs import ALGORITHMS
+        from solvers._block_ipm import COLD_ALGORITHMS
 
-        check.choice(self, "algorithm", ALGORITHMS)
+        check.choice(self, "algorithm", COLD_ALGORITHMS)
         check.positive(self, "time_limit", finite=False)
 
 
 @register_solver
 class StaticLP(SolverBase):
-    """Associative limit analysis by the static theorem (1), solved by HiGHS."""
+    """Associative limit analysis by the static theorem (1).
+
+    ``algorithm="auto"``: HiGHS's dual simplex for small LPs, the block interior-point
+    method (:mod:`solvers._block_ipm`) above ``AUTO_BLOCK_IPM_ROWS`` rows.
+    """
 
     name = "static-lp"
     problem = "associative"
-    summary = "associative static LP (1) with HiGHS; mechanism from the duals"
+    summary = "associative static LP (1) with HiGHS or a block IPM; mechanism from the duals"
     requires = ("highspy", "pyomo")
     Options = LPOptions
 
     def setup(self, ops):
         from formulations import compile_linear, static_lp
-        from solvers._highs import HighsLP
+        from solvers._block_ipm import cold_lp_engine
 
         self.ops = ops
         self.lp = compile_linear(static_lp(ops))
-        self.highs = HighsLP(self.lp, self.options.algorithm, self.options.time_limit)
+        self.engine = cold_lp_engine(self.lp, self.options.algorithm, self.options.time_limit)
 
     def run(self) -> RunOutput:
         from solvers._highs import static_lp_solution
 
-        out = self.highs.solve()
-        sol = static_lp_solution(self.lp, out) if out.status is Status.OPTIMAL else Solution()
+        out = self.engine.solve()
+        sol = static_lp_solution(self.lp, out) if out.status.is_success else Solution()
         message = out.message
         if out.status is Status.UNBOUNDED:
             message = "the static LP is unbounded: no collapse mechanism exists for this live load"

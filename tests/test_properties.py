@@ -3,31 +3,61 @@
 Invariants of the associative problem: lam is unchanged by a rigid motion of the
 whole structure with its loads moved alike, by a mirror image with the live
 load reversed, and by uniform scaling; the static and kinematic LPs agree.
+
+Orderings of the non-associative problem (psi = 0), on structures small enough for
+the ``milp`` method to certify within seconds:
+
+* every verified heuristic multiplier is at least the certified global minimum
+  of the MPEC (4), ``lam_milp <= lam_method``;
+* the associative multiplier bounds every non-associative one from above: the
+  force part ``x`` of any solution of (3) lies in the statically admissible set
+  ``S`` of the LP (1), whose largest ``lam`` is the associative multiplier; the
+  certified maximum over (3) (``milp``, ``sense="max"``) equals it (the paper's
+  statement, Sect. 3); and an empty ``S`` (static LP infeasible) leaves (3)
+  without any solution, so no method may return a verified one.
 """
 
 import dataclasses
 
 import numpy as np
 import pytest
-from hypothesis import HealthCheck, given, settings
+from hypothesis import HealthCheck, assume, given, note, settings
 from hypothesis import strategies as st
 
 import blockmpec as bm
 
 SETTINGS = settings(max_examples=25, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+#: the multi-solver properties run seven solves per example (milp up to ~1 s): few examples
+MULTI_SOLVER_SETTINGS = settings(max_examples=12, deadline=None,
+                                 suppress_health_check=[HealthCheck.too_slow, HealthCheck.filter_too_much])
+#: the non-associative methods other than the certified ``milp``
+HEURISTICS = [m for m in bm.list_solvers("non-associative") if m != "milp"]
+#: A heuristic's success means every relative residual of (3) is at most ``verify_tol`` = 1e-6
+#: (bm.solve's default), so its multiplier is that of an exact solution of (3) only to about 1e-6
+#: times the load scale; with unit-density loads the live load is the weight, so lam's own scale is
+#: max(1, |lam|) (the same floor as the fixed point's tie-break slack 1e-10 max(1, |lam|)).
+HEURISTIC_TOL = 1e-6
+#: ``milp`` results are polished to round-off (exact LPs on a fixed pattern) and certified up to its
+#: CERTIFICATE_TOL = 1e-7 (times max(1, |lam|)); the static LP's optimum is exact to HiGHS's 1e-9.
+CERTIFIED_TOL = 1e-7
+MILP_TIME_LIMIT = 20.0
 
 
 @st.composite
-def stacks(draw):
-    """Columns of rectangles of random size, each resting on the one below with a random offset."""
-    n_columns = draw(st.integers(1, 2))
+def stacks(draw, max_columns=2, max_blocks=3):
+    """Columns of rectangles of random size, each resting on the one below with a random offset.
+
+    Offsets up to 70 % of the narrower width: many stacks overhang, need a reversed
+    live load (lam < 0) or cannot stand at all (static LP infeasible).
+    """
+    n_columns = draw(st.integers(1, max_columns))
     mu = draw(st.floats(0.2, 1.2))
     polys = [np.array([[-10.0, -1.0], [10.0, -1.0], [10.0, 0.0], [-10.0, 0.0]])]
     x0 = -3.0
     for _ in range(n_columns):
         y = 0.0
         left, width = x0, 1.0
-        for _ in range(draw(st.integers(1, 3))):
+        for _ in range(draw(st.integers(1, max_blocks))):
             w = draw(st.floats(0.3, 1.5))
             h = draw(st.floats(0.2, 1.2))
             # overlap the block below by at least 30 % of the narrower width
@@ -40,14 +70,23 @@ def stacks(draw):
 
 
 @st.composite
-def walls(draw):
+def walls(draw, max_courses=4, max_blocks_per_course=4):
     return bm.cases.wall(
-        courses=draw(st.integers(1, 4)),
-        blocks_per_course=draw(st.integers(1, 4)),
+        courses=draw(st.integers(1, max_courses)),
+        blocks_per_course=draw(st.integers(1, max_blocks_per_course)),
         bond=draw(st.sampled_from(["running", "stack"])),
         block_height=draw(st.floats(0.2, 1.0)),
         mu=draw(st.floats(0.2, 1.2)),
     )
+
+
+@st.composite
+def small_structures(draw):
+    """Structures the ``milp`` method certifies within seconds: one column of 1-3 blocks or a wall of
+    at most 2 x 2 blocks (a 2 x 3 wall already takes ~9 s)."""
+    if draw(st.booleans()):
+        return _structure(*draw(stacks(max_columns=1, max_blocks=3)))
+    return draw(walls(max_courses=2, max_blocks_per_course=2))
 
 
 def _structure(polys, mu, **kw):
@@ -121,3 +160,50 @@ def test_no_crash_on_random_structures(stack):
     res = bm.solve(_structure(polys, mu), "static-lp")
     assert isinstance(res.status, bm.Status)
     assert res.success or res.status in (bm.Status.UNBOUNDED, bm.Status.INFEASIBLE)
+
+
+def _margin(tol, lam):
+    return tol * max(1.0, abs(lam))
+
+
+@MULTI_SOLVER_SETTINGS
+@given(small_structures())
+def test_no_verified_heuristic_below_the_certified_minimum(structure):
+    ops = bm.assemble(structure)
+    minimum = bm.solve(ops, "milp", time_limit=MILP_TIME_LIMIT)
+    note(f"milp: {minimum.status.value} {minimum.multiplier} ({minimum.message})")
+    assume(minimum.status is bm.Status.OPTIMAL)
+    assert minimum.success, minimum.residuals
+    for method in HEURISTICS:
+        res = bm.solve(ops, method)
+        note(f"{method}: {res.status.value} {res.multiplier}")
+        if res.success:
+            assert res.multiplier >= minimum.multiplier - _margin(HEURISTIC_TOL, minimum.multiplier), (
+                method, res.multiplier, minimum.multiplier)
+
+
+@MULTI_SOLVER_SETTINGS
+@given(small_structures())
+def test_associative_multiplier_bounds_every_non_associative_one(structure):
+    ops = bm.assemble(structure)
+    assoc = bm.solve(ops, "static-lp")
+    results = {method: bm.solve(ops, method) for method in HEURISTICS}
+    results["milp"] = bm.solve(ops, "milp", time_limit=MILP_TIME_LIMIT)
+    maximum = bm.solve(ops, "milp", sense="max", time_limit=MILP_TIME_LIMIT)
+    for method, res in {**results, "milp max": maximum}.items():
+        note(f"{method}: {res.status.value} {res.multiplier}")
+    if assoc.status is bm.Status.INFEASIBLE:
+        # S is empty and x of any solution of (3) would lie in S
+        assert not any(res.success for res in (*results.values(), maximum)), "a verified point in an empty set"
+        return
+    assume(assoc.status is bm.Status.OPTIMAL)  # (UNBOUNDED: no collapse; not drawn from these strategies)
+    assert assoc.success, assoc.residuals
+    for method, res in results.items():
+        if res.success:
+            tol = CERTIFIED_TOL if method == "milp" else HEURISTIC_TOL
+            assert res.multiplier <= assoc.multiplier + _margin(tol, assoc.multiplier), (
+                method, res.multiplier, assoc.multiplier)
+    if maximum.status is bm.Status.OPTIMAL:
+        assert maximum.success, maximum.residuals
+        assert abs(maximum.multiplier - assoc.multiplier) <= _margin(CERTIFIED_TOL, assoc.multiplier), (
+            maximum.multiplier, assoc.multiplier)
