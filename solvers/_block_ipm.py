@@ -52,6 +52,10 @@ from formulations import LinearProgram
 from solvers._highs import LPOutcome
 
 
+#: smallest s/y in the block systems (a primal regularisation of fully active blocks)
+SLACK_RATIO_FLOOR = 1e-14
+
+
 @dataclass
 class IPMIterate:
     """A primal-dual point ``(v, s, w, y)`` (internal signs, see the module docstring)."""
@@ -156,26 +160,31 @@ class BlockIPM:
         self.h[position] = upper
 
     # ------------------------------------------------------------------ linear algebra
-    def _block_systems(self, it: IPMIterate) -> np.ndarray:
-        r"""Per-block augmented matrices ``[[0, G_i^T], [G_i, -S_i Y_i^{-1}]]``, shape (n_blocks, k+r, k+r).
+    def _block_systems(self, it: IPMIterate) -> tuple[np.ndarray, np.ndarray]:
+        r"""Per-block scaled augmented matrices and the scaling ``sqrt(d)``, ``d = y/s``.
 
-        Solving with these (LU, partial pivoting) instead of forming
-        ``H_i = G_i^T D_i G_i`` avoids multiplying by ``d = y/s``, which near the
-        optimum spans 1e-12 .. 1e12 within one interface.
+        The Newton step's block equations ``G_i^T dy_i = a_i``, ``G_i dv_i - S_i Y_i^{-1} dy_i = b_i``
+        have the matrix ``[[0, G_i^T], [G_i, -D_i^{-1}]]``; with ``P = diag(I, D_i^{1/2})`` it
+        becomes ``[[0, B_i^T], [B_i, -I]]``, ``B_i = D_i^{1/2} G_i``, whose condition number is
+        about ``cond(B_i)`` rather than ``max d / min d`` (near the optimum ``d`` spans
+        1e-10..1e10 within one interface).  ``H_i^{-1} = (G_i^T D_i G_i)^{-1}`` is the top-left
+        block of its inverse.  Forming ``H_i`` and inverting it instead loses all accuracy.
         """
         k, r = self.k, self.rows_per_block
+        d = it.y / np.maximum(it.s, SLACK_RATIO_FLOOR * it.y)
+        sqrt_d = np.sqrt(d)[self.block_rows]  # (n_blocks, r)
         M = np.zeros((self.n_blocks, k + r, k + r))
-        g = self.g_blocks
-        M[:, :k, k:] = np.swapaxes(g, 1, 2)
-        M[:, k:, :k] = g
+        B = self.g_blocks * sqrt_d[:, :, None]
+        M[:, :k, k:] = np.swapaxes(B, 1, 2)
+        M[:, k:, :k] = B
         idx = np.arange(r)
-        M[:, k + idx, k + idx] = -(it.s / it.y)[self.block_rows]
-        return M
+        M[:, k + idx, k + idx] = -1.0
+        return M, sqrt_d
 
     def _factorise(self, it: IPMIterate):
         """Block matrices, ``H^{-1}`` (top-left of their inverses), ``K = A_B H^{-1} A_B^T`` and its LU."""
         k, nb = self.k, self.n_blocks
-        M = self._block_systems(it)
+        M, sqrt_d = self._block_systems(it)
         M_inv = np.linalg.inv(M)  # LU with partial pivoting, per block
         Hinv = M_inv[:, :k, :k]
         Hinv = 0.5 * (Hinv + np.swapaxes(Hinv, 1, 2))
@@ -183,6 +192,10 @@ class BlockIPM:
         indices = (np.arange(nb)[:, None, None] * k + np.arange(k)[None, None, :]).repeat(k, axis=1).ravel()
         Hinv_mat = sp.csr_array((Hinv.ravel(), indices, indptr), shape=(nb * k, nb * k))
         K = (self.A_B @ Hinv_mat @ self.A_B.T).tocsc()
+        # a relative diagonal shift (1e-12 K_ii) keeps SuperLU's pivots nonzero where a
+        # block's forces are all fixed by active rows; iterative refinement against the
+        # exact block solves removes its effect on the direction
+        K = K + sp.diags(1e-12 * K.diagonal() + 1e-300, format="csc")
         if self._perm is None:
             lu = spla.splu(K, permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0,
                            options={"SymmetricMode": True})
@@ -198,15 +211,16 @@ class BlockIPM:
 
         W_F = solve_K(self.A_F) if self.A_F.shape[1] else self.A_F
         S_F = self.A_F.T @ W_F
-        return M_inv, solve_K, W_F, S_F
+        return (M_inv, sqrt_d), solve_K, W_F, S_F
 
-    def _block_solve(self, M_inv: np.ndarray, rhs_dual: np.ndarray, rhs_primal: np.ndarray):
+    def _block_solve(self, blocks, rhs_dual: np.ndarray, rhs_primal: np.ndarray):
         """Solve ``G_i^T dy_i = rhs_dual_i``, ``G_i dv_i - (s/y)_i dy_i = rhs_primal_i`` for every block."""
+        M_inv, sqrt_d = blocks
         rhs = np.concatenate([rhs_dual.reshape(self.n_blocks, self.k),
-                              rhs_primal[self.block_rows]], axis=1)
+                              sqrt_d * rhs_primal[self.block_rows]], axis=1)
         sol = np.einsum("bij,bj->bi", M_inv, rhs)
         dy = np.empty(self.h.size)
-        dy[self.block_rows] = sol[:, self.k:]
+        dy[self.block_rows] = sqrt_d * sol[:, self.k:]
         return sol[:, :self.k].ravel(), dy
 
     def _direction(self, it: IPMIterate, factors, r_b, r_h, r_c, r_mu):
@@ -215,7 +229,7 @@ class BlockIPM:
         Equations: ``A dv = -r_b``; ``G dv + ds = -r_h``; ``-A^T dw + G^T dy = -r_c``;
         ``Y ds + S dy = r_mu``.  Per block, ``G dv - (s/y) dy = -r_h - r_mu/y``.
         """
-        M_inv, solve_K, W_F, S_F = factors
+        blocks, solve_K, W_F, S_F = factors
         bc = self.block_columns.ravel()
         rhs_primal = -r_h - r_mu / it.y
 
@@ -227,11 +241,11 @@ class BlockIPM:
             dv_F = np.linalg.solve(S_F, self.A_F.T @ W_r - e_border)
             return W_r - W_F @ dv_F, dv_F
 
-        dv0, _ = self._block_solve(M_inv, -r_c[bc], rhs_primal)  # the block step for dw = 0
+        dv0, _ = self._block_solve(blocks, -r_c[bc], rhs_primal)  # the block step for dw = 0
         dw, dv_F = reduced_solve(-r_b - self.A_B @ dv0, r_c[self.border])
         target = 1e-3 * self.tol * (1 + _inf(self.b))
         for _ in range(self.refinements + 1):
-            dv_B, dy = self._block_solve(M_inv, -r_c[bc] + self.A_B.T @ dw, rhs_primal)
+            dv_B, dy = self._block_solve(blocks, -r_c[bc] + self.A_B.T @ dw, rhs_primal)
             # iterative refinement: K was assembled from inverted blocks, the block
             # solves are exact; correct dw until A dv = -r_b holds to round-off
             e_eq = -r_b - self.A_B @ dv_B - self.A_F @ dv_F

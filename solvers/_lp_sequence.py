@@ -186,7 +186,8 @@ class LPSequence:
         if remaining <= 0:
             return False
         if np.isfinite(remaining):
-            highs.highs.setOptionValue("time_limit", float(remaining))
+            # HiGHS compares time_limit with the instance's cumulative run clock
+            highs.highs.setOptionValue("time_limit", float(highs.highs.getRunTime() + remaining))
         return True
 
     def associative(self, deadline: float = float("inf")) -> Step:

@@ -1,0 +1,122 @@
+"""The cold LP engines: the block interior-point method against HiGHS, and engine selection.
+
+The block IPM (solvers/_block_ipm.py) is an independent implementation of the
+same static LP (1), so every case is a cross-check against HiGHS's simplex; the
+closed forms of the two-block problem pin both.
+"""
+
+import time
+
+import numpy as np
+import pytest
+
+import blockmpec as bm
+from conftest import assert_success, two_block_associative
+from formulations import compile_linear, kinematic_lp, static_lp
+from solvers._block_ipm import AUTO_BLOCK_IPM_ROWS, BlockIPM, cold_lp_engine, interface_blocks
+from solvers._highs import HighsLP
+
+
+def _scaled(structure, factor):
+    return bm.make_structure([structure.polygon(i) * factor for i in range(structure.n_blocks)], structure.fixed,
+                             friction=structure.friction)
+
+
+def _overhanging(mu):
+    base = [[-3, -1], [0, -1], [0, 0], [-3, 0]]
+    block = [[-0.3, 0], [0.7, 0], [0.7, 1.0], [-0.3, 1.0]]
+    return bm.make_structure([base, block], [True, False], friction=mu)
+
+
+STRUCTURES = {
+    "two-blocks": lambda: bm.cases.two_blocks(eta=3, mu=0.65),
+    "two-blocks-mu-1e-4": lambda: bm.cases.two_blocks(eta=3, mu=1e-4),
+    "two-blocks-mu-100": lambda: bm.cases.two_blocks(eta=0.05, mu=100.0),
+    "two-blocks-eta-50": lambda: bm.cases.two_blocks(eta=50, mu=0.65),
+    "single-block": lambda: bm.cases.single_block(),
+    "round-arch": lambda: bm.cases.round_arch(),
+    "arch-on-buttresses": lambda: bm.cases.arch_on_buttresses(),
+    "wall-5x4": lambda: bm.cases.wall(),
+    "wall-10x20": lambda: bm.cases.wall(10, 20),
+    "wall-5x4-size-1e-3": lambda: _scaled(bm.cases.wall(), 1e-3),
+    "wall-5x4-size-1e3": lambda: _scaled(bm.cases.wall(), 1e3),
+    "overhanging-negative-lam": lambda: _overhanging(0.65),
+}
+
+
+@pytest.mark.parametrize("name", list(STRUCTURES))
+def test_block_ipm_matches_highs_simplex(name):
+    structure = STRUCTURES[name]()
+    simplex = bm.solve(structure, "static-lp", algorithm="dual-simplex")
+    ipm = bm.solve(structure, "static-lp", algorithm="block-ipm")
+    assert_success(simplex)
+    assert_success(ipm)
+    assert ipm.multiplier == pytest.approx(simplex.multiplier, rel=1e-7, abs=1e-9)
+
+
+@pytest.mark.parametrize(("eta", "mu"), [(3.0, 0.65), (0.5, 0.3), (5.0, 2.0)])
+def test_block_ipm_two_block_closed_form(eta, mu):
+    expected = two_block_associative(eta, mu)
+    if expected is None:
+        pytest.skip("closed form not valid here")
+    res = bm.solve(bm.cases.two_blocks(eta=eta, mu=mu), "static-lp", algorithm="block-ipm")
+    assert_success(res, expected, rtol=1e-7)
+
+
+def test_block_ipm_infeasible_lp_is_a_clear_non_success():
+    """Too little friction to hold the overhanging block with any live load: the LP is infeasible.
+    An interior-point method cannot prove it; it must not claim success, and must say why."""
+    res = bm.solve(_overhanging(0.3), "static-lp", algorithm="block-ipm")
+    assert not res.success
+    assert res.status is not bm.Status.OPTIMAL
+    assert res.message
+
+
+def test_block_ipm_rejects_lp_without_block_structure():
+    """The kinematic LP has bounded columns (z >= 0): not the form the block IPM solves."""
+    ops = bm.assemble(bm.cases.wall())
+    lp = compile_linear(kinematic_lp(ops))
+    with pytest.raises(ValueError, match="free"):
+        BlockIPM(lp, np.arange(3).reshape(1, 3))
+
+
+def test_block_ipm_time_limit_gives_a_status():
+    ops = bm.assemble(bm.cases.wall(10, 20))
+    lp = compile_linear(static_lp(ops))
+    ipm = BlockIPM(lp, interface_blocks(lp), time_limit=1e-9)
+    out = ipm.solve()
+    assert out.status is bm.Status.TIME_LIMIT
+
+
+def test_block_ipm_set_row_upper_changes_the_cohesion():
+    """Cohesion c on every friction row raises lam; the re-solve sees the new right-hand side."""
+    ops = bm.assemble(bm.cases.two_blocks(eta=3, mu=0.3))
+    c = ops.n_interfaces
+    lp = compile_linear(static_lp(ops, cohesion=np.zeros(c)))
+    ipm = BlockIPM(lp, interface_blocks(lp))
+    lam0 = -ipm.solve().objective
+    ipm.set_row_upper(lp.rows["friction"], np.full(2 * c, 0.05))
+    lam1 = -ipm.solve().objective
+    highs = HighsLP(lp, "dual-simplex")
+    assert lam1 > lam0
+    assert lam1 == pytest.approx(-highs.solve().objective, rel=1e-7)
+
+
+def test_auto_engine_uses_the_block_ipm_above_the_threshold():
+    small = compile_linear(static_lp(bm.assemble(bm.cases.wall())))
+    large = compile_linear(static_lp(bm.assemble(bm.cases.wall(20, 30))))
+    assert small.A.shape[0] <= AUTO_BLOCK_IPM_ROWS < large.A.shape[0]
+    assert isinstance(cold_lp_engine(small, "auto"), HighsLP)
+    assert isinstance(cold_lp_engine(large, "auto"), BlockIPM)
+
+
+def test_lp_sequence_time_limit_counts_from_the_instance_clock():
+    """HiGHS compares time_limit with an instance's cumulative run time: a remaining budget must be
+    added to it, or later warm solves of the sequence stop at once."""
+    from solvers._lp_sequence import LPSequence
+
+    seq = LPSequence(bm.assemble(bm.cases.wall(10, 20)))
+    assert seq.associative().status is bm.Status.OPTIMAL
+    h = seq.assoc_highs.highs
+    assert seq._set_time_limit(seq.assoc_highs, time.perf_counter() + 10.0)
+    assert h.getOptionValue("time_limit")[1] >= h.getRunTime() + 9.0
