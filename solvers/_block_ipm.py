@@ -51,7 +51,6 @@ from blockmpec.result import Status
 from formulations import LinearProgram
 from solvers._highs import LPOutcome
 
-
 #: smallest s/y in the block systems (a primal regularisation of fully active blocks)
 SLACK_RATIO_FLOOR = 1e-14
 

@@ -100,6 +100,7 @@ class LPSequence:
         self.slope = ops.dilatancy + alpha * (ops.friction - ops.dilatancy)
         self.cohesion_factor = ops.friction - self.slope  # cohesion_k = -factor_k n*_k
         self.lp_solves = 0
+        self.lp_time_s = {"associative": 0.0, "step": 0.0, "tie_break": 0.0}
         self.alpha = float(alpha)
         self._step_cold = True  # the next step LP solve is its first
         self._tie_cold = True
@@ -181,6 +182,17 @@ class LPSequence:
         return "primal-simplex" if self.tie_highs.set_basis(col, row) else None
 
     # ------------------------------------------------------------------ helpers
+    def _timed(self, kind: str, solve, *args):
+        t0 = time.perf_counter()
+        out = solve(*args)
+        self.lp_time_s[kind] += time.perf_counter() - t0
+        self.lp_solves += 1
+        return out
+
+    def facts(self) -> dict[str, Any]:
+        """LP solves so far and seconds spent per LP kind (associative start, step, tie-break)."""
+        return {"lp_solves": self.lp_solves, "lp_time_s": {k: round(v, 6) for k, v in self.lp_time_s.items()}}
+
     def _set_time_limit(self, highs, deadline: float) -> bool:
         remaining = deadline - time.perf_counter()
         if remaining <= 0:
@@ -196,8 +208,7 @@ class LPSequence:
             raise RuntimeError("the associative LP was not compiled")
         if not self._set_time_limit(self.assoc_highs, deadline):
             return Step(Status.TIME_LIMIT, "", "time limit reached before the associative LP")
-        out = self.assoc_highs.solve()
-        self.lp_solves += 1
+        out = self._timed("associative", self.assoc_highs.solve)
         if out.status is not Status.OPTIMAL:
             return Step(out.status, out.raw_status, f"associative start LP: {out.message}",
                         lp_iterations=out.iterations)
@@ -218,8 +229,7 @@ class LPSequence:
         if self._step_cold and self.assoc_highs is not None and self.alpha == 0.0:
             first_algorithm = self._start_from_associative_basis()
         self._step_cold = False
-        out = self.step_highs.solve(first_algorithm)
-        self.lp_solves += 1
+        out = self._timed("step", self.step_highs.solve, first_algorithm)
         if out.status is not Status.OPTIMAL:
             return Step(out.status, out.raw_status, f"modified LP: {out.message}", lp_iterations=out.iterations)
         sol = static_lp_solution(lp, out)
@@ -237,8 +247,7 @@ class LPSequence:
             return Step(Status.TIME_LIMIT, "", "time limit reached before a tie-break LP", sol, iterations)
         first_algorithm = self._start_tie_break_from_step_basis(normal(sol.x), n_star) if self._tie_cold else None
         self._tie_cold = False
-        tout = self.tie_highs.solve(first_algorithm)
-        self.lp_solves += 1
+        tout = self._timed("tie_break", self.tie_highs.solve, first_algorithm)
         iterations += tout.iterations
         if tout.status is not Status.OPTIMAL:
             # keep the step LP's own point; the caller records the failure
@@ -316,7 +325,7 @@ def run_sequence(
         first = seq.associative(deadline)
         if first.status is not Status.OPTIMAL:
             return RunOutput(first.status, Solution(), 0, trace, first.message, first.raw_status,
-                             extra={"lp_solves": seq.lp_solves}), facts
+                             extra=seq.facts()), facts
         n_star = np.minimum(normal(first.solution.x), 0.0)
         facts["lam_start"] = first.solution.multiplier
     else:
@@ -334,7 +343,7 @@ def run_sequence(
             if status is Status.TIME_LIMIT:
                 msg = f"time limit {time_limit:g} s reached at iteration {k}; returning the last iterate"
             sol = last if last is not None else Solution()
-            return RunOutput(status, sol, k - 1, trace, msg, raw, extra={"lp_solves": seq.lp_solves}), facts
+            return RunOutput(status, sol, k - 1, trace, msg, raw, extra=seq.facts()), facts
         if seq.tie_highs is not None and not step.tie_break_used:
             facts["tie_break_failures"] += 1
         sol = step.solution
@@ -358,7 +367,7 @@ def run_sequence(
         else:
             done = lam_prev is not None and lam_change <= tol and k >= min_iterations
         if done:
-            return RunOutput(Status.CONVERGED, sol, k, trace, "", raw, extra={"lp_solves": seq.lp_solves}), facts
+            return RunOutput(Status.CONVERGED, sol, k, trace, "", raw, extra=seq.facts()), facts
         lam_prev = lam
         # normal forces are compressive; round-off tension (within the LP's feasibility
         # tolerance) would give a negative cohesion and can make the next LP infeasible
@@ -366,7 +375,7 @@ def run_sequence(
         if time.perf_counter() >= deadline:
             return RunOutput(Status.TIME_LIMIT, sol, k, trace,
                              f"time limit {time_limit:g} s reached after iteration {k}; returning the last iterate",
-                             raw, extra={"lp_solves": seq.lp_solves}), facts
+                             raw, extra=seq.facts()), facts
     return RunOutput(Status.ITERATION_LIMIT, last if last is not None else Solution(), max_iterations, trace,
                      f"no convergence in {max_iterations} iterations; returning the last iterate", raw,
-                     extra={"lp_solves": seq.lp_solves}), facts
+                     extra=seq.facts()), facts

@@ -1,10 +1,13 @@
 """Timing of the associative pipeline on running-bond walls of growing size.
 
-For each wall: structure generation (with interface detection), operator
-assembly, Pyomo model build, compilation to matrices, HiGHS load, HiGHS solve,
-and lam.  Usage::
+For each wall and LP algorithm: structure generation (with interface detection),
+operator assembly, Pyomo model build, compilation to matrices, engine load, cold
+solve, lam, and the ratio of model construction (build + compile) to the solve.
+Algorithms are those of ``static-lp`` (``solvers._block_ipm.COLD_ALGORITHMS``):
+HiGHS's ``dual-simplex``, ``primal-simplex``, ``ipm`` (with crossover), the
+``block-ipm``, or ``auto``.  Usage::
 
-    python studies/lp_timing.py [--sizes 100,1000,10000] [--algorithm auto]
+    python studies/lp_timing.py [--sizes 100,1000,10000] [--algorithms auto] [--time-limit 600]
 
 Writes ``studies/output/lp_timing/lp_timing.csv``.
 """
@@ -19,7 +22,7 @@ from pathlib import Path
 
 import blockmpec as bm
 from formulations import compile_linear, static_lp
-from solvers._highs import HighsLP
+from solvers._block_ipm import cold_lp_engine
 
 OUT = Path(__file__).parent / "output" / "lp_timing"
 
@@ -31,7 +34,7 @@ def wall_for(n_blocks: int) -> bm.Structure:
     return bm.cases.wall(courses=courses, blocks_per_course=per)
 
 
-def time_one(n_blocks: int, algorithm: str) -> dict:
+def time_one(n_blocks: int, algorithm: str, time_limit: float = float("inf")) -> dict:
     t0 = time.perf_counter()
     s = wall_for(n_blocks)
     t1 = time.perf_counter()
@@ -41,15 +44,16 @@ def time_one(n_blocks: int, algorithm: str) -> dict:
     t3 = time.perf_counter()
     lp = compile_linear(problem)
     t4 = time.perf_counter()
-    highs = HighsLP(lp, algorithm)
+    engine = cold_lp_engine(lp, algorithm, time_limit)
     t5 = time.perf_counter()
-    out = highs.solve()
+    out = engine.solve()
     t6 = time.perf_counter()
-    lam = float(lp.values("lam", out.v)[0])
+    lam = float(lp.values("lam", out.v)[0]) if out.status.is_success else math.nan
     return {
         "blocks": s.n_free, "interfaces": len(s.interfaces), "rows": lp.A.shape[0], "columns": lp.A.shape[1],
         "generate_s": t1 - t0, "assemble_s": t2 - t1, "pyomo_build_s": t3 - t2, "compile_s": t4 - t3,
-        "highs_load_s": t5 - t4, "solve_s": t6 - t5, "algorithm": algorithm, "status": out.status.value,
+        "load_s": t5 - t4, "solve_s": t6 - t5, "build_over_solve": (t4 - t2) / (t6 - t5),
+        "algorithm": algorithm, "engine": type(engine).__name__, "status": out.status.value,
         "multiplier": lam, "lp_iterations": out.iterations,
     }
 
@@ -57,10 +61,12 @@ def time_one(n_blocks: int, algorithm: str) -> dict:
 def main(argv: list[str] | None = None) -> list[dict]:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--sizes", default="100,1000,10000")
-    parser.add_argument("--algorithm", default="auto")
+    parser.add_argument("--algorithms", default="auto", help="comma-separated static-lp algorithms")
+    parser.add_argument("--time-limit", type=float, default=float("inf"), help="seconds per solve")
     args = parser.parse_args(argv)
-    rows = [time_one(int(n), args.algorithm) for n in args.sizes.split(",")]
-    keys = ["blocks", "generate_s", "assemble_s", "pyomo_build_s", "compile_s", "highs_load_s", "solve_s", "status", "multiplier"]
+    rows = [time_one(int(n), a, args.time_limit) for n in args.sizes.split(",") for a in args.algorithms.split(",")]
+    keys = ["blocks", "algorithm", "generate_s", "assemble_s", "pyomo_build_s", "compile_s", "load_s", "solve_s",
+            "build_over_solve", "status", "multiplier"]
     print(" ".join(f"{k:>13s}" for k in keys))
     for r in rows:
         print(" ".join(f"{r[k]:>13.4g}" if isinstance(r[k], float) else f"{r[k]!s:>13s}" for k in keys))

@@ -120,3 +120,13 @@ def test_lp_sequence_time_limit_counts_from_the_instance_clock():
     h = seq.assoc_highs.highs
     assert seq._set_time_limit(seq.assoc_highs, time.perf_counter() + 10.0)
     assert h.getOptionValue("time_limit")[1] >= h.getRunTime() + 9.0
+
+
+def test_fixed_point_reports_its_lp_time_per_kind():
+    res = bm.solve(bm.cases.wall(10, 20), "fixed-point")
+    assert_success(res)
+    lp_time = res.extra["lp_time_s"]
+    assert set(lp_time) == {"associative", "step", "tie_break"}
+    assert all(v > 0 for v in lp_time.values())
+    assert sum(lp_time.values()) <= res.solve_time_s
+    assert res.extra["lp_solves"] == 1 + 2 * res.iterations
