@@ -177,6 +177,9 @@ def solve(
         status = Status.NUMERICAL
         message = (f"{method} reported {out.status.value} but the verifier disagrees: "
                    f"{worst} residual {res.get(worst, float('nan')):.3g} > {verify_tol:g}. {out.message}").strip()
+    if status.is_success and verified and out.solution.multiplier is not None and out.solution.multiplier < 0:
+        message = (f"lam = {out.solution.multiplier:.6g} < 0: the structure is not in equilibrium under the dead "
+                   f"load alone; only the live load reversed and scaled by |lam| holds it. {message}").strip()
     extra = dict(out.extra)
     extra["assembly_time_s"] = t_assembly
     return Result(

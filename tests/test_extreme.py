@@ -330,13 +330,15 @@ def test_unstable_under_dead_load_gives_a_negative_multiplier(method, offset, wi
     """Documented outcome: an overhanging block that topples under its own weight, but can be held by a
     reversed live load without sliding (2c/h <= mu), gets lam = -2c/h < 0 with a success status from
     every method (rocking about the base's corner is the only mechanism with f_l^T u = 1; no sliding,
-    so psi does not matter).  lam < 0 is the only sign of the instability: the status is a success."""
+    so psi does not matter).  The status is a success; the message says that lam < 0 means the
+    structure does not stand under its dead load alone."""
     res = _solve(_overhanging_block(offset, width, height, mu=0.65), method)
     expected = -2 * (offset + width / 2) / height
     assert expected < 0
     if method != "slp" or res.success:
         assert_success(res)
         assert res.multiplier == pytest.approx(expected, rel=1e-7, abs=1e-9)
+        assert "not in equilibrium under the dead load alone" in res.message
 
 
 @pytest.mark.parametrize("method", DEAD_LOAD_METHODS)

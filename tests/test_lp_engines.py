@@ -130,3 +130,15 @@ def test_fixed_point_reports_its_lp_time_per_kind():
     assert all(v > 0 for v in lp_time.values())
     assert sum(lp_time.values()) <= res.solve_time_s
     assert res.extra["lp_solves"] == 1 + 2 * res.iterations
+
+
+def test_block_ipm_unbounded_lp_is_a_clear_non_success():
+    """A block boxed in by fixed blocks on three sides cannot collapse: the static LP is unbounded
+    (HiGHS proves it); the block IPM's iterates diverge and it says so instead of claiming a value."""
+    blocks = [[[-1, -1], [2, -1], [2, 0], [-1, 0]], [[-1, 0], [0, 0], [0, 1], [-1, 1]],
+              [[1, 0], [2, 0], [2, 1], [1, 1]], [[0, 0], [1, 0], [1, 1], [0, 1]]]
+    structure = bm.make_structure(blocks, [True, True, True, False], friction=0.6)
+    assert bm.solve(structure, "static-lp", algorithm="dual-simplex").status is bm.Status.UNBOUNDED
+    res = bm.solve(structure, "static-lp", algorithm="block-ipm")
+    assert not res.success and res.multiplier is None
+    assert "infeasible or unbounded" in res.message
