@@ -19,7 +19,6 @@ Prints a markdown table and writes ``studies/output/fixed_point_ratio/ratio.csv`
 from __future__ import annotations
 
 import argparse
-import csv
 import math
 import sys
 from pathlib import Path
@@ -27,6 +26,7 @@ from pathlib import Path
 import blockmpec as bm
 
 sys.path.insert(0, str(Path(__file__).parent))
+from benchmark_scaling import write_csv  # noqa: E402
 from lp_timing import wall_for  # noqa: E402
 
 OUT = Path(__file__).parent / "output" / "fixed_point_ratio"
@@ -68,10 +68,7 @@ def main(argv: list[str] | None = None) -> list[dict]:
         cells = [f"{r.get(k):.3g}" if isinstance(r.get(k), float) else str(r.get(k)) for k in keys]
         print("| " + " | ".join(cells) + " |")
     OUT.mkdir(parents=True, exist_ok=True)
-    with (OUT / "ratio.csv").open("w", newline="") as fh:
-        w = csv.DictWriter(fh, fieldnames=list(rows[0]))
-        w.writeheader()
-        w.writerows(rows)
+    write_csv(OUT / "ratio.csv", rows)
     print(f"wrote {OUT / 'ratio.csv'}")
     return rows
 
