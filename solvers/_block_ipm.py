@@ -83,10 +83,17 @@ class BlockIPM:
     max_iterations : int
     time_limit : float
         Seconds per :meth:`solve`.
+    row_scale, column_scale : ndarray, optional
+        Positive diagonal scalings ``R`` of the equality rows (shape: number of equality
+        rows, in row order) and ``C`` of the columns: the method works on
+        ``R A C``, ``R b``, ``C c``; inequality rows are then scaled to unit largest
+        entry.  Tolerances apply to the scaled problem, so a good scaling makes every
+        block's equilibrium hold relative to its own loads (see :func:`load_scaling`).
     """
 
     def __init__(self, lp: LinearProgram, block_columns: np.ndarray, tol: float = 1e-9,
-                 max_iterations: int = 200, time_limit: float = float("inf")) -> None:
+                 max_iterations: int = 200, time_limit: float = float("inf"),
+                 row_scale: np.ndarray | None = None, column_scale: np.ndarray | None = None) -> None:
         self.lp = lp
         self.tol = float(tol)
         self.max_iterations = int(max_iterations)
@@ -111,11 +118,16 @@ class BlockIPM:
         self.in_sign = np.where(le[self.in_rows], 1.0, -1.0)  # ">=" rows negated to "<="
         self._in_position = np.full(A.shape[0], -1)
         self._in_position[self.in_rows] = np.arange(self.in_rows.size)
-        self.A = A[self.eq_rows]
-        self.b = lo[self.eq_rows].astype(float)
-        G = sp.diags(self.in_sign) @ A[self.in_rows]
-        self.h = np.where(self.in_sign > 0, up[self.in_rows], -lo[self.in_rows]).astype(float)
-        self.c = lp.c.astype(float)
+        self.row_scale = np.ones(self.eq_rows.size) if row_scale is None else np.asarray(row_scale, float)
+        self.column_scale = np.ones(n) if column_scale is None else np.asarray(column_scale, float)
+        R, C = sp.diags(self.row_scale), sp.diags(self.column_scale)
+        self.A = (R @ A[self.eq_rows] @ C).tocsr()
+        self.b = self.row_scale * lo[self.eq_rows].astype(float)
+        G = sp.diags(self.in_sign) @ A[self.in_rows] @ C
+        self.in_scale = 1.0 / np.maximum(abs(G).max(axis=1).toarray().ravel(), 1e-300)
+        G = sp.diags(self.in_scale) @ G
+        self.h = self.in_scale * np.where(self.in_sign > 0, up[self.in_rows], -lo[self.in_rows]).astype(float)
+        self.c = self.column_scale * lp.c.astype(float)
 
         block_columns = np.asarray(block_columns, dtype=np.int64)
         self.n_blocks, self.k = block_columns.shape
@@ -158,7 +170,7 @@ class BlockIPM:
         if np.any(position < 0) or np.any(self.in_sign[position] < 0):
             raise ValueError("block IPM: set_row_upper applies to '<=' inequality rows only")
         self.lp.row_upper[rows] = upper
-        self.h[position] = upper
+        self.h[position] = self.in_scale[position] * upper
 
     # ------------------------------------------------------------------ linear algebra
     def _block_systems(self, it: IPMIterate) -> tuple[np.ndarray, np.ndarray]:
@@ -417,11 +429,13 @@ class BlockIPM:
                 status = Status.ACCEPTABLE
                 message += f"; best relative residual {best_error:.1e}"
         self.last_iterations = k
+        # back to the compiled LP's units: v = C v^, w = R w^, y = S y^
         row_dual = np.zeros(self.lp.A.shape[0])
-        row_dual[self.eq_rows] = it.w
-        row_dual[self.in_rows] = -self.in_sign * it.y
+        row_dual[self.eq_rows] = self.row_scale * it.w
+        row_dual[self.in_rows] = -self.in_sign * self.in_scale * it.y
         objective = float(self.c @ it.v) if status.is_success else float("nan")
-        outcome = LPOutcome(status, f"block-ipm: {status.value}", objective, it.v.copy(), row_dual, k, message)
+        outcome = LPOutcome(status, f"block-ipm: {status.value}", objective, self.column_scale * it.v, row_dual, k,
+                            message)
         return outcome, it, kept
 
 
@@ -436,21 +450,63 @@ def interface_blocks(lp: LinearProgram) -> np.ndarray:
 
 #: LP algorithms of the adapters that solve one LP cold: HiGHS's and the block IPM.
 #: "auto" = HiGHS dual simplex up to AUTO_BLOCK_IPM_ROWS rows, the block IPM above
-#: (measured, 1,000-block wall: HiGHS IPM + crossover 7.6 s, block IPM 2.8 s;
-#: 10,000 blocks: HiGHS > 1,000 s, block IPM ~80 s).
+#: (studies/lp_timing.py, one run: 1,001-block wall HiGHS IPM + crossover 9.7 s, block
+#: IPM 1.6 s; 10,046 blocks HiGHS > 900 s, block IPM 47 s), and the block IPM also when
+#: block loads differ by more than AUTO_BLOCK_IPM_LOAD_SPREAD (a 1e-3 block on a unit
+#: block, loads 1e-6 apart: HiGHS's absolute tolerances give lam = 0.65 instead of 0.5,
+#: which the verifier rejects; the block IPM in load units gets 0.5).
 COLD_ALGORITHMS = ("auto", "simplex", "dual-simplex", "primal-simplex", "ipm", "block-ipm")
 AUTO_BLOCK_IPM_ROWS = 2000
+AUTO_BLOCK_IPM_LOAD_SPREAD = 1e4
 
 
-def cold_lp_engine(lp: LinearProgram, algorithm: str = "auto", time_limit: float = float("inf")):
+def block_loads(ops) -> np.ndarray:
+    """``||f_d,i|| + ||f_l,i||`` per free block (the unit of :func:`load_scaling`)."""
+    b = ops.n_free_blocks
+    return np.linalg.norm(ops.f_d.reshape(b, 3), axis=1) + np.linalg.norm(ops.f_l.reshape(b, 3), axis=1)
+
+
+def load_scaling(lp: LinearProgram, ops) -> tuple[np.ndarray, np.ndarray]:
+    r"""Diagonal scalings of a static LP from the loads: each block in its own units.
+
+    Block ``i`` carries the load ``l_i = ||f_d,i|| + ||f_l,i||``; its three equilibrium
+    rows are divided by ``l_i``.  Interface ``k`` gets the force unit
+    ``l_k = min`` of ``l_i`` over its free blocks (a tiny block on a big one loads
+    their interface with its own weight) and ``(t, n, m)`` are measured in
+    ``(l_k, l_k, l_k L_k)``.  In these units a 1e-2 block on a unit block is as well
+    conditioned as two equal blocks; the tolerances then hold block by block, as
+    the verifier measures equilibrium.
+    """
+    load = block_loads(ops)
+    load = np.where(load > 0, load, np.max(load, initial=1.0))
+    row_scale = np.ones(lp.A.shape[0])
+    row_scale[lp.rows["equilibrium"]] = 1.0 / np.repeat(load, 3)
+    side = np.column_stack([ops.minus_dof, ops.plus_dof])
+    side_load = np.where(side >= 0, load[np.maximum(side, 0)], np.inf)
+    force_unit = side_load.min(axis=1)
+    unit = np.column_stack([force_unit, force_unit, force_unit * np.maximum(ops.length, 1e-300)]).ravel()
+    column_scale = np.ones(lp.c.size)
+    x_cols = lp.columns["x"]
+    column_scale[x_cols[x_cols >= 0]] = unit[x_cols >= 0]
+    eq = lp.row_lower == lp.row_upper
+    return row_scale[eq], column_scale
+
+
+def cold_lp_engine(lp: LinearProgram, algorithm: str = "auto", time_limit: float = float("inf"), ops=None):
     """A solver for one static LP: :class:`BlockIPM` or :class:`solvers._highs.HighsLP`.
 
-    Both have ``solve() -> LPOutcome`` (HiGHS dual signs) and ``set_row_upper``.
+    Both have ``solve() -> LPOutcome`` (HiGHS dual signs) and ``set_row_upper``.  Given
+    ``ops``, the block IPM works in the units of :func:`load_scaling`.
     """
     from solvers._highs import HighsLP
 
     if algorithm == "auto":
-        algorithm = "block-ipm" if lp.A.shape[0] > AUTO_BLOCK_IPM_ROWS else "dual-simplex"
+        large = lp.A.shape[0] > AUTO_BLOCK_IPM_ROWS
+        loads = block_loads(ops) if ops is not None else np.ones(1)
+        loads = loads[loads > 0]
+        stiff = loads.size > 0 and loads.max() > AUTO_BLOCK_IPM_LOAD_SPREAD * loads.min()
+        algorithm = "block-ipm" if large or stiff else "dual-simplex"
     if algorithm == "block-ipm":
-        return BlockIPM(lp, interface_blocks(lp), time_limit=time_limit)
+        scales = load_scaling(lp, ops) if ops is not None else (None, None)
+        return BlockIPM(lp, interface_blocks(lp), time_limit=time_limit, row_scale=scales[0], column_scale=scales[1])
     return HighsLP(lp, algorithm, time_limit)

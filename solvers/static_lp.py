@@ -50,7 +50,7 @@ class StaticLP(SolverBase):
 
         self.ops = ops
         self.lp = compile_linear(static_lp(ops))
-        self.engine = cold_lp_engine(self.lp, self.options.algorithm, self.options.time_limit)
+        self.engine = cold_lp_engine(self.lp, self.options.algorithm, self.options.time_limit, ops=ops)
 
     def run(self) -> RunOutput:
         from solvers._highs import static_lp_solution
