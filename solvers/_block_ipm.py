@@ -88,7 +88,7 @@ class BlockIPM:
         rows, in row order) and ``C`` of the columns: the method works on
         ``R A C``, ``R b``, ``C c``; inequality rows are then scaled to unit largest
         entry.  Tolerances apply to the scaled problem, so a good scaling makes every
-        block's equilibrium hold relative to its own loads (see :func:`load_scaling`).
+        block's equilibrium hold relative to its own loads (see :mod:`solvers._scaling`).
     """
 
     def __init__(self, lp: LinearProgram, block_columns: np.ndarray, tol: float = 1e-9,
@@ -460,53 +460,21 @@ AUTO_BLOCK_IPM_ROWS = 2000
 AUTO_BLOCK_IPM_LOAD_SPREAD = 1e4
 
 
-def block_loads(ops) -> np.ndarray:
-    """``||f_d,i|| + ||f_l,i||`` per free block (the unit of :func:`load_scaling`)."""
-    b = ops.n_free_blocks
-    return np.linalg.norm(ops.f_d.reshape(b, 3), axis=1) + np.linalg.norm(ops.f_l.reshape(b, 3), axis=1)
-
-
-def load_scaling(lp: LinearProgram, ops) -> tuple[np.ndarray, np.ndarray]:
-    r"""Diagonal scalings of a static LP from the loads: each block in its own units.
-
-    Block ``i`` carries the load ``l_i = ||f_d,i|| + ||f_l,i||``; its three equilibrium
-    rows are divided by ``l_i``.  Interface ``k`` gets the force unit
-    ``l_k = min`` of ``l_i`` over its free blocks (a tiny block on a big one loads
-    their interface with its own weight) and ``(t, n, m)`` are measured in
-    ``(l_k, l_k, l_k L_k)``.  In these units a 1e-2 block on a unit block is as well
-    conditioned as two equal blocks; the tolerances then hold block by block, as
-    the verifier measures equilibrium.
-    """
-    load = block_loads(ops)
-    load = np.where(load > 0, load, np.max(load, initial=1.0))
-    row_scale = np.ones(lp.A.shape[0])
-    row_scale[lp.rows["equilibrium"]] = 1.0 / np.repeat(load, 3)
-    side = np.column_stack([ops.minus_dof, ops.plus_dof])
-    side_load = np.where(side >= 0, load[np.maximum(side, 0)], np.inf)
-    force_unit = side_load.min(axis=1)
-    unit = np.column_stack([force_unit, force_unit, force_unit * np.maximum(ops.length, 1e-300)]).ravel()
-    column_scale = np.ones(lp.c.size)
-    x_cols = lp.columns["x"]
-    column_scale[x_cols[x_cols >= 0]] = unit[x_cols >= 0]
-    eq = lp.row_lower == lp.row_upper
-    return row_scale[eq], column_scale
-
-
 def cold_lp_engine(lp: LinearProgram, algorithm: str = "auto", time_limit: float = float("inf"), ops=None):
     """A solver for one static LP: :class:`BlockIPM` or :class:`solvers._highs.HighsLP`.
 
     Both have ``solve() -> LPOutcome`` (HiGHS dual signs) and ``set_row_upper``.  Given
-    ``ops``, the block IPM works in the units of :func:`load_scaling`.
+    ``ops``, both work in the load units of :func:`solvers._scaling.load_scaling`.
     """
     from solvers._highs import HighsLP
+    from solvers._scaling import load_scaling, load_spread
 
     if algorithm == "auto":
         large = lp.A.shape[0] > AUTO_BLOCK_IPM_ROWS
-        loads = block_loads(ops) if ops is not None else np.ones(1)
-        loads = loads[loads > 0]
-        stiff = loads.size > 0 and loads.max() > AUTO_BLOCK_IPM_LOAD_SPREAD * loads.min()
+        stiff = ops is not None and load_spread(ops) > AUTO_BLOCK_IPM_LOAD_SPREAD
         algorithm = "block-ipm" if large or stiff else "dual-simplex"
+    row_scale, column_scale = load_scaling(lp, ops) if ops is not None else (None, None)
     if algorithm == "block-ipm":
-        scales = load_scaling(lp, ops) if ops is not None else (None, None)
-        return BlockIPM(lp, interface_blocks(lp), time_limit=time_limit, row_scale=scales[0], column_scale=scales[1])
-    return HighsLP(lp, algorithm, time_limit)
+        eq_scale = None if row_scale is None else row_scale[lp.row_lower == lp.row_upper]
+        return BlockIPM(lp, interface_blocks(lp), time_limit=time_limit, row_scale=eq_scale, column_scale=column_scale)
+    return HighsLP(lp, algorithm, time_limit, row_scale=row_scale, column_scale=column_scale)

@@ -12,6 +12,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+import scipy.sparse as sp
 
 from blockmpec.result import Solution, Status
 from formulations import LinearProgram
@@ -65,10 +66,17 @@ def static_lp_solution(lp: LinearProgram, outcome: LPOutcome) -> Solution:
 
 
 class HighsLP:
-    """A HiGHS instance holding one compiled LP; re-solves after bound changes are warm."""
+    """A HiGHS instance holding one compiled LP; re-solves after bound changes are warm.
+
+    ``row_scale`` and ``column_scale`` (positive) make HiGHS solve ``R A C`` with
+    ``R`` row bounds, ``C^-1`` column bounds and ``C c`` costs; values and duals are
+    returned in the compiled LP's units (``v = C v^``, ``y = R y^``).  See
+    :mod:`solvers._scaling`.
+    """
 
     def __init__(self, lp: LinearProgram, algorithm: str = "auto", time_limit: float = float("inf"),
-                 threads: int = 0) -> None:
+                 threads: int = 0, row_scale: np.ndarray | None = None,
+                 column_scale: np.ndarray | None = None) -> None:
         import highspy
 
         if algorithm not in ALGORITHMS:
@@ -80,15 +88,18 @@ class HighsLP:
             h.setOptionValue("time_limit", float(time_limit))
         if threads:
             h.setOptionValue("threads", int(threads))
-        A = lp.A.tocsc()
+        m, n = lp.A.shape
+        self.row_scale = np.ones(m) if row_scale is None else np.asarray(row_scale, float)
+        self.column_scale = np.ones(n) if column_scale is None else np.asarray(column_scale, float)
+        A = (sp.diags(self.row_scale) @ lp.A @ sp.diags(self.column_scale)).tocsc()
         model = highspy.HighsLp()
-        model.num_col_ = A.shape[1]
-        model.num_row_ = A.shape[0]
-        model.col_cost_ = lp.c
-        model.col_lower_ = lp.col_lower
-        model.col_upper_ = lp.col_upper
-        model.row_lower_ = lp.row_lower
-        model.row_upper_ = lp.row_upper
+        model.num_col_ = n
+        model.num_row_ = m
+        model.col_cost_ = self.column_scale * lp.c
+        model.col_lower_ = lp.col_lower / self.column_scale
+        model.col_upper_ = lp.col_upper / self.column_scale
+        model.row_lower_ = self.row_scale * lp.row_lower
+        model.row_upper_ = self.row_scale * lp.row_upper
         model.a_matrix_.format_ = highspy.MatrixFormat.kColwise
         model.a_matrix_.start_ = A.indptr
         model.a_matrix_.index_ = A.indices
@@ -142,8 +153,8 @@ class HighsLP:
         info = h.getInfo()
         iterations = int(max(info.simplex_iteration_count, 0) + max(info.ipm_iteration_count, 0))
         sol = h.getSolution()
-        v = np.asarray(sol.col_value, float)
-        y = np.asarray(sol.row_dual, float)
+        v = self.column_scale * np.asarray(sol.col_value, float)
+        y = self.row_scale * np.asarray(sol.row_dual, float)
         if v.size != self.lp.c.size:
             v = np.full(self.lp.c.size, np.nan)
             y = np.full(self.lp.A.shape[0], np.nan)
@@ -154,4 +165,5 @@ class HighsLP:
         """Change the upper bounds of ``rows`` (lower bounds kept)."""
         rows = np.asarray(rows, dtype=np.int32)
         self.lp.row_upper[rows] = upper
-        self.highs.changeRowsBounds(rows.size, rows, self.lp.row_lower[rows], np.asarray(upper, float))
+        scale = self.row_scale[rows]
+        self.highs.changeRowsBounds(rows.size, rows, scale * self.lp.row_lower[rows], scale * np.asarray(upper, float))

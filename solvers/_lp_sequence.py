@@ -107,7 +107,7 @@ class LPSequence:
 
         step = static_lp(ops, friction=self.slope, cohesion=np.zeros(c), name="modified-lp")
         self.step_lp = compile_linear(step)
-        self.step_highs = HighsLP(self.step_lp, algorithm)
+        self.step_highs = HighsLP(self.step_lp, algorithm, **_scales(self.step_lp, ops))
 
         self.tie_lp = None
         self.tie_highs = None
@@ -132,13 +132,13 @@ class LPSequence:
             a = self.tie_lp.A[[row], :].toarray().ravel()
             if not (a[col] == -1.0 and np.count_nonzero(a) == 1 and np.isfinite(self.tie_lp.row_upper[row])):
                 raise RuntimeError("tie-break LP: the floor row did not compile to -lam <= -lam_floor")
-            self.tie_highs = HighsLP(self.tie_lp, algorithm)
+            self.tie_highs = HighsLP(self.tie_lp, algorithm, **_scales(self.tie_lp, ops, ("d",)))
 
         self.assoc_lp = None
         self.assoc_highs = None
         if need_associative:
             self.assoc_lp = compile_linear(static_lp(ops))
-            self.assoc_highs = HighsLP(self.assoc_lp, algorithm)
+            self.assoc_highs = HighsLP(self.assoc_lp, algorithm, **_scales(self.assoc_lp, ops))
         for highs in (self.step_highs, self.tie_highs, self.assoc_highs):
             if highs is not None:
                 highs.highs.setOptionValue("primal_feasibility_tolerance", float(feasibility_tol))
@@ -255,6 +255,14 @@ class LPSequence:
         sol.x = tie.values("x", tout.v)
         sol.multiplier = float(tie.values("lam", tout.v)[0])
         return Step(Status.OPTIMAL, out.raw_status, out.message, sol, iterations, True)
+
+
+def _scales(lp, ops, normal_like=()) -> dict:
+    """HiGHS works in load units (:mod:`solvers._scaling`): each block's tolerances its own."""
+    from solvers._scaling import load_scaling
+
+    row_scale, column_scale = load_scaling(lp, ops, normal_like)
+    return {"row_scale": row_scale, "column_scale": column_scale}
 
 
 #: highspy.HighsBasisStatus values

@@ -1,4 +1,4 @@
-"""``kinematic-lp``: the associative kinematic LP (2) with HiGHS.
+"""``kinematic-lp``: the associative kinematic LP (2) with HiGHS, in load units (:mod:`solvers._scaling`).
 
 The interface forces are the duals of the compatibility rows (``x = y_c``) and
 the multiplier is the dual of the normalisation row, which equals the optimal
@@ -7,10 +7,26 @@ value ``-f_d^T u``.
 
 from __future__ import annotations
 
+from dataclasses import dataclass, field
+
+from blockmpec import options as check
 from blockmpec.registry import register_solver
 from blockmpec.result import Solution, Status
 from blockmpec.solver import RunOutput, SolverBase
-from solvers.static_lp import LPOptions
+
+
+@dataclass
+class KinematicLPOptions:
+    """Options of ``kinematic-lp`` (HiGHS only: the block IPM needs the static LP's shape)."""
+
+    algorithm: str = field(default="auto", metadata={"help": "auto | simplex | dual-simplex | primal-simplex | ipm"})
+    time_limit: float = field(default=float("inf"), metadata={"help": "seconds"})
+
+    def __post_init__(self) -> None:
+        from solvers._highs import ALGORITHMS
+
+        check.choice(self, "algorithm", ALGORITHMS)
+        check.positive(self, "time_limit", finite=False)
 
 
 @register_solver
@@ -21,7 +37,7 @@ class KinematicLP(SolverBase):
     problem = "associative"
     summary = "associative kinematic LP (2) with HiGHS; forces from the duals"
     requires = ("highspy", "pyomo")
-    Options = LPOptions
+    Options = KinematicLPOptions
 
     def setup(self, ops):
         from formulations import compile_linear, kinematic_lp
@@ -29,7 +45,11 @@ class KinematicLP(SolverBase):
 
         self.ops = ops
         self.lp = compile_linear(kinematic_lp(ops))
-        self.highs = HighsLP(self.lp, self.options.algorithm, self.options.time_limit)
+        from solvers._scaling import kinematic_scaling
+
+        row_scale, column_scale = kinematic_scaling(self.lp, ops)
+        self.highs = HighsLP(self.lp, self.options.algorithm, self.options.time_limit, row_scale=row_scale,
+                             column_scale=column_scale)
 
     def run(self) -> RunOutput:
         out = self.highs.solve()
