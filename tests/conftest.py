@@ -38,3 +38,14 @@ def assert_residuals_within(res: bm.Result, tol: float, status: bm.Status | None
 def builtin_structures():
     """One default instance of every built-in case."""
     return {name: spec.build() for name, spec in bm.cases.CASES.items()}
+
+
+def block_on_block(big: float, small: float) -> bm.Structure:
+    """A ``big`` square block on a fixed base carrying a ``small x 2 small`` block (rocks first at lam = 0.5)."""
+    # a big x big block carrying a small x 2 small block: the small block topples first at lam = b/h = 0.5
+    polys = [
+        [[-2 * big, -big / 10], [3 * big, -big / 10], [3 * big, 0], [-2 * big, 0]],
+        [[0, 0], [big, 0], [big, big], [0, big]],
+        [[big / 2, big], [big / 2 + small, big], [big / 2 + small, big + 2 * small], [big / 2, big + 2 * small]],
+    ]
+    return bm.make_structure(polys, [True, False, False], friction=0.65)

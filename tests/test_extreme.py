@@ -15,7 +15,7 @@ import itertools
 import pytest
 
 import blockmpec as bm
-from conftest import assert_success
+from conftest import assert_success, block_on_block
 
 
 @pytest.mark.parametrize(("eta", "mu"), list(itertools.product([0.05, 0.5, 5, 50], [1e-4, 1e-2, 1.0, 10.0, 100.0])))
@@ -51,19 +51,9 @@ def test_arch_multiplier_independent_of_size(size):
     assert round(res.multiplier, 5) == 0.16034
 
 
-def _block_on_block(big: float, small: float):
-    # a big x big block carrying a small x 2 small block: the small block topples first at lam = b/h = 0.5
-    polys = [
-        [[-2 * big, -big / 10], [3 * big, -big / 10], [3 * big, 0], [-2 * big, 0]],
-        [[0, 0], [big, 0], [big, big], [0, big]],
-        [[big / 2, big], [big / 2 + small, big], [big / 2 + small, big + 2 * small], [big / 2, big + 2 * small]],
-    ]
-    return bm.make_structure(polys, [True, False, False], friction=0.65)
-
-
 @pytest.mark.parametrize("ratio", [1e-1, 1e-2])
 def test_mixing_large_and_small_blocks(ratio):
-    s = _block_on_block(1.0, ratio)
+    s = block_on_block(1.0, ratio)
     assert len(s.interfaces) == 2
     for method in ("static-lp", "kinematic-lp"):
         assert_success(bm.solve(s, method), 0.5, rtol=1e-7)
@@ -78,7 +68,7 @@ def test_mixing_huge_and_tiny_blocks(big, small, method, options):
     Before the LPs were scaled to load units (solvers/_scaling.py) HiGHS's absolute tolerances
     swallowed the tiny block and returned 0.65 (which the verifier rejected), and the shoelace
     centroid in absolute coordinates moved lam by 0.5% at 1e-5."""
-    s = _block_on_block(big, small)
+    s = block_on_block(big, small)
     assert len(s.interfaces) == 2
     assert_success(bm.solve(s, method, **options), 0.5, rtol=1e-7)
 
@@ -207,7 +197,7 @@ def test_wall_certified_minimum_independent_of_size(size):
 def test_mixing_large_and_small_blocks_non_associative(method):
     """Size ratio 1e-1: the small block rocks at b/h = 0.5 without sliding, so the non-associative
     minimum is 0.5 too (milp certifies it) and every verified method returns it."""
-    res = bm.solve(_block_on_block(1.0, 1e-1), method)
+    res = bm.solve(block_on_block(1.0, 1e-1), method)
     if method in ("milp", *ROBUST):
         assert_success(res)
     if res.success:
@@ -219,7 +209,7 @@ def test_nlp_is_not_verified_below_the_certified_minimum_at_size_ratio_1e2():
     rocking slack 2.5e-9 against z_u = 1.8e5, a complementarity work of ~5e-4 in lam units that the
     verifier read as 2e-9 relative to ||E^T u|| ||x|| (the big block's forces).  The verifier now also
     reads works in lam units (blockmpec/verify.py)."""
-    structure = _block_on_block(1.0, 1e-2)
+    structure = block_on_block(1.0, 1e-2)
     minimum = bm.solve(structure, "milp")
     assert minimum.status is bm.Status.OPTIMAL and abs(minimum.multiplier - 0.5) <= CERTIFIED_TOL
     res = bm.solve(structure, "nlp")
@@ -233,7 +223,7 @@ def test_mixing_huge_and_tiny_blocks_non_associative(method):
     whose models are not scaled per block, lose the tiny block in their tolerances and say so with
     status NUMERICAL (verifier disagreement, or milp's 'not a proof of infeasibility').  A success must
     carry the right value; INFEASIBLE would be wrong ((3) has solutions)."""
-    res = bm.solve(_block_on_block(1e3, 1e-3), method)
+    res = bm.solve(block_on_block(1e3, 1e-3), method)
     if method in ("fixed-point", "slp", "mcp-newton"):
         assert_success(res)
     if res.success:

@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 import blockmpec as bm
-from conftest import assert_success, two_block_associative
+from conftest import assert_success, block_on_block, two_block_associative
 from formulations import compile_linear, kinematic_lp, static_lp
 from solvers._block_ipm import AUTO_BLOCK_IPM_ROWS, BlockIPM, cold_lp_engine, interface_blocks
 from solvers._highs import HighsLP
@@ -145,3 +145,39 @@ def test_block_ipm_unbounded_lp_is_a_clear_non_success():
     res = bm.solve(structure, "static-lp", algorithm="block-ipm")
     assert not res.success and res.multiplier is None
     assert "infeasible or unbounded" in res.message
+
+
+@pytest.mark.parametrize("seed", [0, 1])
+def test_highs_scaling_returns_values_and_duals_in_the_lp_units(seed):
+    """Any positive row and column scaling of the static LP gives the same lam, and forces and mechanism
+    (v = C v^, y = R y^) that verify in the LP's units: the unscaling of solvers._highs.HighsLP is exact.
+    (Forces and mechanism themselves need not agree: this LP has several optimal vertices.)"""
+    from solvers._highs import static_lp_solution
+
+    ops = bm.assemble(bm.cases.wall())
+    lp = compile_linear(static_lp(ops))
+    rng = np.random.default_rng(seed)
+    row_scale = 10.0 ** rng.uniform(-3, 3, lp.A.shape[0])
+    column_scale = 10.0 ** rng.uniform(-3, 3, lp.c.size)
+    plain = static_lp_solution(lp, HighsLP(lp, "dual-simplex").solve())
+    scaled = static_lp_solution(lp, HighsLP(lp, "dual-simplex", row_scale=row_scale, column_scale=column_scale).solve())
+    assert scaled.multiplier == pytest.approx(plain.multiplier, rel=1e-9)
+    res = bm.verify.residuals(ops, scaled, associative=True)
+    assert max(res.values()) < 1e-6, res
+
+
+def test_load_scaling_puts_each_block_in_its_own_units():
+    """A 1e-3 x 2e-3 block on a unit block: its equilibrium rows are scaled by 1/its load (5e5 times the
+    big block's) and its interface's forces measured in its own load."""
+    from solvers._scaling import block_loads, load_scaling
+
+    ops = bm.assemble(block_on_block(1.0, 1e-3))
+    lp = compile_linear(static_lp(ops))
+    row_scale, column_scale = load_scaling(lp, ops)
+    loads = block_loads(ops)
+    assert loads[0] / loads[1] == pytest.approx(1.0 / 2e-6, rel=1e-9)  # areas 1 and 1e-3 x 2e-3
+    eq = lp.rows["equilibrium"].reshape(-1, 3)
+    assert np.allclose(row_scale[eq[1]] * loads[1], 1.0) and np.allclose(row_scale[eq[0]] * loads[0], 1.0)
+    small_interface = int(np.argmin(ops.length))
+    t, n = lp.columns["x"][3 * small_interface: 3 * small_interface + 2]
+    assert column_scale[t] == column_scale[n] == pytest.approx(loads[1])
