@@ -111,6 +111,12 @@ def test_auto_engine_uses_the_block_ipm_above_the_threshold():
     assert small.A.shape[0] <= AUTO_BLOCK_IPM_ROWS < large.A.shape[0]
     assert isinstance(cold_lp_engine(small, "auto"), HighsLP)
     assert isinstance(cold_lp_engine(large, "auto"), BlockIPM)
+    # a small LP whose block loads span more than AUTO_BLOCK_IPM_LOAD_SPREAD also goes to the block IPM
+    stiff_ops = bm.assemble(block_on_block(1.0, 1e-3))
+    stiff = compile_linear(static_lp(stiff_ops))
+    assert stiff.A.shape[0] <= AUTO_BLOCK_IPM_ROWS
+    assert isinstance(cold_lp_engine(stiff, "auto", ops=stiff_ops), BlockIPM)
+    assert isinstance(cold_lp_engine(small, "auto", ops=bm.assemble(bm.cases.wall())), HighsLP)
 
 
 def test_lp_sequence_time_limit_counts_from_the_instance_clock():
