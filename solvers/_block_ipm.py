@@ -99,10 +99,10 @@ class BlockIPM:
     time_limit : float
         Seconds per :meth:`solve`.
     row_scale, column_scale : ndarray, optional
-        Positive diagonal scalings ``R`` of the equality rows (shape: number of equality
-        rows, in row order) and ``C`` of the columns: the method works on
-        ``R A C``, ``R b``, ``C c``; inequality rows are then scaled to unit largest
-        entry.  Tolerances apply to the scaled problem, so a good scaling makes every
+        Positive diagonal scalings ``R`` of the rows and ``C`` of the columns, as for
+        :class:`solvers._highs.HighsLP`: the method works on ``R A C``, ``R b``, ``C c``
+        for the equality rows; inequality rows are scaled to unit largest entry
+        after ``C`` (their part of ``R`` is not needed).  Tolerances apply to the scaled problem, so a good scaling makes every
         block's equilibrium hold relative to its own loads (see :mod:`solvers._scaling`).
     """
 
@@ -133,7 +133,7 @@ class BlockIPM:
         self.in_sign = np.where(le[self.in_rows], 1.0, -1.0)  # ">=" rows negated to "<="
         self._in_position = np.full(A.shape[0], -1)
         self._in_position[self.in_rows] = np.arange(self.in_rows.size)
-        self.row_scale = np.ones(self.eq_rows.size) if row_scale is None else np.asarray(row_scale, float)
+        self.row_scale = np.ones(self.eq_rows.size) if row_scale is None else np.asarray(row_scale, float)[self.eq_rows]
         self.column_scale = np.ones(n) if column_scale is None else np.asarray(column_scale, float)
         R, C = sp.diags(self.row_scale), sp.diags(self.column_scale)
         self.A = (R @ A[self.eq_rows] @ C).tocsr()
@@ -176,7 +176,6 @@ class BlockIPM:
         self.A_B = self.A[:, block_columns.ravel()].tocsr()  # columns in block order
         self.A_F = self.A[:, self.border].toarray() if self.border.size else np.zeros((self.A.shape[0], 0))
         self._perm = None
-        self.last_iterations = 0
 
     def set_row_upper(self, rows: np.ndarray, upper: np.ndarray) -> None:
         """Change the upper bounds of ``<=`` rows ``rows`` of the compiled LP (as :class:`HighsLP` does)."""
@@ -351,26 +350,10 @@ class BlockIPM:
         return it
 
     def solve(self) -> LPOutcome:
-        """Solve from Mehrotra's starting point (the interface of :class:`solvers._highs.HighsLP`)."""
-        return self.iterate()[0]
-
-    def iterate(self, start: IPMIterate | None = None, keep_mu: float | None = None) -> tuple[LPOutcome, IPMIterate,
-                                                                                             IPMIterate | None]:
-        """Run Mehrotra's method from ``start`` (default: :meth:`initial_point`).
-
-        Returns the outcome (HiGHS conventions), the final iterate and, if
-        ``keep_mu`` is given, the first iterate with ``mu <= keep_mu`` (a warm start
-        for a nearby LP; IPM warm starts work from well-centred points, not from
-        the end of the path).
-        """
+        """Run Mehrotra's method from :meth:`initial_point`; the outcome in HiGHS's conventions."""
         t0 = time.perf_counter()
-        it = self.initial_point() if start is None else start.copy()
-        if start is not None:  # recentre: bounded away from the boundary
-            floor = max(1e-4, float(np.mean(it.s * it.y)) ** 0.5)
-            it.s = np.maximum(it.s, floor)
-            it.y = np.maximum(it.y, floor)
+        it = self.initial_point()
         p = self.h.size
-        kept = None
         status, message = Status.ITERATION_LIMIT, f"no convergence in {self.max_iterations} iterations"
         best, best_error, best_k = it.copy(), np.inf, 0
         best_measures = (np.inf, np.inf, np.inf)
@@ -379,8 +362,6 @@ class BlockIPM:
             primal, dual, gap = self.measures(it)
             error = max(primal, dual, gap)
             mu = float(it.s @ it.y) / p
-            if keep_mu is not None and kept is None and mu <= keep_mu:
-                kept = it.copy()
             if error < best_error:
                 best, best_error, best_k = it.copy(), error, k
                 best_measures = (primal, dual, gap)
@@ -443,15 +424,12 @@ class BlockIPM:
             if status is Status.ITERATION_LIMIT and best_error <= self.acceptable_tol:
                 status = Status.ACCEPTABLE
                 message += f"; best relative residual {best_error:.1e}"
-        self.last_iterations = k
         # back to the compiled LP's units: v = C v^, w = R w^, y = S y^
         row_dual = np.zeros(self.lp.A.shape[0])
         row_dual[self.eq_rows] = self.row_scale * it.w
         row_dual[self.in_rows] = -self.in_sign * self.in_scale * it.y
         objective = float(self.c @ it.v) if status.is_success else float("nan")
-        outcome = LPOutcome(status, f"block-ipm: {status.value}", objective, self.column_scale * it.v, row_dual, k,
-                            message)
-        return outcome, it, kept
+        return LPOutcome(status, f"block-ipm: {status.value}", objective, self.column_scale * it.v, row_dual, k, message)
 
 
 def _inf(a: np.ndarray) -> float:
@@ -490,6 +468,5 @@ def cold_lp_engine(lp: LinearProgram, algorithm: str = "auto", time_limit: float
         algorithm = "block-ipm" if large or stiff else "dual-simplex"
     row_scale, column_scale = load_scaling(lp, ops) if ops is not None else (None, None)
     if algorithm == "block-ipm":
-        eq_scale = None if row_scale is None else row_scale[lp.row_lower == lp.row_upper]
-        return BlockIPM(lp, interface_blocks(lp), time_limit=time_limit, row_scale=eq_scale, column_scale=column_scale)
+        return BlockIPM(lp, interface_blocks(lp), time_limit=time_limit, row_scale=row_scale, column_scale=column_scale)
     return HighsLP(lp, algorithm, time_limit, row_scale=row_scale, column_scale=column_scale)

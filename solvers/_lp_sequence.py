@@ -266,7 +266,7 @@ def _scales(lp, ops, normal_like=()) -> dict:
 
 
 #: highspy.HighsBasisStatus values
-AT_LOWER, BASIC, AT_UPPER, FREE_NONBASIC = 0, 1, 2, 3
+AT_LOWER, BASIC, AT_UPPER = 0, 1, 2
 
 
 def _map_basis(src, dst, col_status, row_status, column_groups, row_groups):

@@ -45,6 +45,15 @@ def load_spread(ops: Operators) -> float:
     return float(loads.max() / loads.min()) if loads.size else 1.0
 
 
+def interface_units(ops: Operators) -> tuple[np.ndarray, np.ndarray]:
+    """Block loads ``l_i`` (a zero load replaced by the largest) and interface force units ``l_k``."""
+    load = block_loads(ops)
+    load = np.where(load > 0, load, np.max(load, initial=1.0))
+    side = np.column_stack([ops.minus_dof, ops.plus_dof])
+    force_unit = np.where(side >= 0, load[np.maximum(side, 0)], np.inf).min(axis=1)
+    return load, force_unit
+
+
 def load_scaling(lp: LinearProgram, ops: Operators, normal_like: tuple[str, ...] = ()) -> tuple[np.ndarray, np.ndarray]:
     """Row and column scales ``(R, C)`` of a static-type LP (see the module docstring).
 
@@ -53,10 +62,7 @@ def load_scaling(lp: LinearProgram, ops: Operators, normal_like: tuple[str, ...]
     row_scale : ndarray, shape (rows,)
     column_scale : ndarray, shape (columns,)
     """
-    load = block_loads(ops)
-    load = np.where(load > 0, load, np.max(load, initial=1.0))
-    side = np.column_stack([ops.minus_dof, ops.plus_dof])
-    force_unit = np.where(side >= 0, load[np.maximum(side, 0)], np.inf).min(axis=1)
+    load, force_unit = interface_units(ops)
     column_scale = np.ones(lp.c.size)
     unit = np.column_stack([force_unit, force_unit, force_unit * np.maximum(ops.length, 1e-300)]).ravel()
     _assign(column_scale, lp.columns["x"], unit)
@@ -78,10 +84,7 @@ def kinematic_scaling(lp: LinearProgram, ops: Operators) -> tuple[np.ndarray, np
     :func:`load_scaling` gives them: ``1/(l_k L_k)`` for ``m +- n L/2``, ``1/(l_k max(1, mu_k))``
     for ``+-t + mu_k n``.
     """
-    load = block_loads(ops)
-    load = np.where(load > 0, load, np.max(load, initial=1.0))
-    side = np.column_stack([ops.minus_dof, ops.plus_dof])
-    force_unit = np.where(side >= 0, load[np.maximum(side, 0)], np.inf).min(axis=1)
+    load, force_unit = interface_units(ops)
     length = np.maximum(ops.length, 1e-300)
     column_scale = np.ones(lp.c.size)
     _assign(column_scale, lp.columns["u"], np.repeat(1.0 / load, 3))

@@ -42,11 +42,10 @@ class KinematicLP(SolverBase):
     def setup(self, ops):
         from formulations import compile_linear, kinematic_lp
         from solvers._highs import HighsLP
+        from solvers._scaling import kinematic_scaling
 
         self.ops = ops
         self.lp = compile_linear(kinematic_lp(ops))
-        from solvers._scaling import kinematic_scaling
-
         row_scale, column_scale = kinematic_scaling(self.lp, ops)
         self.highs = HighsLP(self.lp, self.options.algorithm, self.options.time_limit, row_scale=row_scale,
                              column_scale=column_scale)

@@ -44,7 +44,7 @@ def time_one(n_blocks: int, algorithm: str, time_limit: float = float("inf")) ->
     t3 = time.perf_counter()
     lp = compile_linear(problem)
     t4 = time.perf_counter()
-    engine = cold_lp_engine(lp, algorithm, time_limit)
+    engine = cold_lp_engine(lp, algorithm, time_limit, ops=ops)  # as static-lp runs it: in load units
     t5 = time.perf_counter()
     out = engine.solve()
     t6 = time.perf_counter()
