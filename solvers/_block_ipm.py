@@ -102,8 +102,9 @@ class BlockIPM:
         Positive diagonal scalings ``R`` of the rows and ``C`` of the columns, as for
         :class:`solvers._highs.HighsLP`: the method works on ``R A C``, ``R b``, ``C c``
         for the equality rows; inequality rows are scaled to unit largest entry
-        after ``C`` (their part of ``R`` is not needed).  Tolerances apply to the scaled problem, so a good scaling makes every
-        block's equilibrium hold relative to its own loads (see :mod:`solvers._scaling`).
+        after ``C`` (their part of ``R`` is not needed).  Tolerances apply to the
+        scaled problem, so a good scaling makes every block's equilibrium hold
+        relative to its own loads (see :mod:`solvers._scaling`).
     """
 
     def __init__(self, lp: LinearProgram, block_columns: np.ndarray, tol: float = 1e-9,
@@ -163,19 +164,22 @@ class BlockIPM:
         check[G.row] = blocks_of_entries != row_block[G.row]
         if np.any(check) or np.any(row_block < 0):
             raise ValueError("block IPM: an inequality row spans two blocks or is empty")
-        self.row_block = row_block
-        self.g = np.zeros((G.shape[0], self.k))
-        np.add.at(self.g, (G.row, local_of[G.col]), G.data)
+        g = np.zeros((G.shape[0], self.k))
+        np.add.at(g, (G.row, local_of[G.col]), G.data)
         self.G = G.tocsr()
         counts = np.bincount(row_block, minlength=self.n_blocks)
         if counts.min() != counts.max() or counts[0] == 0:
             raise ValueError("block IPM: every block needs the same number of inequality rows")
         self.rows_per_block = int(counts[0])
         self.block_rows = np.argsort(row_block, kind="stable").reshape(self.n_blocks, self.rows_per_block)
-        self.g_blocks = self.g[self.block_rows]  # (n_blocks, r, k)
+        self.g_blocks = g[self.block_rows]  # (n_blocks, r, k)
         self.A_B = self.A[:, block_columns.ravel()].tocsr()  # columns in block order
         self.A_F = self.A[:, self.border].toarray() if self.border.size else np.zeros((self.A.shape[0], 0))
         self._perm = None
+        # CSR pattern of the block-diagonal H^{-1} (fixed; values change per iteration)
+        k, nb = self.k, self.n_blocks
+        self._hinv_indptr = np.arange(0, nb * k * k + 1, k)
+        self._hinv_indices = (np.arange(nb)[:, None, None] * k + np.arange(k)[None, None, :]).repeat(k, axis=1).ravel()
 
     def set_row_upper(self, rows: np.ndarray, upper: np.ndarray) -> None:
         """Change the upper bounds of ``<=`` rows ``rows`` of the compiled LP (as :class:`HighsLP` does)."""
@@ -215,9 +219,7 @@ class BlockIPM:
         M_inv = np.linalg.inv(M)  # LU with partial pivoting, per block
         Hinv = M_inv[:, :k, :k]
         Hinv = 0.5 * (Hinv + np.swapaxes(Hinv, 1, 2))
-        indptr = np.arange(0, nb * k * k + 1, k)
-        indices = (np.arange(nb)[:, None, None] * k + np.arange(k)[None, None, :]).repeat(k, axis=1).ravel()
-        Hinv_mat = sp.csr_array((Hinv.ravel(), indices, indptr), shape=(nb * k, nb * k))
+        Hinv_mat = sp.csr_array((Hinv.ravel(), self._hinv_indices, self._hinv_indptr), shape=(nb * k, nb * k))
         K = (self.A_B @ Hinv_mat @ self.A_B.T).tocsc()
         # a relative diagonal shift (1e-12 K_ii) keeps SuperLU's pivots nonzero where a
         # block's forces are all fixed by active rows; iterative refinement against the
@@ -321,9 +323,9 @@ class BlockIPM:
         r_c = self.c - self.A.T @ it.w + self.G.T @ it.y
         return r_b, r_h, r_c
 
-    def measures(self, it: IPMIterate) -> tuple[float, float, float]:
-        """Relative (primal, dual, gap) of an iterate."""
-        r_b, r_h, r_c = self.residuals(it)
+    def measures(self, it: IPMIterate, residuals=None) -> tuple[float, float, float]:
+        """Relative (primal, dual, gap) of an iterate (``residuals``: its :meth:`residuals`, if known)."""
+        r_b, r_h, r_c = self.residuals(it) if residuals is None else residuals
         primal = max(_inf(r_b) / (1 + _inf(self.b)), _inf(r_h) / (1 + _inf(self.h)))
         dual = _inf(r_c) / (1 + _inf(self.c))
         pobj = self.c @ it.v
@@ -359,7 +361,8 @@ class BlockIPM:
         best_measures = (np.inf, np.inf, np.inf)
         k = 0
         for k in range(self.max_iterations + 1):
-            primal, dual, gap = self.measures(it)
+            r_b, r_h, r_c = self.residuals(it)
+            primal, dual, gap = self.measures(it, (r_b, r_h, r_c))
             error = max(primal, dual, gap)
             mu = float(it.s @ it.y) / p
             if error < best_error:
@@ -387,7 +390,6 @@ class BlockIPM:
             if time.perf_counter() - t0 > self.time_limit:
                 status, message = Status.TIME_LIMIT, f"time limit {self.time_limit:g} s reached"
                 break
-            r_b, r_h, r_c = self.residuals(it)
             factors = self._factorise(it)
             # predictor (affine scaling)
             dv, ds, dw, dy = self._direction(it, factors, r_b, r_h, r_c, -it.s * it.y)
