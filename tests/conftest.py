@@ -16,6 +16,22 @@ def two_block_nonassociative_min(eta: float, mu: float) -> float:
     return bm.cases.closed_form("two-blocks", "non-associative", eta=eta, mu=mu)
 
 
+#: the non-associative methods other than the certified ``milp``
+HEURISTICS = [m for m in bm.list_solvers("non-associative") if m != "milp"]
+#: A heuristic's success means every relative residual of (3) is at most ``verify_tol`` = 1e-6
+#: (bm.solve's default), so its multiplier is that of an exact solution of (3) only to about 1e-6
+#: on lam's scale max(1, |lam|) (unit-density loads: the live load is the weight).
+HEURISTIC_TOL = 1e-6
+#: ``milp`` results are polished to round-off (exact LPs on a fixed pattern) and certified up to its
+#: CERTIFICATE_TOL = 1e-7 (times max(1, |lam|)); the static LP's optimum is exact to HiGHS's 1e-9.
+CERTIFIED_TOL = 1e-7
+
+
+def margin(tol: float, lam: float) -> float:
+    """``tol`` on lam's scale ``max(1, |lam|)``."""
+    return tol * max(1.0, abs(lam))
+
+
 def assert_success(res: bm.Result, multiplier: float | None = None, rtol: float = 1e-8) -> None:
     """A scipy-style assertion helper: success, and the multiplier if given."""
     assert res.success, f"{res.method}: status {res.status.value}, message: {res.message}, residuals {res.residuals}"

@@ -12,6 +12,7 @@ import pytest
 
 import blockmpec as bm
 from blockmpec.result import Status
+from conftest import HEURISTICS
 
 CASES = {
     "two-blocks-3-0.65": bm.cases.two_blocks(eta=3, mu=0.65),
@@ -22,7 +23,6 @@ CASES = {
     "wall-2x2": bm.cases.wall(courses=2, blocks_per_course=2),
     "wall-3x2": bm.cases.wall(courses=3, blocks_per_course=2),
 }
-NON_ASSOCIATIVE = [m for m in bm.list_solvers("non-associative") if m != "milp"]
 
 
 @pytest.fixture(scope="module")
@@ -41,7 +41,7 @@ def test_milp_certifies_the_small_built_in_cases(certified, case):
     assert res.multiplier <= assoc + 1e-9
 
 
-@pytest.mark.parametrize("method", NON_ASSOCIATIVE)
+@pytest.mark.parametrize("method", HEURISTICS)
 @pytest.mark.parametrize("case", list(CASES))
 def test_no_verified_result_beats_the_certified_minimum(certified, case, method):
     ref, assoc = certified[case]

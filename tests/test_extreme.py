@@ -15,7 +15,7 @@ import itertools
 import pytest
 
 import blockmpec as bm
-from conftest import assert_success, block_on_block
+from conftest import CERTIFIED_TOL, HEURISTIC_TOL, HEURISTICS, assert_success, block_on_block, margin
 
 
 @pytest.mark.parametrize(("eta", "mu"), list(itertools.product([0.05, 0.5, 5, 50], [1e-4, 1e-2, 1.0, 10.0, 100.0])))
@@ -113,16 +113,9 @@ def test_large_wall_solves():
 # to 1e-7 max(1, |lam|) (its CERTIFICATE_TOL); the fixed point's tie-break may lower lam by
 # 1e-10 max(1, |lam|) by design, which is why the tight checks below carry an absolute 1e-9.
 
-HEURISTICS = [m for m in bm.list_solvers("non-associative") if m != "milp"]
 #: exact-solution methods expected to return a verified solution of (3) on every two-block case
 ROBUST = ("fixed-point", "mcp-newton")
-HEURISTIC_TOL = 1e-6
-CERTIFIED_TOL = 1e-7
 EXTREME_GRID = list(itertools.product([0.05, 0.5, 5, 50], [1e-4, 1e-2, 1.0, 10.0, 100.0]))
-
-
-def _margin(tol, lam):
-    return tol * max(1.0, abs(lam))
 
 
 @functools.cache
@@ -141,8 +134,8 @@ def test_two_blocks_extreme_certified_minimum_and_maximum(eta, mu):
     for res in (lo, hi):
         assert res.status is bm.Status.OPTIMAL and res.success, (res.status, res.message)
     expected = bm.cases.closed_form("two-blocks", "non-associative", eta=eta, mu=mu)
-    assert abs(lo.multiplier - expected) <= _margin(CERTIFIED_TOL, expected)
-    assert abs(hi.multiplier - assoc.multiplier) <= _margin(CERTIFIED_TOL, assoc.multiplier)
+    assert abs(lo.multiplier - expected) <= margin(CERTIFIED_TOL, expected)
+    assert abs(hi.multiplier - assoc.multiplier) <= margin(CERTIFIED_TOL, assoc.multiplier)
 
 
 @pytest.mark.parametrize(("method", "eta", "mu"),
@@ -161,7 +154,7 @@ def test_two_blocks_extreme_heuristics_between_minimum_and_associative(method, e
     if method in ROBUST:
         assert_success(res)
     if res.success:
-        assert lower - _margin(HEURISTIC_TOL, lower) <= res.multiplier <= upper + _margin(HEURISTIC_TOL, upper)
+        assert lower - margin(HEURISTIC_TOL, lower) <= res.multiplier <= upper + margin(HEURISTIC_TOL, upper)
     else:
         assert res.status is not bm.Status.INFEASIBLE, res.message
         assert res.message
@@ -190,7 +183,7 @@ def test_wall_certified_minimum_independent_of_size(size):
                                friction=wall.friction)
     ref, res = bm.solve(wall, "milp"), bm.solve(scaled, "milp")
     assert ref.status is bm.Status.OPTIMAL and res.status is bm.Status.OPTIMAL
-    assert abs(res.multiplier - ref.multiplier) <= _margin(CERTIFIED_TOL, ref.multiplier)
+    assert abs(res.multiplier - ref.multiplier) <= margin(CERTIFIED_TOL, ref.multiplier)
 
 
 @pytest.mark.parametrize("method", ["milp", *HEURISTICS])
@@ -213,7 +206,7 @@ def test_nlp_is_not_verified_below_the_certified_minimum_at_size_ratio_1e2():
     minimum = bm.solve(structure, "milp")
     assert minimum.status is bm.Status.OPTIMAL and abs(minimum.multiplier - 0.5) <= CERTIFIED_TOL
     res = bm.solve(structure, "nlp")
-    assert not res.success or res.multiplier >= 0.5 - _margin(HEURISTIC_TOL, 0.5), (res.status, res.multiplier)
+    assert not res.success or res.multiplier >= 0.5 - margin(HEURISTIC_TOL, 0.5), (res.status, res.multiplier)
 
 
 @pytest.mark.parametrize("method", ["milp", *HEURISTICS])
@@ -291,7 +284,7 @@ def test_dilatancy_equal_to_friction_every_method_gives_the_associative_multipli
     res = bm.solve(structure, method)
     assert_success(res)
     tol = CERTIFIED_TOL if method == "milp" else HEURISTIC_TOL
-    assert abs(res.multiplier - assoc.multiplier) <= _margin(tol, assoc.multiplier), (res.multiplier, assoc.multiplier)
+    assert abs(res.multiplier - assoc.multiplier) <= margin(tol, assoc.multiplier), (res.multiplier, assoc.multiplier)
 
 
 def _overhanging_block(offset, width, height, mu):

@@ -25,21 +25,12 @@ from hypothesis import HealthCheck, assume, given, note, settings
 from hypothesis import strategies as st
 
 import blockmpec as bm
+from conftest import CERTIFIED_TOL, HEURISTIC_TOL, HEURISTICS, margin
 
 SETTINGS = settings(max_examples=25, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 #: the multi-solver properties run seven solves per example (milp up to ~1 s): few examples
 MULTI_SOLVER_SETTINGS = settings(max_examples=12, deadline=None,
                                  suppress_health_check=[HealthCheck.too_slow, HealthCheck.filter_too_much])
-#: the non-associative methods other than the certified ``milp``
-HEURISTICS = [m for m in bm.list_solvers("non-associative") if m != "milp"]
-#: A heuristic's success means every relative residual of (3) is at most ``verify_tol`` = 1e-6
-#: (bm.solve's default), so its multiplier is that of an exact solution of (3) only to about 1e-6
-#: times the load scale; with unit-density loads the live load is the weight, so lam's own scale is
-#: max(1, |lam|) (the same floor as the fixed point's tie-break slack 1e-10 max(1, |lam|)).
-HEURISTIC_TOL = 1e-6
-#: ``milp`` results are polished to round-off (exact LPs on a fixed pattern) and certified up to its
-#: CERTIFICATE_TOL = 1e-7 (times max(1, |lam|)); the static LP's optimum is exact to HiGHS's 1e-9.
-CERTIFIED_TOL = 1e-7
 MILP_TIME_LIMIT = 20.0
 
 
@@ -162,10 +153,6 @@ def test_no_crash_on_random_structures(stack):
     assert res.success or res.status in (bm.Status.UNBOUNDED, bm.Status.INFEASIBLE)
 
 
-def _margin(tol, lam):
-    return tol * max(1.0, abs(lam))
-
-
 @MULTI_SOLVER_SETTINGS
 @given(small_structures())
 def test_no_verified_heuristic_below_the_certified_minimum(structure):
@@ -178,7 +165,7 @@ def test_no_verified_heuristic_below_the_certified_minimum(structure):
         res = bm.solve(ops, method)
         note(f"{method}: {res.status.value} {res.multiplier}")
         if res.success:
-            assert res.multiplier >= minimum.multiplier - _margin(HEURISTIC_TOL, minimum.multiplier), (
+            assert res.multiplier >= minimum.multiplier - margin(HEURISTIC_TOL, minimum.multiplier), (
                 method, res.multiplier, minimum.multiplier)
 
 
@@ -201,9 +188,9 @@ def test_associative_multiplier_bounds_every_non_associative_one(structure):
     for method, res in results.items():
         if res.success:
             tol = CERTIFIED_TOL if method == "milp" else HEURISTIC_TOL
-            assert res.multiplier <= assoc.multiplier + _margin(tol, assoc.multiplier), (
+            assert res.multiplier <= assoc.multiplier + margin(tol, assoc.multiplier), (
                 method, res.multiplier, assoc.multiplier)
     if maximum.status is bm.Status.OPTIMAL:
         assert maximum.success, maximum.residuals
-        assert abs(maximum.multiplier - assoc.multiplier) <= _margin(CERTIFIED_TOL, assoc.multiplier), (
+        assert abs(maximum.multiplier - assoc.multiplier) <= margin(CERTIFIED_TOL, assoc.multiplier), (
             maximum.multiplier, assoc.multiplier)
