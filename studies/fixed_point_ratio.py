@@ -26,7 +26,7 @@ from pathlib import Path
 import blockmpec as bm
 
 sys.path.insert(0, str(Path(__file__).parent))
-from benchmark_scaling import write_csv  # noqa: E402
+from benchmark_scaling import markdown, write_csv  # noqa: E402
 from lp_timing import wall_for  # noqa: E402
 
 OUT = Path(__file__).parent / "output" / "fixed_point_ratio"
@@ -62,11 +62,7 @@ def main(argv: list[str] | None = None) -> list[dict]:
     rows = [measure(int(n), algorithms, args.time_limit) for n in args.sizes.split(",")]
     keys = ["blocks", *[f"lp_{a}_s" for a in algorithms], "fp_s", "fp_iterations", "fp_status",
             "fp_associative_s", "fp_step_s", "fp_tie_break_s", *[f"ratio_vs_{a}" for a in algorithms]]
-    print("| " + " | ".join(keys) + " |")
-    print("|" + "---|" * len(keys))
-    for r in rows:
-        cells = [f"{r.get(k):.3g}" if isinstance(r.get(k), float) else str(r.get(k)) for k in keys]
-        print("| " + " | ".join(cells) + " |")
+    print(markdown(rows, [(k, k, "{}" if k == "fp_status" else "{:.3g}") for k in keys]))
     OUT.mkdir(parents=True, exist_ok=True)
     write_csv(OUT / "ratio.csv", rows)
     print(f"wrote {OUT / 'ratio.csv'}")
