@@ -108,7 +108,7 @@ def cmd_cases(args: argparse.Namespace) -> int:
 
 
 def cmd_methods(args: argparse.Namespace) -> int:
-    from solvers import FAILED_PLUGINS
+    from blockmpec.solvers import FAILED_PLUGINS
 
     for module, error in FAILED_PLUGINS.items():
         print(f"solvers/{module}.py failed to import: {error}", file=sys.stderr)

@@ -34,7 +34,7 @@ def register_solver(cls: type[SolverBase]) -> type[SolverBase]:
 def _load_plugins() -> None:
     global _loaded
     if not _loaded:
-        importlib.import_module("solvers")
+        importlib.import_module("blockmpec.solvers")
         _loaded = True
 
 

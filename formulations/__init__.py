@@ -12,11 +12,11 @@ name.  :func:`compile_linear` turns a linear model into sparse matrices once; th
 solver adapters work on those.  The models know nothing of any solver.
 """
 
-from formulations._pyomo import LinearProgram, PyomoProblem, compile_linear
-from formulations.kinematic_lp import kinematic_lp
-from formulations.mcp import evaluate_mcp, mcp
-from formulations.mpec import mpec
-from formulations.static_lp import modified_lp, static_lp
+from blockmpec.formulations._pyomo import LinearProgram, PyomoProblem, compile_linear
+from blockmpec.formulations.kinematic_lp import kinematic_lp
+from blockmpec.formulations.mcp import evaluate_mcp, mcp
+from blockmpec.formulations.mpec import mpec
+from blockmpec.formulations.static_lp import modified_lp, static_lp
 
 __all__ = [
     "LinearProgram", "PyomoProblem", "compile_linear", "evaluate_mcp", "kinematic_lp", "mcp", "modified_lp", "mpec",

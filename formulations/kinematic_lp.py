@@ -14,7 +14,7 @@ from __future__ import annotations
 import pyomo.environ as pyo
 
 from blockmpec.operators import Operators
-from formulations._pyomo import PyomoProblem, linear_dot, sparse_rows
+from blockmpec.formulations._pyomo import PyomoProblem, linear_dot, sparse_rows
 
 
 def kinematic_lp(ops: Operators) -> PyomoProblem:

@@ -11,7 +11,7 @@ Unknowns: ``lam`` (free), ``x`` (3c, free), ``u`` (3b, free), ``z_u >= 0`` and
 
 The pairs are ``pyomo.mpec.Complementarity`` components built with
 ``complements(expr <= 0, z >= 0)``; all rows come from the sparse operators via
-:func:`formulations._pyomo.sparse_rows`.  The bounds ``z >= 0`` are stated both
+:func:`blockmpec.formulations._pyomo.sparse_rows`.  The bounds ``z >= 0`` are stated both
 as variable domains and as the second member of each pair.
 
 The model is a statement of the problem, not a solver input: the linear
@@ -29,7 +29,7 @@ from pyomo.mpec import Complementarity, complements
 
 from blockmpec.operators import Operators
 from blockmpec.result import Solution
-from formulations._pyomo import PyomoProblem, linear_dot, sparse_rows
+from blockmpec.formulations._pyomo import PyomoProblem, linear_dot, sparse_rows
 
 
 def mcp(ops: Operators, name: str = "mcp") -> PyomoProblem:
@@ -124,7 +124,7 @@ def evaluate_mcp(problem: PyomoProblem, solution: Solution) -> dict[str, np.ndar
     Parameters
     ----------
     problem : PyomoProblem
-        From :func:`mcp` (or :func:`formulations.mpec.mpec`).
+        From :func:`mcp` (or :func:`blockmpec.formulations.mpec.mpec`).
     solution : Solution
         Needs every field (lam, x, u, z_u, z_f).
 

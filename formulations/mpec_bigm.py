@@ -83,7 +83,7 @@ import pyomo.environ as pyo
 from pyomo.core.expr.numeric_expr import LinearExpression
 
 from blockmpec.operators import Operators
-from formulations._pyomo import LinearProgram, PyomoProblem, compile_linear, sparse_rows
+from blockmpec.formulations._pyomo import LinearProgram, PyomoProblem, compile_linear, sparse_rows
 
 
 def _dot(coef: np.ndarray, variables: list) -> LinearExpression:

@@ -31,7 +31,7 @@ import pyomo.environ as pyo
 import scipy.sparse as sp
 
 from blockmpec.operators import Operators
-from formulations._pyomo import PyomoProblem, sparse_rows
+from blockmpec.formulations._pyomo import PyomoProblem, sparse_rows
 
 
 def static_lp(ops: Operators, friction: np.ndarray | None = None, cohesion: np.ndarray | None = None,

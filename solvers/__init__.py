@@ -1,6 +1,7 @@
 """Solver adapters: one module per method, each registering itself on import.
 
-Modules whose name starts with an underscore are shared helpers, not methods.
+Modules whose name starts with an underscore are shared helpers, not methods; the
+``engines`` sub-package holds the numerical engines the methods share.
 Importing this package imports no solver backend (highspy, cyipopt): each adapter
 imports its backend inside ``setup``/``run``.  A module that fails to import is
 recorded in :data:`FAILED_PLUGINS` (and listed by ``blockmpec methods``) instead
@@ -14,7 +15,7 @@ import pkgutil
 FAILED_PLUGINS: dict[str, str] = {}
 
 for _info in pkgutil.iter_modules(__path__):
-    if not _info.name.startswith("_"):
+    if not _info.name.startswith("_") and not _info.ispkg:
         try:
             importlib.import_module(f"{__name__}.{_info.name}")
         except Exception as _exc:  # noqa: BLE001 - reported, not hidden

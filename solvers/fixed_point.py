@@ -72,8 +72,8 @@ class FixedPointOptions:
     time_limit: float = field(default=float("inf"), metadata={"help": "seconds for the whole iteration"})
 
     def __post_init__(self) -> None:
-        from solvers._highs import ALGORITHMS
-        from solvers._lp_sequence import STARTS, TIE_BREAKS
+        from blockmpec.solvers.engines.highs import ALGORITHMS
+        from blockmpec.solvers.engines.lp_sequence import STARTS, TIE_BREAKS
 
         check.positive(self, "tol")
         check.integer(self, "max_iterations", minimum=1)
@@ -95,7 +95,7 @@ class FixedPoint(SolverBase):
     Options = FixedPointOptions
 
     def setup(self, ops):
-        from solvers._lp_sequence import LPSequence
+        from blockmpec.solvers.engines.lp_sequence import LPSequence
 
         self.ops = ops
         o = self.options
@@ -103,7 +103,7 @@ class FixedPoint(SolverBase):
                                    need_associative=o.start == "associative")
 
     def run(self) -> RunOutput:
-        from solvers._lp_sequence import run_sequence
+        from blockmpec.solvers.engines.lp_sequence import run_sequence
 
         o = self.options
         out, facts = run_sequence(self.sequence, start=o.start, relaxation=o.relaxation, stop_on="normal",

@@ -1,4 +1,4 @@
-"""``kinematic-lp``: the associative kinematic LP (2) with HiGHS, in load units (:mod:`solvers._scaling`).
+"""``kinematic-lp``: the associative kinematic LP (2) with HiGHS, in load units (:mod:`blockmpec.solvers.engines.scaling`).
 
 The interface forces are the duals of the compatibility rows (``x = y_c``) and
 the multiplier is the dual of the normalisation row, which equals the optimal
@@ -23,7 +23,7 @@ class KinematicLPOptions:
     time_limit: float = field(default=float("inf"), metadata={"help": "seconds"})
 
     def __post_init__(self) -> None:
-        from solvers._highs import ALGORITHMS
+        from blockmpec.solvers.engines.highs import ALGORITHMS
 
         check.choice(self, "algorithm", ALGORITHMS)
         check.positive(self, "time_limit", finite=False)
@@ -40,9 +40,9 @@ class KinematicLP(SolverBase):
     Options = KinematicLPOptions
 
     def setup(self, ops):
-        from formulations import compile_linear, kinematic_lp
-        from solvers._highs import HighsLP
-        from solvers._scaling import kinematic_scaling
+        from blockmpec.formulations import compile_linear, kinematic_lp
+        from blockmpec.solvers.engines.highs import HighsLP
+        from blockmpec.solvers.engines.scaling import kinematic_scaling
 
         self.ops = ops
         self.lp = compile_linear(kinematic_lp(ops))

@@ -14,14 +14,14 @@ system in ``w = (lam, x, u, z)`` (``1 + 3c + 3b + 4c`` unknowns and equations)::
 where ``phi(a, b) = a + b - sqrt(a^2 + b^2)`` is the Fischer–Burmeister function
 (zero iff ``a, b >= 0`` and ``a b = 0``), applied to scaled pairs.  Rows and
 unknowns are scaled by typical magnitudes from the starting point; see
-:class:`solvers._mcp_system.MCPSystem`.
+:class:`blockmpec.solvers.engines.newton_system.MCPSystem`.
 
 Method
 ------
 Semismooth Newton with an Armijo line search on ``Psi = ||Phi||^2 / 2`` and a
 Levenberg–Marquardt fallback (``nu = regularisation * ||Phi||``), then steepest
 descent, when the Newton direction does not exist or is not a descent direction
-(:func:`solvers._mcp_system.semismooth_newton`).  It starts from the associative
+(:func:`blockmpec.solvers.engines.newton_system.semismooth_newton`).  It starts from the associative
 solution (static LP (1) with HiGHS and its duals), which satisfies (3) except the
 friction flow.
 
@@ -92,14 +92,14 @@ class MCPNewton(SolverBase):
     Options = NewtonOptions
 
     def setup(self, ops):
-        from solvers.static_lp import StaticLP
+        from blockmpec.solvers.static_lp import StaticLP
 
         self.ops = ops
         self.start_lp = StaticLP(time_limit=self.options.time_limit)  # the associative start
         self.start_lp.setup(ops)
 
     def run(self) -> RunOutput:
-        from solvers._mcp_system import MCPSystem, semismooth_newton, with_dilatancy
+        from blockmpec.solvers.engines.newton_system import MCPSystem, semismooth_newton, with_dilatancy
 
         opt = self.options
         ops = self.ops

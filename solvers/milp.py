@@ -5,9 +5,9 @@ over the solutions of the MCP (3) (the largest non-associative multiplier); see
 "Maximisation" below.  Such a result is never the minimum of (4): it records
 ``extra["sense"] = "max"``.
 
-Model: :mod:`formulations.mpec_bigm` (one binary per complementarity pair,
+Model: :mod:`blockmpec.formulations.mpec_bigm` (one binary per complementarity pair,
 multipliers normalised by ``1^T z = 1`` so that ``z_i <= y_i`` is exact), built
-with Pyomo and compiled by :func:`formulations.mpec_bigm.compile_mixed_integer`
+with Pyomo and compiled by :func:`blockmpec.formulations.mpec_bigm.compile_mixed_integer`
 (``compile_linear`` plus an integrality array read from ``v.is_binary()``);
 solved by highspy directly (``HighsLp.integrality_``).
 
@@ -157,9 +157,9 @@ class MILPSolver(SolverBase):
     def setup(self, ops):
         import dataclasses
 
-        from formulations import compile_linear, kinematic_lp, static_lp
-        from formulations.mpec_bigm import mpec_bigm
-        from solvers._highs import HighsLP
+        from blockmpec.formulations import compile_linear, kinematic_lp, static_lp
+        from blockmpec.formulations.mpec_bigm import mpec_bigm
+        from blockmpec.solvers.engines.highs import HighsLP
 
         self.ops = ops
         self.problem_milp = mpec_bigm(ops, sense=self.options.sense)
@@ -356,7 +356,7 @@ class MILPSolver(SolverBase):
     def run(self) -> RunOutput:
         import highspy
 
-        from formulations.mpec_bigm import compile_mixed_integer
+        from blockmpec.formulations.mpec_bigm import compile_mixed_integer
 
         opt = self.options
         maximise = opt.sense == "max"

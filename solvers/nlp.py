@@ -140,7 +140,7 @@ class _RelaxedMPEC:
     def __init__(self, ops, scale: float) -> None:
         import scipy.sparse as sp
 
-        from solvers._mcp_system import constraint_operator, flow_operator
+        from blockmpec.solvers.engines.newton_system import constraint_operator, flow_operator
 
         b3, c3 = ops.E.shape
         p = 2 * ops.N_u.shape[1]  # number of pairs, 4c
@@ -240,7 +240,7 @@ class RelaxedNLP(SolverBase):
     Options = NLPOptions
 
     def setup(self, ops):
-        from solvers.static_lp import StaticLP
+        from blockmpec.solvers.static_lp import StaticLP
 
         self.ops = ops
         self.start_lp = None
@@ -265,7 +265,7 @@ class RelaxedNLP(SolverBase):
         if start.status is not Status.OPTIMAL:
             return None, 1.0, start.status, f"associative start failed: {start.status.value} ({start.message})"
         sol = start.solution
-        from solvers._mcp_system import constraint_operator
+        from blockmpec.solvers.engines.newton_system import constraint_operator
 
         s0 = np.maximum(-(constraint_operator(ops).T @ sol.x), 0.0)
         z0 = np.maximum(np.concatenate([sol.z_u, sol.z_f]), 0.0)
@@ -373,14 +373,14 @@ class RelaxedNLP(SolverBase):
         return problem.solve(v)
 
     def _polish(self, solution: Solution, trace: list, t_start: float) -> tuple[Solution, str]:
-        """Semismooth Newton steps on (3) from the NLP point (:mod:`solvers._mcp_system`).
+        """Semismooth Newton steps on (3) from the NLP point (:mod:`blockmpec.solvers.engines.newton_system`).
 
         The relaxed point leaves products ``z_i s_i`` of order ``eps`` and bound
         multipliers of order Ipopt's tolerance; a few Fischer–Burmeister Newton steps
         make them exact.  The polished point is kept only if Newton converged and
         ``|lam_polished - lam| <= 1e-6 max(1, |lam|)`` (the same local solution).
         """
-        from solvers._mcp_system import MCPSystem, semismooth_newton
+        from blockmpec.solvers.engines.newton_system import MCPSystem, semismooth_newton
 
         remaining = self.options.time_limit - (time.perf_counter() - t_start)
         if remaining <= 0:

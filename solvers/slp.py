@@ -24,7 +24,7 @@ multiplier: ``|lam_k - lam_{k-1}| <= tol``, compared from the second LP step on
 (at least 2 steps: the first step at the associative forces usually returns
 ``lam_1 = lam_assoc`` and would stop at once).  The default ``tol = 1e-6`` is this
 package's choice, not a published value.  The step LPs are the fixed point's
-(:mod:`solvers._lp_sequence`): built once, warm re-solves; ``tie_break`` defaults
+(:mod:`blockmpec.solvers.engines.lp_sequence`): built once, warm re-solves; ``tie_break`` defaults
 to ``"none"`` as published.
 
 With ``alpha = 0``, ``beta = 1`` an SLP step is exactly a fixed-point step (same
@@ -65,8 +65,8 @@ class SLPOptions:
     time_limit: float = field(default=float("inf"), metadata={"help": "seconds for the whole iteration"})
 
     def __post_init__(self) -> None:
-        from solvers._highs import ALGORITHMS
-        from solvers._lp_sequence import TIE_BREAKS
+        from blockmpec.solvers.engines.highs import ALGORITHMS
+        from blockmpec.solvers.engines.lp_sequence import TIE_BREAKS
 
         check.interval(self, "alpha", 0, 1, closed="both")
         check.interval(self, "beta", 0, 1, closed="right")
@@ -89,7 +89,7 @@ class SLP(SolverBase):
     Options = SLPOptions
 
     def setup(self, ops):
-        from solvers._lp_sequence import LPSequence
+        from blockmpec.solvers.engines.lp_sequence import LPSequence
 
         self.ops = ops
         o = self.options
@@ -97,7 +97,7 @@ class SLP(SolverBase):
                                    need_associative=True)
 
     def run(self) -> RunOutput:
-        from solvers._lp_sequence import run_sequence
+        from blockmpec.solvers.engines.lp_sequence import run_sequence
 
         o = self.options
         out, facts = run_sequence(self.sequence, start="associative", relaxation=o.beta, stop_on="multiplier",

@@ -1,6 +1,6 @@
 """``static-lp``: the associative static LP (1) with HiGHS or the block interior-point method.
 
-The collapse mechanism comes from the duals (:func:`solvers._highs.static_lp_solution`):
+The collapse mechanism comes from the duals (:func:`blockmpec.solvers.engines.highs.static_lp_solution`):
 ``u = -y_eq`` (equilibrium rows) and ``z = -y`` (inequality rows), which with
 HiGHS's sign convention gives ``E^T u + N_u z_u + N_f z_f = 0`` and ``f_l^T u = 1``.
 """
@@ -20,11 +20,11 @@ class LPOptions:
     """Options of the HiGHS LP adapters."""
 
     algorithm: str = field(default="auto", metadata={
-        "help": "auto | simplex | dual-simplex | primal-simplex | ipm (HiGHS) | block-ipm (solvers._block_ipm)"})
+        "help": "auto | simplex | dual-simplex | primal-simplex | ipm (HiGHS) | block-ipm (blockmpec.solvers.engines.block_ipm)"})
     time_limit: float = field(default=float("inf"), metadata={"help": "seconds"})
 
     def __post_init__(self) -> None:
-        from solvers._block_ipm import COLD_ALGORITHMS
+        from blockmpec.solvers.engines.block_ipm import COLD_ALGORITHMS
 
         check.choice(self, "algorithm", COLD_ALGORITHMS)
         check.positive(self, "time_limit", finite=False)
@@ -35,7 +35,7 @@ class StaticLP(SolverBase):
     """Associative limit analysis by the static theorem (1).
 
     ``algorithm="auto"``: HiGHS's dual simplex for small LPs, the block interior-point
-    method (:mod:`solvers._block_ipm`) above ``AUTO_BLOCK_IPM_ROWS`` rows.
+    method (:mod:`blockmpec.solvers.engines.block_ipm`) above ``AUTO_BLOCK_IPM_ROWS`` rows.
     """
 
     name = "static-lp"
@@ -45,15 +45,15 @@ class StaticLP(SolverBase):
     Options = LPOptions
 
     def setup(self, ops):
-        from formulations import compile_linear, static_lp
-        from solvers._block_ipm import cold_lp_engine
+        from blockmpec.formulations import compile_linear, static_lp
+        from blockmpec.solvers.engines.block_ipm import cold_lp_engine
 
         self.ops = ops
         self.lp = compile_linear(static_lp(ops))
         self.engine = cold_lp_engine(self.lp, self.options.algorithm, self.options.time_limit, ops=ops)
 
     def run(self) -> RunOutput:
-        from solvers._highs import static_lp_solution
+        from blockmpec.solvers.engines.highs import static_lp_solution
 
         out = self.engine.solve()
         sol = static_lp_solution(self.lp, out) if out.status.is_success else Solution()

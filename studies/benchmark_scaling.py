@@ -4,8 +4,8 @@ Part 1, per family (running-bond walls, arches on buttresses) and size, each siz
 in a fresh subprocess (so the peak memory is that size's own):
 
 * structure generation with interface detection, and operator assembly;
-* Pyomo build of the static LP (1) (``formulations.static_lp``) and its
-  compilation to matrices (``formulations.compile_linear``), timed here directly;
+* Pyomo build of the static LP (1) (``blockmpec.formulations.static_lp``) and its
+  compilation to matrices (``blockmpec.formulations.compile_linear``), timed here directly;
 * the first LP solve: ``bm.solve(ops, "static-lp")``, its set-up (Pyomo build +
   compile + HiGHS load, as the method does it) and its solve time;
 * the fixed point: ``bm.solve(ops, "fixed-point")``, its LP steps and total time
@@ -156,7 +156,7 @@ def child_scaling(spec: dict) -> None:
     """Measure one size of one family (see the module docstring); prints JSON lines."""
     import gc
 
-    from formulations import compile_linear, static_lp
+    from blockmpec.formulations import compile_linear, static_lp
 
     row: dict = {"family": spec["family"], "target_blocks": spec["n"], "baseline_memory_mb": _peak_memory_mb()}
     t0 = time.perf_counter()

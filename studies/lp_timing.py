@@ -3,7 +3,7 @@
 For each wall and LP algorithm: structure generation (with interface detection),
 operator assembly, Pyomo model build, compilation to matrices, engine load, cold
 solve, lam, and the ratio of model construction (build + compile) to the solve.
-Algorithms are those of ``static-lp`` (``solvers._block_ipm.COLD_ALGORITHMS``):
+Algorithms are those of ``static-lp`` (``blockmpec.solvers.engines.block_ipm.COLD_ALGORITHMS``):
 HiGHS's ``dual-simplex``, ``primal-simplex``, ``ipm`` (with crossover), the
 ``block-ipm``, or ``auto``.  Usage::
 
@@ -21,8 +21,8 @@ import time
 from pathlib import Path
 
 import blockmpec as bm
-from formulations import compile_linear, static_lp
-from solvers._block_ipm import cold_lp_engine
+from blockmpec.formulations import compile_linear, static_lp
+from blockmpec.solvers.engines.block_ipm import cold_lp_engine
 
 OUT = Path(__file__).parent / "output" / "lp_timing"
 

@@ -1,67 +1,26 @@
-"""Shared fixtures and helpers."""
+"""Fixtures, and a guard that the tests run against the *installed* package.
 
-import numpy as np
-import pytest
+``python -m pytest`` puts the working directory first on ``sys.path``, where the
+source folder ``blockmpec/`` would shadow the installed package; but
+``blockmpec.formulations`` and ``blockmpec.solvers`` exist only in the install
+(``pyproject.toml`` maps the top-level ``formulations/`` and ``solvers/`` folders
+into ``blockmpec``).  So the repository root is taken off ``sys.path`` before
+anything imports ``blockmpec``.  An editable install (``pip install -e .``)
+serves the source folders through its own finder.
+"""
 
-import blockmpec as bm
+import sys
+from pathlib import Path
 
+_ROOT = Path(__file__).resolve().parents[1]
+sys.path[:] = [p for p in sys.path if Path(p or ".").resolve() != _ROOT]
 
-def two_block_associative(eta: float, mu: float) -> float:
-    """Closed-form associative multiplier of the paper's two-block problem (Sect. 3)."""
-    return bm.cases.closed_form("two-blocks", "associative", eta=eta, mu=mu)
+import pytest  # noqa: E402
 
-
-def two_block_nonassociative_min(eta: float, mu: float) -> float:
-    """Closed-form minimum non-associative multiplier (psi = 0): mu if mu <= 1/eta else 1/eta."""
-    return bm.cases.closed_form("two-blocks", "non-associative", eta=eta, mu=mu)
-
-
-#: the non-associative methods other than the certified ``milp``
-HEURISTICS = [m for m in bm.list_solvers("non-associative") if m != "milp"]
-#: A heuristic's success means every relative residual of (3) is at most ``verify_tol`` = 1e-6
-#: (bm.solve's default), so its multiplier is that of an exact solution of (3) only to about 1e-6
-#: on lam's scale max(1, |lam|) (unit-density loads: the live load is the weight).
-HEURISTIC_TOL = 1e-6
-#: ``milp`` results are polished to round-off (exact LPs on a fixed pattern) and certified up to its
-#: CERTIFICATE_TOL = 1e-7 (times max(1, |lam|)); the static LP's optimum is exact to HiGHS's 1e-9.
-CERTIFIED_TOL = 1e-7
-
-
-def margin(tol: float, lam: float) -> float:
-    """``tol`` on lam's scale ``max(1, |lam|)``."""
-    return tol * max(1.0, abs(lam))
-
-
-def assert_success(res: bm.Result, multiplier: float | None = None, rtol: float = 1e-8) -> None:
-    """A scipy-style assertion helper: success, and the multiplier if given."""
-    assert res.success, f"{res.method}: status {res.status.value}, message: {res.message}, residuals {res.residuals}"
-    if multiplier is not None:
-        np.testing.assert_allclose(res.multiplier, multiplier, rtol=rtol)
-
-
-def assert_residuals_within(res: bm.Result, tol: float, status: bm.Status | None = None) -> None:
-    """The run claims success (or exactly ``status``) and every residual of (3) is at most ``tol``."""
-    if status is None:
-        assert res.status.is_success, f"{res.status.value}: {res.message}"
-    else:
-        assert res.status is status, f"{res.status.value}: {res.message}"
-    assert res.residuals, "no residuals"
-    worst = max(res.residuals, key=res.residuals.get)
-    assert res.residuals[worst] <= tol, f"{worst} = {res.residuals[worst]:.3g}"
+import blockmpec as bm  # noqa: E402
 
 
 @pytest.fixture(scope="session")
 def builtin_structures():
     """One default instance of every built-in case."""
     return {name: spec.build() for name, spec in bm.cases.CASES.items()}
-
-
-def block_on_block(big: float, small: float) -> bm.Structure:
-    """A ``big`` square block on a fixed base carrying a ``small x 2 small`` block (rocks first at lam = 0.5)."""
-    # a big x big block carrying a small x 2 small block: the small block topples first at lam = b/h = 0.5
-    polys = [
-        [[-2 * big, -big / 10], [3 * big, -big / 10], [3 * big, 0], [-2 * big, 0]],
-        [[0, 0], [big, 0], [big, big], [0, big]],
-        [[big / 2, big], [big / 2 + small, big], [big / 2 + small, big + 2 * small], [big / 2, big + 2 * small]],
-    ]
-    return bm.make_structure(polys, [True, False, False], friction=0.65)

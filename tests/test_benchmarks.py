@@ -36,7 +36,7 @@ import numpy as np
 import pytest
 
 import blockmpec as bm
-from conftest import assert_success, two_block_associative
+from helpers import assert_success, two_block_associative
 
 pytestmark = pytest.mark.benchmark
 
@@ -65,7 +65,7 @@ def test_assembly_wall_1k(benchmark, wall_1k):
 
 
 def test_static_lp_build_and_compile_wall_1k(benchmark, wall_1k_ops):
-    from formulations import compile_linear, static_lp
+    from blockmpec.formulations import compile_linear, static_lp
 
     lp = benchmark.pedantic(lambda: compile_linear(static_lp(wall_1k_ops)), rounds=3)
     b, c = wall_1k_ops.n_free_blocks, wall_1k_ops.n_interfaces

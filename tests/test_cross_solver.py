@@ -12,7 +12,7 @@ import pytest
 
 import blockmpec as bm
 from blockmpec.result import Status
-from conftest import HEURISTICS
+from helpers import HEURISTICS
 
 CASES = {
     "two-blocks-3-0.65": bm.cases.two_blocks(eta=3, mu=0.65),

@@ -15,7 +15,7 @@ import itertools
 import pytest
 
 import blockmpec as bm
-from conftest import CERTIFIED_TOL, HEURISTIC_TOL, HEURISTICS, assert_success, block_on_block, margin
+from helpers import CERTIFIED_TOL, HEURISTIC_TOL, HEURISTICS, assert_success, block_on_block, margin
 
 
 @pytest.mark.parametrize(("eta", "mu"), list(itertools.product([0.05, 0.5, 5, 50], [1e-4, 1e-2, 1.0, 10.0, 100.0])))

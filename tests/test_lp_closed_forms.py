@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 import blockmpec as bm
-from conftest import assert_success, two_block_associative
+from helpers import assert_success, two_block_associative
 
 ETAS = [1, 1.5, 2, 3, 4, 5]
 MUS = [0.2, 0.3, 0.5, 0.65, 0.8, 1.0, 1.2, 1.5]
@@ -119,8 +119,8 @@ def test_closed_form_table_spot_values():
 @pytest.mark.parametrize("name", ["two-blocks", "round-arch", "wall-running", "wall-opening"])
 def test_split_multiplier_formulation_is_the_same_lp(name):
     # lam copied per block and chained by equalities: same optimum, same verified mechanism from the duals
-    from formulations import compile_linear, static_lp
-    from solvers._highs import HighsLP, static_lp_solution
+    from blockmpec.formulations import compile_linear, static_lp
+    from blockmpec.solvers.engines.highs import HighsLP, static_lp_solution
 
     structure = _suite()[name]
     ops = bm.assemble(structure)

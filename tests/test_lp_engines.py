@@ -11,10 +11,10 @@ import numpy as np
 import pytest
 
 import blockmpec as bm
-from conftest import assert_success, block_on_block, two_block_associative
-from formulations import compile_linear, kinematic_lp, static_lp
-from solvers._block_ipm import AUTO_BLOCK_IPM_ROWS, BlockIPM, cold_lp_engine, interface_blocks
-from solvers._highs import HighsLP
+from helpers import assert_success, block_on_block, two_block_associative
+from blockmpec.formulations import compile_linear, kinematic_lp, static_lp
+from blockmpec.solvers.engines.block_ipm import AUTO_BLOCK_IPM_ROWS, BlockIPM, cold_lp_engine, interface_blocks
+from blockmpec.solvers.engines.highs import HighsLP
 
 
 def _scaled(structure, factor):
@@ -122,7 +122,7 @@ def test_auto_engine_uses_the_block_ipm_above_the_threshold():
 def test_lp_sequence_time_limit_counts_from_the_instance_clock():
     """HiGHS compares time_limit with an instance's cumulative run time: a remaining budget must be
     added to it, or later warm solves of the sequence stop at once."""
-    from solvers._lp_sequence import LPSequence
+    from blockmpec.solvers.engines.lp_sequence import LPSequence
 
     seq = LPSequence(bm.assemble(bm.cases.wall(10, 20)))
     assert seq.associative().status is bm.Status.OPTIMAL
@@ -156,9 +156,9 @@ def test_block_ipm_unbounded_lp_is_a_clear_non_success():
 @pytest.mark.parametrize("seed", [0, 1])
 def test_highs_scaling_returns_values_and_duals_in_the_lp_units(seed):
     """Any positive row and column scaling of the static LP gives the same lam, and forces and mechanism
-    (v = C v^, y = R y^) that verify in the LP's units: the unscaling of solvers._highs.HighsLP is exact.
+    (v = C v^, y = R y^) that verify in the LP's units: the unscaling of solvers.engines.highs.HighsLP is exact.
     (Forces and mechanism themselves need not agree: this LP has several optimal vertices.)"""
-    from solvers._highs import static_lp_solution
+    from blockmpec.solvers.engines.highs import static_lp_solution
 
     ops = bm.assemble(bm.cases.wall())
     lp = compile_linear(static_lp(ops))
@@ -175,7 +175,7 @@ def test_highs_scaling_returns_values_and_duals_in_the_lp_units(seed):
 def test_load_scaling_puts_each_block_in_its_own_units():
     """A 1e-3 x 2e-3 block on a unit block: its equilibrium rows are scaled by 1/its load (5e5 times the
     big block's) and its interface's forces measured in its own load."""
-    from solvers._scaling import block_loads, load_scaling
+    from blockmpec.solvers.engines.scaling import block_loads, load_scaling
 
     ops = bm.assemble(block_on_block(1.0, 1e-3))
     lp = compile_linear(static_lp(ops))

@@ -15,7 +15,7 @@ pytest.importorskip("pyomo")
 
 import blockmpec as bm  # noqa: E402
 from blockmpec.result import Status  # noqa: E402
-from conftest import assert_residuals_within, two_block_associative, two_block_nonassociative_min  # noqa: E402
+from helpers import assert_residuals_within, two_block_associative, two_block_nonassociative_min  # noqa: E402
 
 TOL = 1e-6
 
@@ -79,7 +79,7 @@ def test_bad_options(bad):
 
 
 def test_fischer_burmeister():
-    from solvers._mcp_system import fischer_burmeister
+    from blockmpec.solvers.engines.newton_system import fischer_burmeister
 
     rng = np.random.default_rng(1)
     a, b = rng.normal(size=200), rng.normal(size=200)

@@ -18,7 +18,7 @@ import pytest
 
 import blockmpec as bm
 from blockmpec.result import Status
-from conftest import two_block_associative, two_block_nonassociative_min
+from helpers import two_block_associative, two_block_nonassociative_min
 
 ETAS = [1, 2, 3, 4, 5]
 MUS = [0.3, 0.5, 0.65, 0.8, 1.0, 1.2, 1.5]
@@ -158,7 +158,7 @@ def test_spurious_zero_live_work_point_is_not_certified(monkeypatch):
     system (psi = 0): the relaxation's optimum then has tau = f_l^T u = 0.  The solver must notice
     (no mechanism for the pattern), fall back to the restriction tau >= tau_restart for a genuine
     solution, and not claim a certificate."""
-    import formulations.mpec_bigm as fm
+    import blockmpec.formulations.mpec_bigm as fm
 
     compile_orig = fm.compile_mixed_integer
 
@@ -246,7 +246,7 @@ def test_maximum_after_a_zero_live_work_relaxation_point(monkeypatch):
     """The tau = 0 fallback under maximisation: when the relaxation's pattern admits no mechanism,
     the restriction tau >= tau_restart supplies a point of (3) (a lower bound on the maximum) and the
     relaxation's dual bound stays the upper bound; the answer is the associative value 2/3."""
-    from solvers.milp import MILPSolver
+    from blockmpec.solvers.milp import MILPSolver
 
     mechanism = MILPSolver._mechanism
     calls = {"n": 0}

@@ -17,7 +17,7 @@ pytest.importorskip("pyomo")
 
 import blockmpec as bm  # noqa: E402
 from blockmpec.result import Status  # noqa: E402
-from conftest import assert_residuals_within, two_block_associative, two_block_nonassociative_min  # noqa: E402
+from helpers import assert_residuals_within, two_block_associative, two_block_nonassociative_min  # noqa: E402
 
 TOL = 1e-6
 
@@ -87,7 +87,7 @@ def test_bad_options(bad):
 
 def test_callbacks_have_exact_derivatives():
     """Jacobian and Lagrangian Hessian of the relaxed NLP against finite differences."""
-    from solvers.nlp import _RelaxedMPEC
+    from blockmpec.solvers.nlp import _RelaxedMPEC
 
     ops = bm.assemble(bm.cases.two_blocks(eta=3, mu=0.65))
     nlp = _RelaxedMPEC(ops, scale=2.5)

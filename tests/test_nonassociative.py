@@ -17,7 +17,7 @@ pytest.importorskip("pyomo")
 
 import blockmpec as bm  # noqa: E402
 from blockmpec.errors import OptionError  # noqa: E402
-from conftest import assert_residuals_within, two_block_nonassociative_min  # noqa: E402
+from helpers import assert_residuals_within, two_block_nonassociative_min  # noqa: E402
 
 RESIDUAL_TOL = 1e-7
 

@@ -25,7 +25,7 @@ from hypothesis import HealthCheck, assume, given, note, settings
 from hypothesis import strategies as st
 
 import blockmpec as bm
-from conftest import CERTIFIED_TOL, HEURISTIC_TOL, HEURISTICS, margin
+from helpers import CERTIFIED_TOL, HEURISTIC_TOL, HEURISTICS, margin
 
 SETTINGS = settings(max_examples=25, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 #: the multi-solver properties run seven solves per example (milp up to ~1 s): few examples

@@ -8,7 +8,7 @@ verifier rejected it).  Scaling the LP so that each block's rows and each
 interface's forces are O(1) makes the solvers' tolerances hold block by block,
 as the verifier measures equilibrium.
 
-For an LP compiled from :func:`formulations.static_lp` (and its variants with more
+For an LP compiled from :func:`blockmpec.formulations.static_lp` (and its variants with more
 rows or columns) with column vector ``v`` and rows ``A v``:
 
 * block ``i`` carries the load ``l_i = ||f_d,i|| + ||f_l,i||``; its three
@@ -29,7 +29,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from blockmpec.operators import Operators
-from formulations import LinearProgram
+from blockmpec.formulations import LinearProgram
 
 
 def block_loads(ops: Operators) -> np.ndarray:

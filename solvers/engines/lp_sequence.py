@@ -45,7 +45,7 @@ from blockmpec.operators import Operators, normal
 from blockmpec.result import Solution, Status
 from blockmpec.solver import RunOutput
 from blockmpec.verify import positive_part_ratio
-from solvers._highs import static_lp_solution
+from blockmpec.solvers.engines.highs import static_lp_solution
 
 TIE_BREAKS = ("closest", "none")
 STARTS = ("associative", "zero")
@@ -78,7 +78,7 @@ class LPSequence:
         Tilt of the friction surface (0: eq. (5)).
     tie_break : {"closest", "none"}
     algorithm : str
-        HiGHS algorithm (see :data:`solvers._highs.ALGORITHMS`).
+        HiGHS algorithm (see :data:`blockmpec.solvers.engines.highs.ALGORITHMS`).
     need_associative : bool
         Also compile the associative static LP (1), for the ``"associative"`` start.
     feasibility_tol : float
@@ -92,8 +92,8 @@ class LPSequence:
                  algorithm: str = "auto", need_associative: bool = True, feasibility_tol: float = 1e-9) -> None:
         import pyomo.environ as pyo
 
-        from formulations import compile_linear, static_lp
-        from solvers._highs import HighsLP
+        from blockmpec.formulations import compile_linear, static_lp
+        from blockmpec.solvers.engines.highs import HighsLP
 
         self.ops = ops
         c = ops.n_interfaces
@@ -258,8 +258,8 @@ class LPSequence:
 
 
 def _scales(lp, ops, normal_like=()) -> dict:
-    """HiGHS works in load units (:mod:`solvers._scaling`): each block's tolerances its own."""
-    from solvers._scaling import load_scaling
+    """HiGHS works in load units (:mod:`blockmpec.solvers.engines.scaling`): each block's tolerances its own."""
+    from blockmpec.solvers.engines.scaling import load_scaling
 
     row_scale, column_scale = load_scaling(lp, ops, normal_like)
     return {"row_scale": row_scale, "column_scale": column_scale}

@@ -1,4 +1,4 @@
-"""A thin wrapper over highspy for compiled :class:`~formulations.LinearProgram` s.
+"""A thin wrapper over highspy for compiled :class:`~blockmpec.formulations.LinearProgram` s.
 
 Shared by every HiGHS-based adapter.  highspy is imported when a model is loaded,
 never at module import.
@@ -15,7 +15,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from blockmpec.result import Solution, Status
-from formulations import LinearProgram
+from blockmpec.formulations import LinearProgram
 
 #: LP algorithms a user may choose.  "auto" = dual simplex on small models (at most
 #: AUTO_IPM_ROWS rows) and for warm re-solves; a cold solve of a larger model uses the
@@ -49,7 +49,7 @@ _STATUS_MAP = {
 
 
 def static_lp_solution(lp: LinearProgram, outcome: LPOutcome) -> Solution:
-    """``(lam, x, u, z_u, z_f)`` from a solve of a static LP built by ``formulations.static_lp``.
+    """``(lam, x, u, z_u, z_f)`` from a solve of a static LP built by ``blockmpec.formulations.static_lp``.
 
     The LP is solved as ``min -lam``; with HiGHS's dual signs the mechanism is
     ``u = -y_eq`` (equilibrium rows) and the flow multipliers are ``z = -y`` (the
@@ -71,7 +71,7 @@ class HighsLP:
     ``row_scale`` and ``column_scale`` (positive) make HiGHS solve ``R A C`` with
     ``R`` row bounds, ``C^-1`` column bounds and ``C c`` costs; values and duals are
     returned in the compiled LP's units (``v = C v^``, ``y = R y^``).  See
-    :mod:`solvers._scaling`.
+    :mod:`blockmpec.solvers.engines.scaling`.
     """
 
     def __init__(self, lp: LinearProgram, algorithm: str = "auto", time_limit: float = float("inf"),

@@ -2,7 +2,7 @@ r"""A primal-dual interior-point method for LPs whose inequalities are block-sep
 
 Limit-analysis LPs have this shape: every yield row (no-tension, friction) touches
 the three forces ``(t_k, n_k, m_k)`` of one interface only, and the few columns
-without yield rows (``lam``) are free.  For a compiled :class:`~formulations.LinearProgram`
+without yield rows (``lam``) are free.  For a compiled :class:`~blockmpec.formulations.LinearProgram`
 brought to the form::
 
     min  c^T v   s.t.   A v = b   (y: w),      G v + s = h,  s >= 0   (y >= 0),
@@ -27,7 +27,7 @@ Mehrotra's predictor-corrector method reduces to
 
 Each iteration takes Mehrotra's predictor and corrector plus up to two of
 Gondzio's centrality correctors.  The problem is scaled first (``row_scale``,
-``column_scale``; :mod:`solvers._scaling` gives load units) and the inequality rows
+``column_scale``; :mod:`blockmpec.solvers.engines.scaling` gives load units) and the inequality rows
 to unit largest entry.  When the residuals stop improving (accuracy lost in ``K``)
 the best iterate is returned: ``ACCEPTABLE`` if its residuals are at most 1e-6
 (the shared verifier still checks it), ``NUMERICAL`` otherwise.  Diverging iterates
@@ -42,7 +42,7 @@ Residuals (stopping test, all relative, of the scaled problem)::
 
 The dual is reported in HiGHS's sign convention (``c - A^T y_row = reduced
 costs``): ``y_row = w`` on equality rows, ``-y`` on ``<=`` rows and ``+y`` on ``>=``
-rows (which are negated internally), so :func:`solvers._highs.static_lp_solution`
+rows (which are negated internally), so :func:`blockmpec.solvers.engines.highs.static_lp_solution`
 reads the mechanism as it does for HiGHS.
 
 Why not a general LP code: on a 10,000-block wall HiGHS's interior-point solver
@@ -63,8 +63,8 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
 from blockmpec.result import Status
-from formulations import LinearProgram
-from solvers._highs import LPOutcome
+from blockmpec.formulations import LinearProgram
+from blockmpec.solvers.engines.highs import LPOutcome
 
 #: smallest s/y in the block systems (a primal regularisation of fully active blocks)
 SLACK_RATIO_FLOOR = 1e-14
@@ -100,11 +100,11 @@ class BlockIPM:
         Seconds per :meth:`solve`.
     row_scale, column_scale : ndarray, optional
         Positive diagonal scalings ``R`` of the rows and ``C`` of the columns, as for
-        :class:`solvers._highs.HighsLP`: the method works on ``R A C``, ``R b``, ``C c``
+        :class:`blockmpec.solvers.engines.highs.HighsLP`: the method works on ``R A C``, ``R b``, ``C c``
         for the equality rows; inequality rows are scaled to unit largest entry
         after ``C`` (their part of ``R`` is not needed).  Tolerances apply to the
         scaled problem, so a good scaling makes every block's equilibrium hold
-        relative to its own loads (see :mod:`solvers._scaling`).
+        relative to its own loads (see :mod:`blockmpec.solvers.engines.scaling`).
     """
 
     def __init__(self, lp: LinearProgram, block_columns: np.ndarray, tol: float = 1e-9,
@@ -456,13 +456,13 @@ AUTO_BLOCK_IPM_LOAD_SPREAD = 1e4
 
 
 def cold_lp_engine(lp: LinearProgram, algorithm: str = "auto", time_limit: float = float("inf"), ops=None):
-    """A solver for one static LP: :class:`BlockIPM` or :class:`solvers._highs.HighsLP`.
+    """A solver for one static LP: :class:`BlockIPM` or :class:`blockmpec.solvers.engines.highs.HighsLP`.
 
     Both have ``solve() -> LPOutcome`` (HiGHS dual signs) and ``set_row_upper``.  Given
-    ``ops``, both work in the load units of :func:`solvers._scaling.load_scaling`.
+    ``ops``, both work in the load units of :func:`blockmpec.solvers.engines.scaling.load_scaling`.
     """
-    from solvers._highs import HighsLP
-    from solvers._scaling import load_scaling, load_spread
+    from blockmpec.solvers.engines.highs import HighsLP
+    from blockmpec.solvers.engines.scaling import load_scaling, load_spread
 
     if algorithm == "auto":
         large = lp.A.shape[0] > AUTO_BLOCK_IPM_ROWS
