@@ -4,6 +4,8 @@
 * :func:`kinematic_lp`   problem (2);
 * :func:`mcp`            the non-associative MCP (3), with ``pyomo.mpec`` complementarity pairs;
 * :func:`mpec`           the MPEC (4): (3) plus ``min lam``;
+* :func:`compile_mcp`    (3) compiled once per structure into a :class:`CompiledMCP` (the
+                         matrices, pairs and named slices every non-associative solver reads);
 * :func:`evaluate_mcp`   evaluates a solution through the Pyomo model (a cross-check of the verifier);
 
 Each builder returns a :class:`PyomoProblem`: the ``ConcreteModel`` plus handles to
@@ -13,12 +15,13 @@ solver adapters work on those.  The models know nothing of any solver.
 """
 
 from blockmpec.formulations._pyomo import LinearProgram, PyomoProblem, compile_linear
+from blockmpec.formulations.compiled import CompiledMCP, compile_mcp
 from blockmpec.formulations.kinematic_lp import kinematic_lp
 from blockmpec.formulations.mcp import evaluate_mcp, mcp
 from blockmpec.formulations.mpec import mpec
 from blockmpec.formulations.static_lp import modified_lp, static_lp
 
 __all__ = [
-    "LinearProgram", "PyomoProblem", "compile_linear", "evaluate_mcp", "kinematic_lp", "mcp", "modified_lp", "mpec",
+    "CompiledMCP", "LinearProgram", "compile_mcp", "PyomoProblem", "compile_linear", "evaluate_mcp", "kinematic_lp", "mcp", "modified_lp", "mpec",
     "static_lp",
 ]

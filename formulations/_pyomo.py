@@ -112,9 +112,10 @@ def compile_linear(problem: PyomoProblem) -> LinearProgram:
     col_upper = np.array([np.inf if v.ub is None else v.ub for v in info.columns], dtype=float)
     columns = {g: np.array([col_of.get(id(v), -1) for v in vs], dtype=int) for g, vs in problem.variables.items()}
     rows = {g: np.array([row_of[id(c)] for c in cs], dtype=int) for g, cs in problem.constraints.items()}
-    obj = info.objectives[0]
-    sign = -1.0 if obj.sense == pyo.maximize else 1.0
+    # a model without objective (the MCP) compiles to c = 0
+    sign = -1.0 if info.objectives and info.objectives[0].sense == pyo.maximize else 1.0
     c = np.asarray(info.c.toarray()).reshape(-1) if info.c.shape[0] else np.zeros(len(info.columns))
+    c = c if c.size == len(info.columns) else np.zeros(len(info.columns))
     return LinearProgram(
         c=c,
         A=sp.csr_array(info.A),

@@ -32,24 +32,29 @@ from blockmpec.result import Solution
 from blockmpec.formulations._pyomo import PyomoProblem, linear_dot, sparse_rows
 
 
-def mcp(ops: Operators, name: str = "mcp") -> PyomoProblem:
+def mcp(ops: Operators, name: str = "mcp", dilatancy: np.ndarray | None = None) -> PyomoProblem:
     """Build the MCP (3).
 
     Parameters
     ----------
     ops : Operators
     name : str
+    dilatancy : ndarray, shape (c,), optional
+        ``tan(psi)`` per interface in the flow rows (default ``ops.dilatancy``); the
+        continuation of ``mcp-newton`` uses other values.
 
     Returns
     -------
     PyomoProblem
         ``variables``: ``"lam"`` (1), ``"x"`` (3c), ``"u"`` (3b), ``"z_u"``, ``"z_f"`` (2c).
         ``constraints``: ``"equilibrium"`` (3b), ``"compatibility"`` (3c),
-        ``"normalisation"`` (1) ``Constraint`` data, and ``"unilateral_pairs"``,
+        ``"normalisation"`` (1), ``"unilateral"``, ``"friction"`` (2c each: the pair rows
+        ``N_u^T x <= 0``, ``N_f^T x <= 0``) ``Constraint`` data, and ``"unilateral_pairs"``,
         ``"friction_pairs"`` (2c each) ``Complementarity`` data, in operator order.
     """
     c = ops.n_interfaces
     b3 = ops.E.shape[0]
+    V_f = ops.V_f if dilatancy is None else ops.friction_operator(np.broadcast_to(dilatancy, (c,)))
     m = pyo.ConcreteModel(name=name)
     m.lam = pyo.Var()
     m.x = pyo.Var(range(3 * c))
@@ -62,14 +67,20 @@ def mcp(ops: Operators, name: str = "mcp") -> PyomoProblem:
 
     eq = sparse_rows([(ops.E, xs), (ops.f_l.reshape(-1, 1), lam)], b3)
     m.equilibrium = pyo.Constraint(range(b3), rule=lambda _, i: eq(i) == -float(ops.f_d[i]))
-    comp = sparse_rows([(ops.E.T, us), (ops.N_u, zu), (ops.V_f, zf)], 3 * c)
+    comp = sparse_rows([(ops.E.T, us), (ops.N_u, zu), (V_f, zf)], 3 * c)
     m.compatibility = pyo.Constraint(range(3 * c), rule=lambda _, i: comp(i) == 0.0)
     m.normalisation = pyo.Constraint(expr=linear_dot(ops.f_l, us) == 1.0)
 
+    # the pair constraints are written once, as rows g(x) <= 0; each pair complements
+    # the body of its row with its multiplier (compile_mcp compiles the rows)
     uni = sparse_rows([(ops.N_u.T, xs)], 2 * c)
     fr = sparse_rows([(ops.N_f.T, xs)], 2 * c)
-    m.unilateral_pairs = Complementarity(range(2 * c), rule=lambda mm, i: complements(uni(i) <= 0.0, mm.z_u[i] >= 0))
-    m.friction_pairs = Complementarity(range(2 * c), rule=lambda mm, i: complements(fr(i) <= 0.0, mm.z_f[i] >= 0))
+    m.unilateral = pyo.Constraint(range(2 * c), rule=lambda _, i: uni(i) <= 0.0)
+    m.friction = pyo.Constraint(range(2 * c), rule=lambda _, i: fr(i) <= 0.0)
+    m.unilateral_pairs = Complementarity(
+        range(2 * c), rule=lambda mm, i: complements(mm.unilateral[i].body <= 0.0, mm.z_u[i] >= 0))
+    m.friction_pairs = Complementarity(
+        range(2 * c), rule=lambda mm, i: complements(mm.friction[i].body <= 0.0, mm.z_f[i] >= 0))
     return PyomoProblem(
         name=name,
         model=m,
@@ -78,6 +89,8 @@ def mcp(ops: Operators, name: str = "mcp") -> PyomoProblem:
             "equilibrium": list(m.equilibrium.values()),
             "compatibility": list(m.compatibility.values()),
             "normalisation": [m.normalisation],
+            "unilateral": list(m.unilateral.values()),
+            "friction": list(m.friction.values()),
             "unilateral_pairs": [m.unilateral_pairs[i] for i in range(2 * c)],
             "friction_pairs": [m.friction_pairs[i] for i in range(2 * c)],
         },

@@ -1,0 +1,292 @@
+r"""The MCP (3) / MPEC (4) compiled once per structure into one typed object.
+
+:func:`compile_mcp` builds the Pyomo model of :func:`blockmpec.formulations.mcp.mcp`
+(the one statement of (3) as a model), deactivates its ``Complementarity``
+components, compiles every row with :func:`~blockmpec.formulations._pyomo.compile_linear`
+and puts the columns in the canonical order ::
+
+    w = (lam, x, u, z),   z = (z_u, z_f),   x[3k:3k+3] = (t_k, n_k, m_k)
+
+The result, :class:`CompiledMCP`, holds
+
+* ``A w = rhs``: the equality rows (equilibrium, compatibility, normalisation);
+* ``G w <= 0``: the pair rows, one per complementarity pair, and
+  ``pair_column[i]``: the multiplier column complementary to pair row ``i``
+  (``0 <= -G_i w  _|_  w[pair_column[i]] >= 0``);
+* named slices of ``w`` (``lam, x, u, z, z_u, z_f``), index arrays ``t, n, m``
+  into ``x``, row slices (``equilibrium, compatibility, normalisation``), pair
+  slices (``unilateral``, ``friction``) and per-pair ``pair_kind`` and
+  ``pair_interface``,
+
+so that no solver does stride arithmetic or reads an operator.  Everything a
+solver needs of (3) is here: ``nlp``, ``mcp-newton`` and ``milp`` consume this
+object.  The verifier :mod:`blockmpec.verify` is a deliberate second statement,
+written directly on the operators, as an independent check.
+
+The flow rows depend linearly on ``tan(psi)`` of each interface;
+:meth:`CompiledMCP.with_dilatancy` gives the system at other values (used by the
+continuation of ``mcp-newton``) from one more compile at ``tan(psi) + 1``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+import scipy.sparse as sp
+
+from blockmpec.operators import Operators
+from blockmpec.result import Solution
+
+#: codes of :attr:`CompiledMCP.pair_kind`
+UNILATERAL, FRICTION = 0, 1
+
+
+@dataclass(frozen=True, eq=False)
+class CompiledMCP:
+    r"""Problem (3) in matrix form; see the module docstring.
+
+    Attributes
+    ----------
+    A : csr_array, shape (3b + 3c + 1, n)
+        Equality rows ``A w = rhs``: ``A[equilibrium]`` is ``[f_l, E, 0, 0]``,
+        ``A[compatibility]`` is ``[0, 0, E^T, F]`` with the flow matrix ``F``,
+        ``A[normalisation]`` is ``[0, 0, f_l^T, 0]``.
+    rhs : ndarray, shape (3b + 3c + 1,)
+    G : csr_array, shape (4c, n)
+        Pair rows ``G w <= 0`` (nonzero in the ``x`` columns only); the slack of pair
+        ``i`` is ``s_i = -G_i w``.
+    pair_column : ndarray of int, shape (4c,)
+        Column of ``w`` of the multiplier complementary to pair row ``i``.
+    pair_kind : ndarray of int, shape (4c,)
+        :data:`UNILATERAL` or :data:`FRICTION`.
+    pair_interface : ndarray of int, shape (4c,)
+        Interface of each pair (two pairs of each kind per interface).
+    friction, dilatancy : ndarray, shape (c,)
+        ``tan(phi)`` and ``tan(psi)`` per interface (data of the flow rows).
+    """
+
+    A: sp.csr_array
+    rhs: np.ndarray
+    G: sp.csr_array
+    pair_column: np.ndarray
+    pair_kind: np.ndarray
+    pair_interface: np.ndarray
+    n_blocks: int
+    n_interfaces: int
+    friction: np.ndarray
+    dilatancy: np.ndarray
+    _ops: Operators = field(repr=False)
+    _dilatancy_rows: sp.csr_array | None = field(default=None, repr=False)
+
+    # ------------------------------------------------------------------ layout
+    @property
+    def n_columns(self) -> int:
+        """Length of ``w``: ``1 + 3c + 3b + 4c``."""
+        return 1 + 7 * self.n_interfaces + 3 * self.n_blocks
+
+    @property
+    def lam(self) -> int:
+        """Column of ``lam``."""
+        return 0
+
+    @property
+    def x(self) -> slice:
+        return slice(1, 1 + 3 * self.n_interfaces)
+
+    @property
+    def u(self) -> slice:
+        a = 1 + 3 * self.n_interfaces
+        return slice(a, a + 3 * self.n_blocks)
+
+    @property
+    def z(self) -> slice:
+        a = 1 + 3 * self.n_interfaces + 3 * self.n_blocks
+        return slice(a, a + 4 * self.n_interfaces)
+
+    @property
+    def z_u(self) -> slice:
+        a = self.z.start
+        return slice(a, a + 2 * self.n_interfaces)
+
+    @property
+    def z_f(self) -> slice:
+        a = self.z.start + 2 * self.n_interfaces
+        return slice(a, a + 2 * self.n_interfaces)
+
+    @property
+    def t(self) -> np.ndarray:
+        """Positions of the shears ``t_k`` in ``x``."""
+        return np.arange(0, 3 * self.n_interfaces, 3)
+
+    @property
+    def n(self) -> np.ndarray:
+        """Positions of the normal forces ``n_k`` in ``x``."""
+        return np.arange(1, 3 * self.n_interfaces, 3)
+
+    @property
+    def m(self) -> np.ndarray:
+        """Positions of the moments ``m_k`` in ``x``."""
+        return np.arange(2, 3 * self.n_interfaces, 3)
+
+    @property
+    def equilibrium(self) -> slice:
+        """Rows of ``A``: equilibrium (3 per free block)."""
+        return slice(0, 3 * self.n_blocks)
+
+    @property
+    def compatibility(self) -> slice:
+        """Rows of ``A``: compatibility (3 per interface)."""
+        return slice(3 * self.n_blocks, 3 * self.n_blocks + 3 * self.n_interfaces)
+
+    @property
+    def normalisation(self) -> slice:
+        """Row of ``A``: normalisation ``f_l^T u = 1``."""
+        a = 3 * self.n_blocks + 3 * self.n_interfaces
+        return slice(a, a + 1)
+
+    @property
+    def unilateral(self) -> slice:
+        """Pairs (rows of ``G``) of the no-tension conditions (2 per interface)."""
+        return slice(0, 2 * self.n_interfaces)
+
+    @property
+    def friction_pairs(self) -> slice:
+        """Pairs (rows of ``G``) of the Coulomb conditions (2 per interface)."""
+        return slice(2 * self.n_interfaces, 4 * self.n_interfaces)
+
+    @property
+    def n_pairs(self) -> int:
+        return 4 * self.n_interfaces
+
+    # ------------------------------------------------------------------ data views
+    @property
+    def f_l(self) -> np.ndarray:
+        """Live load (the ``lam`` column of the equilibrium rows)."""
+        return self.A[self.equilibrium, [self.lam]].toarray().ravel()
+
+    @property
+    def f_d(self) -> np.ndarray:
+        """Dead load (``E x + lam f_l = -f_d``)."""
+        return -self.rhs[self.equilibrium]
+
+    @property
+    def friction_gap(self) -> np.ndarray:
+        """``tan(phi) - tan(psi)`` per interface (the cohesion factor of the fixed point)."""
+        return self.friction - self.dilatancy
+
+    def block(self, rows: slice, cols: slice) -> sp.csr_array:
+        """A sub-block of ``A``, e.g. ``block(form.compatibility, form.z)`` = the flow matrix ``F``."""
+        return sp.csr_array(self.A[rows, cols])
+
+    @property
+    def pair_matrix(self) -> sp.csr_array:
+        """``G`` restricted to the ``x`` columns: the slacks are ``s = -pair_matrix @ x``."""
+        return sp.csr_array(self.G[:, self.x])
+
+    # ------------------------------------------------------------------ vectors
+    def pack(self, sol: Solution) -> np.ndarray:
+        """``w`` of a solution (missing fields are zeros)."""
+        w = np.zeros(self.n_columns)
+        w[self.lam] = 0.0 if sol.multiplier is None else float(sol.multiplier)
+        for sl, v in ((self.x, sol.x), (self.u, sol.u), (self.z_u, sol.z_u), (self.z_f, sol.z_f)):
+            if v is not None:
+                w[sl] = v
+        return w
+
+    def unpack(self, w: np.ndarray) -> Solution:
+        """The :class:`~blockmpec.result.Solution` at ``w``."""
+        w = np.asarray(w, float)
+        return Solution(multiplier=float(w[self.lam]), x=w[self.x].copy(), u=w[self.u].copy(),
+                        z_u=w[self.z_u].copy(), z_f=w[self.z_f].copy())
+
+    def slack(self, w: np.ndarray) -> np.ndarray:
+        """Pair slacks ``s = -G w`` (``>= 0`` when admissible)."""
+        return -(self.G @ w)
+
+    def multipliers(self, w: np.ndarray) -> np.ndarray:
+        """Pair multipliers ``w[pair_column]``."""
+        return np.asarray(w)[self.pair_column]
+
+    # ------------------------------------------------------------------ variants
+    def with_dilatancy(self, dilatancy: np.ndarray | float) -> CompiledMCP:
+        """The same system with ``tan(psi)`` = ``dilatancy`` (per interface) in the flow rows.
+
+        The flow rows are affine in ``tan(psi)``: ``A(d) = A(psi) + S diag(d - psi)``
+        where ``S`` (compiled once, lazily, from the Pyomo model at ``psi + 1``) holds
+        the derivative of each flow entry.
+        """
+        d = np.broadcast_to(np.asarray(dilatancy, float), self.dilatancy.shape).copy()
+        S = self._dilatancy_sensitivity()
+        col_shift = np.zeros(self.n_columns)
+        col_shift[self.z_f] = np.repeat(d - self.dilatancy, 2)
+        A = sp.csr_array(self.A + S @ sp.diags_array(col_shift))
+        return replace(self, A=A, dilatancy=d, _dilatancy_rows=S)
+
+    def _dilatancy_sensitivity(self) -> sp.csr_array:
+        if self._dilatancy_rows is None:
+            shifted = _compile(self._ops, self.dilatancy + 1.0)
+            S = sp.csr_array(shifted.A - self.A)
+            S.eliminate_zeros()
+            object.__setattr__(self, "_dilatancy_rows", S)
+        return self._dilatancy_rows
+
+
+def compile_mcp(ops: Operators) -> CompiledMCP:
+    """Compile the MCP (3) of ``ops``, once: the result is kept on ``ops`` (a reference
+    cycle ``ops -> form -> ops`` that the garbage collector frees with ``ops``)."""
+    form = getattr(ops, "_compiled_mcp", None)
+    if form is None:
+        form = _compile(ops, ops.dilatancy)
+        object.__setattr__(ops, "_compiled_mcp", form)
+    return form
+
+
+def _compile(ops: Operators, dilatancy: np.ndarray) -> CompiledMCP:
+    from blockmpec.formulations._pyomo import PyomoProblem, compile_linear
+    from blockmpec.formulations.mcp import mcp
+
+    problem = mcp(ops, dilatancy=dilatancy)
+    model = problem.model
+    pairs = [model.unilateral_pairs, model.friction_pairs]
+    for comp in pairs:
+        comp.deactivate()
+    try:
+        groups = {g: problem.constraints[g] for g in ("equilibrium", "compatibility", "normalisation",
+                                                       "unilateral", "friction")}
+        lp = compile_linear(PyomoProblem(problem.name, model, problem.variables, groups))
+    finally:
+        for comp in pairs:
+            comp.activate()
+    c, b = ops.n_interfaces, ops.n_free_blocks
+    order = np.concatenate([lp.columns[g] for g in ("lam", "x", "u", "z_u", "z_f")])
+    n = order.size
+    present = order >= 0
+    # P maps the compiler's columns to the canonical ones (absent variables: zero columns)
+    P = sp.csr_array((np.ones(int(present.sum())), (order[present], np.flatnonzero(present))),
+                     shape=(lp.A.shape[1], n))
+    A_all = sp.csr_array(lp.A @ P)
+    eq_rows = np.concatenate([lp.rows[g] for g in ("equilibrium", "compatibility", "normalisation")])
+    pair_rows = np.concatenate([lp.rows["unilateral"], lp.rows["friction"]])
+    if not np.array_equal(lp.row_lower[eq_rows], lp.row_upper[eq_rows]):
+        raise AssertionError("compile_mcp: an equilibrium/compatibility/normalisation row is not an equality")
+    if np.any(np.isfinite(lp.row_lower[pair_rows])) or np.any(lp.row_upper[pair_rows] != 0.0):
+        raise AssertionError("compile_mcp: a pair row is not of the form g(x) <= 0")
+    A = sp.csr_array(A_all[eq_rows])
+    A.sort_indices()
+    G = sp.csr_array(A_all[pair_rows])
+    G.sort_indices()
+    z0 = 1 + 3 * c + 3 * b
+    return CompiledMCP(
+        A=A,
+        rhs=lp.row_upper[eq_rows].copy(),
+        G=G,
+        pair_column=np.arange(z0, z0 + 4 * c),
+        pair_kind=np.repeat([UNILATERAL, FRICTION], 2 * c),
+        pair_interface=np.tile(np.repeat(np.arange(c), 2), 2),
+        n_blocks=b,
+        n_interfaces=c,
+        friction=np.asarray(ops.friction, float).copy(),
+        dilatancy=np.broadcast_to(np.asarray(dilatancy, float), (c,)).copy(),
+        _ops=ops,
+    )
