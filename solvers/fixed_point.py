@@ -72,7 +72,7 @@ class FixedPointOptions:
     time_limit: float = field(default=float("inf"), metadata={"help": "seconds for the whole iteration"})
 
     def __post_init__(self) -> None:
-        from blockmpec.solvers.engines.highs import ALGORITHMS
+        from blockmpec.solvers.engines.lp_engine import BASIS_ALGORITHMS
         from blockmpec.solvers.engines.lp_sequence import STARTS, TIE_BREAKS
 
         check.positive(self, "tol")
@@ -80,7 +80,7 @@ class FixedPointOptions:
         check.interval(self, "relaxation", 0, 1, closed="right")
         check.choice(self, "start", STARTS)
         check.choice(self, "tie_break", TIE_BREAKS)
-        check.choice(self, "algorithm", ALGORITHMS)
+        check.choice(self, "algorithm", BASIS_ALGORITHMS)
         check.positive(self, "time_limit", finite=False)
 
 

@@ -23,9 +23,9 @@ class KinematicLPOptions:
     time_limit: float = field(default=float("inf"), metadata={"help": "seconds"})
 
     def __post_init__(self) -> None:
-        from blockmpec.solvers.engines.highs import ALGORITHMS
+        from blockmpec.solvers.engines.lp_engine import BASIS_ALGORITHMS
 
-        check.choice(self, "algorithm", ALGORITHMS)
+        check.choice(self, "algorithm", BASIS_ALGORITHMS)
         check.positive(self, "time_limit", finite=False)
 
 

@@ -65,7 +65,7 @@ class SLPOptions:
     time_limit: float = field(default=float("inf"), metadata={"help": "seconds for the whole iteration"})
 
     def __post_init__(self) -> None:
-        from blockmpec.solvers.engines.highs import ALGORITHMS
+        from blockmpec.solvers.engines.lp_engine import BASIS_ALGORITHMS
         from blockmpec.solvers.engines.lp_sequence import TIE_BREAKS
 
         check.interval(self, "alpha", 0, 1, closed="both")
@@ -73,7 +73,7 @@ class SLPOptions:
         check.positive(self, "tol")
         check.integer(self, "max_iterations", minimum=2)
         check.choice(self, "tie_break", TIE_BREAKS)
-        check.choice(self, "algorithm", ALGORITHMS)
+        check.choice(self, "algorithm", BASIS_ALGORITHMS)
         check.positive(self, "time_limit", finite=False)
 
 

@@ -24,9 +24,9 @@ class LPOptions:
     time_limit: float = field(default=float("inf"), metadata={"help": "seconds"})
 
     def __post_init__(self) -> None:
-        from blockmpec.solvers.engines.block_ipm import COLD_ALGORITHMS
+        from blockmpec.solvers.engines.lp_engine import ALGORITHMS
 
-        check.choice(self, "algorithm", COLD_ALGORITHMS)
+        check.choice(self, "algorithm", ALGORITHMS)
         check.positive(self, "time_limit", finite=False)
 
 
@@ -35,7 +35,8 @@ class StaticLP(SolverBase):
     """Associative limit analysis by the static theorem (1).
 
     ``algorithm="auto"``: HiGHS's dual simplex for small LPs, the block interior-point
-    method (:mod:`blockmpec.solvers.engines.block_ipm`) above ``AUTO_BLOCK_IPM_ROWS`` rows.
+    method (:mod:`blockmpec.solvers.engines.block_ipm`) for large or stiff LPs: the one rule is
+    :func:`blockmpec.solvers.engines.lp_engine.select_algorithm`.
     """
 
     name = "static-lp"
@@ -46,7 +47,7 @@ class StaticLP(SolverBase):
 
     def setup(self, ops):
         from blockmpec.formulations import compile_linear, static_lp
-        from blockmpec.solvers.engines.block_ipm import cold_lp_engine
+        from blockmpec.solvers.engines.lp_engine import cold_lp_engine
 
         self.ops = ops
         self.lp = compile_linear(static_lp(ops))

@@ -3,7 +3,7 @@
 For each wall and LP algorithm: structure generation (with interface detection),
 operator assembly, Pyomo model build, compilation to matrices, engine load, cold
 solve, lam, and the ratio of model construction (build + compile) to the solve.
-Algorithms are those of ``static-lp`` (``blockmpec.solvers.engines.block_ipm.COLD_ALGORITHMS``):
+Algorithms are those of ``static-lp`` (``blockmpec.solvers.engines.lp_engine.ALGORITHMS``):
 HiGHS's ``dual-simplex``, ``primal-simplex``, ``ipm`` (with crossover), the
 ``block-ipm``, or ``auto``.  Usage::
 
@@ -22,7 +22,7 @@ from pathlib import Path
 
 import blockmpec as bm
 from blockmpec.formulations import compile_linear, static_lp
-from blockmpec.solvers.engines.block_ipm import cold_lp_engine
+from blockmpec.solvers.engines.lp_engine import cold_lp_engine
 
 OUT = Path(__file__).parent / "output" / "lp_timing"
 

@@ -13,7 +13,8 @@ import pytest
 import blockmpec as bm
 from helpers import assert_success, block_on_block, two_block_associative
 from blockmpec.formulations import compile_linear, kinematic_lp, static_lp
-from blockmpec.solvers.engines.block_ipm import AUTO_BLOCK_IPM_ROWS, BlockIPM, cold_lp_engine, interface_blocks
+from blockmpec.solvers.engines.block_ipm import BlockIPM, interface_blocks
+from blockmpec.solvers.engines.lp_engine import AUTO_BLOCK_IPM_ROWS, cold_lp_engine
 from blockmpec.solvers.engines.highs import HighsLP
 
 

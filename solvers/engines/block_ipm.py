@@ -441,34 +441,3 @@ def _inf(a: np.ndarray) -> float:
 def interface_blocks(lp: LinearProgram) -> np.ndarray:
     """Columns of ``x = (t_k, n_k, m_k)`` per interface, shape (c, 3), for a static LP."""
     return lp.columns["x"].reshape(-1, 3)
-
-
-#: LP algorithms of the adapters that solve one LP cold: HiGHS's and the block IPM.
-#: "auto" = HiGHS dual simplex up to AUTO_BLOCK_IPM_ROWS rows, the block IPM above
-#: (studies/lp_timing.py, one run: 1,001-block wall HiGHS IPM + crossover 9.7 s, block
-#: IPM 1.6 s; 10,046 blocks HiGHS > 900 s, block IPM 47 s), and the block IPM also when
-#: block loads differ by more than AUTO_BLOCK_IPM_LOAD_SPREAD (a 1e-3 block on a unit
-#: block, loads 1e-6 apart: HiGHS's absolute tolerances give lam = 0.65 instead of 0.5,
-#: which the verifier rejects; the block IPM in load units gets 0.5).
-COLD_ALGORITHMS = ("auto", "simplex", "dual-simplex", "primal-simplex", "ipm", "block-ipm")
-AUTO_BLOCK_IPM_ROWS = 2000
-AUTO_BLOCK_IPM_LOAD_SPREAD = 1e4
-
-
-def cold_lp_engine(lp: LinearProgram, algorithm: str = "auto", time_limit: float = float("inf"), ops=None):
-    """A solver for one static LP: :class:`BlockIPM` or :class:`blockmpec.solvers.engines.highs.HighsLP`.
-
-    Both have ``solve() -> LPOutcome`` (HiGHS dual signs) and ``set_row_upper``.  Given
-    ``ops``, both work in the load units of :func:`blockmpec.solvers.engines.scaling.load_scaling`.
-    """
-    from blockmpec.solvers.engines.highs import HighsLP
-    from blockmpec.solvers.engines.scaling import load_scaling, load_spread
-
-    if algorithm == "auto":
-        large = lp.A.shape[0] > AUTO_BLOCK_IPM_ROWS
-        stiff = ops is not None and load_spread(ops) > AUTO_BLOCK_IPM_LOAD_SPREAD
-        algorithm = "block-ipm" if large or stiff else "dual-simplex"
-    row_scale, column_scale = load_scaling(lp, ops) if ops is not None else (None, None)
-    if algorithm == "block-ipm":
-        return BlockIPM(lp, interface_blocks(lp), time_limit=time_limit, row_scale=row_scale, column_scale=column_scale)
-    return HighsLP(lp, algorithm, time_limit, row_scale=row_scale, column_scale=column_scale)

@@ -16,13 +16,9 @@ import scipy.sparse as sp
 
 from blockmpec.result import Solution, Status
 from blockmpec.formulations import LinearProgram
+from blockmpec.solvers.engines.lp_engine import BASIS_ALGORITHMS, select_algorithm
 
-#: LP algorithms a user may choose.  "auto" = dual simplex on small models (at most
-#: AUTO_IPM_ROWS rows) and for warm re-solves; a cold solve of a larger model uses the
-#: interior point method with crossover (so that a basis exists for warm starts).
-#: Measured on a 1,000-block wall: dual simplex 97 s, primal simplex 27 s, IPM 11-14 s.
-ALGORITHMS = ("auto", "simplex", "dual-simplex", "primal-simplex", "ipm")
-AUTO_IPM_ROWS = 2000
+
 
 
 @dataclass
@@ -79,8 +75,8 @@ class HighsLP:
                  column_scale: np.ndarray | None = None) -> None:
         import highspy
 
-        if algorithm not in ALGORITHMS:
-            raise ValueError(f"algorithm must be one of {ALGORITHMS}; got {algorithm!r}")
+        if algorithm not in BASIS_ALGORITHMS:
+            raise ValueError(f"algorithm must be one of {BASIS_ALGORITHMS}; got {algorithm!r}")
         self.lp = lp
         h = highspy.Highs()
         h.setOptionValue("output_flag", False)
@@ -112,8 +108,7 @@ class HighsLP:
 
     def _set_algorithm(self, algorithm: str) -> None:
         h = self.highs
-        if algorithm == "auto":
-            algorithm = "ipm" if self._first and self.lp.A.shape[0] > AUTO_IPM_ROWS else "dual-simplex"
+        algorithm = select_algorithm(algorithm, self.lp.A.shape[0], need_basis=True, warm=not self._first)
         if algorithm == "ipm":
             h.setOptionValue("solver", "ipm")
             h.setOptionValue("run_crossover", "on")
