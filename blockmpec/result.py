@@ -27,6 +27,10 @@ class Status(str, Enum):
     TIME_LIMIT = "time_limit"
     INFEASIBLE = "infeasible"
     UNBOUNDED = "unbounded"  #: the static LP is unbounded: the live load never causes collapse
+    #: the backend proved the LP (or MILP) infeasible *or* unbounded without deciding which
+    #: (HiGHS's ``kUnboundedOrInfeasible``; a kinematic LP that has no mechanism): for the static LP,
+    #: the structure may be unstable under dead load, or no collapse mechanism exists
+    INFEASIBLE_OR_UNBOUNDED = "infeasible_or_unbounded"
     NUMERICAL = "numerical"  #: the solver claimed success but the verifier disagrees
     ERROR = "error"
     SKIPPED = "skipped"  #: the method does not fit the case, or its backend is missing

@@ -63,10 +63,31 @@ class KinematicLP(SolverBase):
                 z_u=lp.values("z_u", out.v),
                 z_f=lp.values("z_f", out.v),
             )
-        elif out.status is Status.INFEASIBLE:
-            message = "the kinematic LP is infeasible: no mechanism exists for this live load"
-            out.status = Status.UNBOUNDED  # dual of an unbounded static LP: no collapse
+        elif out.status in (Status.INFEASIBLE, Status.INFEASIBLE_OR_UNBOUNDED):
+            out.status, message = self._no_mechanism(out.status)
         elif out.status is Status.UNBOUNDED:
             message = "the kinematic LP is unbounded: no equilibrium exists (e.g. unstable under dead load)"
-            out.status = Status.INFEASIBLE
+            out.status = Status.INFEASIBLE  # a dual with an unbounded objective proves the static LP infeasible
         return RunOutput(out.status, sol, out.iterations, message=message, raw_status=out.raw_status)
+
+    def _no_mechanism(self, status: Status) -> tuple[Status, str]:
+        """Status and message when the kinematic LP has no feasible mechanism.
+
+        By LP duality its dual, the static LP (1), is then infeasible *or* unbounded, and both
+        happen (a frictionless block between two walls has neither an equilibrium nor a
+        mechanism).  One static LP solve (HiGHS's dual simplex, load units) says which.
+        """
+        from blockmpec.formulations import compile_linear, static_lp
+        from blockmpec.solvers.engines.lp_engine import cold_lp_engine
+
+        static = cold_lp_engine(compile_linear(static_lp(self.ops)), "dual-simplex", self.options.time_limit,
+                                ops=self.ops).solve()
+        if static.status is Status.UNBOUNDED:
+            return Status.UNBOUNDED, ("the kinematic LP is infeasible and the static LP unbounded: no collapse "
+                                      "mechanism exists for this live load")
+        if static.status is Status.INFEASIBLE:
+            return Status.INFEASIBLE, ("the kinematic LP is infeasible and so is the static LP: no equilibrium "
+                                       "exists (e.g. unstable under dead load), and no mechanism either")
+        return Status.INFEASIBLE_OR_UNBOUNDED, (
+            f"the kinematic LP is {status.value} ({static.status.value} for the static LP): infeasible or "
+            "unbounded: the structure may be unstable under dead load, or no mechanism exists")

@@ -106,7 +106,8 @@ class MCPNewton(SolverBase):
         t_start = time.perf_counter()
         start = self.start_lp.run()
         if start.status is not Status.OPTIMAL:
-            status = start.status if start.status in (Status.UNBOUNDED, Status.INFEASIBLE, Status.TIME_LIMIT) \
+            status = start.status if start.status in (Status.UNBOUNDED, Status.INFEASIBLE, Status.INFEASIBLE_OR_UNBOUNDED,
+                                                                       Status.TIME_LIMIT) \
                 else Status.ERROR
             return RunOutput(status, message=f"associative start failed: {start.status.value} ({start.message})",
                              raw_status="static LP")

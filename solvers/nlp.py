@@ -282,7 +282,7 @@ class RelaxedNLP(SolverBase):
         t_start = time.perf_counter()
         v0, scale, fail, start_msg = self._start_point()
         if fail is not None:
-            return RunOutput(fail if fail in (Status.UNBOUNDED, Status.INFEASIBLE, Status.TIME_LIMIT) else Status.ERROR,
+            return RunOutput(fail if fail in (Status.UNBOUNDED, Status.INFEASIBLE, Status.INFEASIBLE_OR_UNBOUNDED, Status.TIME_LIMIT) else Status.ERROR,
                              message=start_msg, raw_status="static LP")
         nlp = _RelaxedMPEC(self.ops, scale)
         self.nlp = nlp

@@ -63,4 +63,7 @@ class StaticLP(SolverBase):
             message = "the static LP is unbounded: no collapse mechanism exists for this live load"
         elif out.status is Status.INFEASIBLE:
             message = "the static LP is infeasible: no equilibrium exists (e.g. unstable under dead load)"
+        elif out.status is Status.INFEASIBLE_OR_UNBOUNDED:
+            message = (f"the static LP is infeasible or unbounded ({out.raw_status}): the structure may be unstable "
+                       "under dead load, or no mechanism exists")
         return RunOutput(out.status, sol, out.iterations, message=message, raw_status=out.raw_status)

@@ -128,3 +128,79 @@ def test_split_multiplier_formulation_is_the_same_lp(name):
     sol = static_lp_solution(lp, HighsLP(lp, "dual-simplex").solve())
     assert sol.multiplier == pytest.approx(bm.solve(structure, "static-lp").multiplier, rel=1e-9)
     assert max(bm.residuals(ops, sol, associative=True).values()) < 1e-9
+
+
+def _frictionless_block_between_walls() -> bm.Structure:
+    # no friction: the walls cannot carry the block's weight (no equilibrium), and a horizontal live
+    # load only presses it against a wall (no mechanism): static LP infeasible, kinematic LP infeasible
+    polys = [[[-1, -1], [0, -1], [0, 2], [-1, 2]], [[0, 0], [1, 0], [1, 1], [0, 1]], [[1, -1], [2, -1], [2, 2], [1, 2]]]
+    return bm.make_structure(polys, [True, False, True], friction=0.0)
+
+
+def test_no_equilibrium_and_no_mechanism_is_infeasible_for_both_lps():
+    # the kinematic LP's infeasibility alone proves only "static LP infeasible or unbounded"; it used
+    # to be reported as UNBOUNDED ("no mechanism exists") for this structure, which has no equilibrium
+    s = _frictionless_block_between_walls()
+    for method in ("static-lp", "kinematic-lp"):
+        res = bm.solve(s, method)
+        assert res.status is bm.Status.INFEASIBLE, (method, res.status, res.message)
+        assert "equilibrium" in res.message and "no collapse mechanism exists" not in res.message
+
+
+class _FakeHighs:
+    def __init__(self, name):
+        import highspy
+
+        self.status = getattr(highspy.HighsModelStatus, name)
+
+    def getModelStatus(self):  # noqa: N802 (highspy's spelling)
+        return self.status
+
+
+@pytest.mark.parametrize(("raw", "status"), [
+    ("kOptimal", bm.Status.OPTIMAL), ("kInfeasible", bm.Status.INFEASIBLE), ("kUnbounded", bm.Status.UNBOUNDED),
+    ("kUnboundedOrInfeasible", bm.Status.INFEASIBLE_OR_UNBOUNDED), ("kTimeLimit", bm.Status.TIME_LIMIT),
+    ("kIterationLimit", bm.Status.ITERATION_LIMIT), ("kSolutionLimit", bm.Status.ITERATION_LIMIT),
+    ("kInterrupt", bm.Status.ERROR), ("kMemoryLimit", bm.Status.ERROR), ("kSolveError", bm.Status.ERROR),
+    ("kNotset", bm.Status.ERROR), ("kObjectiveBound", bm.Status.ERROR),
+])
+def test_one_highs_status_map(raw, status):
+    from blockmpec.solvers.engines.highs import highs_status
+
+    assert highs_status(_FakeHighs(raw)) == (status, raw)
+    assert not (status is bm.Status.INFEASIBLE_OR_UNBOUNDED and status.is_success)
+
+
+def test_infeasible_or_unbounded_static_lp_message_is_truthful(monkeypatch):
+    # HiGHS's kUnboundedOrInfeasible (it proved one of the two without deciding which) must not be
+    # reported as "no collapse mechanism": the structure may as well be unstable under dead load
+    import blockmpec.solvers.engines.highs as highs
+
+    monkeypatch.setattr(highs, "highs_status", lambda h: (bm.Status.INFEASIBLE_OR_UNBOUNDED, "kUnboundedOrInfeasible"))
+    res = bm.solve(_frictionless_block_between_walls(), "static-lp", algorithm="dual-simplex")
+    assert res.status is bm.Status.INFEASIBLE_OR_UNBOUNDED and not res.success
+    assert res.raw_status == "kUnboundedOrInfeasible"
+    assert "unstable under dead load" in res.message and "no collapse mechanism" not in res.message
+
+
+def test_mip_info_reads_bounds_gap_and_nodes():
+    import highspy
+
+    from blockmpec.solvers.engines.highs import mip_info
+
+    # min -x - y  s.t.  2x + 2y <= 5, x, y integer in [0, 3]: optimum -2, LP relaxation -2.5
+    h = highspy.Highs()
+    h.setOptionValue("output_flag", False)
+    h.addVars(2, np.zeros(2), np.full(2, 3.0))
+    h.changeColsCost(2, np.arange(2, dtype=np.int32), np.array([-1.0, -1.0]))
+    h.addRow(-highspy.kHighsInf, 5.0, 2, np.arange(2, dtype=np.int32), np.array([2.0, 2.0]))
+    h.changeColsIntegrality(2, np.arange(2, dtype=np.int32), np.array([highspy.HighsVarType.kInteger] * 2))
+    h.run()
+    info = mip_info(h)
+    assert info.status is bm.Status.OPTIMAL and info.raw_status == "kOptimal" and info.has_solution
+    assert info.primal_bound == pytest.approx(-2.0) and info.dual_bound == pytest.approx(-2.0)
+    assert info.gap <= 1e-9 and info.nodes >= 0
+    h.changeRowBounds(0, 3.0, 3.5)  # 3 <= 2x + 2y <= 3.5 has no integer point
+    h.run()
+    info = mip_info(h)
+    assert info.status is bm.Status.INFEASIBLE and not info.has_solution and info.primal_bound == np.inf

@@ -19,8 +19,6 @@ from blockmpec.formulations import LinearProgram
 from blockmpec.solvers.engines.lp_engine import BASIS_ALGORITHMS, select_algorithm
 
 
-
-
 @dataclass
 class LPOutcome:
     """One HiGHS solve: status, primal column values, row duals and bookkeeping."""
@@ -34,14 +32,62 @@ class LPOutcome:
     message: str = ""
 
 
-_STATUS_MAP = {
+#: HiGHS model status -> :class:`Status`, for LPs and MILPs alike; any other status is ``ERROR``.
+#: ``kSolutionLimit`` is HiGHS's stop on a MIP work limit other than time (nodes, leaves,
+#: improving solutions), hence ``ITERATION_LIMIT``; ``kInterrupt`` (a callback or signal stopped the
+#: run), ``kObjectiveBound``/``kObjectiveTarget`` (limits blockmpec never sets), ``kMemoryLimit`` and
+#: the load/presolve/solve/postsolve errors are ``ERROR``.
+HIGHS_STATUS: dict[str, Status] = {
     "kOptimal": Status.OPTIMAL,
     "kInfeasible": Status.INFEASIBLE,
     "kUnbounded": Status.UNBOUNDED,
-    "kUnboundedOrInfeasible": Status.UNBOUNDED,
+    "kUnboundedOrInfeasible": Status.INFEASIBLE_OR_UNBOUNDED,
     "kTimeLimit": Status.TIME_LIMIT,
     "kIterationLimit": Status.ITERATION_LIMIT,
+    "kSolutionLimit": Status.ITERATION_LIMIT,
 }
+
+
+def highs_status(highs) -> tuple[Status, str]:
+    """``(status, raw_name)`` of a ``highspy.Highs`` after ``run()``: the one HiGHS status map.
+
+    ``raw_name`` is HiGHS's own name (``"kOptimal"``, ``"kUnboundedOrInfeasible"`` ...), kept for
+    ``Result.raw_status`` and messages; callers branch on ``status`` only.
+    """
+    raw = highs.getModelStatus().name
+    return HIGHS_STATUS.get(raw, Status.ERROR), raw
+
+
+@dataclass(frozen=True)
+class MipInfo:
+    """What a HiGHS MIP run proved, in HiGHS's (minimisation) objective.
+
+    ``primal_bound`` is the incumbent's objective (``inf`` without one) and ``dual_bound`` the
+    best bound, so ``dual_bound <= optimum <= primal_bound``; ``gap`` is HiGHS's relative gap
+    ``mip_gap = |primal_bound - dual_bound| / |primal_bound|`` (``inf`` without an incumbent),
+    ``nodes`` the branch-and-bound nodes, ``has_solution`` whether HiGHS holds a feasible point.
+    """
+
+    status: Status
+    raw_status: str
+    message: str
+    primal_bound: float
+    dual_bound: float
+    gap: float
+    nodes: int
+    has_solution: bool
+
+
+def mip_info(highs) -> MipInfo:
+    """:class:`MipInfo` of a ``highspy.Highs`` after ``run()`` on a model with integer columns."""
+    import highspy
+
+    status, raw = highs_status(highs)
+    info = highs.getInfo()
+    has_solution = int(info.primal_solution_status) == int(highspy.SolutionStatus.kSolutionStatusFeasible)
+    primal = float(info.objective_function_value) if has_solution else float("inf")
+    return MipInfo(status, raw, highs.modelStatusToString(highs.getModelStatus()), primal,
+                   float(info.mip_dual_bound), float(info.mip_gap), int(info.mip_node_count), has_solution)
 
 
 def static_lp_solution(lp: LinearProgram, outcome: LPOutcome) -> Solution:
@@ -143,8 +189,7 @@ class HighsLP:
         self._set_algorithm(algorithm or self.algorithm)
         h.run()
         self._first = False
-        raw = h.getModelStatus().name
-        status = _STATUS_MAP.get(raw, Status.ERROR)
+        status, raw = highs_status(h)
         info = h.getInfo()
         iterations = int(max(info.simplex_iteration_count, 0) + max(info.ipm_iteration_count, 0))
         sol = h.getSolution()
