@@ -1,6 +1,7 @@
 """Pyomo statements of the limit-analysis problems, built from the sparse operators.
 
 * :func:`static_lp`      problem (1), and the modified associative LP (5) of the fixed point;
+* :func:`tie_break_lp`   the fixed point's tie-break LP (picks one optimal point of a step LP (5));
 * :func:`kinematic_lp`   problem (2);
 * :func:`mcp`            the non-associative MCP (3), with ``pyomo.mpec`` complementarity pairs;
 * :func:`mpec`           the MPEC (4): (3) plus ``min lam``;
@@ -20,8 +21,9 @@ from blockmpec.formulations.kinematic_lp import kinematic_lp
 from blockmpec.formulations.mcp import evaluate_mcp, mcp
 from blockmpec.formulations.mpec import mpec
 from blockmpec.formulations.static_lp import modified_lp, static_lp
+from blockmpec.formulations.tie_break import tie_break_lp
 
 __all__ = [
     "CompiledMCP", "LinearProgram", "compile_mcp", "PyomoProblem", "compile_linear", "evaluate_mcp", "kinematic_lp", "mcp", "modified_lp", "mpec",
-    "static_lp",
+    "static_lp", "tie_break_lp",
 ]

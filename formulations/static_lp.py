@@ -89,7 +89,15 @@ def static_lp(ops: Operators, friction: np.ndarray | None = None, cohesion: np.n
     )
 
 
-def modified_lp(ops: Operators, n_star: np.ndarray) -> PyomoProblem:
-    """The modified associative LP (5) at normal forces ``n_star`` (shape (c,))."""
-    cohesion = -np.asarray(n_star, float) * (ops.friction - ops.dilatancy)
-    return static_lp(ops, friction=ops.dilatancy, cohesion=cohesion, name="modified-lp")
+def modified_lp(ops: Operators, n_star: np.ndarray, slope: np.ndarray | None = None,
+                name: str = "modified-lp") -> PyomoProblem:
+    """The modified associative LP (5) at normal forces ``n_star`` (shape (c,)).
+
+    Friction rows ``|t_k| <= -s_k n_k - (tan(phi_k) - s_k) n*_k`` with slope ``s``
+    (default ``tan(psi)``: eq. (5); ``s`` between ``tan(psi)`` and ``tan(phi)`` is the
+    SLP's tilted surface).  Every such row passes through the Coulomb point at
+    ``n = n*``.  The cohesion is the mutable ``Param`` ``model.cohesion``.
+    """
+    s = ops.dilatancy if slope is None else np.asarray(slope, float)
+    cohesion = -np.asarray(n_star, float) * (ops.friction - s)
+    return static_lp(ops, friction=s, cohesion=cohesion, name=name)

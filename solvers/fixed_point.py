@@ -53,6 +53,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 from blockmpec import options as check
+from blockmpec.facts import ASSOCIATIVE_MULTIPLIER
 from blockmpec.registry import register_solver
 from blockmpec.result import Status
 from blockmpec.solver import RunOutput, SolverBase
@@ -65,21 +66,28 @@ class FixedPointOptions:
     tol: float = field(default=1e-9, metadata={"help": "stop when ||n - n*|| <= tol ||n||"})
     max_iterations: int = field(default=500, metadata={"help": "most modified-LP steps"})
     relaxation: float = field(default=1.0, metadata={"help": "omega in (0, 1]: n* <- n* + omega (n - n*)"})
-    start: str = field(default="associative", metadata={"help": "associative | zero: the first n*"})
+    start: str = field(default="associative", metadata={
+        "help": "associative | zero | dead-load | random: the first n* (see lp_sequence)"})
     tie_break: str = field(default="closest", metadata={
-        "help": "closest: among optimal LP forces take those closest to n* (1-norm); none: plain method"})
+        "help": "closest | least-compressed | min-lambda | on-oscillation | none: which optimal LP forces a step takes"})
+    acceleration: str = field(default="none", metadata={"help": "none | anderson: update of n*"})
+    memory: int = field(default=5, metadata={"help": "Anderson depth"})
+    seed: int = field(default=0, metadata={"help": "seed of the random start"})
     algorithm: str = field(default="auto", metadata={"help": "HiGHS: auto | simplex | dual-simplex | primal-simplex | ipm"})
     time_limit: float = field(default=float("inf"), metadata={"help": "seconds for the whole iteration"})
 
     def __post_init__(self) -> None:
         from blockmpec.solvers.engines.lp_engine import BASIS_ALGORITHMS
-        from blockmpec.solvers.engines.lp_sequence import STARTS, TIE_BREAKS
+        from blockmpec.solvers.engines.lp_sequence import ACCELERATIONS, STARTS, TIE_BREAKS
 
         check.positive(self, "tol")
         check.integer(self, "max_iterations", minimum=1)
         check.interval(self, "relaxation", 0, 1, closed="right")
         check.choice(self, "start", STARTS)
         check.choice(self, "tie_break", TIE_BREAKS)
+        check.choice(self, "acceleration", ACCELERATIONS)
+        check.integer(self, "memory", minimum=1)
+        check.integer(self, "seed", minimum=0)
         check.choice(self, "algorithm", BASIS_ALGORITHMS)
         check.positive(self, "time_limit", finite=False)
 
@@ -100,15 +108,18 @@ class FixedPoint(SolverBase):
         self.ops = ops
         o = self.options
         self.sequence = LPSequence(ops, alpha=0.0, tie_break=o.tie_break, algorithm=o.algorithm,
-                                   need_associative=o.start == "associative")
+                                   need_associative=o.start in ("associative", "dead-load", "random"))
 
     def run(self) -> RunOutput:
         from blockmpec.solvers.engines.lp_sequence import run_sequence
 
         o = self.options
         out, facts = run_sequence(self.sequence, start=o.start, relaxation=o.relaxation, stop_on="normal",
-                                  tol=o.tol, max_iterations=o.max_iterations, time_limit=o.time_limit)
-        out.extra.update(lam_associative=facts["lam_start"], tie_break_failures=facts["tie_break_failures"])
+                                  tol=o.tol, max_iterations=o.max_iterations, time_limit=o.time_limit,
+                                   acceleration=o.acceleration, memory=o.memory, seed=o.seed)
+        out.extra["tie_break_failures"] = facts["tie_break_failures"]
+        if facts["lam_start"] is not None:
+            out.extra[ASSOCIATIVE_MULTIPLIER] = facts["lam_start"]
         if out.status is Status.CONVERGED:
             last = out.trace[-1]
             out.message = (f"normal forces converged in {out.iterations} LP steps: ||n - n*||/||n|| = "

@@ -45,6 +45,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 from blockmpec import options as check
+from blockmpec.facts import ASSOCIATIVE_MULTIPLIER
 from blockmpec.registry import register_solver
 from blockmpec.result import Status
 from blockmpec.solver import RunOutput, SolverBase
@@ -103,7 +104,7 @@ class SLP(SolverBase):
         out, facts = run_sequence(self.sequence, start="associative", relaxation=o.beta, stop_on="multiplier",
                                   tol=o.tol, max_iterations=o.max_iterations, time_limit=o.time_limit,
                                   min_iterations=2)
-        out.extra.update(lam_associative=facts["lam_start"], tie_break_failures=facts["tie_break_failures"])
+        out.extra.update({ASSOCIATIVE_MULTIPLIER: facts["lam_start"], "tie_break_failures": facts["tie_break_failures"]})
         if out.trace:
             last = out.trace[-1]
             out.extra["friction_admissibility"] = last["friction_admissibility"]

@@ -1,6 +1,6 @@
 r"""The LP loop shared by ``fixed-point`` and ``slp``: a sequence of modified associative LPs.
 
-Step LP at given normal forces ``n*`` (one ``<=`` row pair per interface ``k``)::
+Step LP at given normal forces ``n*`` (:func:`blockmpec.formulations.modified_lp`)::
 
     max  lam
     s.t. E x + f_d + lam f_l = 0,   N_u^T x <= 0,
@@ -11,26 +11,47 @@ modified LP (5) of the fixed-point method; ``alpha > 0`` tilts the surface towar
 Coulomb's (the SLP of Gilbert et al.).  At ``n = n*`` the right-hand side equals
 ``-tan(phi) n*``: every such surface passes through the Coulomb point at ``n*``.
 
-Persistence: the step LP is built (Pyomo), compiled and loaded into HiGHS once;
-a new ``n*`` changes only the friction rows' upper bounds (``set_row_upper``) and
-the next solve starts from the previous basis.
-
 Mechanism: the duals of the step LP give ``u = -y_eq``, ``z_u = -y_uni``,
 ``z_f = -y_fric`` with ``E^T u + N_u z_u + N_s z_f = 0`` and ``f_l^T u = 1``, where
 ``N_s`` is the friction operator with slope ``s`` (``= V_f`` when ``alpha = 0``).
 
-Tie-break (``tie_break="closest"``): the step LP's optimal forces need not be
-unique; a second persistent LP picks, among (numerically) optimal points, the one
-closest to ``n*`` in the 1-norm::
+Tie-break: the step LP's optimal forces need not be unique; a second LP
+(:func:`blockmpec.formulations.tie_break_lp`) keeps ``lam >= lam* - delta``
+(``delta = 1e-10 max(1, |lam*|)``) and picks one optimal point by its objective
+``sum_k w_k |n_k - n*_k| + sum_k c_k n_k``.  Rules (:data:`TIE_BREAKS`):
 
-    min  sum_k d_k
-    s.t. the step LP's constraints (same n*),  lam >= lam* - delta,
-         n_k - d_k <= n*_k,   -n_k - d_k <= -n*_k,   d >= 0
+* ``"closest"``: ``w = 1, c = 0``: the optimal forces closest to ``n*`` (1-norm).
+  Once ``n*`` is optimal for its own LP, ``F(n*) = n*`` exactly.
+* ``"least-compressed"``: ``c_k = -(tan(phi_k) - s_k)``, ``w = 1e-3``: the optimal
+  forces with the smallest total next-step cohesion ``-sum (tan(phi) - s) n``, which
+  can only lower the next step's ``lam``; closeness breaks the remaining ties.
+* ``"min-lambda"``: ``c_k = -(tan(phi_k) - s_k) zeta_k / max``, ``w = 1e-3``, with
+  ``zeta_k`` the step LP's friction multipliers of interface ``k`` (both rows): the
+  optimal forces that minimise the first-order estimate of the next step's
+  ``lam`` (``d lam / d cohesion_k = zeta_k``, LP sensitivity).
+* ``"on-oscillation"``: no tie-break LP until ``||n - n*||`` fails to decrease,
+  then ``"closest"``.
+* ``"none"``: the step LP's vertex as HiGHS returns it.
 
-with ``lam*`` the step LP's optimum and ``delta = 1e-10 max(1, |lam*|)``.  Any optimal
-primal point and any optimal dual point of an LP are complementary, so the duals
-of the step LP and ``x`` of the tie-break LP form a consistent pair.  The
-tie-break only changes row upper bounds between iterations too, so it is warm.
+Any optimal primal and dual point of one LP are complementary, so the duals of
+the step LP and ``x`` of the tie-break LP form a consistent pair.
+
+Starts (:data:`STARTS`): ``"associative"`` (normal forces of the static LP (1)),
+``"zero"`` (``n* = 0``: no cohesion), ``"dead-load"`` (a statically admissible
+field under the dead load alone: the LP (1) with ``lam`` fixed at 0), ``"random"``
+(``n* = r * n_assoc``, ``r_k`` uniform in [0, 1] from a seeded generator).
+
+Acceleration (``"anderson"``): Anderson mixing of depth ``m`` on ``n*`` (type II):
+with residuals ``f_j = F(n*_j) - n*_j`` and the differences ``dF``, ``dX`` of the
+last ``m`` iterates, ``gamma = argmin ||f_k - dF gamma||`` and
+``n*_{k+1} = n*_k - dX gamma + omega (f_k - dF gamma)``.  A step LP that is not
+optimal at an accelerated ``n*`` is retried at the plain update (memory cleared).
+The stopping test stays ``||n - n*|| <= tol ||n||`` on the LP's own output.
+
+Persistence: the LPs are built (Pyomo, in :mod:`blockmpec.formulations`),
+compiled and loaded into HiGHS once; a new ``n*`` changes only row upper bounds
+(and, for the weighted tie-breaks, costs) and each solve starts from the previous
+basis.
 """
 
 from __future__ import annotations
@@ -47,8 +68,11 @@ from blockmpec.solver import RunOutput
 from blockmpec.verify import positive_part_ratio
 from blockmpec.solvers.engines.highs import static_lp_solution
 
-TIE_BREAKS = ("closest", "none")
-STARTS = ("associative", "zero")
+TIE_BREAKS = ("closest", "least-compressed", "min-lambda", "on-oscillation", "none")
+STARTS = ("associative", "zero", "dead-load", "random")
+ACCELERATIONS = ("none", "anderson")
+#: weight of the closeness term under the weighted tie-break rules (the rule's own costs are scaled to max 1)
+CLOSENESS_WEIGHT = 1e-3
 
 
 def tie_break_delta(lam: float) -> float:
@@ -76,11 +100,13 @@ class LPSequence:
     ops : Operators
     alpha : float
         Tilt of the friction surface (0: eq. (5)).
-    tie_break : {"closest", "none"}
+    tie_break : one of :data:`TIE_BREAKS`
+        ``"none"`` compiles no tie-break LP.
     algorithm : str
-        HiGHS algorithm (see :data:`blockmpec.solvers.engines.highs.ALGORITHMS`).
+        HiGHS algorithm (see :data:`blockmpec.solvers.engines.lp_engine.BASIS_ALGORITHMS`).
     need_associative : bool
-        Also compile the associative static LP (1), for the ``"associative"`` start.
+        Also compile the associative static LP (1) (``"associative"``, ``"dead-load"``
+        and ``"random"`` starts).
     feasibility_tol : float
         HiGHS primal and dual feasibility tolerances (HiGHS default 1e-7).  The
         sequence feeds each LP's forces into the next one, and light interfaces
@@ -90,9 +116,7 @@ class LPSequence:
 
     def __init__(self, ops: Operators, alpha: float = 0.0, tie_break: str = "closest",
                  algorithm: str = "auto", need_associative: bool = True, feasibility_tol: float = 1e-9) -> None:
-        import pyomo.environ as pyo
-
-        from blockmpec.formulations import compile_linear, static_lp
+        from blockmpec.formulations import compile_linear, modified_lp, static_lp, tie_break_lp
         from blockmpec.solvers.engines.highs import HighsLP
 
         self.ops = ops
@@ -102,37 +126,26 @@ class LPSequence:
         self.lp_solves = 0
         self.lp_time_s = {"associative": 0.0, "step": 0.0, "tie_break": 0.0}
         self.alpha = float(alpha)
+        self.tie_break = tie_break
         self._step_cold = True  # the next step LP solve is its first
         self._tie_cold = True
+        self._tie_rule = "closest"  # the cost vector now loaded in the tie-break LP
 
-        step = static_lp(ops, friction=self.slope, cohesion=np.zeros(c), name="modified-lp")
-        self.step_lp = compile_linear(step)
+        self.step_lp = compile_linear(modified_lp(ops, np.zeros(c), slope=self.slope))
         self.step_highs = HighsLP(self.step_lp, algorithm, **_scales(self.step_lp, ops))
 
         self.tie_lp = None
         self.tie_highs = None
-        if tie_break == "closest":
-            tie = static_lp(ops, friction=self.slope, cohesion=np.zeros(c), name="tie-break-lp")
-            m = tie.model
-            m.objective.deactivate()
-            m.n_star = pyo.Param(range(c), mutable=True, initialize=0.0)
-            m.lam_floor = pyo.Param(mutable=True, initialize=-1e30)
-            m.d = pyo.Var(range(c), within=pyo.NonNegativeReals)
-            m.deviation_up = pyo.Constraint(range(c), rule=lambda mm, k: mm.x[3 * k + 1] - mm.d[k] <= mm.n_star[k])
-            m.deviation_down = pyo.Constraint(range(c), rule=lambda mm, k: -mm.x[3 * k + 1] - mm.d[k] <= -mm.n_star[k])
-            m.floor = pyo.Constraint(expr=-m.lam <= -m.lam_floor)
-            m.tie_objective = pyo.Objective(expr=sum(m.d.values()), sense=pyo.minimize)
-            tie.variables["d"] = list(m.d.values())
-            tie.constraints["deviation_up"] = list(m.deviation_up.values())
-            tie.constraints["deviation_down"] = list(m.deviation_down.values())
-            tie.constraints["floor"] = [m.floor]
-            self.tie_lp = compile_linear(tie)
+        if tie_break != "none":
+            self.tie_lp = compile_linear(tie_break_lp(ops, np.zeros(c), slope=self.slope))
             row = int(self.tie_lp.rows["floor"][0])
             col = int(self.tie_lp.columns["lam"][0])
             a = self.tie_lp.A[[row], :].toarray().ravel()
             if not (a[col] == -1.0 and np.count_nonzero(a) == 1 and np.isfinite(self.tie_lp.row_upper[row])):
                 raise RuntimeError("tie-break LP: the floor row did not compile to -lam <= -lam_floor")
             self.tie_highs = HighsLP(self.tie_lp, algorithm, **_scales(self.tie_lp, ops, ("d",)))
+            self._normal_columns = self.tie_lp.columns["x"][1::3]
+            self._d_columns = self.tie_lp.columns["d"]
 
         self.assoc_lp = None
         self.assoc_highs = None
@@ -214,11 +227,58 @@ class LPSequence:
                         lp_iterations=out.iterations)
         return Step(Status.OPTIMAL, out.raw_status, out.message, static_lp_solution(self.assoc_lp, out), out.iterations)
 
-    def step(self, n_star: np.ndarray, deadline: float = float("inf")) -> Step:
-        """Solve the step LP at ``n_star`` (then the tie-break LP if enabled).
+    def dead_load(self, deadline: float = float("inf")) -> Step:
+        """A statically admissible force field under the dead load alone (the ``"dead-load"`` start).
+
+        The associative LP (1) with ``lam`` fixed at 0 (column bounds ``[0, 0]``);
+        HiGHS returns a vertex of that feasible set.  The bounds are restored after.
+        """
+        if self.assoc_highs is None:
+            raise RuntimeError("the associative LP was not compiled")
+        if not self._set_time_limit(self.assoc_highs, deadline):
+            return Step(Status.TIME_LIMIT, "", "time limit reached before the dead-load LP")
+        h = self.assoc_highs.highs
+        col = int(self.assoc_lp.columns["lam"][0])
+        h.changeColBounds(col, 0.0, 0.0)
+        try:
+            out = self._timed("associative", self.assoc_highs.solve)
+        finally:
+            h.changeColBounds(col, -np.inf, np.inf)
+        if out.status is not Status.OPTIMAL:
+            return Step(out.status, out.raw_status, f"dead-load start LP: {out.message}",
+                        lp_iterations=out.iterations)
+        return Step(Status.OPTIMAL, out.raw_status, out.message, static_lp_solution(self.assoc_lp, out), out.iterations)
+
+    def _set_tie_costs(self, rule: str, z_f: np.ndarray | None) -> None:
+        """Load the tie-break LP's costs for ``rule`` (see the module docstring)."""
+        if rule == "closest" and self._tie_rule == "closest":
+            return
+        c = self.ops.n_interfaces
+        if rule == "closest":
+            n_cost, d_cost = np.zeros(c), np.ones(c)
+        else:
+            weight = self.cohesion_factor * np.ones(c)
+            if rule == "min-lambda":
+                zeta = np.zeros(c) if z_f is None else np.maximum(z_f[0::2], 0.0) + np.maximum(z_f[1::2], 0.0)
+                weight = weight * zeta
+            top = float(np.max(weight, initial=0.0))
+            n_cost = -weight / top if top > 0 else np.zeros(c)
+            d_cost = np.full(c, CLOSENESS_WEIGHT)
+        cols = np.concatenate([self._normal_columns, self._d_columns]).astype(np.int32)
+        cost = np.concatenate([n_cost, d_cost]) * self.tie_highs.column_scale[cols]
+        self.tie_highs.highs.changeColsCost(cols.size, cols, cost)
+        self._tie_rule = rule
+
+    def step(self, n_star: np.ndarray, deadline: float = float("inf"), rule: str | None = None,
+             first_from_associative: bool = True) -> Step:
+        """Solve the step LP at ``n_star`` (then the tie-break LP under ``rule``).
 
         ``n_star`` must be compressive (``<= 0``); :func:`run_sequence` clips it.
+        ``rule``: a tie-break rule, ``"none"`` or None (= the sequence's own rule).
+        ``first_from_associative``: the first step LP starts from the associative
+        LP's basis (valid when ``n*`` are that LP's normal forces).
         """
+        rule = self.tie_break if rule is None else rule
         cohesion = -self.cohesion_factor * n_star
         rhs = np.repeat(cohesion, 2)  # rows 2k, 2k+1 of interface k
         lp = self.step_lp
@@ -226,7 +286,7 @@ class LPSequence:
         if not self._set_time_limit(self.step_highs, deadline):
             return Step(Status.TIME_LIMIT, "", "time limit reached before a step LP")
         first_algorithm = None
-        if self._step_cold and self.assoc_highs is not None and self.alpha == 0.0:
+        if self._step_cold and first_from_associative and self.assoc_highs is not None and self.alpha == 0.0:
             first_algorithm = self._start_from_associative_basis()
         self._step_cold = False
         out = self._timed("step", self.step_highs.solve, first_algorithm)
@@ -234,10 +294,11 @@ class LPSequence:
             return Step(out.status, out.raw_status, f"modified LP: {out.message}", lp_iterations=out.iterations)
         sol = static_lp_solution(lp, out)
         iterations = out.iterations
-        if self.tie_highs is None:
+        if self.tie_highs is None or rule in ("none", "on-oscillation"):
             return Step(Status.OPTIMAL, out.raw_status, out.message, sol, iterations)
 
         tie = self.tie_lp
+        self._set_tie_costs(rule, sol.z_f)
         self.tie_highs.set_row_upper(tie.rows["friction"], rhs)
         self.tie_highs.set_row_upper(tie.rows["deviation_up"], n_star)
         self.tie_highs.set_row_upper(tie.rows["deviation_down"], -n_star)
@@ -285,6 +346,38 @@ def _map_basis(src, dst, col_status, row_status, column_groups, row_groups):
     return col, row
 
 
+class Anderson:
+    """Anderson mixing (type II, depth ``memory``) of a fixed-point map on ``n*``; see the module docstring."""
+
+    def __init__(self, memory: int, relaxation: float) -> None:
+        self.memory = int(memory)
+        self.relaxation = float(relaxation)
+        self.reset()
+
+    def reset(self) -> None:
+        self.x_prev: np.ndarray | None = None
+        self.f_prev: np.ndarray | None = None
+        self.dX: list[np.ndarray] = []
+        self.dF: list[np.ndarray] = []
+
+    def update(self, x: np.ndarray, g: np.ndarray) -> np.ndarray:
+        """Next iterate from ``x`` and ``g = F(x)``."""
+        f = g - x
+        if self.x_prev is not None:
+            self.dX.append(x - self.x_prev)
+            self.dF.append(f - self.f_prev)
+            if len(self.dX) > self.memory:
+                self.dX.pop(0)
+                self.dF.pop(0)
+        self.x_prev, self.f_prev = x.copy(), f.copy()
+        if not self.dF:
+            return x + self.relaxation * f
+        dF = np.column_stack(self.dF)
+        dX = np.column_stack(self.dX)
+        gamma, *_ = np.linalg.lstsq(dF, f, rcond=1e-10)
+        return x - dX @ gamma + self.relaxation * (f - dF @ gamma)
+
+
 def run_sequence(
     seq: LPSequence,
     *,
@@ -295,18 +388,21 @@ def run_sequence(
     max_iterations: int,
     time_limit: float,
     min_iterations: int = 1,
+    acceleration: str = "none",
+    memory: int = 5,
+    seed: int = 0,
 ) -> tuple[RunOutput, dict[str, Any]]:
-    r"""Iterate ``n* -> LP step -> n``, ``n* <- min(n* + relaxation (n - n*), 0)``.
+    r"""Iterate ``n* -> LP step -> n``, ``n* <- min(n* + relaxation (n - n*), 0)`` (or Anderson's update).
 
     ``n*`` is kept compressive (``<= 0``, as the unilateral rows make every ``n``):
     a round-off tension of the size of the LP feasibility tolerance would otherwise
-    give a negative cohesion and could make the next step LP infeasible.
+    give a negative cohesion and could make the next step LP infeasible.  One
+    :class:`~blockmpec.solvers.engines.stopping.StoppingCriterion` decides and writes the trace.
 
     Parameters
     ----------
     seq : LPSequence
-    start : {"associative", "zero"}
-        ``n*`` of the first step: normal forces of the associative LP (1), or 0.
+    start : one of :data:`STARTS`
     relaxation : float in (0, 1]
     stop_on : {"normal", "multiplier"}
         ``"normal"``: stop when ``||n - n*|| <= tol ||n||`` (fixed point);
@@ -314,45 +410,72 @@ def run_sequence(
     tol : float
     max_iterations : int
     time_limit : float
-        Seconds for the whole loop (the associative start included).
+        Seconds for the whole loop (the start LP included).
     min_iterations : int
         Fewest step LPs before the stopping test may succeed.
+    acceleration : {"none", "anderson"}
+    memory : int
+        Anderson depth.
+    seed : int
+        Seed of the ``"random"`` start.
 
     Returns
     -------
     RunOutput, dict
         The run output (status CONVERGED, ITERATION_LIMIT, TIME_LIMIT, or the LP's
-        failure status) and a dict of loop facts (``stopped_by``, ``lam_start``).
+        failure status) and a dict of loop facts (``lam_start``: the associative
+        multiplier when it was computed, ``tie_break_failures``).
     """
-    t0 = time.perf_counter()
-    deadline = t0 + time_limit
+    from blockmpec.solvers.engines.stopping import StoppingCriterion
+
+    measure = "n_change" if stop_on == "normal" else "lam_change"
+    crit = StoppingCriterion(tol, max_iterations, time_limit, measure_name=measure).start()
+    deadline = crit.t0 + time_limit
     ops = seq.ops
-    trace: list[dict[str, Any]] = []
     facts: dict[str, Any] = {"lam_start": None, "tie_break_failures": 0}
-    if start == "associative":
+
+    def output(status, sol, message, raw=""):
+        return RunOutput(status, sol if sol is not None else Solution(), crit.iterations, crit.trace, message, raw,
+                         extra=seq.facts()), facts
+
+    from_associative_basis = start in ("associative", "dead-load")
+    if start in ("associative", "random"):
         first = seq.associative(deadline)
         if first.status is not Status.OPTIMAL:
-            return RunOutput(first.status, Solution(), 0, trace, first.message, first.raw_status,
-                             extra=seq.facts()), facts
-        n_star = np.minimum(normal(first.solution.x), 0.0)
+            return output(first.status, None, first.message, first.raw_status)
         facts["lam_start"] = first.solution.multiplier
+        n_star = np.minimum(normal(first.solution.x), 0.0)
+        if start == "random":
+            n_star = n_star * np.random.default_rng(seed).uniform(0.0, 1.0, n_star.size)
+    elif start == "dead-load":
+        first = seq.dead_load(deadline)
+        if first.status is not Status.OPTIMAL:
+            return output(first.status, None, first.message, first.raw_status)
+        n_star = np.minimum(normal(first.solution.x), 0.0)
     else:
         n_star = np.zeros(ops.n_interfaces)
 
+    anderson = Anderson(memory, relaxation) if acceleration == "anderson" else None
+    rule = None if seq.tie_break != "on-oscillation" else "none"
     last: Solution | None = None
     lam_prev: float | None = None
-    raw = ""
-    for k in range(1, max_iterations + 1):
-        step = seq.step(n_star, deadline)
-        raw = step.raw_status
+    n_change_prev = np.inf
+    plain_next = n_star
+    while True:
+        step = seq.step(n_star, deadline, rule, first_from_associative=from_associative_basis)
+        if step.status is not Status.OPTIMAL and anderson is not None and step.status is not Status.TIME_LIMIT \
+                and not np.array_equal(n_star, plain_next):
+            # the accelerated n* gave no optimal LP: take the plain update instead, memory cleared
+            anderson.reset()
+            n_star = plain_next
+            step = seq.step(n_star, deadline, rule)
         if step.status is not Status.OPTIMAL:
-            status = step.status
+            k = crit.iterations + 1
             msg = f"iteration {k}: {step.message}"
-            if status is Status.TIME_LIMIT:
+            if step.status is Status.TIME_LIMIT:
                 msg = f"time limit {time_limit:g} s reached at iteration {k}; returning the last iterate"
-            sol = last if last is not None else Solution()
-            return RunOutput(status, sol, k - 1, trace, msg, raw, extra=seq.facts()), facts
-        if seq.tie_highs is not None and not step.tie_break_used:
+            return output(step.status, last, msg, step.raw_status)
+        if rule != "none" and seq.tie_highs is not None and not step.tie_break_used:
             facts["tie_break_failures"] += 1
         sol = step.solution
         n = normal(sol.x)
@@ -360,30 +483,34 @@ def run_sequence(
         n_change = float(np.linalg.norm(n - n_star)) / n_norm if n_norm > 0 else float(np.linalg.norm(n - n_star))
         lam = float(sol.multiplier)
         lam_change = None if lam_prev is None else abs(lam - lam_prev)
-        trace.append({
-            "iteration": k,
-            "time_s": time.perf_counter() - t0,
-            "multiplier": lam,
-            "n_change": n_change,
-            "lam_change": lam_change,
-            "friction_admissibility": positive_part_ratio(ops.N_f.T @ sol.x),
-            "lp_iterations": step.lp_iterations,
-        })
-        last = sol
-        if stop_on == "normal":
-            done = n_change <= tol and k >= min_iterations
+        value = n_change if stop_on == "normal" else (np.inf if lam_change is None else lam_change)
+        values = {"multiplier": lam, "friction_admissibility": positive_part_ratio(ops.N_f.T @ sol.x),
+                  "lp_iterations": step.lp_iterations}
+        values["n_change" if stop_on != "normal" else "lam_change"] = n_change if stop_on != "normal" else lam_change
+        if not np.isfinite(value):  # no lam_change at the first SLP step: record without a decision
+            crit.iterations += 1
+            crit.record(**{measure: None}, **values)
+            status = Status.ITERATION_LIMIT if crit.iterations >= max_iterations else None
         else:
-            done = lam_prev is not None and lam_change <= tol and k >= min_iterations
-        if done:
-            return RunOutput(Status.CONVERGED, sol, k, trace, "", raw, extra=seq.facts()), facts
+            status = crit.check(value, **values)
+        last = sol
+        if status is Status.CONVERGED and crit.iterations < min_iterations:
+            status = None
+        if status is Status.CONVERGED:
+            return output(status, sol, "", step.raw_status)
+        if status is Status.ITERATION_LIMIT:
+            return output(status, sol, f"no convergence in {max_iterations} iterations; returning the last iterate",
+                          step.raw_status)
+        if status is Status.TIME_LIMIT or time.perf_counter() >= deadline:
+            return output(Status.TIME_LIMIT, sol, f"time limit {time_limit:g} s reached after iteration "
+                          f"{crit.iterations}; returning the last iterate", step.raw_status)
+        if status is not None:
+            return output(status, sol, f"iteration {crit.iterations}: non-finite convergence measure", step.raw_status)
+        if rule == "none" and seq.tie_break == "on-oscillation" and n_change >= n_change_prev:
+            rule = "closest"  # n stopped settling: from now on the closest optimal forces
+        n_change_prev = n_change
         lam_prev = lam
         # normal forces are compressive; round-off tension (within the LP's feasibility
         # tolerance) would give a negative cohesion and can make the next LP infeasible
-        n_star = np.minimum(n_star + relaxation * (n - n_star), 0.0)
-        if time.perf_counter() >= deadline:
-            return RunOutput(Status.TIME_LIMIT, sol, k, trace,
-                             f"time limit {time_limit:g} s reached after iteration {k}; returning the last iterate",
-                             raw, extra=seq.facts()), facts
-    return RunOutput(Status.ITERATION_LIMIT, last if last is not None else Solution(), max_iterations, trace,
-                     f"no convergence in {max_iterations} iterations; returning the last iterate", raw,
-                     extra=seq.facts()), facts
+        plain_next = np.minimum(n_star + relaxation * (n - n_star), 0.0)
+        n_star = plain_next if anderson is None else np.minimum(anderson.update(n_star, n), 0.0)
