@@ -1,71 +1,59 @@
 r"""``milp``: certified global minimum of the MPEC (4) by a mixed-integer program.
 
 With ``sense="max"`` the same machinery certifies the global *maximum* of ``lam``
-over the solutions of the MCP (3) (the largest non-associative multiplier); see
-"Maximisation" below.  Such a result is never the minimum of (4): it records
-``extra["sense"] = "max"``.
+over the solutions of the MCP (3) (the largest non-associative multiplier); such a
+result is never the minimum of (4): it records ``extra["sense"] = "max"``.
 
-Model: :mod:`blockmpec.formulations.mpec_bigm` (one binary per complementarity pair,
-multipliers normalised by ``1^T z = 1`` so that ``z_i <= y_i`` is exact), built
-with Pyomo and compiled by :func:`blockmpec.formulations.mpec_bigm.compile_mixed_integer`
-(``compile_linear`` plus an integrality array read from ``v.is_binary()``);
-solved by highspy directly (``HighsLp.integrality_``).
+The model is read from the compiled MCP (:func:`blockmpec.formulations.compile_mcp`)
+and built by :func:`blockmpec.formulations.mpec_milp.mpec_milp` (normalisation
+``1^T z = 1``, LP-proven big-M or SOS1 complementarity, the work identity
+``lam tau = -f_d^T u + x^T B z`` and its McCormick envelope; the module docstring
+derives every row).  A run has five stages, all timed:
 
-Run (all timed):
+1. **bounds** (:meth:`MILPSolver._bounds` -> :class:`MPECBounds`).  On the statically
+   admissible set ``S = {A[equilibrium] (lam, x) = rhs, G x <= 0}`` (which contains
+   the force part of every solution of (3)): ``lam_upper = max lam`` (the
+   associative multiplier), ``lam_lower = min lam``; ``slack_max_i = max s_i``
+   over ``S ∩ {lam_lower <= lam <= lam_upper}`` (``slack_bounds="row"``: one LP per
+   pair; ``"normal"``: one LP per interface for ``min n_k``, then the slack maximum
+   over that interface's own rows with ``n_k >= min n_k``, a superset); ``x_lower``,
+   ``x_upper`` for the normal forces that multiply a flow multiplier in ``B``
+   (``envelope=True``).  On the kinematic set ``K = {compatibility, 1^T z = 1, z >= 0}``:
+   ``z_max_i = max z_i`` and ``tau_max = max f_l^T u``; ``lam_kinematic = min -f_d^T u``
+   over the non-associative kinematic set.  Each LP optimum is widened by
+   ``LP_MARGIN`` (relative), each slack bound by ``BOUND_MARGIN_REL`` and
+   ``BOUND_MARGIN_ABS`` times the largest one, so that a slack *at* ``M_i`` cannot
+   happen under a proven bound and flags a too-small one.  LPs are solved cold
+   (warm re-solves after cost changes were measured to return wrong "optimal" values).
+2. **build**: the mixed-integer model; pairs with ``slack_max_i = 0`` get ``y_i = 1``,
+   pairs with ``z_max_i = 0`` get ``y_i = 0``.
+3. **solve**: HiGHS on the big-M model (``engine="highs"``) or SCIP
+   (``engine="scip"``, SOS1 sets ``{s_i, z_i}``), started from the associative-pattern
+   solution when its active set admits a mechanism (an upper bound only).  ``tau >= 0``
+   makes the model a relaxation of (4), so the engine's dual bound is a certified
+   bound on the minimum (an upper bound on the maximum).
+4. **polish**: with the pattern of the engine's point fixed (active pair: slack 0;
+   inactive: ``z_i = 0``) two exact LPs give ``(lam, x)`` (min ``lam``; max for
+   ``sense="max"``) and ``(u, z)`` (``f_l^T u = 1``, min ``1^T z``); complementarity
+   holds by construction.  If the ``(u, z)`` LP is infeasible the relaxation's
+   optimum had ``tau = 0`` (not a solution of (3)): the restriction
+   ``tau >= tau_restart`` is solved for a genuine point while the relaxation's bound stands.
+5. **certify**: status ``OPTIMAL`` only when the engine closed its gap, the polished
+   multiplier meets the bound within ``CERTIFICATE_TOL`` (times ``max(1, |lam|)``), no
+   slack sits at its big-M, ``bigm_scale >= 1`` and every bound LP was optimal.  A
+   slack at its big-M gives ``LOCALLY_OPTIMAL`` (the point solves (3), the certificate
+   is void); a time limit gives ``TIME_LIMIT`` with the best polished point, the bound
+   and the gap.
 
-1. **Bounds by LPs.**  On the statically admissible set
-   ``S = {E x + f_d + lam f_l = 0, N_u^T x <= 0, N_f^T x <= 0}``:
-   ``lam_upper = max lam`` (the associative multiplier; the force part of every
-   solution of (3) lies in ``S``) and ``lam_lower = min lam``; for each of the
-   ``4c`` slacks ``s_i = -[N^T x]_i``, ``smax_i = max s_i`` over
-   ``S ∩ {lam_lower <= lam <= lam_upper}`` (``slack_bounds="row"``), or from
-   ``nmin_k = min n_k`` (``"normal"``): ``s_u <= -nmin L`` (the two rocking
-   slacks add up to ``-n L``), ``s_f <= -2 tan(phi) nmin``.  Valid for every
-   solution of (3).  ``M_i = bigm_scale (smax_i (1 + 1e-4) + 1e-6 max_j smax_j)``:
-   with the margin a slack *at* ``M_i`` cannot happen under a proven bound, so it
-   flags a too-small one.  ``smax_i = 0`` fixes ``y_i = 1``.  Further LPs give
-   ``zmax_i = max z_i`` and ``tau_max`` on ``{compatibility, 1^T z = 1, z >= 0}``
-   and ``lam_kinematic = min -f_d^T u`` on the non-associative kinematic set;
-   ``lam >= max(lam_lower, lam_kinematic)``.  LP optima are widened by
-   ``LP_MARGIN`` (relative) before use.  The LPs are solved cold: HiGHS warm
-   re-solves after cost changes were measured to return wrong "optimal" values.
-2. **Incumbent.**  If the associative optimum's active set admits a mechanism
-   with the non-associative flow ``V_f``, that point solves (3) and is passed to
-   HiGHS as a start (an upper bound only).
-3. **MILP** with ``tau = f_l^T u >= 0``: a relaxation of (4), so HiGHS's dual
-   bound is a certified lower bound on the minimum multiplier.
-4. **Polish**: with the binaries' pattern fixed (``y_i = 1``: slack ``= 0``;
-   ``y_i = 0``: ``z_i = 0``) two exact LPs give ``(lam, x)`` (min ``lam``) and
-   ``(u, z)`` (``f_l^T u = 1``, min ``1^T z``); complementarity holds by
-   construction, so the residuals are at round-off.  If the ``(u, z)`` LP is
-   infeasible the relaxation's optimum had ``tau = 0`` (not a solution of (3)):
-   status NUMERICAL with the lower bound in the message.
+Maximisation (``sense="max"``): every bound, cut and fixing is a property of the
+*set* of solutions of (3), so the same model is a relaxation for either sense and
+its dual bound is an upper bound on the maximum; the associative-pattern incumbent
+attains ``lam_upper`` itself.  The certificate flips: the polished multiplier must
+not *exceed* the bound, and the gap is ``bound - lam >= 0``.
 
-Status ``OPTIMAL`` only when HiGHS closed the gap (``mip_rel_gap`` or
-``mip_abs_gap``, plus ``CERTIFICATE_TOL`` for the solver tolerances), no slack
-sits at its big-M, ``bigm_scale >= 1`` (shrunken bounds are not proven, so they never
-certify, even when no slack reaches them) and the polished multiplier does not
-undercut the dual bound.
-A slack at its big-M gives LOCALLY_OPTIMAL (the polished point solves (3), but
-the certificate is void); a time limit gives TIME_LIMIT with the best polished
-point and its gap.
-
-Maximisation (``sense="max"``)
-------------------------------
-Every bound, cut and fixing above is a property of the *set* of solutions of
-(3), not of the objective, so the MILP with ``tau >= 0`` is a relaxation for
-either sense: HiGHS's dual bound is then an upper bound on the maximum.  In
-detail: ``lam_upper`` (the associative multiplier) bounds every solution from
-above and ``max(lam_lower, lam_kinematic)`` from below; the slack and multiplier
-bounds and the fixed binaries hold at every solution; the associative-pattern
-incumbent, when it exists, solves (3) and is feasible for both senses (for the
-maximum it attains the upper bound ``lam_upper`` itself, so it is optimal); the
-``tau = 0`` fallback re-solves the restriction ``tau >= tau_restart`` whose point
-is a lower bound on the maximum while the relaxation's dual bound stays the
-certified upper bound.  The polish maximises ``lam`` over the face of the
-pattern (any point of the face, with the pattern's mechanism, solves (3)).  The
-certificate flips: the polished multiplier must not *exceed* the dual bound,
-and the gap is ``dual_bound - lam >= 0``.
+Facts in ``extra`` (names of :mod:`blockmpec.facts`): ``bound``, ``gap_abs``,
+``gap_rel``, ``sense``, ``associative_multiplier``, ``lp_solves``; and ``trace``
+records ``(time_s, bound, incumbent, gap_abs)`` over the run.
 """
 
 from __future__ import annotations
@@ -75,9 +63,12 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from blockmpec import facts
 from blockmpec.registry import register_solver
 from blockmpec.result import Solution, Status
 from blockmpec.solver import RunOutput, SolverBase
+
+ENGINES = ("highs", "scip")
 
 
 @dataclass
@@ -85,26 +76,34 @@ class MILPOptions:
     """Options of the ``milp`` method."""
 
     time_limit: float = field(default=60.0, metadata={"help": "seconds for the whole run (bounds + MILP + polish)"})
-    mip_rel_gap: float = field(default=1e-9, metadata={"help": "HiGHS relative gap |primal - dual| / |primal|"})
-    mip_abs_gap: float = field(default=1e-9, metadata={"help": "HiGHS absolute gap on lam"})
+    engine: str = field(default="highs", metadata={
+        "help": "highs: HiGHS branch and cut on the big-M model | scip: SCIP with SOS1 complementarity"})
+    mip_rel_gap: float = field(default=1e-9, metadata={"help": "relative gap |primal - dual| / |primal|"})
+    mip_abs_gap: float = field(default=1e-9, metadata={"help": "absolute gap on lam"})
     feasibility_tol: float = field(default=1e-9, metadata={
-        "help": "HiGHS mip_ and primal_feasibility_tolerance (the dual bound is exact up to about this)"})
+        "help": "engine feasibility tolerance (the dual bound is exact up to about this)"})
     bigm_scale: float = field(default=1.0, metadata={
         "help": "factor on the proven slack bounds (< 1 only to test detection; never certifies)"})
     slack_bounds: str = field(default="row", metadata={"help": "row: one LP per slack | normal: one LP per interface"})
     multiplier_bounds: bool = field(default=True, metadata={"help": "tighten z_i <= y_i to z_i <= zmax_i y_i by LPs"})
+    envelope: bool = field(default=False, metadata={
+        "help": "McCormick envelope of the work identity lam tau = -f_d^T u + x^T B z (OBBT bounds on n)"})
+    bilinear: bool = field(default=False, metadata={
+        "help": "engine=scip: the work identity's products as exact bilinear constraints (spatial branching)"})
     incumbent: bool = field(default=True, metadata={
-        "help": "start from the associative optimum when its active set admits a V_f mechanism"})
+        "help": "start from the associative optimum when its active set admits a mechanism"})
     warm_bounds: bool = field(default=False, metadata={
         "help": "warm-start the bound LPs (faster; HiGHS warm re-solves were measured to err, see _bounds)"})
-    threads: int = field(default=1, metadata={"help": "HiGHS threads"})
+    threads: int = field(default=1, metadata={"help": "engine threads"})
     sense: str = field(default="min", metadata={
         "help": "min: the MPEC (4), min lam over solutions of (3) | max: max lam over the same set"})
-    verbose: bool = field(default=False, metadata={"help": "print the HiGHS log"})
+    verbose: bool = field(default=False, metadata={"help": "print the engine log"})
 
     def __post_init__(self) -> None:
         if not self.time_limit > 0:
             raise ValueError(f"time_limit must be > 0 seconds; got {self.time_limit}")
+        if self.engine not in ENGINES:
+            raise ValueError(f"engine must be one of {ENGINES}; got {self.engine!r}")
         if not 0 <= self.mip_rel_gap < 1:
             raise ValueError(f"mip_rel_gap must be in [0, 1); got {self.mip_rel_gap}")
         if not self.mip_abs_gap >= 0:
@@ -117,9 +116,11 @@ class MILPOptions:
             raise ValueError(f"sense must be 'min' or 'max'; got {self.sense!r}")
         if self.slack_bounds not in ("row", "normal"):
             raise ValueError(f"slack_bounds must be 'row' or 'normal'; got {self.slack_bounds!r}")
-        for name in ("multiplier_bounds", "incumbent", "warm_bounds", "verbose"):
+        for name in ("multiplier_bounds", "envelope", "bilinear", "incumbent", "warm_bounds", "verbose"):
             if not isinstance(getattr(self, name), bool):
                 raise ValueError(f"{name} must be True or False; got {getattr(self, name)!r}")
+        if self.bilinear and self.engine != "scip":
+            raise ValueError("bilinear=True needs engine='scip' (HiGHS has no bilinear constraints)")
         if isinstance(self.threads, bool) or not isinstance(self.threads, int) or self.threads < 1:
             raise ValueError(f"threads must be an integer >= 1; got {self.threads!r}")
 
@@ -127,19 +128,25 @@ class MILPOptions:
 #: relative margin and absolute margin (times the largest bound) added to proven slack bounds
 BOUND_MARGIN_REL = 1e-4
 BOUND_MARGIN_ABS = 1e-6
-#: relative widening of LP-derived bounds on lam (round-off of the LP optima)
+#: relative widening of LP-derived bounds (round-off of the LP optima)
 LP_MARGIN = 1e-6
-#: HiGHS solves the MILP to its feasibility tolerances (option feasibility_tol), so its dual bound and
-#: the exact (polished) multiplier of the same pattern may differ by about this much (times
-#: max(1, |lam|)) without any real gap; a larger difference voids the certificate.
+#: the engine solves to its feasibility tolerances, so its dual bound and the exact (polished)
+#: multiplier of the same pattern may differ by about this much (times max(1, |lam|)) without any
+#: real gap; a larger difference voids the certificate.
 CERTIFICATE_TOL = 1e-7
 #: a slack within this (times the largest bound) of its M is "at its bound"
 ACTIVE_TOL = 1e-7
 
 
+class _BoundFailure(Exception):
+    def __init__(self, status: Status, message: str) -> None:
+        super().__init__(message)
+        self.status = status
+
+
 @register_solver
 class MILPSolver(SolverBase):
-    """Global minimum (or, ``sense="max"``, maximum) of the non-associative multiplier by a big-M MILP (HiGHS).
+    """Global minimum (or, ``sense="max"``, maximum) of the non-associative multiplier by a MILP.
 
     ``certifies_minimum``: status OPTIMAL with ``sense="min"`` (``extra["sense"] == "min"``)
     is a proven global minimum of (4).  With ``sense="max"`` OPTIMAL certifies the
@@ -149,433 +156,453 @@ class MILPSolver(SolverBase):
     name = "milp"
     problem = "non-associative"
     summary = ("certified global minimum of the MPEC (4) (sense=max: maximum of lam over solutions of (3)): "
-               "big-M MILP with LP-proven bounds, HiGHS")
+               "MILP with LP-proven bounds, HiGHS big-M or SCIP SOS1")
     certifies_minimum = True
     requires = ("highspy", "pyomo")
     Options = MILPOptions
 
     def setup(self, ops):
-        import dataclasses
-
-        from blockmpec.formulations import compile_linear, kinematic_lp, static_lp
-        from blockmpec.formulations.mpec_bigm import mpec_bigm
+        from blockmpec.formulations import compile_mcp
+        from blockmpec.formulations._pyomo import LinearProgram
         from blockmpec.solvers.engines.highs import HighsLP
 
-        self.ops = ops
-        self.problem_milp = mpec_bigm(ops, sense=self.options.sense)
-        self.static = compile_linear(static_lp(ops))
-        # the non-associative kinematic LP: flow by V_f (tan psi)
-        self.kinematic = compile_linear(kinematic_lp(dataclasses.replace(ops, N_f=ops.V_f)))
+        if self.options.engine == "scip":
+            import pyscipopt  # noqa: F401  (fail at set-up, not after the bound LPs)
+        form = compile_mcp(ops)
+        self.form = form
+        eq, cp, nm = form.equilibrium, form.compatibility, form.normalisation
+        # static LP over (lam, x): A[equilibrium] (lam, x) = rhs, G x <= 0
+        sc = np.r_[form.lam, np.arange(form.x.start, form.x.stop)]
+        import scipy.sparse as sp
+
+        As = sp.vstack([form.A[eq][:, sc], form.G[:, sc]], format="csr")
+        ns, npair = sc.size, form.n_pairs
+        n_eq = eq.stop - eq.start
+        self.static = LinearProgram(
+            c=np.zeros(ns), A=sp.csr_array(As),
+            row_lower=np.r_[form.rhs[eq], np.full(npair, -np.inf)], row_upper=np.r_[form.rhs[eq], np.zeros(npair)],
+            col_lower=np.full(ns, -np.inf), col_upper=np.full(ns, np.inf),
+            columns={"lam": np.array([0]), "x": np.arange(1, ns)},
+            rows={"equilibrium": np.arange(n_eq), "pairs": np.arange(n_eq, n_eq + npair)}, objective_sign=1.0)
+        # kinematic LP over (u, z): A[compatibility] (u, z) = 0, row "live" f_l^T u, row "total" 1^T z
+        kc = np.r_[np.arange(form.u.start, form.u.stop), np.arange(form.z.start, form.z.stop)]
+        nk, nu = kc.size, form.u.stop - form.u.start
+        total = sp.csr_array(np.r_[np.zeros(nu), np.ones(npair)].reshape(1, -1))
+        Ak = sp.vstack([form.A[cp][:, kc], form.A[nm][:, kc], total], format="csr")
+        n_cp = cp.stop - cp.start
+        self.kinematic = LinearProgram(
+            c=np.zeros(nk), A=sp.csr_array(Ak), row_lower=np.r_[np.zeros(n_cp), 1.0, -np.inf],
+            row_upper=np.r_[np.zeros(n_cp), 1.0, np.inf],
+            col_lower=np.r_[np.full(nu, -np.inf), np.zeros(npair)], col_upper=np.full(nk, np.inf),
+            columns={"u": np.arange(nu), "z": np.arange(nu, nk)},
+            rows={"compatibility": np.arange(n_cp), "live": np.array([n_cp]), "total": np.array([n_cp + 1])},
+            objective_sign=1.0)
         self.bound_lp = HighsLP(self.static, "dual-simplex")
         self.polish_static = HighsLP(self.static, "dual-simplex")
         self.polish_kinematic = HighsLP(self.kinematic, "dual-simplex")
         self.kinematic_bound = HighsLP(self.kinematic, "dual-simplex")
 
-    # ------------------------------------------------------------------ bounds
-    def _bounds(self, deadline: float) -> tuple[str | None, dict]:
-        """LP bounds on lam and on every slack; returns (failure message or None, data)."""
-        import scipy.sparse as sp
-
-        ops, lp, hl = self.ops, self.static, self.bound_lp
+    # ------------------------------------------------------------------ 1. bounds
+    def _solve_cost(self, hl, cost: np.ndarray, deadline: float):
         h = hl.highs
-        lam_col = int(lp.columns["lam"][0])
-        x_cols = lp.columns["x"]
-        n_col = lp.c.size
-        out = {}
-        n_lp = 0
+        n = cost.size
+        h.changeColsCost(n, np.arange(n, dtype=np.int32), cost)
+        h.setOptionValue("time_limit", h.getRunTime() + max(deadline - time.perf_counter(), 1e-3))
+        if not self.options.warm_bounds:
+            h.clearSolver()
+        self._n_lps += 1
+        return hl.solve()
 
-        def solve_with_cost(cost: np.ndarray):
-            nonlocal n_lp
-            h.changeColsCost(n_col, np.arange(n_col, dtype=np.int32), cost)
-            # HiGHS measures time_limit on the instance's cumulative run clock
-            h.setOptionValue("time_limit", h.getRunTime() + max(deadline - time.perf_counter(), 1e-3))
-            n_lp += 1
-            if not self.options.warm_bounds:
-                h.clearSolver()
-            return hl.solve()
+    def _bounds(self, deadline: float):
+        """LP bounds valid at every solution of (3): an :class:`MPECBounds`; raises ``_BoundFailure``."""
+        from blockmpec.formulations.mpec_milp import MPECBounds, work_matrix
 
-        cost = np.zeros(n_col)
-        cost[lam_col] = -1.0
-        up = solve_with_cost(cost)
+        t0 = time.perf_counter()
+        self._n_lps = 0
+        form, lp, hl = self.form, self.static, self.bound_lp
+        h = hl.highs
+        nc = lp.c.size
+        x0 = 1  # x columns of the static LP start after lam
+        cost = np.zeros(nc)
+        cost[0] = -1.0
+        up = self._solve_cost(hl, cost, deadline)
         if up.status is not Status.OPTIMAL:
-            return f"associative LP (max lam): {up.status.value}", {"lp_status": up.status}
-        cost[lam_col] = 1.0
-        lo = solve_with_cost(cost)
+            raise _BoundFailure(up.status, f"associative LP (max lam): {up.status.value}")
+        cost[0] = 1.0
+        lo = self._solve_cost(hl, cost, deadline)
         if lo.status is not Status.OPTIMAL:
-            return (f"min lam over the statically admissible set is {lo.status.value}: the slacks have no "
-                    "LP bound, so no valid big-M exists", {"lp_status": lo.status})
-        # widen by a round-off margin: the LP optima are exact only up to HiGHS's tolerances
-        lam_upper, lam_lower = float(up.v[lam_col]), float(lo.v[lam_col])
-        out["lam_associative"], out["lam_static_min"] = lam_upper, lam_lower
-        out["x_associative"] = lp.values("x", up.v)
-        lam_upper += LP_MARGIN * max(1.0, abs(lam_upper))
-        lam_lower -= LP_MARGIN * max(1.0, abs(lam_lower))
-        h.changeColBounds(lam_col, lam_lower, lam_upper)
-        # Bound LPs are solved cold by default (warm_bounds=False): measured on a 160-block arch, warm
-        # *primal* simplex re-solves (HiGHS 1.15) returned "optimal" slack maxima up to 0.02 below the cold
-        # optimum (an invalid big-M), and a warm dual simplex returned a wrong max z_i (1.0, cold 0.5).
-        hl.algorithm = "dual-simplex"
-        c = ops.n_interfaces
-        NT = sp.vstack([ops.N_u.T, ops.N_f.T], format="csr")
+            raise _BoundFailure(lo.status, f"min lam over the statically admissible set is {lo.status.value}: the "
+                                "slacks have no LP bound, so no valid big-M exists")
+        lam_assoc, lam_min = float(up.v[0]), float(lo.v[0])
+        x_assoc = lp.values("x", up.v)
+        lam_upper = lam_assoc + LP_MARGIN * max(1.0, abs(lam_assoc))
+        lam_lower = lam_min - LP_MARGIN * max(1.0, abs(lam_min))
+        h.changeColBounds(0, lam_lower, lam_upper)
+        Gx = form.pair_matrix.tocsr()
+        npair, nx = Gx.shape
+        x_lower, x_upper = np.full(nx, -np.inf), np.full(nx, np.inf)
+
+        def x_bound(j: int, direction: float) -> float:
+            cost = np.zeros(nc)
+            cost[x0 + j] = direction
+            r = self._solve_cost(hl, cost, deadline)
+            if r.status is not Status.OPTIMAL:
+                raise _BoundFailure(r.status, f"bound LP of x[{j}]: {r.status.value} ({r.raw_status})")
+            return float(r.objective)
+
         if self.options.slack_bounds == "row":
-            smax = np.empty(4 * c)
-            for i in range(4 * c):
-                a, b = NT.indptr[i], NT.indptr[i + 1]
-                cost = np.zeros(n_col)
-                cost[x_cols[NT.indices[a:b]]] = NT.data[a:b]  # min [N^T x]_i = -max s_i
-                r = solve_with_cost(cost)
+            smax = np.empty(npair)
+            for i in range(npair):
+                a, b = Gx.indptr[i], Gx.indptr[i + 1]
+                cost = np.zeros(nc)
+                cost[x0 + Gx.indices[a:b]] = Gx.data[a:b]  # min G_i x = -max s_i
+                r = self._solve_cost(hl, cost, deadline)
                 if r.status is not Status.OPTIMAL:
-                    return f"slack bound LP {i}: {r.status.value} ({r.raw_status})", {"lp_status": r.status}
+                    raise _BoundFailure(r.status, f"slack bound LP {i}: {r.status.value} ({r.raw_status})")
                 smax[i] = max(-r.objective, 0.0)
         else:
-            nmin = np.empty(c)
-            for k in range(c):
-                cost = np.zeros(n_col)
-                cost[x_cols[3 * k + 1]] = 1.0
-                r = solve_with_cost(cost)
-                if r.status is not Status.OPTIMAL:
-                    return f"normal-force bound LP {k}: {r.status.value}", {"lp_status": r.status}
-                nmin[k] = min(r.objective, 0.0)
-            smax = np.concatenate([np.repeat(-nmin * ops.length, 2), np.repeat(-2.0 * ops.friction * nmin, 2)])
-        h.changeColBounds(lam_col, -np.inf, np.inf)
-        if self.options.multiplier_bounds:
-            zmax = self._multiplier_bounds(deadline)
-            out["zmax"] = zmax
-            n_lp += zmax.size
-        self.kinematic_bound.highs.clearSolver()
-        kin = self.kinematic_bound.solve()
-        out["lam_kinematic"] = (kin.objective - LP_MARGIN * max(1.0, abs(kin.objective))
-                                if kin.status is Status.OPTIMAL else None)
-        out.update(lam_upper=lam_upper, lam_lower=lam_lower, smax=smax, n_bound_lps=n_lp)
-        return None, out
+            smax = self._slack_bounds_by_normal(x_bound, x_lower)
+        envelope_rows = np.unique(work_matrix(form).row) if self.options.envelope else np.array([], int)
+        for j in envelope_rows:
+            if not np.isfinite(x_lower[j]):
+                x_lower[j] = x_bound(j, 1.0)
+            x_upper[j] = -x_bound(j, -1.0)
+        width = np.abs(x_upper - x_lower)
+        width = np.where(np.isfinite(width), width, 0.0)
+        x_lower = x_lower - LP_MARGIN * np.maximum(1.0, np.abs(x_lower)) - BOUND_MARGIN_REL * width
+        x_upper = x_upper + LP_MARGIN * np.maximum(1.0, np.abs(x_upper)) + BOUND_MARGIN_REL * width
+        h.changeColBounds(0, -np.inf, np.inf)
+        scale = float(max(smax.max(initial=0.0), 1e-300))
+        slack_max = np.where(smax <= 1e-12 * scale, 0.0,
+                             smax * (1.0 + BOUND_MARGIN_REL) + BOUND_MARGIN_ABS * scale)
+        z_max, tau_max = self._multiplier_bounds(deadline)
+        kin = self._kinematic_minimum(deadline)
+        return MPECBounds(lam_associative=lam_assoc, lam_static_min=lam_min, lam_kinematic=kin,
+                          lam_lower=max(lam_lower, kin) if kin is not None else lam_lower, lam_upper=lam_upper,
+                          slack_max=slack_max, z_max=z_max, tau_max=tau_max, x_lower=x_lower, x_upper=x_upper,
+                          x_associative=x_assoc, n_lps=self._n_lps, time_s=time.perf_counter() - t0)
 
-    def _multiplier_bounds(self, deadline: float) -> np.ndarray:
-        """``max z_i`` over ``{E^T u + N_u z_u + V_f z_f = 0, 1^T z = 1, z >= 0}``, one LP per pair."""
-        import highspy
-        import scipy.sparse as sp
+    def _slack_bounds_by_normal(self, x_bound, x_lower: np.ndarray) -> np.ndarray:
+        """``slack_bounds="normal"``: ``nmin_k = min n_k`` over ``S`` (one LP per interface), then
+        ``max s_i`` over the interface's own polytope ``{G_k x_k <= 0, n_k >= nmin_k}`` (a superset of
+        the projection of ``S``, so the bound is valid); the small LPs are solved by scipy's HiGHS."""
+        from scipy.optimize import linprog
 
-        ops = self.ops
-        c, b3 = ops.n_interfaces, ops.E.shape[0]
-        nz = 4 * c
-        A = sp.vstack([sp.hstack([ops.E.T, ops.N_u, ops.V_f]),
-                       sp.hstack([sp.csr_array((1, b3)), sp.csr_array(np.ones((1, nz)))])], format="csc")
-        h = highspy.Highs()
-        h.setOptionValue("output_flag", False)
-        h.setOptionValue("simplex_strategy", 1)  # dual: see the note in _bounds
-        lp = highspy.HighsLp()
-        lp.num_col_, lp.num_row_ = A.shape[1], A.shape[0]
-        lp.col_cost_ = np.zeros(A.shape[1])
-        lp.col_lower_ = np.concatenate([np.full(b3, -np.inf), np.zeros(nz)])
-        lp.col_upper_ = np.concatenate([np.full(b3, np.inf), np.ones(nz)])
-        rhs = np.zeros(A.shape[0])
-        rhs[-1] = 1.0
-        lp.row_lower_, lp.row_upper_ = rhs, rhs
-        lp.a_matrix_.format_ = highspy.MatrixFormat.kColwise
-        lp.a_matrix_.start_, lp.a_matrix_.index_, lp.a_matrix_.value_ = A.indptr, A.indices, A.data
-        h.passModel(lp)
-        zmax = np.ones(nz + 1)
-        # tau_max = max f_l^T u (last entry)
-        h.changeColsCost(b3, np.arange(b3, dtype=np.int32), -ops.f_l)
-        h.run()
-        zmax[nz] = -h.getInfo().objective_function_value if h.getModelStatus().name == "kOptimal" else np.inf
-        h.changeColsCost(b3, np.arange(b3, dtype=np.int32), np.zeros(b3))
-        for i in range(nz):
-            h.changeColCost(b3 + i, -1.0)
-            if i:
-                h.changeColCost(b3 + i - 1, 0.0)
-            h.setOptionValue("time_limit", h.getRunTime() + max(deadline - time.perf_counter(), 1e-3))
-            if not self.options.warm_bounds:
-                h.clearSolver()
-            h.run()
-            if h.getModelStatus().name == "kOptimal":
-                zmax[i] = min(1.0, -h.getInfo().objective_function_value)
-            # otherwise keep the trivial bound 1
-        return zmax
+        form = self.form
+        Gx = form.pair_matrix.toarray()
+        smax = np.empty(form.n_pairs)
+        for k in range(form.n_interfaces):
+            nk = int(form.n[k])
+            x_lower[nk] = x_bound(nk, 1.0)
+            pairs = np.flatnonzero(form.pair_interface == k)
+            cols = np.flatnonzero(np.any(Gx[pairs] != 0.0, axis=0) | (np.arange(Gx.shape[1]) == nk))
+            bounds = [(x_lower[nk], None) if j == nk else (None, None) for j in cols]
+            Gk = Gx[np.ix_(pairs, cols)]
+            for i, row in zip(pairs, Gk):
+                r = linprog(row, A_ub=Gk, b_ub=np.zeros(pairs.size), bounds=bounds, method="highs")
+                if r.status != 0:
+                    raise _BoundFailure(Status.ERROR, f"interface slack LP of pair {i}: {r.message}")
+                smax[i] = max(-r.fun, 0.0)
+        return smax
 
-    # ------------------------------------------------------------------ polish
-    def _mechanism(self, active: np.ndarray):
-        """``(u, z_u, z_f)`` with ``f_l^T u = 1`` and ``z_i = 0`` off ``active`` (min ``1^T z``), or None."""
-        kp = self.kinematic
-        hk = self.polish_kinematic
+    def _multiplier_bounds(self, deadline: float) -> tuple[np.ndarray, float]:
+        """``max z_i`` and ``max f_l^T u`` over ``K = {compatibility, 1^T z = 1, z >= 0}``."""
+        kp, hk = self.kinematic, self.kinematic_bound
         g = hk.highs
-        zcols = np.concatenate([kp.columns["z_u"], kp.columns["z_f"]]).astype(np.int32)
-        upper = np.where(active, np.inf, 0.0)
-        g.changeColsBounds(zcols.size, zcols, np.zeros(zcols.size), upper)
+        live, total = int(kp.rows["live"][0]), int(kp.rows["total"][0])
+        g.changeRowBounds(live, -np.inf, np.inf)
+        g.changeRowBounds(total, 1.0, 1.0)
+        nu = kp.columns["u"].size
+        npair = kp.columns["z"].size
+        cost = np.zeros(kp.c.size)
+        cost[: nu] = -self.form.f_l
+        r = self._solve_cost(hk, cost, deadline)
+        tau_max = -r.objective * (1 + LP_MARGIN) + LP_MARGIN if r.status is Status.OPTIMAL else np.inf
+        z_max = np.ones(npair)
+        if self.options.multiplier_bounds:
+            for i in range(npair):
+                cost = np.zeros(kp.c.size)
+                cost[kp.columns["z"][i]] = -1.0
+                r = self._solve_cost(hk, cost, deadline)
+                if r.status is Status.OPTIMAL:  # otherwise keep the trivial bound 1
+                    zi = -r.objective
+                    z_max[i] = 0.0 if zi <= 1e-12 else min(1.0, zi * (1 + BOUND_MARGIN_REL) + BOUND_MARGIN_ABS)
+        return z_max, float(tau_max)
+
+    def _kinematic_minimum(self, deadline: float) -> float | None:
+        """``min -f_d^T u`` over compatibility, ``f_l^T u = 1``, ``z >= 0`` (None when not optimal)."""
+        kp, hk = self.kinematic, self.kinematic_bound
+        g = hk.highs
+        g.changeRowBounds(int(kp.rows["live"][0]), 1.0, 1.0)
+        g.changeRowBounds(int(kp.rows["total"][0]), -np.inf, np.inf)
+        cost = np.zeros(kp.c.size)
+        cost[: kp.columns["u"].size] = -self.form.f_d
+        r = self._solve_cost(hk, cost, deadline)
+        if r.status is not Status.OPTIMAL:
+            return None
+        return float(r.objective - LP_MARGIN * max(1.0, abs(r.objective)))
+
+    # ------------------------------------------------------------------ 2. build
+    def _build(self, bd, tau_min: float = 0.0):
+        from blockmpec.formulations import mpec_milp as fm
+
+        opt = self.options
+        M = opt.bigm_scale * bd.slack_max
+        complementarity = "bigm" if opt.engine == "highs" else "sos1"
+        mip = fm.mpec_milp(self.form, bd, sense=opt.sense, complementarity=complementarity, bigm=M,
+                           envelope=opt.envelope, tau_min=tau_min)
+        zcols = self.form.pair_column
+        fixed_active = bd.slack_max == 0.0  # the pair row is active on all of S
+        fixed_idle = (bd.z_max == 0.0) & ~fixed_active  # z_i = 0 in every normalised mechanism
+        if "y" in mip.columns:
+            y = mip.columns["y"]
+            mip.col_lower[y[fixed_active]] = 1.0
+            mip.col_upper[y[fixed_idle]] = 0.0
+        else:
+            mip.col_upper[zcols[fixed_idle]] = 0.0
+        self._n_fixed = int(fixed_active.sum() + fixed_idle.sum())
+        return mip
+
+    def _start(self, mip, sol: Solution | None) -> np.ndarray | None:
+        """The engine's start vector for a solution of (3), in the model's normalisation ``1^T z = 1``."""
+        if sol is None:
+            return None
+        form = self.form
+        w = form.pack(sol)
+        zsum = float(w[form.z].sum())
+        w[form.u] /= zsum
+        w[form.z] /= zsum
+        v = np.zeros(mip.n_columns)
+        v[: w.size] = w
+        tau = float(self.form.f_l @ w[form.u])
+        v[mip.columns["tau"]] = tau
+        z = w[form.pair_column]
+        if "y" in mip.columns:
+            v[mip.columns["y"]] = (z > 0).astype(float)
+        if "s" in mip.columns:
+            v[mip.columns["s"]] = np.maximum(form.slack(w), 0.0)
+        if "p" in mip.columns:
+            xr, zi, _ = mip.work_products
+            v[mip.columns["p"]] = w[xr] * w[zi]
+            v[mip.columns["q"]] = sol.multiplier * tau
+        return v
+
+    # ------------------------------------------------------------------ 3. solve
+    def _solve(self, mip, deadline: float, start: np.ndarray | None, t0: float):
+        from blockmpec.solvers.engines import mip as engines
+
+        opt = self.options
+        kw = dict(rel_gap=opt.mip_rel_gap, abs_gap=opt.mip_abs_gap, feasibility_tol=opt.feasibility_tol,
+                  threads=opt.threads, verbose=opt.verbose, start=start, t0=t0)
+        limit = deadline - time.perf_counter()
+        if opt.engine == "scip":
+            return engines.solve_scip(mip, limit, bilinear=opt.bilinear, **kw)
+        return engines.solve_highs(mip, limit, **kw)
+
+    # ------------------------------------------------------------------ 4. polish
+    def _mechanism(self, active: np.ndarray):
+        """``(u, z)`` with ``f_l^T u = 1`` and ``z_i = 0`` off ``active`` (min ``1^T z``), or None."""
+        kp, hk = self.kinematic, self.polish_kinematic
+        g = hk.highs
+        g.changeRowBounds(int(kp.rows["live"][0]), 1.0, 1.0)
+        g.changeRowBounds(int(kp.rows["total"][0]), -np.inf, np.inf)
+        zcols = kp.columns["z"].astype(np.int32)
+        g.changeColsBounds(zcols.size, zcols, np.zeros(zcols.size), np.where(active, np.inf, 0.0))
         cost = np.zeros(kp.c.size)
         cost[zcols] = 1.0
         g.changeColsCost(cost.size, np.arange(cost.size, dtype=np.int32), cost)
         ru = hk.solve()
         if ru.status is not Status.OPTIMAL:
             return None
-        return kp.values("u", ru.v), kp.values("z_u", ru.v), kp.values("z_f", ru.v)
+        return kp.values("u", ru.v), kp.values("z", ru.v)
 
-    def _polish(self, active_u: np.ndarray, active_f: np.ndarray):
-        """Exact LPs for the pattern; returns (Solution or None, message)."""
-        # (lam, x): min lam (sense="max": max lam), slack = 0 on active rows
-        lp = self.static
-        hl = self.polish_static
+    def _polish(self, active: np.ndarray) -> tuple[Solution | None, str]:
+        """Exact LPs for the pattern ``active`` (one flag per pair); returns (Solution or None, message)."""
+        lp, hl = self.static, self.polish_static
         h = hl.highs
-        rows = np.concatenate([lp.rows["unilateral"], lp.rows["friction"]]).astype(np.int32)
-        active = np.concatenate([active_u, active_f])
-        lower = np.where(active, 0.0, -np.inf)
-        h.changeRowsBounds(rows.size, rows, lower, np.zeros(rows.size))
+        rows = lp.rows["pairs"].astype(np.int32)
+        h.changeRowsBounds(rows.size, rows, np.where(active, 0.0, -np.inf), np.zeros(rows.size))
         cost = np.zeros(lp.c.size)
-        cost[lp.columns["lam"][0]] = 1.0 if self.options.sense == "min" else -1.0
+        cost[0] = 1.0 if self.options.sense == "min" else -1.0
         h.changeColsCost(cost.size, np.arange(cost.size, dtype=np.int32), cost)
         rx = hl.solve()
         if rx.status is not Status.OPTIMAL:
             return None, f"polish LP for (lam, x) is {rx.status.value}"
-        # (u, z): f_l^T u = 1, z_i = 0 off the pattern, min 1^T z
         mech = self._mechanism(active)
         if mech is None:
             return None, ("polish LP for (u, z) is infeasible: the pattern admits no mechanism with "
                           "f_l^T u > 0 (the relaxation's optimum has tau = 0)")
-        u, z_u, z_f = mech
-        sol = Solution(multiplier=float(lp.values("lam", rx.v)[0]), x=lp.values("x", rx.v), u=u, z_u=z_u, z_f=z_f)
-        return sol, ""
+        return self._solution(float(rx.v[0]), lp.values("x", rx.v), *mech), ""
 
-    def _associative_incumbent(self, bd: dict):
-        """A solution of (3) at the associative optimum, if its active set admits a V_f mechanism.
+    def _solution(self, lam: float, x: np.ndarray, u: np.ndarray, z: np.ndarray) -> Solution:
+        form = self.form
+        w = np.zeros(form.n_columns)
+        w[form.lam], w[form.x], w[form.u], w[form.z] = lam, x, u, z
+        return form.unpack(w)
 
-        The associative LP's ``(lam, x)`` is statically admissible; with ``z`` allowed
-        only on its active constraints, any ``(u, z)`` of the compatibility LP makes
-        the triple a solution of (3) (an upper bound on the minimum; for the maximum it
-        attains the upper bound ``lam_associative``, so it is the maximum), else None.
+    def _associative_incumbent(self, bd) -> Solution | None:
+        """A solution of (3) at the associative optimum, if its active set admits a mechanism.
+
+        The associative LP's ``(lam, x)`` is statically admissible; with ``z`` allowed only on
+        its active pairs, any ``(u, z)`` of the compatibility LP makes the triple a solution of (3)
+        (an upper bound on the minimum; for the maximum it attains ``lam_upper``), else None.
         """
-        ops = self.ops
-        x = bd["x_associative"]
-        slack = -np.concatenate([ops.N_u.T @ x, ops.N_f.T @ x])
+        slack = -(self.form.pair_matrix @ bd.x_associative)
         active = slack <= 1e-9 * max(1.0, float(np.abs(slack).max(initial=0.0)))
         mech = self._mechanism(active)
         if mech is None:
             return None
-        u, z_u, z_f = mech
-        return Solution(multiplier=bd["lam_associative"], x=x, u=u, z_u=z_u, z_f=z_f)
+        return self._solution(bd.lam_associative, bd.x_associative, *mech)
+
+    def _pattern(self, mip, v: np.ndarray) -> np.ndarray:
+        """Active pairs of an engine point: ``y_i = 1`` (big-M) or ``z_i > s_i`` (SOS1)."""
+        if "y" in mip.columns:
+            return v[mip.columns["y"]] >= 0.5
+        s, z = v[mip.columns["s"]], v[self.form.pair_column]
+        return z > s
 
     # ------------------------------------------------------------------ run
     def run(self) -> RunOutput:
-        import highspy
-
-        from blockmpec.formulations.mpec_bigm import compile_mixed_integer
-
         opt = self.options
         maximise = opt.sense == "max"
-        # "bound" is the dual bound's side: a lower bound on the minimum, an upper bound on the maximum
         bound_word = "upper" if maximise else "lower"
-        t_start = time.perf_counter()
+        t_start = self._t_start = time.perf_counter()
         deadline = t_start + opt.time_limit
-        ops = self.ops
-        c = ops.n_interfaces
-        fail, bd = self._bounds(deadline)
-        t_bounds = time.perf_counter() - t_start
-        if fail:
-            st = bd.get("lp_status", Status.ERROR)
-            st = st if st in (Status.UNBOUNDED, Status.INFEASIBLE, Status.TIME_LIMIT) else Status.ERROR
-            return RunOutput(st, message=fail, extra={"bound_time_s": t_bounds, "sense": opt.sense})
-        smax = bd["smax"]
-        scale = float(max(smax.max(), 1e-300))
-        proven = smax * (1.0 + BOUND_MARGIN_REL) + BOUND_MARGIN_ABS * scale
-        M = opt.bigm_scale * proven
-        M_u, M_f = M[: 2 * c], M[2 * c:]
-
-        m = self.problem_milp.model
-        for i in range(2 * c):
-            m.M_u[i] = float(M_u[i])
-            m.M_f[i] = float(M_f[i])
-        m.lam_lower = bd["lam_lower"]
-        m.lam_upper = bd["lam_upper"]
-        m.tau_min = 0.0
-        tau_max = bd.get("zmax", [np.inf])[-1]
-        if np.isfinite(tau_max):
-            m.tau_max = float(tau_max * (1.0 + BOUND_MARGIN_REL))
-            m.work_mccormick.activate()
-        zmax = bd.get("zmax", np.ones(4 * c + 1))[:-1] * (1.0 + BOUND_MARGIN_REL) + BOUND_MARGIN_ABS
-        zmax = np.minimum(zmax, 1.0)
-        for i in range(2 * c):
-            m.zmax_u[i] = float(zmax[i])
-            m.zmax_f[i] = float(zmax[2 * c + i])
-        if bd.get("lam_kinematic") is not None:
-            m.lam_kinematic = bd["lam_kinematic"]
-            m.dead_work_lower.activate()
-            m.lam_lower = max(bd["lam_lower"], bd["lam_kinematic"])
+        try:
+            bd = self._bounds(deadline)
+        except _BoundFailure as fail:
+            st = fail.status if fail.status in (Status.UNBOUNDED, Status.INFEASIBLE, Status.TIME_LIMIT,
+                                                Status.INFEASIBLE_OR_UNBOUNDED) else Status.ERROR
+            return RunOutput(st, message=str(fail), extra={"bound_time_s": time.perf_counter() - t_start,
+                                                           facts.SENSE: opt.sense, facts.LP_SOLVES: self._n_lps})
+        trace = [{"iteration": 0, "stage": "bounds", "time_s": bd.time_s,
+                  "bound": bd.lam_lower if not maximise else bd.lam_upper, "incumbent": None, "gap_abs": None}]
         t0 = time.perf_counter()
-        lp, integrality = compile_mixed_integer(self.problem_milp)
-        t_compile = time.perf_counter() - t0
-        # HiGHS minimises lp.c^T v = sign * lam (sign = -1 for the maximum); lam-space value = sign * objective
-        sign = float(lp.objective_sign)
-        y_cols = np.concatenate([lp.columns["y_u"], lp.columns["y_f"]])
-        fixed_active = smax <= 1e-12 * scale  # constraint active on all of S: y_i = 1
-        lp.col_lower[y_cols[fixed_active]] = 1.0
-        fixed_idle = (bd["zmax"][:-1] <= 1e-12) & ~fixed_active if "zmax" in bd else np.zeros(4 * c, bool)
-        lp.col_upper[y_cols[fixed_idle]] = 0.0  # z_i = 0 in every normalised mechanism: y_i = 0
-
-        h = highspy.Highs()
-        h.setOptionValue("output_flag", bool(opt.verbose))
-        h.setOptionValue("threads", int(opt.threads))
-        h.setOptionValue("mip_rel_gap", float(opt.mip_rel_gap))
-        h.setOptionValue("mip_abs_gap", float(opt.mip_abs_gap))
-        h.setOptionValue("mip_feasibility_tolerance", float(opt.feasibility_tol))
-        h.setOptionValue("primal_feasibility_tolerance", float(opt.feasibility_tol))
-        h.setOptionValue("time_limit", float(max(deadline - time.perf_counter(), 1e-3)))
-        A = lp.A.tocsc()
-        model = highspy.HighsLp()
-        model.num_col_, model.num_row_ = A.shape[1], A.shape[0]
-        model.col_cost_ = lp.c
-        model.col_lower_, model.col_upper_ = lp.col_lower, lp.col_upper
-        model.row_lower_, model.row_upper_ = lp.row_lower, lp.row_upper
-        model.a_matrix_.format_ = highspy.MatrixFormat.kColwise
-        model.a_matrix_.start_ = A.indptr
-        model.a_matrix_.index_ = A.indices
-        model.a_matrix_.value_ = A.data
-        model.integrality_ = [highspy.HighsVarType.kInteger if k else highspy.HighsVarType.kContinuous
-                              for k in integrality]
-        h.passModel(model)
+        mip = self._build(bd)
+        t_build = time.perf_counter() - t0
         incumbent = self._associative_incumbent(bd) if opt.incumbent else None
-        if incumbent is not None:
-            # the same point in the MILP's normalisation 1^T z = 1
-            z = np.concatenate([incumbent.z_u, incumbent.z_f])
-            scale_z = float(z.sum())
-            v0 = np.zeros(lp.c.size)
-            for group, val in (("lam", [incumbent.multiplier]), ("x", incumbent.x), ("u", incumbent.u / scale_z),
-                               ("z_u", incumbent.z_u / scale_z), ("z_f", incumbent.z_f / scale_z),
-                               ("y_u", (incumbent.z_u > 0).astype(float)), ("y_f", (incumbent.z_f > 0).astype(float)),
-                               ("tau", [1.0 / scale_z])):
-                cols = lp.columns[group]
-                v0[cols[cols >= 0]] = np.asarray(val, float)[cols >= 0]
-            start = highspy.HighsSolution()
-            start.col_value = v0.tolist()
-            start.value_valid = True
-            h.setSolution(start)
-        t1 = time.perf_counter()
-        h.run()
-        t_milp = time.perf_counter() - t1
-        raw = h.getModelStatus()
-        raw_name = raw.name
-        info = h.getInfo()
-        nodes = int(info.mip_node_count)
-        dual_bound = sign * float(info.mip_dual_bound)  # in lam: <= min lam (min), >= max lam (max)
+        run = self._solve(mip, deadline, self._start(mip, incumbent), t_start)
+        trace += [dict(r, iteration=len(trace) + k, stage="search") for k, r in enumerate(run.trace)]
+        sign = mip.objective_sign
+        bound = sign * run.dual_bound  # in lam: <= min lam (min), >= max lam (max)
         extra = {
-            "sense": opt.sense,
-            "lam_upper_associative": bd["lam_associative"],
-            "lam_lower_static": bd["lam_static_min"],
-            "lam_lower_kinematic": bd.get("lam_kinematic"),
-            "tau_max": float(bd.get("zmax", [np.nan])[-1]),
-            "bigm_unilateral": M_u.tolist(),
-            "bigm_friction": M_f.tolist(),
+            facts.SENSE: opt.sense,
+            facts.ASSOCIATIVE_MULTIPLIER: bd.lam_associative,
+            facts.BOUND: bound,
+            facts.LP_SOLVES: bd.n_lps,
+            "engine": opt.engine,
+            "lam_static_min": bd.lam_static_min,
+            "lam_kinematic": bd.lam_kinematic,
+            "tau_max": bd.tau_max,
+            "bigm": mip.bigm.tolist(),
             "bigm_scale": opt.bigm_scale,
-            "multiplier_bound": "exact: 1^T z = 1 normalisation, z_i <= y_i",
-            "n_binaries": int(integrality.sum()),
-            "n_fixed_binaries": int(fixed_active.sum() + fixed_idle.sum()),
-            "n_bound_lps": bd["n_bound_lps"],
-            "bound_time_s": t_bounds,
-            "compile_time_s": t_compile,
-            "milp_time_s": t_milp,
-            "nodes": nodes,
-            "dual_bound": dual_bound,
-            "mip_gap": float(info.mip_gap),
+            "n_binaries": int(mip.integer.sum()),
+            "n_sos1": len(mip.sos1),
+            "n_fixed_pairs": self._n_fixed,
+            "bound_time_s": bd.time_s,
+            "build_time_s": t_build,
+            "search_time_s": run.time_s,
+            "nodes": run.nodes,
             "bigm_active": [],
             "incumbent_associative": None if incumbent is None else incumbent.multiplier,
         }
-        trace = [{"iteration": 0, "time_s": t_bounds, "stage": "bounds", "multiplier": bd["lam_upper"]},
-                 {"iteration": 1, "time_s": time.perf_counter() - t_start, "stage": "milp",
-                  "multiplier": sign * float(info.objective_function_value), "dual_bound": dual_bound,
-                  "nodes": nodes}]
-        has_point = int(info.primal_solution_status) == 2
-        if raw_name == "kInfeasible" or not has_point:
-            if raw_name == "kInfeasible":
-                if opt.bigm_scale < 1:
-                    msg = (f"the MILP is infeasible with bigm_scale = {opt.bigm_scale} < 1: the scaled slack "
-                           "bounds cut off every solution of (3); the proven bounds (bigm_scale = 1) are needed")
-                    st = Status.INFEASIBLE
-                else:
-                    msg = ("HiGHS reports the MILP infeasible although its bounds are proven valid for every "
-                           "solution of (3): a numerical failure (tolerances), not a proof of infeasibility")
-                    st = Status.NUMERICAL
-            elif raw_name == "kTimeLimit" and incumbent is not None:
-                extra["gap_abs"] = max(0.0, sign * (incumbent.multiplier - dual_bound))
-                return RunOutput(Status.TIME_LIMIT, incumbent, nodes, trace,
-                                 f"time limit: the associative-pattern solution lam {incumbent.multiplier:.10g}, "
-                                 f"dual bound {dual_bound:.10g}", raw_name, extra)
-            elif raw_name == "kTimeLimit":
-                msg, st = "time limit before any feasible point", Status.TIME_LIMIT
-            else:
-                msg, st = f"HiGHS: {h.modelStatusToString(raw)}", Status.ERROR
-            return RunOutput(st, Solution(), nodes, trace, msg, raw_name, extra)
-
-        v = np.asarray(h.getSolution().col_value, float)
-        active = np.concatenate([lp.values("y_u", v), lp.values("y_f", v)]) >= 0.5
+        if not run.has_point:
+            return self._no_point(run, incumbent, bound, extra, trace)
+        v = run.point
+        active = self._pattern(mip, v)
         if self._mechanism(active) is None and time.perf_counter() < deadline:
-            # The relaxation's optimum has tau = 0 (no mechanism with f_l^T u > 0 for its pattern).  Its
-            # dual bound stays the certified bound (lower for min, upper for max); re-solve the
-            # restriction tau >= tau_restart, whose points all solve (3), for a point on the other side.
-            tau_restart = 1e-6 * (bd["zmax"][-1] if np.isfinite(bd.get("zmax", [np.inf])[-1]) else 1.0)
-            h.changeColBounds(int(lp.columns["tau"][0]), float(tau_restart), highspy.kHighsInf)
-            h.setOptionValue("time_limit", h.getRunTime() + max(deadline - time.perf_counter(), 1e-3))
-            h.run()
-            raw = h.getModelStatus()
-            raw_name = raw.name
-            info2 = h.getInfo()
+            # The relaxation's optimum has tau = 0 (its pattern admits no mechanism with f_l^T u > 0).
+            # Its bound stays the certified one; the restriction tau >= tau_restart has only points of (3).
+            tau_restart = 1e-6 * (bd.tau_max if np.isfinite(bd.tau_max) else 1.0)
             extra["tau_restart"] = tau_restart
-            extra["restart_nodes"] = int(info2.mip_node_count)
-            if int(info2.primal_solution_status) != 2:
-                return RunOutput(Status.NUMERICAL, Solution(), nodes, trace,
+            rerun = self._solve(self._build(bd, tau_min=tau_restart), deadline, None, t_start)
+            extra["restart_nodes"] = rerun.nodes
+            if not rerun.has_point:
+                return RunOutput(Status.NUMERICAL, Solution(), run.nodes, trace,
                                  f"the relaxation's optimum has tau = 0 and the restriction tau >= {tau_restart:.3g} "
-                                 f"found no point ({raw_name}); the MILP {bound_word} bound {dual_bound:.10g} stands",
-                                 raw_name, extra)
-            v = np.asarray(h.getSolution().col_value, float)
-        y = np.concatenate([lp.values("y_u", v), lp.values("y_f", v)])
-        x_milp = lp.values("x", v)
-        slack = -np.concatenate([ops.N_u.T @ x_milp, ops.N_f.T @ x_milp])
-        off = y < 0.5
-        at_bound = off & (slack >= M - ACTIVE_TOL * opt.bigm_scale * scale)
+                                 f"found no point ({rerun.raw_status}); the {bound_word} bound {bound:.10g} stands",
+                                 rerun.raw_status, extra)
+            v = rerun.point
+            active = self._pattern(mip, v)
+            run = rerun  # its status decides; the relaxation's bound (above) stands
+        # a slack at its big-M in the engine's point: the bound behind the model was not proven
+        slack = self.form.slack(v[: self.form.n_columns])
+        scale = float(max(bd.slack_max.max(initial=0.0), 1e-300))
+        at_bound = ~active & (slack >= mip.bigm - ACTIVE_TOL * opt.bigm_scale * scale) & (mip.bigm > 0)
         extra["bigm_active"] = np.flatnonzero(at_bound).tolist()
-        extra["milp_multiplier"] = float(lp.values("lam", v)[0])
-        extra["tau"] = float(lp.values("tau", v)[0])
-        active = y >= 0.5
-        sol, pmsg = self._polish(active[: 2 * c], active[2 * c:])
+        extra["engine_multiplier"] = float(v[self.form.lam])
+        extra["tau"] = float(v[mip.columns["tau"][0]])
         extra["n_active_pairs"] = int(active.sum())
+        sol, pmsg = self._polish(active)
         if sol is None:
-            return RunOutput(Status.NUMERICAL, Solution(), nodes, trace,
-                             f"{pmsg}; the MILP {bound_word} bound {dual_bound:.10g} stands", raw_name, extra)
+            return RunOutput(Status.NUMERICAL, Solution(), run.nodes, trace,
+                             f"{pmsg}; the {bound_word} bound {bound:.10g} stands", run.raw_status, extra)
+        return self._certify(sol, run, bound, bd, extra, trace)
+
+    def _no_point(self, run, incumbent, bound, extra, trace) -> RunOutput:
+        opt = self.options
+        if run.status is Status.INFEASIBLE:
+            if opt.bigm_scale < 1:
+                return RunOutput(Status.INFEASIBLE, Solution(), run.nodes, trace,
+                                 f"the MILP is infeasible with bigm_scale = {opt.bigm_scale} < 1: the scaled slack "
+                                 "bounds cut off every solution of (3); the proven bounds (bigm_scale = 1) are needed",
+                                 run.raw_status, extra)
+            return RunOutput(Status.NUMERICAL, Solution(), run.nodes, trace,
+                             "the engine reports the MILP infeasible although its bounds are proven valid for every "
+                             "solution of (3): a numerical failure (tolerances), not a proof of infeasibility",
+                             run.raw_status, extra)
+        if run.status is Status.TIME_LIMIT and incumbent is not None:
+            sign = -1.0 if opt.sense == "max" else 1.0
+            gap = max(0.0, sign * (incumbent.multiplier - bound))
+            extra[facts.GAP_ABS], extra[facts.GAP_REL] = gap, gap / max(abs(incumbent.multiplier), 1e-12)
+            return RunOutput(Status.TIME_LIMIT, incumbent, run.nodes, trace,
+                             f"time limit: the associative-pattern solution lam {incumbent.multiplier:.10g}, "
+                             f"bound {bound:.10g}", run.raw_status, extra)
+        if run.status is Status.TIME_LIMIT:
+            return RunOutput(Status.TIME_LIMIT, Solution(), run.nodes, trace, "time limit before any feasible point",
+                             run.raw_status, extra)
+        return RunOutput(Status.ERROR, Solution(), run.nodes, trace, run.message, run.raw_status, extra)
+
+    # ------------------------------------------------------------------ 5. certify
+    def _certify(self, sol: Solution, run, bound: float, bd, extra: dict, trace: list) -> RunOutput:
+        opt = self.options
+        maximise = opt.sense == "max"
+        sign = -1.0 if maximise else 1.0
         lam = sol.multiplier
-        extra["polished_minus_milp"] = lam - extra["milp_multiplier"]
-        gap_abs = max(0.0, sign * (lam - dual_bound))  # min: lam - bound; max: bound - lam
-        extra["gap_abs"] = gap_abs
-        extra["gap_rel"] = gap_abs / max(abs(lam), 1e-12)
-        trace.append({"iteration": 2, "time_s": time.perf_counter() - t_start, "stage": "polish",
-                      "multiplier": lam, "dual_bound": dual_bound})
+        extra["polished_minus_engine"] = lam - extra["engine_multiplier"]
+        gap_abs = max(0.0, sign * (lam - bound))  # min: lam - bound; max: bound - lam
+        extra[facts.GAP_ABS] = gap_abs
+        extra[facts.GAP_REL] = gap_abs / max(abs(lam), 1e-12)
+        trace.append({"iteration": len(trace), "stage": "polish", "time_s": time.perf_counter() - self._t_start,
+                      "bound": bound, "incumbent": lam, "gap_abs": gap_abs})
         tol = CERTIFICATE_TOL * max(1.0, abs(lam))
         closed = gap_abs <= max(opt.mip_abs_gap, opt.mip_rel_gap * abs(lam)) + tol
-        # a point of (3) beyond the relaxation's bound (below it for min, above it for max) is impossible
-        undercut = sign * (lam - dual_bound) < -tol
-        if raw_name == "kOptimal" and closed and not undercut:
-            st, msg = Status.OPTIMAL, (f"certified global {'maximum' if maximise else 'minimum'}; "
-                                       f"gap {gap_abs:.2e}, {nodes} nodes")
-        elif raw_name == "kTimeLimit":
-            st, msg = Status.TIME_LIMIT, f"time limit: best lam {lam:.10g}, dual bound {dual_bound:.10g}"
+        undercut = sign * (lam - bound) < -tol  # a point of (3) beyond the relaxation's bound is impossible
+        word = "maximum" if maximise else "minimum"
+        if run.status is Status.OPTIMAL and closed and not undercut and bd.verified:
+            st, msg = Status.OPTIMAL, f"certified global {word}; gap {gap_abs:.2e}, {run.nodes} nodes"
+        elif run.status is Status.TIME_LIMIT:
+            st, msg = Status.TIME_LIMIT, f"time limit: best lam {lam:.10g}, bound {bound:.10g}, gap {gap_abs:.2e}"
         elif undercut:
             st = Status.NUMERICAL
-            msg = (f"the polished point lam {lam:.10g} {'exceeds' if maximise else 'undercuts'} the MILP dual "
-                   f"bound {dual_bound:.10g}: certificate void")
-        elif raw_name == "kOptimal":
+            msg = (f"the polished point lam {lam:.10g} {'exceeds' if maximise else 'undercuts'} the engine's "
+                   f"bound {bound:.10g}: certificate void")
+        elif run.status is Status.OPTIMAL:
             st = Status.LOCALLY_OPTIMAL
-            msg = (f"HiGHS optimal but the polished lam {lam:.10g} and the dual bound {dual_bound:.10g} differ "
-                   f"by {gap_abs:.2e}")
+            msg = f"engine optimal but the polished lam {lam:.10g} and the bound {bound:.10g} differ by {gap_abs:.2e}"
             if "tau_restart" in extra:
                 msg += (f" (the relaxation's optimum had tau = 0; lam is the {opt.sense}imum over tau >= "
                         f"{extra['tau_restart']:.3g}, not certified globally)")
         else:
-            st, msg = Status.ERROR, f"HiGHS: {h.modelStatusToString(raw)}"
+            st, msg = Status.ERROR, run.message
         if extra["bigm_active"]:
-            # the point solves (3) (polished), but the bounds that define the MILP were too small
-            st = Status.TIME_LIMIT if raw_name == "kTimeLimit" else Status.LOCALLY_OPTIMAL
+            st = Status.TIME_LIMIT if run.status is Status.TIME_LIMIT else Status.LOCALLY_OPTIMAL
             msg = (f"{len(extra['bigm_active'])} slack(s) at their big-M bound (bigm_scale = {opt.bigm_scale}): "
                    f"the point solves (3) but the certificate of global {'maxim' if maximise else 'minim'}ality "
                    f"is void. {msg}")
         elif opt.bigm_scale < 1 and st is Status.OPTIMAL:
-            # No slack reached its (shrunken) M, but the MILP was solved over a restriction of the solution
-            # set of (3): a better point may lie in the cut-off part, so nothing is certified.
+            # no slack reached its (shrunken) M, but the model was a restriction: nothing is certified
             st = Status.LOCALLY_OPTIMAL
             msg = (f"bigm_scale = {opt.bigm_scale} < 1: the slack bounds are not proven, so the certificate of "
                    f"global {'maxim' if maximise else 'minim'}ality is void (no slack reached them). {msg}")
-        return RunOutput(st, sol, nodes, trace, msg, raw_name, extra)
+        return RunOutput(st, sol, run.nodes, trace, msg, run.raw_status, extra)

@@ -1,0 +1,367 @@
+r"""The MPEC (4) as a mixed-integer program, built from the compiled MCP (3).
+
+Everything here is read from :class:`~blockmpec.formulations.compiled.CompiledMCP`
+(``form``): ``A w = rhs`` (equilibrium | compatibility | normalisation), the pair
+rows ``G w <= 0`` with slacks ``s = -G w`` and multipliers ``w[pair_column]``,
+``pair_kind`` and ``pair_interface``.  No operator is read and no stride is
+computed.  Problem (4) is ``min lam`` over the solutions of (3)
+(``sense="max"``: ``max lam`` over the same set); every constraint below is a
+property of that *set*, so it holds for both senses.
+
+Normalisation (why the multipliers have provable bounds)
+--------------------------------------------------------
+``(u, z)`` enter (3) homogeneously except for ``f_l^T u = 1``, and ``z != 0`` at
+every solution (``z = 0`` gives ``E^T u = 0``, so ``u = 0`` for a structure tied
+to its fixed blocks, against ``f_l^T u = 1``).  Dividing ``(u, z)`` by ``1^T z``
+maps every solution to ::
+
+    1^T z = 1,    tau := f_l^T u > 0,                                      (N)
+
+and back (divide by ``tau``).  Under (N) ``0 <= z_i <= 1`` *exactly*: the
+multiplier bound is a consequence of the normalisation, not a big-M.  The model
+keeps ``tau >= tau_min``: ``tau_min = 0`` gives a **relaxation** of (4) (its
+optimum is a certified bound), ``tau_min > 0`` a restriction (every point solves (3)).
+
+Complementarity
+---------------
+``complementarity="bigm"``: one binary ``y_i`` per pair, ::
+
+    s_i <= M_i (1 - y_i),     z_i <= zmax_i y_i.
+
+``M_i`` (the only big-M) is *data proven by LPs* (:class:`MPECBounds`):
+``M_i >= max s_i`` over the statically admissible set ``S`` (which contains the
+force part of every solution of (3)).  ``zmax_i = max z_i`` over the kinematic
+set ``K = {compatibility, 1^T z = 1, z >= 0}`` (``<= 1``).  A slack at its ``M_i``
+in the answer means the bound was not proven (the solver then voids the certificate).
+
+``complementarity="sos1"``: explicit slacks ``s = -G w`` with ``0 <= s_i <= M_i``
+and one SOS1 set ``{s_i, z_i}`` per pair (no binaries; ``M_i`` only bounds a
+variable, so a wrong one cuts points off but is detected the same way).
+
+Valid cuts
+----------
+*Work identity.*  Let ``E = A[equilibrium, x]`` (so ``A[compatibility, u] = E^T``,
+checked when the model is built), ``F = A[compatibility, z]`` and
+``G_x = G[:, x]``.  Multiply equilibrium ``E x + lam f_l = -f_d`` by ``u`` and use
+compatibility ``E^T u = -F z``: ``lam tau = -f_d^T u + x^T F z``.  Complementarity
+gives ``x^T G_x^T z = -s^T z = 0``, so with ``B := F - G_x^T`` ::
+
+    lam tau = -f_d^T u + x^T B z.                                        (W)
+
+``B`` is zero for associative flow; for Coulomb friction its only entries are
+``B[n_k, z_f(k, +-)] = -(tan phi_k - tan psi_k)``, so ``x^T B z =
+sum_k (tan phi_k - tan psi_k)(-n_k)(z_f+ + z_f-)_k >= 0`` (the friction work;
+``n_k <= 0`` follows from the two friction rows).  ``B`` is computed from the
+compiled matrices, not from a formula, so cohesion-free variants stay exact.
+
+* ``dead_work_cut``: ``-f_d^T u <= lam_upper tau`` ((W), ``x^T B z >= 0``,
+  ``lam <= lam_upper``).
+* ``dead_work_lower``: ``-f_d^T u >= lam_kinematic tau`` (``lam_kinematic`` is
+  the optimum of the bounded LP ``min -f_d^T u`` over compatibility, ``f_l^T u = 1``,
+  ``z >= 0``; bounded, so the inequality holds on its whole cone, also at ``tau = 0``).
+* ``work_envelope`` (``envelope=True``): (W) with its bilinear terms relaxed
+  by McCormick envelopes.  Each product ``p_e = x_r z_i`` (one per entry of ``B``)
+  with ``x_r in [L_r, U_r]`` (OBBT: LPs over ``S``) and ``z_i in [0, zmax_i]``::
+
+      p >= L z,   p <= U z,   p >= U z + zmax (x - U),   p <= L z + zmax (x - L)
+
+  (from ``(x - L) z >= 0``, ``(U - x) z >= 0``, ``(U - x)(zmax - z) >= 0``,
+  ``(x - L)(zmax - z) >= 0``), and ``q = lam tau`` with ``lam in [lam_lower, lam_upper]``,
+  ``tau in [0, tau_max]``::
+
+      q >= lam_lower tau,   q >= lam_upper tau + tau_max (lam - lam_upper),
+      q <= lam_upper tau,   q <= lam_lower tau + tau_max (lam - lam_lower),
+
+  and the linear row ``q = -f_d^T u + sum_e B_e p_e``.  Every point of (3) in
+  normalisation (N) satisfies all of them with ``p_e = x_r z_i`` and ``q = lam tau``.
+* ``sliding_direction``: at most one sliding pair per interface
+  (``y_+ + y_- <= 1``; SOS1 ``{z_+, z_-}``).  Both friction rows active means
+  ``t = n = 0``, hence ``m = 0`` and both rocking rows active; the common part
+  ``min(z_+, z_-)`` of the two sliding multipliers is a pure opening that the
+  rocking pair reproduces, so every solution of (3) has a representative with one
+  sliding direction.  Without it ``z_+ = z_- = 1/2``, ``u = 0`` would satisfy the
+  normalised system when ``psi = 0``: a spurious point with ``tau = 0``.
+
+Column bounds ``lam_lower <= lam <= lam_upper`` hold at every solution of (3)
+(``lam_upper``: the associative multiplier bounds every non-associative one,
+``x`` being statically admissible; ``lam_lower``: ``min lam`` over ``S`` or ``lam_kinematic``).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+import scipy.sparse as sp
+
+from blockmpec.formulations.compiled import FRICTION, CompiledMCP
+
+
+@dataclass(frozen=True)
+class MPECBounds:
+    """Bounds valid at every solution of (3) (in normalisation (N)), each proven by an LP.
+
+    Attributes
+    ----------
+    lam_associative : float
+        ``max lam`` over ``S`` (the associative multiplier; an upper bound on every solution).
+    lam_static_min : float
+        ``min lam`` over ``S``.
+    lam_kinematic : float or None
+        ``min -f_d^T u`` over the non-associative kinematic set with ``f_l^T u = 1`` (None: unbounded).
+    lam_lower, lam_upper : float
+        Column bounds of ``lam``: the LP optima widened by their round-off margin.
+    slack_max : ndarray, shape (4c,)
+        Proven ``max s_i`` over ``S`` (widened); ``M_i`` of the big-M rows.
+    z_max : ndarray, shape (4c,)
+        ``max z_i`` over the kinematic set ``K`` (widened, ``<= 1``).
+    tau_max : float
+        ``max f_l^T u`` over ``K`` (widened; ``inf`` when unbounded).
+    x_lower, x_upper : ndarray, shape (3c,)
+        Bounds of ``x`` over ``S`` (``-inf``/``inf`` where no LP was solved); the
+        work envelope reads the entries of ``x`` that multiply a ``z`` in ``B``.
+    x_associative : ndarray
+        ``x`` at the associative optimum.
+    verified : bool
+        Every LP behind the record reported optimal (False: the record must not certify).
+    n_lps : int
+    time_s : float
+    """
+
+    lam_associative: float
+    lam_static_min: float
+    lam_kinematic: float | None
+    lam_lower: float
+    lam_upper: float
+    slack_max: np.ndarray
+    z_max: np.ndarray
+    tau_max: float
+    x_lower: np.ndarray
+    x_upper: np.ndarray
+    x_associative: np.ndarray
+    verified: bool = True
+    n_lps: int = 0
+    time_s: float = 0.0
+
+
+@dataclass
+class MixedIntegerMPEC:
+    r"""``min c^T v`` s.t. ``row_lower <= A v <= row_upper``, ``col_lower <= v <= col_upper``,
+    ``v[integer] in Z`` and, for ``complementarity="sos1"``, one SOS1 set per row of ``sos1``.
+
+    ``v = (w, extra columns)`` where ``w`` is the compiled MCP's vector (so ``v[form.lam]``
+    is ``lam``); ``columns`` names the extra ones (``y``, ``s``, ``tau``, ``p``, ``q``),
+    ``rows`` the row groups.  ``objective_sign`` is -1 for ``sense="max"`` (``c = -e_lam``).
+    """
+
+    c: np.ndarray
+    A: sp.csr_array
+    row_lower: np.ndarray
+    row_upper: np.ndarray
+    col_lower: np.ndarray
+    col_upper: np.ndarray
+    integer: np.ndarray
+    columns: dict[str, np.ndarray]
+    rows: dict[str, np.ndarray]
+    objective_sign: float
+    bigm: np.ndarray
+    sos1: list[tuple[int, int]] = field(default_factory=list)
+    work_products: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
+
+    @property
+    def n_columns(self) -> int:
+        return self.c.size
+
+
+def work_matrix(form: CompiledMCP) -> sp.coo_array:
+    """``B = F - G_x^T`` of identity (W) (rows: ``x``, columns: ``z``); checks ``A[compatibility, u] = E^T``."""
+    E = form.block(form.equilibrium, form.x)
+    Et = form.block(form.compatibility, form.u)
+    if abs(Et - E.T).max(initial=0.0) > 1e-12 * max(1.0, abs(E).max(initial=0.0)):
+        raise AssertionError("compiled MCP: compatibility's u block is not the transpose of equilibrium's x block")
+    B = sp.csr_array(form.block(form.compatibility, form.z) - form.pair_matrix.T)
+    B.data[np.abs(B.data) <= 1e-14 * max(1.0, np.abs(B.data).max(initial=0.0))] = 0.0
+    B.eliminate_zeros()
+    return B.tocoo()
+
+
+class _Rows:
+    """Accumulates sparse rows ``lo <= a^T v <= hi`` by groups."""
+
+    def __init__(self, n_cols: int) -> None:
+        self.n_cols = n_cols
+        self.blocks: list[sp.csr_array] = []
+        self.lo: list[np.ndarray] = []
+        self.hi: list[np.ndarray] = []
+        self.groups: dict[str, np.ndarray] = {}
+        self.count = 0
+
+    def add(self, name: str, M, lo, hi) -> None:
+        M = sp.csr_array(M)
+        assert M.shape[1] == self.n_cols, (name, M.shape)
+        k = M.shape[0]
+        self.blocks.append(M)
+        self.lo.append(np.broadcast_to(np.asarray(lo, float), (k,)).copy())
+        self.hi.append(np.broadcast_to(np.asarray(hi, float), (k,)).copy())
+        self.groups[name] = np.arange(self.count, self.count + k)
+        self.count += k
+
+    def matrix(self) -> tuple[sp.csr_array, np.ndarray, np.ndarray]:
+        A = sp.csr_array(sp.vstack(self.blocks, format="csr"))
+        A.sum_duplicates()
+        return A, np.concatenate(self.lo), np.concatenate(self.hi)
+
+
+def _embed(M, n_cols: int, start: int = 0) -> sp.csr_array:
+    """``M`` placed in columns ``start:start + M.shape[1]`` of an ``n_cols``-wide matrix."""
+    M = sp.coo_array(M)
+    return sp.csr_array((M.data, (M.row, M.col + start)), shape=(M.shape[0], n_cols))
+
+
+def _entries(n_rows: int, n_cols: int, rows, cols, vals) -> sp.csr_array:
+    rows, cols = np.asarray(rows, int), np.asarray(cols, int)
+    vals = np.broadcast_to(np.asarray(vals, float), rows.shape)
+    return sp.csr_array((vals, (rows, cols)), shape=(n_rows, n_cols))
+
+
+def mpec_milp(form: CompiledMCP, bounds: MPECBounds, sense: str = "min", complementarity: str = "bigm",
+              bigm: np.ndarray | None = None, envelope: bool = True, tau_min: float = 0.0) -> MixedIntegerMPEC:
+    """Build the mixed-integer form of (4) described in the module docstring.
+
+    Parameters
+    ----------
+    form : CompiledMCP
+    bounds : MPECBounds
+    sense : {"min", "max"}
+    complementarity : {"bigm", "sos1"}
+    bigm : ndarray, shape (4c,), optional
+        ``M_i`` (default ``bounds.slack_max``; the solver passes a scaled copy only to test detection).
+    envelope : bool
+        Add the McCormick relaxation of the work identity (W).
+    tau_min : float
+        Lower bound of ``tau = f_l^T u`` (0: relaxation of (4)).
+    """
+    if sense not in ("min", "max"):
+        raise ValueError(f"sense must be 'min' or 'max'; got {sense!r}")
+    if complementarity not in ("bigm", "sos1"):
+        raise ValueError(f"complementarity must be 'bigm' or 'sos1'; got {complementarity!r}")
+    nw, npair = form.n_columns, form.n_pairs
+    M = np.asarray(bounds.slack_max if bigm is None else bigm, float)
+    zcols = form.pair_column
+    col = nw
+    columns: dict[str, np.ndarray] = {}
+    if complementarity == "bigm":
+        columns["y"] = np.arange(col, col + npair)
+        col += npair
+    else:
+        columns["s"] = np.arange(col, col + npair)
+        col += npair
+    columns["tau"] = np.array([col])
+    col += 1
+    Bw = work_matrix(form) if envelope else None
+    if envelope:
+        columns["p"] = np.arange(col, col + Bw.nnz)
+        col += Bw.nnz
+        columns["q"] = np.array([col])
+        col += 1
+    n = col
+    tau = int(columns["tau"][0])
+
+    lo = np.full(n, -np.inf)
+    hi = np.full(n, np.inf)
+    lo[form.lam], hi[form.lam] = bounds.lam_lower, bounds.lam_upper
+    lo[zcols], hi[zcols] = 0.0, bounds.z_max
+    lo[tau] = tau_min
+    if np.isfinite(bounds.tau_max):
+        hi[tau] = bounds.tau_max
+    integer = np.zeros(n, dtype=bool)
+
+    R = _Rows(n)
+    eq, cp, nm = form.equilibrium, form.compatibility, form.normalisation
+    R.add("equilibrium", _embed(form.A[eq], n), form.rhs[eq], form.rhs[eq])
+    R.add("compatibility", _embed(form.A[cp], n), 0.0, 0.0)
+    R.add("normalisation", _entries(1, n, np.zeros(npair), zcols, 1.0), 1.0, 1.0)
+    # live work: f_l^T u - tau = 0 (the compiled normalisation row is f_l^T u)
+    R.add("live_work", _embed(form.A[nm], n) - _entries(1, n, [0], [tau], 1.0), 0.0, 0.0)
+    G = _embed(form.G, n)
+    R.add("pairs", G, -np.inf, 0.0)
+    sos1: list[tuple[int, int]] = []
+    friction = np.flatnonzero(form.pair_kind == FRICTION)
+    by_interface: dict[int, list[int]] = {}
+    for i in friction:
+        by_interface.setdefault(int(form.pair_interface[i]), []).append(int(i))
+    two = [v for v in by_interface.values() if len(v) == 2]
+    if complementarity == "bigm":
+        y = columns["y"]
+        lo[y], hi[y] = 0.0, 1.0
+        integer[y] = True
+        # s_i <= M_i (1 - y_i):  -G_i w + M_i y_i <= M_i
+        R.add("bigm", -G + _entries(npair, n, np.arange(npair), y, M), -np.inf, M)
+        # z_i <= zmax_i y_i
+        R.add("switch", _entries(npair, n, np.arange(npair), zcols, 1.0)
+              - _entries(npair, n, np.arange(npair), y, bounds.z_max), -np.inf, 0.0)
+        if two:
+            a = np.array(two)
+            R.add("sliding_direction", _entries(len(two), n, np.repeat(np.arange(len(two)), 2),
+                                                y[a.ravel()], 1.0), -np.inf, 1.0)
+    else:
+        s = columns["s"]
+        lo[s], hi[s] = 0.0, M
+        # s + G w = 0
+        R.add("slack", G + _entries(npair, n, np.arange(npair), s, 1.0), 0.0, 0.0)
+        sos1 = [(int(s[i]), int(zcols[i])) for i in range(npair)]
+        sos1 += [(int(zcols[a]), int(zcols[b])) for a, b in two]
+
+    u_cols = np.arange(form.u.start, form.u.stop)
+    dead = -form.f_d  # -f_d^T u is the dead-load work
+    R.add("dead_work_cut", _entries(1, n, np.zeros(u_cols.size + 1),
+                                    np.append(u_cols, tau), np.append(dead, -bounds.lam_upper)), -np.inf, 0.0)
+    if bounds.lam_kinematic is not None:
+        R.add("dead_work_lower", _entries(1, n, np.zeros(u_cols.size + 1), np.append(u_cols, tau),
+                                          np.append(dead, -bounds.lam_kinematic)), 0.0, np.inf)
+    products = None
+    if envelope:
+        p, q = columns["p"], int(columns["q"][0])
+        xr = form.x.start + Bw.row  # column of x_r in w
+        zi = form.z.start + Bw.col  # column of z_i in w
+        L, U = bounds.x_lower[Bw.row], bounds.x_upper[Bw.row]
+        Z = bounds.z_max[Bw.col]
+        ne = Bw.nnz
+        r = np.arange(ne)
+        products = (xr, zi, Bw.data.copy())
+        # q - (-f_d^T u) - sum_e B_e p_e = 0
+        R.add("work_identity", _entries(1, n, np.zeros(u_cols.size + ne + 1), np.concatenate([u_cols, p, [q]]),
+                                        np.concatenate([-dead, -Bw.data, [1.0]])), 0.0, 0.0)
+        fin_L, fin_U = np.isfinite(L), np.isfinite(U)
+        # p - L z >= 0 ; p - U z <= 0
+        k = np.flatnonzero(fin_L)
+        R.add("envelope_lz", _entries(k.size, n, np.r_[np.arange(k.size), np.arange(k.size)],
+                                      np.r_[p[k], zi[k]], np.r_[np.ones(k.size), -L[k]]), 0.0, np.inf)
+        k = np.flatnonzero(fin_U)
+        R.add("envelope_uz", _entries(k.size, n, np.r_[np.arange(k.size), np.arange(k.size)],
+                                      np.r_[p[k], zi[k]], np.r_[np.ones(k.size), -U[k]]), -np.inf, 0.0)
+        # p - U z - Z x >= -U Z ; p - L z - Z x <= -L Z
+        k = np.flatnonzero(fin_U)
+        rr = np.tile(np.arange(k.size), 3)
+        R.add("envelope_uzx", _entries(k.size, n, rr, np.r_[p[k], zi[k], xr[k]],
+                                       np.r_[np.ones(k.size), -U[k], -Z[k]]), -U[k] * Z[k], np.inf)
+        k = np.flatnonzero(fin_L)
+        rr = np.tile(np.arange(k.size), 3)
+        R.add("envelope_lzx", _entries(k.size, n, rr, np.r_[p[k], zi[k], xr[k]],
+                                       np.r_[np.ones(k.size), -L[k], -Z[k]]), -np.inf, -L[k] * Z[k])
+        del r
+        # q = lam tau: McCormick with lam in [ll, lu], tau in [0, T]
+        ll, lu, T = bounds.lam_lower, bounds.lam_upper, bounds.tau_max
+        lam = form.lam
+        R.add("lam_tau_lower", _entries(1, n, [0, 0], [q, tau], [1.0, -ll]), 0.0, np.inf)
+        R.add("lam_tau_upper", _entries(1, n, [0, 0], [q, tau], [1.0, -lu]), -np.inf, 0.0)
+        if np.isfinite(T):
+            R.add("lam_tau_lower_t", _entries(1, n, [0, 0, 0], [q, tau, lam], [1.0, -lu, -T]), -lu * T, np.inf)
+            R.add("lam_tau_upper_t", _entries(1, n, [0, 0, 0], [q, tau, lam], [1.0, -ll, -T]), -np.inf, -ll * T)
+    A, rl, ru = R.matrix()
+    c = np.zeros(n)
+    sign = 1.0 if sense == "min" else -1.0
+    c[form.lam] = sign
+    return MixedIntegerMPEC(c=c, A=A, row_lower=rl, row_upper=ru, col_lower=lo, col_upper=hi, integer=integer,
+                            columns=columns, rows=R.groups, objective_sign=sign, bigm=M, sos1=sos1,
+                            work_products=products)
