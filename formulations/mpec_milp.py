@@ -177,7 +177,8 @@ def work_matrix(form: CompiledMCP) -> sp.coo_array:
     """``B = F - G_x^T`` of identity (W) (rows: ``x``, columns: ``z``); checks ``A[compatibility, u] = E^T``."""
     E = form.block(form.equilibrium, form.x)
     Et = form.block(form.compatibility, form.u)
-    if abs(Et - E.T).max(initial=0.0) > 1e-12 * max(1.0, abs(E).max(initial=0.0)):
+    diff = sp.csr_array(Et - E.T)
+    if np.abs(diff.data).max(initial=0.0) > 1e-12 * max(1.0, np.abs(E.data).max(initial=0.0)):
         raise AssertionError("compiled MCP: compatibility's u block is not the transpose of equilibrium's x block")
     B = sp.csr_array(form.block(form.compatibility, form.z) - form.pair_matrix.T)
     B.data[np.abs(B.data) <= 1e-14 * max(1.0, np.abs(B.data).max(initial=0.0))] = 0.0
