@@ -2,12 +2,19 @@
 
 For each wall and LP algorithm: structure generation (with interface detection),
 operator assembly, Pyomo model build, compilation to matrices, engine load, cold
-solve, lam, and the ratio of model construction (build + compile) to the solve.
+solve, lam, the ratio of model construction (build + compile) to the solve, the
+largest residual of the shared verifier (``blockmpec.verify.residuals``, associative)
+and the peak resident memory.  Each case runs in a fresh process, so its peak memory
+is its own.  For the block IPM also the fill-reducing ordering of ``K``, the number
+of factorisations and their time.
 Algorithms are those of ``static-lp`` (``blockmpec.solvers.engines.lp_engine.ALGORITHMS``):
 HiGHS's ``dual-simplex``, ``primal-simplex``, ``ipm`` (with crossover), the
 ``block-ipm``, or ``auto``.  Usage::
 
     python studies/lp_timing.py [--sizes 100,1000,10000] [--algorithms auto] [--time-limit 600]
+                                [--walls 100x100,316x316] [--orderings auto,mmd]
+
+``--walls CxB`` gives walls of ``courses=C, blocks_per_course=B`` instead of sizes.
 
 Writes ``studies/output/lp_timing/lp_timing.csv``.
 """
@@ -17,6 +24,8 @@ from __future__ import annotations
 import argparse
 import csv
 import math
+import multiprocessing
+import resource
 import time
 from pathlib import Path
 
@@ -34,9 +43,17 @@ def wall_for(n_blocks: int) -> bm.Structure:
     return bm.cases.wall(courses=courses, blocks_per_course=per)
 
 
-def time_one(n_blocks: int, algorithm: str, time_limit: float = float("inf")) -> dict:
+def time_one(wall: str, algorithm: str, time_limit: float = float("inf"), ordering: str = "auto") -> dict:
+    """One cold solve of the static LP of ``wall`` (a size ``"1000"`` or ``"CxB"`` courses x blocks per course)."""
+    from blockmpec.solvers.engines.block_ipm import BlockIPM
+    from blockmpec.solvers.engines.highs import static_lp_solution
+
     t0 = time.perf_counter()
-    s = wall_for(n_blocks)
+    if "x" in wall:
+        courses, per = (int(v) for v in wall.split("x"))
+        s = bm.cases.wall(courses=courses, blocks_per_course=per)
+    else:
+        s = wall_for(int(wall))
     t1 = time.perf_counter()
     ops = bm.assemble(s)
     t2 = time.perf_counter()
@@ -45,31 +62,63 @@ def time_one(n_blocks: int, algorithm: str, time_limit: float = float("inf")) ->
     lp = compile_linear(problem)
     t4 = time.perf_counter()
     engine = cold_lp_engine(lp, algorithm, time_limit, ops=ops)  # as static-lp runs it: in load units
+    if isinstance(engine, BlockIPM):
+        engine.ordering = ordering
     t5 = time.perf_counter()
     out = engine.solve()
     t6 = time.perf_counter()
     lam = float(lp.values("lam", out.v)[0]) if out.status.is_success else math.nan
+    residual = (max(bm.verify.residuals(ops, static_lp_solution(lp, out), associative=True).values())
+                if out.status.is_success else math.nan)
+    factoriser = engine.factoriser if isinstance(engine, BlockIPM) else None
     return {
         "blocks": s.n_free, "interfaces": len(s.interfaces), "rows": lp.A.shape[0], "columns": lp.A.shape[1],
         "generate_s": t1 - t0, "assemble_s": t2 - t1, "pyomo_build_s": t3 - t2, "compile_s": t4 - t3,
         "load_s": t5 - t4, "solve_s": t6 - t5, "build_over_solve": (t4 - t2) / (t6 - t5),
         "algorithm": algorithm, "engine": type(engine).__name__, "status": out.status.value,
-        "multiplier": lam, "lp_iterations": out.iterations,
+        "multiplier": lam, "lp_iterations": out.iterations, "max_residual": residual,
+        "verified_1e-8": bool(residual <= 1e-8),
+        "ordering": factoriser.ordering if factoriser else "", "factorisations": factoriser.factorisations if factoriser else 0,
+        "factorise_s": factoriser.factorise_s if factoriser else 0.0, "factor_nnz": factoriser.factor_nnz if factoriser else 0,
+        "peak_memory_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0,
     }
+
+
+def _run_in_child(args: tuple) -> dict:
+    return time_one(*args)
 
 
 def main(argv: list[str] | None = None) -> list[dict]:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--sizes", default="100,1000,10000")
     parser.add_argument("--algorithms", default="auto", help="comma-separated static-lp algorithms")
+    parser.add_argument("--walls", default="", help="comma-separated CxB walls (courses x blocks per course)")
+    parser.add_argument("--orderings", default="auto", help="block IPM orderings of K: auto, metis, mmd")
     parser.add_argument("--time-limit", type=float, default=float("inf"), help="seconds per solve")
     args = parser.parse_args(argv)
-    rows = [time_one(int(n), a, args.time_limit) for n in args.sizes.split(",") for a in args.algorithms.split(",")]
-    keys = ["blocks", "algorithm", "generate_s", "assemble_s", "pyomo_build_s", "compile_s", "load_s", "solve_s",
-            "build_over_solve", "status", "multiplier"]
-    print(" ".join(f"{k:>13s}" for k in keys))
+    walls = args.walls.split(",") if args.walls else args.sizes.split(",")
+    cases = [(w, a, args.time_limit, o) for w in walls for a in args.algorithms.split(",")
+             for o in (args.orderings.split(",") if a in ("auto", "block-ipm") else ["auto"])]
+    context = multiprocessing.get_context("spawn")  # a fresh process per case: its own peak memory
+    rows = []
+    for case in cases:
+        with context.Pool(1, maxtasksperchild=1) as pool:
+            rows.append(pool.apply(_run_in_child, (case,)))
+    keys = ["blocks", "algorithm", "ordering", "pyomo_build_s", "compile_s", "solve_s", "build_over_solve",
+            "lp_iterations", "factorise_s", "peak_memory_mb", "status", "max_residual", "multiplier"]
+    print(" ".join(f"{k:>13s}" for k in keys), flush=True)
     for r in rows:
         print(" ".join(f"{r[k]:>13.4g}" if isinstance(r[k], float) else f"{r[k]!s:>13s}" for k in keys))
+    print()
+    print("| free blocks | engine | ordering | Pyomo build | compile | solve | iterations | build + compile / solve "
+          "| peak memory | verified 1e-8 | λ |")
+    print("| ---: | --- | --- | ---: | ---: | ---: | ---: | ---: | ---: | --- | ---: |")
+    for r in rows:
+        engine = "block IPM" if r["engine"] == "BlockIPM" else f"HiGHS {r['algorithm']}"
+        print(f"| {r['blocks']:,} | {engine} | {r['ordering'] or '–'} | {r['pyomo_build_s']:.2g} s | {r['compile_s']:.2g} s "
+              f"| **{r['solve_s']:.3g} s** | {r['lp_iterations']} | {r['build_over_solve']:.2f} "
+              f"| {r['peak_memory_mb']:,.0f} MB | {'yes' if r['verified_1e-8'] else 'no'} ({r['max_residual']:.1e}) "
+              f"| {r['multiplier']:.4f} |")
     OUT.mkdir(parents=True, exist_ok=True)
     with (OUT / "lp_timing.csv").open("w", newline="") as fh:
         w = csv.DictWriter(fh, fieldnames=list(rows[0]))

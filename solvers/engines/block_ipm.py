@@ -17,9 +17,10 @@ Mehrotra's predictor-corrector method reduces to
   optimum ``d`` spans 1e-10..1e10 within one interface);
 * ``K = A_B H^{-1} A_B^T``: sparse, symmetric positive definite, of the size of
   the equilibrium rows (3 per block), with the sparsity of the block contact graph
-  (a 2D mesh for walls), factorised once per iteration by SuperLU with a
-  fill-reducing ordering that is computed once and reused, after a relative
-  diagonal shift of 1e-12;
+  (a 2D mesh for walls), factorised once per iteration (``L D L^T`` by SuperLU, no
+  pivoting) after a relative diagonal shift of 1e-12, with a fill-reducing ordering
+  (METIS nested dissection, or minimum degree without pymetis) computed once from the
+  *structural* pattern of ``K`` (:mod:`blockmpec.solvers.engines.cholesky`);
 * the border columns by a bordered (Schur) solve: ``K W = [r, A_F]`` and a dense
   ``|F| x |F|`` system ``(A_F^T W_F) dv_F = A_F^T W_r + q_F``;
 * the block unknowns ``(dv_i, dy_i)`` by exact per-block solves, and iterative
@@ -64,6 +65,7 @@ import scipy.sparse.linalg as spla
 
 from blockmpec.result import Status
 from blockmpec.formulations import LinearProgram
+from blockmpec.solvers.engines.cholesky import SymmetricFactoriser, structural_pattern
 from blockmpec.solvers.engines.highs import LPOutcome
 
 #: smallest s/y in the block systems (a primal regularisation of fully active blocks)
@@ -105,12 +107,17 @@ class BlockIPM:
         after ``C`` (their part of ``R`` is not needed).  Tolerances apply to the
         scaled problem, so a good scaling makes every block's equilibrium hold
         relative to its own loads (see :mod:`blockmpec.solvers.engines.scaling`).
+    ordering : str
+        Fill-reducing ordering of ``K``: ``"auto"``, ``"metis"`` or ``"mmd"``
+        (:data:`blockmpec.solvers.engines.cholesky.ORDERINGS`).
     """
 
     def __init__(self, lp: LinearProgram, block_columns: np.ndarray, tol: float = 1e-9,
                  max_iterations: int = 200, time_limit: float = float("inf"),
-                 row_scale: np.ndarray | None = None, column_scale: np.ndarray | None = None) -> None:
+                 row_scale: np.ndarray | None = None, column_scale: np.ndarray | None = None,
+                 ordering: str = "auto") -> None:
         self.lp = lp
+        self.ordering = ordering
         self.tol = float(tol)
         self.max_iterations = int(max_iterations)
         self.time_limit = float(time_limit)
@@ -175,7 +182,7 @@ class BlockIPM:
         self.g_blocks = g[self.block_rows]  # (n_blocks, r, k)
         self.A_B = self.A[:, block_columns.ravel()].tocsr()  # columns in block order
         self.A_F = self.A[:, self.border].toarray() if self.border.size else np.zeros((self.A.shape[0], 0))
-        self._perm = None
+        self._factoriser: SymmetricFactoriser | None = None
         # CSR pattern of the block-diagonal H^{-1} (fixed; values change per iteration)
         k, nb = self.k, self.n_blocks
         self._hinv_indptr = np.arange(0, nb * k * k + 1, k)
@@ -212,8 +219,8 @@ class BlockIPM:
         M[:, k + idx, k + idx] = -1.0
         return M, sqrt_d
 
-    def _factorise(self, it: IPMIterate):
-        """Block matrices, ``H^{-1}`` (top-left of their inverses), ``K = A_B H^{-1} A_B^T`` and its LU."""
+    def reduced_matrix(self, it: IPMIterate):
+        """``(K, blocks)``: ``K = A_B H^{-1} A_B^T + 1e-12 diag(K)`` at ``it`` and the block factors ``(M^{-1}, sqrt(d))``."""
         k, nb = self.k, self.n_blocks
         M, sqrt_d = self._block_systems(it)
         M_inv = np.linalg.inv(M)  # LU with partial pivoting, per block
@@ -221,26 +228,26 @@ class BlockIPM:
         Hinv = 0.5 * (Hinv + np.swapaxes(Hinv, 1, 2))
         Hinv_mat = sp.csr_array((Hinv.ravel(), self._hinv_indices, self._hinv_indptr), shape=(nb * k, nb * k))
         K = (self.A_B @ Hinv_mat @ self.A_B.T).tocsc()
-        # a relative diagonal shift (1e-12 K_ii) keeps SuperLU's pivots nonzero where a
+        # a relative diagonal shift (1e-12 K_ii) keeps the pivots nonzero where a
         # block's forces are all fixed by active rows; iterative refinement against the
         # exact block solves removes its effect on the direction
         K = K + sp.diags(1e-12 * K.diagonal() + 1e-300, format="csc")
-        if self._perm is None:
-            lu = spla.splu(K, permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0,
-                           options={"SymmetricMode": True})
-            self._perm = np.argsort(lu.perm_c)  # perm_c[i] is the new position of column i
-        p = self._perm
-        lu = spla.splu(K[p][:, p].tocsc(), permc_spec="NATURAL", diag_pivot_thresh=0.0,
-                       options={"SymmetricMode": True})
-        inv_p = np.empty_like(p)
-        inv_p[p] = np.arange(p.size)
+        return K, (M_inv, sqrt_d)
 
-        def solve_K(rhs: np.ndarray) -> np.ndarray:
-            return lu.solve(rhs[p])[inv_p]
+    @property
+    def factoriser(self) -> SymmetricFactoriser:
+        """The factoriser of ``K``, its ordering computed once from ``K``'s structural pattern."""
+        if self._factoriser is None:
+            self._factoriser = SymmetricFactoriser(structural_pattern(self.A_B, self.k), self.ordering)
+        return self._factoriser
 
+    def _factorise(self, it: IPMIterate):
+        """Block matrices, ``H^{-1}`` (top-left of their inverses), ``K = A_B H^{-1} A_B^T`` and its factors."""
+        K, blocks = self.reduced_matrix(it)
+        solve_K = self.factoriser.factorise(K)
         W_F = solve_K(self.A_F) if self.A_F.shape[1] else self.A_F
         S_F = self.A_F.T @ W_F
-        return (M_inv, sqrt_d), solve_K, W_F, S_F
+        return blocks, solve_K, W_F, S_F
 
     def _block_solve(self, blocks, rhs_dual: np.ndarray, rhs_primal: np.ndarray):
         """Solve ``G_i^T dy_i = rhs_dual_i``, ``G_i dv_i - (s/y)_i dy_i = rhs_primal_i`` for every block."""
