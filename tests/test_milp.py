@@ -11,7 +11,9 @@ built-in cases, and the flipped certificate logic.
 """
 
 import functools
+import importlib.util
 import itertools
+import time
 
 import numpy as np
 import pytest
@@ -265,3 +267,95 @@ def test_maximum_after_a_zero_live_work_relaxation_point(monkeypatch):
     assert res.extra["bound"] >= 2 / 3 - 1e-7
     assert res.multiplier == pytest.approx(2 / 3, abs=1e-9)
     assert max(res.residuals.values()) <= POLISHED_TOL
+
+
+# ----------------------------------------------------------------------------- issue 12: engines, bounds, trace
+
+ENGINES = ["highs"] + (["scip"] if importlib.util.find_spec("pyscipopt") else [])
+
+
+@pytest.mark.parametrize("engine", ENGINES)
+@pytest.mark.parametrize(("eta", "mu"), list(itertools.product([1, 3, 5], [0.3, 0.65, 1.5])))
+def test_every_engine_certifies_the_closed_form(engine, eta, mu):
+    """Each engine, with and without the work envelope, certifies the closed-form two-block minimum."""
+    expected = bm.cases.closed_form("two-blocks", "non-associative", eta=eta, mu=mu)
+    for envelope in (False, True):
+        res = bm.solve(bm.cases.two_blocks(eta=eta, mu=mu), "milp", engine=engine, envelope=envelope)
+        assert_certified(res)
+        assert abs(res.multiplier - expected) <= 1e-7, (envelope, res.multiplier, expected)
+
+
+@pytest.mark.parametrize("engine", ENGINES)
+@pytest.mark.parametrize("case_id", ["wall-2x2", "wall-3x2-stack", "round-arch", "single-block"])
+def test_every_model_row_holds_at_a_solution(engine, case_id):
+    """The bounds are derived, not trusted: at a certified solution of (3), rescaled to 1^T z = 1 with
+    p = x_r z_i and q = lam tau, every row and column bound of the mixed-integer model (big-M or SOS1
+    slacks, switches, work identity, McCormick envelopes, lam tau envelope, dead-work cuts) holds."""
+    from blockmpec.solvers.milp import MILPSolver
+
+    structure = SMALL_CASES[case_id]()
+    res = solved(case_id, "milp")
+    assert_certified(res)
+    solver = MILPSolver(engine=engine, envelope=True)
+    solver.setup(bm.operators.assemble(structure))
+    bd = solver._bounds(time.perf_counter() + 60)
+    mip = solver._build(bd)
+    v = solver._start(mip, res.solution)
+    r = mip.A @ v
+    scale = max(1.0, float(np.abs(v).max()))
+    tol = 1e-7 * scale
+    assert np.all(r >= mip.row_lower - tol) and np.all(r <= mip.row_upper + tol)
+    assert np.all(v >= mip.col_lower - tol) and np.all(v <= mip.col_upper + tol)
+    assert mip.rows["work_identity"].size == 1
+
+
+def test_heuristics_never_below_the_certificate():
+    """No verified heuristic result lies below a certified minimum (on the cases where it certifies)."""
+    from helpers import HEURISTIC_TOL, HEURISTICS, margin
+
+    for case_id in ("wall-2x2", "two-blocks", "round-arch"):
+        lo = solved(case_id, "milp")
+        assert_certified(lo)
+        for method in HEURISTICS:
+            res = solved(case_id, method)
+            if res.verified and res.status.is_success:
+                assert res.multiplier >= lo.multiplier - margin(HEURISTIC_TOL, lo.multiplier), (case_id, method)
+
+
+@pytest.mark.parametrize("engine", ENGINES)
+def test_bound_never_exceeds_a_verified_point(engine):
+    """On a time-out the bound (and every bound in the trace) lies below every verified point of (3):
+    the run's own polished point and each verified heuristic result."""
+    from helpers import HEURISTIC_TOL, HEURISTICS, margin
+
+    structure = bm.cases.wall(3, 3)
+    res = bm.solve(structure, "milp", engine=engine, time_limit=3.0)
+    assert res.status in (Status.TIME_LIMIT, Status.OPTIMAL), res.message
+    bound = res.extra["bound"]
+    points = [res.multiplier] if res.verified else []
+    for method in ("fixed-point", "nlp"):
+        if method in HEURISTICS:
+            h = bm.solve(structure, method)
+            if h.verified and h.status.is_success:
+                points.append(h.multiplier - margin(HEURISTIC_TOL, h.multiplier))
+    assert points
+    bounds = [bound] + [r["bound"] for r in res.trace if r.get("bound") is not None]
+    assert max(bounds) <= min(points) + 1e-7
+    # the trace records time, bound, incumbent and gap, in time order
+    search = [r for r in res.trace if r.get("stage") == "search"]
+    assert search and all({"time_s", "bound", "incumbent", "gap_abs"} <= set(r) for r in search)
+    times = [r["time_s"] for r in res.trace]
+    assert times == sorted(times)
+
+
+@pytest.mark.parametrize("engine", ENGINES)
+@pytest.mark.parametrize("scale", [0.8, 0.01])
+def test_too_small_bigm_is_detected_by_every_engine(engine, scale):
+    res = bm.solve(bm.cases.two_blocks(eta=3, mu=1.5), "milp", engine=engine, bigm_scale=scale)
+    assert res.status is not Status.OPTIMAL
+    assert "bigm_scale" in res.message or res.extra["bigm_active"], res.message
+
+
+def test_bilinear_needs_scip():
+    with pytest.raises(bm.errors.OptionError, match="bilinear"):
+        bm.solve(bm.cases.two_blocks(), "milp", engine="highs", bilinear=True)

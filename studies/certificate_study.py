@@ -1,0 +1,180 @@
+"""The certified minimum at medium scale (issue 12): engines side by side, targets, largest certified.
+
+Three parts, each a table (markdown on stdout, CSV in ``studies/output/certificate/``):
+
+``compare``  every configuration on the same walls, one after the other in one
+             process (ratios are what to read: the machine is shared);
+``targets``  the issue's targets: running-bond walls 2x4, 4x3, 5x2 at mu = 0.65
+             within 60 s, and a running-bond wall of 30-50 blocks (half blocks at
+             the course ends, as ``bm.cases.wall`` builds them) within 600 s;
+``largest``  the largest running-bond wall, stack wall and arch certified within a
+             time limit, growing each family until the first size that fails.
+
+``--before DIR`` adds the method as it was before this work (``git show 9f29e3c``):
+extract it with ``mkdir -p DIR && git archive 9f29e3c solvers/milp.py
+formulations/mpec_bigm.py | tar -x -C DIR`` and it registers as ``milp-before``.
+Usage::
+
+    python studies/certificate_study.py compare --configs highs,scip,before --cases 3x2,6x2s,2x4 --time-limit 60
+    python studies/certificate_study.py targets --configs scip
+    python studies/certificate_study.py largest --configs highs,before --time-limit 60 --families running,stack,arch
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import importlib.util
+import sys
+import time
+import types
+from pathlib import Path
+
+import blockmpec as bm
+
+OUT = Path(__file__).parent / "output" / "certificate"
+
+#: configuration name -> (method, options)
+CONFIGS = {
+    "highs": ("milp", {"engine": "highs"}),
+    "highs+env": ("milp", {"engine": "highs", "envelope": True}),
+    "scip": ("milp", {"engine": "scip"}),
+    "scip+env": ("milp", {"engine": "scip", "envelope": True}),
+    "scip+bilinear": ("milp", {"engine": "scip", "envelope": True, "bilinear": True}),
+    "before": ("milp-before", {}),
+}
+
+COLUMNS = ["case", "blocks", "config", "status", "certified", "multiplier", "bound", "gap_abs", "nodes",
+           "bound_s", "solve_s", "message"]
+
+
+def load_before(root: str) -> None:
+    """Register the pre-change ``milp`` (extracted under ``root``) as ``milp-before``."""
+    if "milp-before" in bm.list_solvers():
+        return
+    spec = importlib.util.spec_from_file_location("milp_before_formulation", f"{root}/formulations/mpec_bigm.py")
+    fm = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(fm)
+    sys.modules["milp_before_formulation"] = fm
+    src = Path(root, "solvers", "milp.py").read_text()
+    src = src.replace('name = "milp"', 'name = "milp-before"')
+    src = src.replace("from blockmpec.formulations.mpec_bigm import", "from milp_before_formulation import")
+    mod = types.ModuleType("milp_before")
+    mod.__file__ = f"{root}/solvers/milp.py"
+    sys.modules["milp_before"] = mod
+    exec(compile(src, mod.__file__, "exec"), mod.__dict__)
+
+
+def case(spec: str) -> bm.Structure:
+    """``CxB`` running-bond wall, ``CxBs`` stack wall, ``arch:N`` round arch of N voussoirs,
+    ``buttress:N:K`` arch on buttresses; mu = 0.65, psi = 0."""
+    if spec.startswith("arch:"):
+        return bm.cases.round_arch(n_voussoirs=int(spec.split(":")[1]))
+    if spec.startswith("buttress:"):
+        _, n, k = spec.split(":")
+        return bm.cases.arch_on_buttresses(n_voussoirs=int(n), buttress_courses=int(k))
+    bond = "stack" if spec.endswith("s") else "running"
+    c, b = (int(v) for v in spec.rstrip("s").split("x"))
+    return bm.cases.wall(c, b, bond=bond, mu=0.65)
+
+
+def run(spec: str, config: str, time_limit: float, traces: list | None = None) -> dict:
+    method, options = CONFIGS[config]
+    structure = case(spec)
+    res = bm.solve(structure, method, time_limit=time_limit, **options)
+    ex = res.extra
+    bound = ex.get("bound", ex.get("dual_bound"))
+    if traces is not None:
+        traces += [dict(r, case=spec, config=config) for r in (res.trace or [])]
+    return {"case": spec, "blocks": structure.n_free, "config": config, "status": res.status.value,
+            "certified": res.status is bm.Status.OPTIMAL and res.verified, "multiplier": res.multiplier,
+            "bound": bound, "gap_abs": ex.get("gap_abs"), "nodes": ex.get("nodes"),
+            "bound_s": ex.get("bound_time_s"), "solve_s": res.solve_time_s, "message": res.message[:100]}
+
+
+def _fmt(v) -> str:
+    if v is None:
+        return "-"
+    if isinstance(v, float):
+        return f"{v:.6g}"
+    return str(v)
+
+
+def table(rows: list[dict], columns: list[str]) -> str:
+    lines = ["| " + " | ".join(columns) + " |", "|" + "---|" * len(columns)]
+    lines += ["| " + " | ".join(_fmt(r.get(c)) for c in columns) + " |" for r in rows]
+    return "\n".join(lines)
+
+
+def write(rows: list[dict], name: str, columns: list[str]) -> Path:
+    OUT.mkdir(parents=True, exist_ok=True)
+    path = OUT / f"{name}.csv"
+    with path.open("w", newline="") as f:
+        w = csv.DictWriter(f, fieldnames=columns, extrasaction="ignore")
+        w.writeheader()
+        w.writerows(rows)
+    return path
+
+
+#: growing sizes of each family for ``largest``
+FAMILIES = {
+    "running": ["2x2", "3x2", "2x3", "4x2", "2x4", "5x2", "4x3", "3x4", "6x3", "5x4", "6x4", "6x5", "8x4", "6x6"],
+    "stack": ["3x2s", "4x2s", "6x2s", "4x3s", "8x2s", "6x3s", "5x4s", "6x4s", "8x4s", "6x6s", "8x6s"],
+    "arch": ["arch:10", "arch:20", "arch:40", "arch:80", "arch:160"],
+}
+
+
+def main(argv: list[str] | None = None) -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("part", choices=["compare", "targets", "largest"])
+    ap.add_argument("--configs", default="highs,scip")
+    ap.add_argument("--cases", default="3x2,6x2s,2x4,4x3,5x2")
+    ap.add_argument("--time-limit", type=float, default=60.0)
+    ap.add_argument("--families", default="running,stack,arch")
+    ap.add_argument("--before", default=None, help="directory holding the pre-change milp (see the docstring)")
+    ap.add_argument("--tag", default="")
+    args = ap.parse_args(argv)
+    configs = args.configs.split(",")
+    if "before" in configs:
+        if not args.before:
+            ap.error("config 'before' needs --before DIR")
+        load_before(args.before)
+    rows: list[dict] = []
+    traces: list[dict] = []
+    tag = f"_{args.tag}" if args.tag else ""
+    if args.part == "compare":
+        for spec in args.cases.split(","):
+            for config in configs:
+                rows.append(run(spec, config, args.time_limit, traces))
+                print(table(rows[-1:], COLUMNS).splitlines()[-1], flush=True)
+    elif args.part == "targets":
+        for spec, limit in (("2x4", 60.0), ("4x3", 60.0), ("5x2", 60.0), ("8x4", 600.0)):
+            for config in configs:
+                rows.append(run(spec, config, limit, traces))
+                print(table(rows[-1:], COLUMNS).splitlines()[-1], flush=True)
+    else:
+        for family in args.families.split(","):
+            for config in configs:
+                best = None
+                for spec in FAMILIES[family]:
+                    t0 = time.perf_counter()
+                    r = run(spec, config, args.time_limit, traces)
+                    r["family"], r["wall_s"] = family, time.perf_counter() - t0
+                    print(table([r], COLUMNS).splitlines()[-1], flush=True)
+                    if not r["certified"]:
+                        break
+                    best = r
+                rows.append({"family": family, "config": config, "largest": best and best["case"],
+                             "blocks": best and best["blocks"], "solve_s": best and best["solve_s"]})
+        print(table(rows, ["family", "config", "largest", "blocks", "solve_s"]))
+        write(rows, f"largest{tag}", ["family", "config", "largest", "blocks", "solve_s"])
+        write(traces, f"largest_trace{tag}", ["case", "config", "stage", "time_s", "bound", "incumbent", "gap_abs"])
+        return
+    print()
+    print(table(rows, COLUMNS))
+    write(rows, f"{args.part}{tag}", COLUMNS)
+    write(traces, f"{args.part}_trace{tag}", ["case", "config", "stage", "time_s", "bound", "incumbent", "gap_abs"])
+
+
+if __name__ == "__main__":
+    main()
