@@ -32,6 +32,7 @@ from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
 
 from blockmpec.errors import GeometryError, StructureError
+from blockmpec.units import Frame, block_extent, power_of_two
 
 #: Default relative tolerance for geometric tests (scaled by block size).
 DEFAULT_GEOMETRY_TOL = 1e-6
@@ -93,7 +94,8 @@ class Interfaces:
     @property
     def length(self) -> np.ndarray:
         """Segment lengths ``L``, shape (c,)."""
-        return np.linalg.norm(self.end - self.start, axis=1)
+        d = self.end - self.start
+        return np.hypot(d[:, 0], d[:, 1])
 
     @property
     def midpoint(self) -> np.ndarray:
@@ -208,33 +210,51 @@ class Structure:
 # --------------------------------------------------------------------------- polygons
 
 
-def _shoelace_terms(vertices: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Shoelace terms of each polygon taken about its first vertex.
+def polygon_shape(vertices: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Scale-free shoelace data of padded polygons (n, k, 2).
 
-    Relative coordinates avoid cancellation: a 1e-5 block at (0.5, 1) has products
-    ``x y ~ 0.5`` cancelling down to an area ~1e-10, which in absolute coordinates
-    loses six digits of area and centroid (and shifted a computed collapse
-    multiplier by 0.5%).
+    Each polygon is taken relative to its first vertex and in units of ``s_i``, the power
+    of two nearest its size (bounding-box diagonal): no product of two lengths is formed
+    in the structure's units, so areas and centroids neither underflow (a 1e-108 block has
+    an area of 1e-216, its shoelace products below 1e-300) nor overflow (lengths of 1e160),
+    and relative coordinates avoid cancellation (a 1e-5 block at (0.5, 1) has products
+    ``x y ~ 0.5`` cancelling down to an area ~1e-10).  Powers of two make the scaling exact.
+
+    Returns
+    -------
+    scale : ndarray, shape (n,)
+        ``s_i``.
+    area : ndarray, shape (n,)
+        Signed area in units of ``s_i**2`` (positive when counter-clockwise).
+    centroid : ndarray, shape (n, 2)
+        Centroid relative to the first vertex, in units of ``s_i`` (NaN for a zero area).
     """
-    p = vertices - vertices[:, :1, :]
+    scale = power_of_two(block_extent(vertices))
+    scale = np.atleast_1d(np.asarray(scale, float))
+    p = (vertices - vertices[:, :1, :]) / scale[:, None, None]
     q = np.roll(p, -1, axis=1)
     cross = p[..., 0] * q[..., 1] - q[..., 0] * p[..., 1]
-    return p, q, cross
+    a = 0.5 * cross.sum(axis=1)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        cx = ((p[..., 0] + q[..., 0]) * cross).sum(axis=1) / (6 * a)
+        cy = ((p[..., 1] + q[..., 1]) * cross).sum(axis=1) / (6 * a)
+    return scale, a, np.column_stack([cx, cy])
 
 
 def polygon_areas(vertices: np.ndarray) -> np.ndarray:
-    """Signed areas (positive when counter-clockwise) of padded polygons (n, k, 2)."""
-    _, _, cross = _shoelace_terms(vertices)
-    return 0.5 * cross.sum(axis=1)
+    """Signed areas (positive when counter-clockwise) of padded polygons (n, k, 2).
+
+    In the structure's units (may over- or underflow at extreme sizes; the operators use
+    :func:`polygon_shape`)."""
+    scale, a, _ = polygon_shape(vertices)
+    with np.errstate(over="ignore", under="ignore"):
+        return a * scale * scale
 
 
 def polygon_centroids(vertices: np.ndarray) -> np.ndarray:
     """Centroids of padded polygons (n, k, 2) -> (n, 2)."""
-    p, q, cross = _shoelace_terms(vertices)
-    a = 0.5 * cross.sum(axis=1)
-    cx = ((p[..., 0] + q[..., 0]) * cross).sum(axis=1) / (6 * a)
-    cy = ((p[..., 1] + q[..., 1]) * cross).sum(axis=1) / (6 * a)
-    return np.column_stack([cx, cy]) + vertices[:, 0, :]
+    scale, _, c = polygon_shape(vertices)
+    return vertices[:, 0, :] + c * scale[:, None]
 
 
 def pad_polygons(polygons: list) -> tuple[np.ndarray, np.ndarray]:
@@ -283,30 +303,33 @@ def _edges(vertices: np.ndarray, n_vertices: np.ndarray) -> tuple[np.ndarray, np
 
 def block_sizes(vertices: np.ndarray, n_vertices: np.ndarray) -> np.ndarray:
     """Characteristic size of each block: its bounding-box diagonal."""
-    lo = vertices.min(axis=1)
-    hi = vertices.max(axis=1)
-    return np.linalg.norm(hi - lo, axis=1)
+    return block_extent(vertices)
 
 
 # --------------------------------------------------------------------------- validation
 
 
 def _check_polygons(vertices: np.ndarray, n_vertices: np.ndarray, tol: float) -> None:
+    """Shape checks of each block, each in its own units (relative to its first vertex, over its size)."""
+    scale, area, _ = polygon_shape(vertices)
+    original = vertices
+    vertices = (vertices - vertices[:, :1, :]) / scale[:, None, None]
     size = block_sizes(vertices, n_vertices)
-    area = polygon_areas(vertices)
     bad = np.flatnonzero(~(np.abs(area) > tol * size**2))
     if bad.size:
         i = int(bad[0])
-        raise GeometryError(f"block {i}: polygon is degenerate (area {area[i]:.3g}); vertices {vertices[i, :n_vertices[i]].tolist()}")
+        with np.errstate(over="ignore", under="ignore"):
+            physical = area[i] * scale[i] * scale[i]
+        raise GeometryError(f"block {i}: polygon is degenerate (area {physical:.3g}); vertices {original[i, :n_vertices[i]].tolist()}")
     bad = np.flatnonzero(area < 0)
     if bad.size:
         i = int(bad[0])
         raise GeometryError(
             f"block {i}: vertices are in clockwise order; give them counter-clockwise "
-            f"(reverse the list {vertices[i, :n_vertices[i]].tolist()})"
+            f"(reverse the list {original[i, :n_vertices[i]].tolist()})"
         )
     block, p, q = _edges(vertices, n_vertices)
-    edge_len = np.linalg.norm(q - p, axis=1)
+    edge_len = np.hypot(*(q - p).T)
     short = np.flatnonzero(edge_len <= tol * size[block])
     if short.size:
         i = int(block[short[0]])
@@ -399,8 +422,10 @@ def _padded_edges(vertices: np.ndarray, n_vertices: np.ndarray) -> tuple[np.ndar
     return vertices, e
 
 
-def _check_overlaps(vertices: np.ndarray, n_vertices: np.ndarray, tol: float, pairs=None) -> None:
-    """Raise if two blocks overlap by more than ``tol`` times their size (separating axis test)."""
+def _check_overlaps(vertices: np.ndarray, n_vertices: np.ndarray, tol: float, pairs=None, unit: float = 1.0) -> None:
+    """Raise if two blocks overlap by more than ``tol`` times their size (separating axis test).
+
+    ``vertices`` in any frame; ``unit`` is its length in the structure's units (for the message)."""
     a, b = candidate_pairs(vertices, tol) if pairs is None else pairs
     if a.size == 0:
         return
@@ -419,7 +444,7 @@ def _check_overlaps(vertices: np.ndarray, n_vertices: np.ndarray, tol: float, pa
         overlapping = np.flatnonzero(gap.max(axis=1) < -sl)
         if overlapping.size:
             i, j = int(sa[overlapping[0]]), int(sb[overlapping[0]])
-            raise GeometryError(f"blocks {i} and {j} overlap (penetration {-gap[overlapping[0]].max():.3g})")
+            raise GeometryError(f"blocks {i} and {j} overlap (penetration {-gap[overlapping[0]].max() * unit:.3g})")
 
 
 def detect_interfaces(vertices: np.ndarray, n_vertices: np.ndarray, tol: float = DEFAULT_GEOMETRY_TOL) -> Interfaces:
@@ -489,7 +514,10 @@ def _distance_to_boundary(points: np.ndarray, vertices: np.ndarray, n_vertices: 
     return d.min(axis=1)
 
 
-def _check_interfaces(s: Structure, tol: float) -> None:
+def _check_interfaces(s: Structure, tol: float, frame: Frame | None = None) -> None:
+    """Interface checks on ``s`` given in the coordinates of ``frame`` (messages in the structure's)."""
+    back = (lambda p: p) if frame is None else frame.back
+    unit = 1.0 if frame is None else frame.length_scale
     itf = s.interfaces
     c = len(itf)
     n = s.n_blocks
@@ -517,8 +545,8 @@ def _check_interfaces(s: Structure, tol: float) -> None:
                 if bad.size:
                     k = int(bad[0])
                     raise GeometryError(
-                        f"interface {k}: {point_name} point {pts[k].tolist()} is not on the boundary of its "
-                        f"{name} block {blocks[k]} (distance {dist[k]:.3g})"
+                        f"interface {k}: {point_name} point {back(pts[k]).tolist()} is not on the boundary of its "
+                        f"{name} block {blocks[k]} (distance {dist[k] * unit:.3g})"
                     )
         centroid = s.centroid
         side = np.einsum("kd,kd->k", centroid[itf.plus] - centroid[itf.minus], itf.normal)
@@ -558,28 +586,71 @@ def _check_connectivity(s: Structure) -> None:
         )
 
 
+def _normalised(s: Structure) -> tuple[Structure, Frame]:
+    """``s`` with vertices and interface points in its :class:`~blockmpec.units.Frame`, and the frame."""
+    from dataclasses import replace
+
+    frame = Frame.of(s.vertices)
+    itf = s.interfaces
+    with np.errstate(over="ignore", invalid="ignore"):
+        itf = Interfaces(itf.minus, itf.plus, frame(itf.start).reshape(-1, 2), frame(itf.end).reshape(-1, 2),
+                         itf.friction, itf.dilatancy)
+    return replace(s, vertices=frame(s.vertices), interfaces=itf), frame
+
+
+def _check_point_loads(s: Structure, frame: Frame, tol: float) -> None:
+    """Point loads: existing block, known kind, finite, and applied inside the block or on its boundary
+    (within ``10 tol`` times the block's size, as interface end points)."""
+    size = block_sizes(s.vertices, s.n_vertices)
+    for k, pl in enumerate(s.point_loads):
+        if isinstance(pl.block, bool) or not isinstance(pl.block, (int, np.integer)) or not 0 <= pl.block < s.n_blocks:
+            raise StructureError(f"point load {k}: block {pl.block} does not exist (there are {s.n_blocks} blocks)")
+        if pl.kind not in ("dead", "live"):
+            raise StructureError(f"point load {k}: kind must be 'dead' or 'live'; got {pl.kind!r}")
+        try:
+            point = np.asarray(pl.point, float).reshape(2)
+            force = np.asarray(pl.force, float).reshape(2)
+        except (TypeError, ValueError):
+            raise StructureError(f"point load {k} on block {pl.block}: point and force must be pairs of numbers") from None
+        if not (np.all(np.isfinite(point)) and np.all(np.isfinite(force))):
+            raise StructureError(f"point load {k} on block {pl.block}: point and force must be finite")
+        i = pl.block
+        poly = s.vertices[i, : s.n_vertices[i]]
+        edge = np.roll(poly, -1, axis=0) - poly
+        edge_len = np.hypot(edge[:, 0], edge[:, 1])
+        # outward offset of the point from each edge's line (CCW polygon: outward normal = edge rotated by -90)
+        offset = (edge[:, 1] * (frame(point)[0] - poly[:, 0]) - edge[:, 0] * (frame(point)[1] - poly[:, 1])) / edge_len
+        if offset.max() > 10 * tol * size[i]:
+            raise StructureError(
+                f"point load {k}: its point {point.tolist()} lies outside block {i} "
+                f"(distance {offset.max() * frame.length_scale:.3g} beyond its boundary)"
+            )
+
+
 def validate(s: Structure, tol: float = DEFAULT_GEOMETRY_TOL, check_overlap: bool = True) -> Structure:
-    """Check a structure; return it unchanged or raise a GeometryError/StructureError."""
+    """Check a structure; return it unchanged or raise a GeometryError/StructureError.
+
+    Geometry is checked in the structure's :class:`~blockmpec.units.Frame` (lengths over a power
+    of two near the median block size, about the centre of the structure), so that the checks
+    mean the same at any magnitude and offset."""
     _check_polygons(s.vertices, s.n_vertices, tol)
     bad = np.flatnonzero(~np.isfinite(s.density) | (s.density <= 0))
     if bad.size:
         raise StructureError(f"block {bad[0]}: density must be a finite number > 0; got {s.density[bad[0]]}")
+    unit, frame = _normalised(s)
     if check_overlap:
-        _check_overlaps(s.vertices, s.n_vertices, 10 * tol)
-    _check_interfaces(s, tol)
+        _check_overlaps(unit.vertices, unit.n_vertices, 10 * tol, unit=frame.length_scale)
+    _check_interfaces(unit, tol, frame)
     _check_material(s)
     _check_connectivity(s)
     if s.live_direction not in (1, -1):
         raise StructureError(f"live_direction: must be +1 or -1; got {s.live_direction}")
-    if not np.isfinite(s.live_factor):
-        raise StructureError(f"live_factor: must be finite; got {s.live_factor}")
-    for k, pl in enumerate(s.point_loads):
-        if not 0 <= pl.block < s.n_blocks:
-            raise StructureError(f"point load {k}: block {pl.block} does not exist (there are {s.n_blocks} blocks)")
-        if pl.kind not in ("dead", "live"):
-            raise StructureError(f"point load {k}: kind must be 'dead' or 'live'; got {pl.kind!r}")
-        if not (np.all(np.isfinite(pl.point)) and np.all(np.isfinite(pl.force))):
-            raise StructureError(f"point load {k} on block {pl.block}: point and force must be finite")
+    if not np.isfinite(s.live_factor) or s.live_factor < 0:
+        raise StructureError(
+            f"live_factor: must be a finite number >= 0; got {s.live_factor} "
+            "(the sign of the live load is live_direction, +1 or -1)"
+        )
+    _check_point_loads(unit, frame, tol)
     live_point = any(pl.kind == "live" and not s.fixed[pl.block] and np.any(pl.force) for pl in s.point_loads)
     if s.live_factor == 0 and not live_point:
         raise StructureError(
@@ -635,7 +706,10 @@ def make_structure(
     dens = np.broadcast_to(np.asarray(density, dtype=float), (n,)).copy()
     _check_polygons(vertices, n_vertices, tol)
     if interfaces is None:
-        interfaces = detect_interfaces(vertices, n_vertices, tol)
+        frame = Frame.of(vertices)
+        found = detect_interfaces(frame(vertices), n_vertices, tol)
+        interfaces = Interfaces(found.minus, found.plus, frame.back(found.start), frame.back(found.end),
+                                found.friction, found.dilatancy)
     s = Structure(
         vertices=vertices,
         n_vertices=n_vertices,

@@ -45,11 +45,14 @@ unknown that matters and are dropped at assembly.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 import scipy.sparse as sp
 
-from blockmpec.geometry import Structure, block_sizes
+from blockmpec.errors import StructureError
+from blockmpec.geometry import Structure, polygon_shape
+from blockmpec.units import Frame, Units, force_unit, power_of_two
 
 
 @dataclass(frozen=True, eq=False)
@@ -91,6 +94,14 @@ class Operators:
     force_scale: float = 1.0
     minus_dof: np.ndarray | None = None
     plus_dof: np.ndarray | None = None
+    origin: np.ndarray | None = None
+    interface_flipped: np.ndarray | None = None
+
+    @cached_property
+    def units(self) -> Units:
+        """The units of this problem (:class:`blockmpec.units.Units`): length and force scales, and the
+        load of each block and force unit of each interface, from the loads (point loads included)."""
+        return Units.of(self)
 
     def forces_to_physical(self, x: np.ndarray) -> np.ndarray:
         """Interface forces ``x`` in the structure's units (``t, n`` x force_scale, ``m`` x force*length)."""
@@ -148,8 +159,41 @@ def _friction_matrix(coef: np.ndarray) -> sp.csr_array:
     return sp.csr_array((vals, (rows, cols)), shape=(3 * c, 2 * c))
 
 
+def _canonical_ranks(keys: list[np.ndarray]) -> np.ndarray:
+    """Rank of each item in the lexicographic order of ``keys`` (first key primary), ties by index."""
+    order = np.lexsort(tuple(reversed(keys)))
+    rank = np.empty(order.size, int)
+    rank[order] = np.arange(order.size)
+    return rank
+
+
+def _position_key(points: np.ndarray, mirror: float) -> list[np.ndarray]:
+    """Sort keys of points (in frame units): height, then ``mirror * x``, on a grid of ``POSITION_GRID``."""
+    return [np.round(points[:, 1] / POSITION_GRID), np.round(mirror * points[:, 0] / POSITION_GRID)]
+
+
+#: Positions closer than this (in length units) count as equal in the canonical order.
+POSITION_GRID = 1e-7
+
+
 def assemble(structure: Structure) -> Operators:
-    """Assemble ``E, N_u, N_f, V_f, f_d, f_l`` for a structure (vectorised).
+    """Assemble ``E, N_u, N_f, V_f, f_d, f_l`` for a structure (vectorised), in canonical order.
+
+    Geometry is taken in the structure's :class:`~blockmpec.units.Frame` (origin near its
+    centre, lengths over a power of two near the median free-block size) and each polygon in
+    its own units, so that no product of lengths is formed in the structure's units; loads
+    are divided by a density unit, the length unit squared and then the force unit of
+    :mod:`blockmpec.units` (point loads included).  The result is the same at any
+    magnitude (1e-150 ... 1e150) and offset.
+
+    *Canonical order*: free blocks (rows of ``E``) are ordered by centroid height, then by
+    ``x`` taken along the total horizontal live load (``x`` mirrored when it points to
+    ``-x``), fixed blocks likewise before them; interfaces (columns) are oriented from the
+    earlier block (minus; a fixed block is always earlier) to the later one (plus) and ordered
+    by minus block, plus block, then midpoint; ``interface_flipped`` marks those whose
+    minus and plus are swapped relative to the structure (their ``m`` changes sign, ``t`` and
+    ``n`` do not).  So the file's block order, a translation or a mirror image (with the load
+    reversed) gives the same problem up to round-off (and exact sign changes under a mirror).
 
     Parameters
     ----------
@@ -158,27 +202,81 @@ def assemble(structure: Structure) -> Operators:
     Returns
     -------
     Operators
+
+    Raises
+    ------
+    StructureError
+        When a load or an operator entry is not finite (the block is named), e.g. a density
+        times an area beyond the floating-point range.
     """
     s = structure
     itf = s.interfaces
-    keep = ~(s.fixed[itf.minus] & s.fixed[itf.plus])
-    ids = np.flatnonzero(keep)
-    minus, plus = itf.minus[ids], itf.plus[ids]
-    c = ids.size
-    free_blocks = np.flatnonzero(~s.fixed)
-    b = free_blocks.size
+    free = np.flatnonzero(~s.fixed)
+    b = free.size
+    frame = Frame.of(s.vertices, free)
+    ell, origin = frame.length_scale, frame.origin
+    # each polygon relative to its first vertex in units of s_i (a power of two): exact, no underflow
+    scale, area, local_centroid = polygon_shape(s.vertices)
+    centroid = ((s.vertices[:, 0, :] - origin) + local_centroid * scale[:, None]) / ell
+
+    # loads, nondimensional: weights in units of rho S^2 (rho, S powers of two near the median density
+    # and ell, so the scaling is exact), point loads likewise, then all over the force unit
+    density_unit = power_of_two(float(np.median(s.density[free]))) if b else 1.0
+    area_unit = power_of_two(ell)
+    with np.errstate(over="ignore", under="ignore", invalid="ignore"):
+        ratio = scale / area_unit
+        weight = (s.density / density_unit) * (area * ratio * ratio)
+        dead = np.zeros((s.n_blocks, 3))
+        live = np.zeros((s.n_blocks, 3))
+        dead[:, 1] = -weight
+        live[:, 0] = s.live_direction * s.live_factor * weight
+        for pl in s.point_loads:
+            target = live if pl.kind == "live" else dead
+            force = np.asarray(pl.force, float) / density_unit / area_unit / area_unit
+            arm = frame(pl.point) - centroid[pl.block]
+            target[pl.block, :2] += force
+            target[pl.block, 2] += arm[0] * force[1] - arm[1] * force[0]
+    _check_finite_loads(s, dead, live, free)
+    dead, live = dead[free], live[free]
+    unit = force_unit(dead[:, :2], live[:, :2])
+    dead /= unit
+    live /= unit
+    with np.errstate(over="ignore", under="ignore"):
+        force_scale = float(density_unit * area_unit * area_unit * unit)
+
+    # canonical order of blocks and interfaces
+    total_live_x = float(live[:, 0].sum())
+    mirror = -1.0 if total_live_x < 0 else 1.0
+    fixed = np.flatnonzero(s.fixed)
+    rank = np.empty(s.n_blocks, int)
+    rank[free] = _canonical_ranks(_position_key(centroid[free], mirror))
+    rank[fixed] = _canonical_ranks(_position_key(centroid[fixed], mirror)) - fixed.size  # fixed blocks first
+    free_blocks = free[np.argsort(rank[free])]
     dof = np.full(s.n_blocks, -1)
     dof[free_blocks] = np.arange(b)
+    order = np.argsort(rank[free])
+    dead, live = dead[order], live[order]
 
-    sizes = block_sizes(s.vertices, s.n_vertices)[free_blocks]
-    length_scale = float(np.median(sizes)) if b else 1.0
-    weight = s.weight[free_blocks]
-    force_scale = float(weight.mean()) if b else 1.0
-    mid = itf.midpoint[ids] / length_scale
-    tau = itf.tangent[ids]
-    nu = itf.normal[ids]
-    length = itf.length[ids] / length_scale
-    centroid = s.centroid / length_scale
+    keep = np.flatnonzero(~(s.fixed[itf.minus] & s.fixed[itf.plus]))
+    flipped = rank[itf.minus[keep]] > rank[itf.plus[keep]]
+    minus = np.where(flipped, itf.plus[keep], itf.minus[keep])
+    plus = np.where(flipped, itf.minus[keep], itf.plus[keep])
+    start, end = itf.start[keep] - origin, itf.end[keep] - origin  # exact (see Frame.of)
+    start, end = np.where(flipped[:, None], end, start), np.where(flipped[:, None], start, end)
+    mid = (0.5 * start + 0.5 * end) / ell
+    itf_order = np.lexsort((keep,) + tuple(reversed(_position_key(mid, mirror))) + (rank[plus], rank[minus]))
+    ids, flipped, minus, plus = keep[itf_order], flipped[itf_order], minus[itf_order], plus[itf_order]
+    start, end, mid = start[itf_order], end[itf_order], mid[itf_order]
+    c = ids.size
+
+    # segment lengths and directions, each segment in units of a power of two near its size
+    seg = end - start
+    seg_unit = np.atleast_1d(power_of_two(np.abs(seg).max(axis=1) if c else np.zeros(0)))
+    seg = seg / seg_unit[:, None]
+    seg_length = np.sqrt((seg * seg).sum(axis=1))
+    tau = seg / seg_length[:, None]
+    nu = np.column_stack([-tau[:, 1], tau[:, 0]])
+    length = seg_length * seg_unit / ell
 
     # E: generalised force (Fx, Fy, M about centroid) of x_k on the minus block; minus that on plus.
     rows, cols, vals = [], [], []
@@ -205,6 +303,7 @@ def assemble(structure: Structure) -> Operators:
     )
     E.sum_duplicates()
     E.eliminate_zeros()
+    _check_finite_operator(E, length, free_blocks, minus, ids)
 
     rows_u = np.concatenate([3 * k + 1, 3 * k + 1, 3 * k + 2, 3 * k + 2])
     cols_u = np.concatenate([2 * k, 2 * k + 1, 2 * k, 2 * k + 1])
@@ -216,35 +315,45 @@ def assemble(structure: Structure) -> Operators:
     N_f = _friction_matrix(friction)
     V_f = _friction_matrix(dilatancy)
 
-    weight = weight / force_scale
-    f_d = np.zeros(3 * b)
-    f_l = np.zeros(3 * b)
-    f_d[1::3] = -weight
-    f_l[0::3] = s.live_direction * s.live_factor * weight
-    for pl in s.point_loads:
-        i = dof[pl.block]
-        if i < 0:
-            continue
-        target = f_l if pl.kind == "live" else f_d
-        arm = np.asarray(pl.point, float) / length_scale - centroid[pl.block]
-        fx, fy = np.asarray(pl.force, float) / force_scale
-        target[3 * i] += fx
-        target[3 * i + 1] += fy
-        target[3 * i + 2] += arm[0] * fy - arm[1] * fx
     return Operators(
         E=E,
         N_u=N_u,
         N_f=N_f,
         V_f=V_f,
-        f_d=f_d,
-        f_l=f_l,
+        f_d=dead.ravel(),
+        f_l=live.ravel(),
         free_blocks=free_blocks,
         interface_ids=ids,
         length=length,
         friction=friction,
         dilatancy=dilatancy,
-        length_scale=length_scale,
+        length_scale=ell,
         force_scale=force_scale,
         minus_dof=dof[minus],
         plus_dof=dof[plus],
+        origin=frame.origin,
+        interface_flipped=flipped,
     )
+
+
+def _check_finite_loads(s: Structure, dead: np.ndarray, live: np.ndarray, free: np.ndarray) -> None:
+    """Raise naming the first free block whose nondimensional load is not finite."""
+    bad = free[~(np.isfinite(dead[free]).all(axis=1) & np.isfinite(live[free]).all(axis=1))]
+    if bad.size:
+        i = int(bad[0])
+        raise StructureError(
+            f"block {i}: its load is not finite in the structure's units (density {s.density[i]:.3g} and point "
+            "loads against the weights of the other blocks overflow the floating-point range)"
+        )
+
+
+def _check_finite_operator(E, length, free_blocks, minus, ids) -> None:
+    """Raise naming the block or interface whose operator entries are not finite (never pass NaN to a solver)."""
+    bad = np.flatnonzero(~np.isfinite(length) | ~(length > 0))
+    if bad.size:
+        k = int(bad[0])
+        raise StructureError(f"interface {ids[k]}: its length is not a positive finite number in the structure's units")
+    if not np.all(np.isfinite(E.data)):
+        coo = E.tocoo()
+        row = int(coo.row[~np.isfinite(coo.data)][0])
+        raise StructureError(f"block {free_blocks[row // 3]}: its equilibrium operator has non-finite entries")

@@ -66,8 +66,8 @@ def test_operators_shapes_and_sparsity():
     assert ops.N_u.shape == ops.N_f.shape == ops.V_f.shape == (3 * c, 2 * c)
     assert ops.E.nnz <= 2 * 7 * c
     # f_d is the weight, f_l the horizontal body force of the same size
-    np.testing.assert_allclose(-ops.f_d[1::3] * ops.force_scale, s.weight[~s.fixed])
-    np.testing.assert_allclose(ops.f_l[0::3] * ops.force_scale, s.weight[~s.fixed])
+    np.testing.assert_allclose(-ops.f_d[1::3] * ops.force_scale, s.weight[ops.free_blocks])
+    np.testing.assert_allclose(ops.f_l[0::3] * ops.force_scale, s.weight[ops.free_blocks])
 
 
 def test_equilibrium_operator_is_minus_jump_transpose():

@@ -1,5 +1,9 @@
 r"""Diagonal scalings of static-type LPs from the loads: every block in its own units.
 
+The units themselves (block loads ``l_i``, interface force units ``l_k``) are
+:class:`blockmpec.units.Units` (``ops.units``), the one units object every method uses;
+this module turns them into row and column scales of the LPs.
+
 LP solvers test feasibility and optimality with absolute tolerances (HiGHS: 1e-7
 by default; the block IPM: relative to the largest right-hand side).  A 1e-3 block
 on a unit block carries loads 1e-6 times smaller: its whole equilibrium is then
@@ -29,29 +33,24 @@ import numpy as np
 import scipy.sparse as sp
 
 from blockmpec.operators import Operators
+from blockmpec.units import block_load
 from blockmpec.formulations import LinearProgram
 
 
 def block_loads(ops: Operators) -> np.ndarray:
-    """``||f_d,i|| + ||f_l,i||`` per free block, shape (b,)."""
-    b = ops.n_free_blocks
-    return np.linalg.norm(ops.f_d.reshape(b, 3), axis=1) + np.linalg.norm(ops.f_l.reshape(b, 3), axis=1)
+    """``||f_d,i|| + ||f_l,i||`` per free block, shape (b,) (zero loads not replaced)."""
+    return block_load(ops.f_d, ops.f_l)
 
 
 def load_spread(ops: Operators) -> float:
-    """Largest over smallest positive block load (1 for uniform blocks)."""
-    loads = block_loads(ops)
-    loads = loads[loads > 0]
-    return float(loads.max() / loads.min()) if loads.size else 1.0
+    """Largest over smallest block load (1 for uniform blocks); :attr:`Units.load_spread`."""
+    return ops.units.load_spread
 
 
 def interface_units(ops: Operators) -> tuple[np.ndarray, np.ndarray]:
-    """Block loads ``l_i`` (a zero load replaced by the largest) and interface force units ``l_k``."""
-    load = block_loads(ops)
-    load = np.where(load > 0, load, np.max(load, initial=1.0))
-    side = np.column_stack([ops.minus_dof, ops.plus_dof])
-    force_unit = np.where(side >= 0, load[np.maximum(side, 0)], np.inf).min(axis=1)
-    return load, force_unit
+    """Block loads ``l_i`` (a zero load replaced by the largest) and interface force units ``l_k``
+    (:attr:`blockmpec.units.Units.block_load`, :attr:`~blockmpec.units.Units.interface_force`)."""
+    return ops.units.block_load, ops.units.interface_force
 
 
 def load_scaling(lp: LinearProgram, ops: Operators, normal_like: tuple[str, ...] = ()) -> tuple[np.ndarray, np.ndarray]:
@@ -62,15 +61,14 @@ def load_scaling(lp: LinearProgram, ops: Operators, normal_like: tuple[str, ...]
     row_scale : ndarray, shape (rows,)
     column_scale : ndarray, shape (columns,)
     """
-    load, force_unit = interface_units(ops)
+    units = ops.units
     column_scale = np.ones(lp.c.size)
-    unit = np.column_stack([force_unit, force_unit, force_unit * np.maximum(ops.length, 1e-300)]).ravel()
-    _assign(column_scale, lp.columns["x"], unit)
+    _assign(column_scale, lp.columns["x"], units.force_column_scale())
     for group in normal_like:
-        _assign(column_scale, lp.columns[group], force_unit)
+        _assign(column_scale, lp.columns[group], units.interface_force)
     scaled = lp.A @ sp.diags(column_scale)
     row_scale = 1.0 / np.maximum(abs(scaled).max(axis=1).toarray().ravel(), 1e-300)
-    row_scale[lp.rows["equilibrium"]] = 1.0 / np.repeat(load, 3)
+    row_scale[lp.rows["equilibrium"]] = units.equilibrium_row_scale()
     return row_scale, column_scale
 
 
@@ -84,14 +82,14 @@ def kinematic_scaling(lp: LinearProgram, ops: Operators) -> tuple[np.ndarray, np
     :func:`load_scaling` gives them: ``1/(l_k L_k)`` for ``m +- n L/2``, ``1/(l_k max(1, mu_k))``
     for ``+-t + mu_k n``.
     """
-    load, force_unit = interface_units(ops)
-    length = np.maximum(ops.length, 1e-300)
+    units = ops.units
+    z_u_scale, z_f_scale = units.multiplier_column_scale(ops.friction)
     column_scale = np.ones(lp.c.size)
-    _assign(column_scale, lp.columns["u"], np.repeat(1.0 / load, 3))
-    _assign(column_scale, lp.columns["z_u"], np.repeat(1.0 / (force_unit * length), 2))
-    _assign(column_scale, lp.columns["z_f"], np.repeat(1.0 / (force_unit * np.maximum(1.0, ops.friction)), 2))
+    _assign(column_scale, lp.columns["u"], units.equilibrium_row_scale())
+    _assign(column_scale, lp.columns["z_u"], z_u_scale)
+    _assign(column_scale, lp.columns["z_f"], z_f_scale)
     row_scale = np.ones(lp.A.shape[0])
-    row_scale[lp.rows["compatibility"]] = np.column_stack([force_unit, force_unit, force_unit * length]).ravel()
+    row_scale[lp.rows["compatibility"]] = units.force_column_scale()
     return row_scale, column_scale
 
 

@@ -1,0 +1,194 @@
+r"""The units of a structure's problem: one object for every method.
+
+Limit analysis is scale-free: ``lam`` does not change when every length is
+multiplied by ``a`` and every force by ``b``.  Floating point is not: a block
+of width ``1e-108`` has an area below ``1e-216`` and moments of inertia-like
+products below ``1e-300``, which underflow; lengths of ``1e140`` overflow the
+same products; an offset of ``1e15`` from the origin cancels the digits of the
+moment arms.  So everything is computed in *units* chosen from the structure:
+
+Lengths (:class:`Frame`)
+    ``p^ = (p - origin) / length_scale``: ``origin`` the centre of the bounding
+    box of the blocks (rounded to a coarse power-of-two grid, so that the
+    subtraction is exact), ``length_scale`` the median block size (bounding-box
+    diagonal).  Geometry (areas, centroids, arms, interface detection, checks)
+    is computed from ``p^`` only, and of each polygon from its vertices relative
+    to its first vertex in units of its own size, so that no product of two
+    lengths is ever formed in the structure's units.  The centre of the
+    bounding box moves with a translation and changes sign exactly with a mirror,
+    so translated and mirrored structures give the same numbers.
+
+Forces
+    Weights are ``density / rho_ref * area^`` (``rho_ref`` the median density of
+    the free blocks), point loads are divided by ``rho_ref * length_scale**2``
+    (one factor at a time, so that the product is never formed), and then every
+    force by ``force_unit`` = the mean over the free blocks of
+    ``max(|dead force on i|, |live force on i|)``: the loads, *point loads
+    included*, are O(1) on average.  For the built-in cases (no point loads,
+    live factor 1) this is the mean block weight, as before.  ``force_scale =
+    rho_ref * length_scale**2 * force_unit`` converts back (it may over- or
+    underflow at extreme magnitudes; it is used only to report forces).
+
+Per block and per interface (:class:`Units`)
+    Block ``i`` carries the load ``l_i = ||f_d,i|| + ||f_l,i||`` (its three
+    components each, moments in length units; a zero load is replaced by the
+    largest); interface ``k`` the force unit ``l_k = min(l_i)`` over its free
+    blocks (a tiny block on a big one loads their interface with its own
+    weight).  A solver that divides block ``i``'s equilibrium rows by ``l_i`` and
+    measures interface ``k``'s ``(t, n, m)`` in ``(l_k, l_k, l_k L_k)`` has its
+    absolute tolerances hold block by block (:mod:`blockmpec.solvers.engines.scaling`
+    does this for the LPs).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from blockmpec.errors import StructureError
+
+
+def power_of_two(x: float | np.ndarray):
+    """The power of two nearest ``x`` (> 0) in the log scale; 1 where ``x`` is not > 0 or not finite."""
+    x = np.asarray(x, float)
+    ok = (x > 0) & np.isfinite(x)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        k = np.where(ok, np.round(np.log2(np.where(ok, x, 1.0))), 0.0)
+    out = np.ldexp(1.0, k.astype(int))
+    return float(out) if out.ndim == 0 else out
+
+
+def block_extent(vertices: np.ndarray) -> np.ndarray:
+    """Bounding-box diagonal of each padded polygon (n, k, 2) -> (n,), without overflow of squares."""
+    span = vertices.max(axis=1) - vertices.min(axis=1)
+    return np.hypot(span[:, 0], span[:, 1])
+
+
+@dataclass(frozen=True)
+class Frame:
+    """Origin and length unit: ``p^ = (p - origin) / length_scale``."""
+
+    origin: np.ndarray
+    length_scale: float
+
+    @classmethod
+    def of(cls, vertices: np.ndarray, blocks: np.ndarray | None = None) -> Frame:
+        """The frame of padded polygons ``vertices`` (n, k, 2), sized from all blocks (or ``blocks``).
+
+        ``length_scale`` is the median block size; ``origin`` the centre of the bounding box of
+        *all* blocks rounded to a
+        multiple of ``G``, the power of two above the structure's extent.  Then ``p - origin``
+        is exact (a structure offset by 1e15 loses no digit), a structure near the origin keeps
+        its coordinates bit for bit (origin 0), and a mirror image gets exactly the mirrored
+        origin.
+
+        Raises
+        ------
+        StructureError
+            When the coordinates span more than the floating-point range.
+        """
+        with np.errstate(over="ignore", invalid="ignore"):
+            lo, hi = vertices.min(axis=(0, 1)), vertices.max(axis=(0, 1))
+            centre = 0.5 * lo + 0.5 * hi
+            extent = float(np.max(hi - lo))
+            size = block_extent(vertices)
+        bad = np.flatnonzero(~np.isfinite(size))
+        if bad.size or not np.isfinite(extent):
+            i = int(bad[0]) if bad.size else 0
+            raise StructureError(f"block {i}: its extent overflows the floating-point range (coordinates too large)")
+        chosen = size if blocks is None or len(blocks) == 0 else size[blocks]
+        scale = float(np.median(chosen))
+        if not scale > 0:
+            raise StructureError("blocks: every block has zero size")
+        grid = power_of_two(extent) * 2.0 if extent > 0 else 1.0
+        origin = np.round(centre / grid) * grid
+        return cls(origin=np.asarray(origin, float), length_scale=scale)
+
+    def __call__(self, points: np.ndarray) -> np.ndarray:
+        """Points (..., 2) in this frame."""
+        return (np.asarray(points, float) - self.origin) / self.length_scale
+
+    def back(self, points: np.ndarray) -> np.ndarray:
+        """Points (..., 2) of this frame in the structure's coordinates."""
+        return np.asarray(points, float) * self.length_scale + self.origin
+
+
+def block_load(f_d: np.ndarray, f_l: np.ndarray) -> np.ndarray:
+    """``l_i = ||f_d,i|| + ||f_l,i||`` per free block (generalised loads of length 3b), shape (b,)."""
+    return np.linalg.norm(np.reshape(f_d, (-1, 3)), axis=1) + np.linalg.norm(np.reshape(f_l, (-1, 3)), axis=1)
+
+
+def force_unit(dead_force: np.ndarray, live_force: np.ndarray) -> float:
+    """Mean over blocks of ``max(|dead force|, |live force|)`` (force vectors (b, 2)); 1 if all vanish."""
+    if dead_force.shape[0] == 0:
+        return 1.0
+    dead = np.hypot(dead_force[:, 0], dead_force[:, 1])
+    live = np.hypot(live_force[:, 0], live_force[:, 1])
+    unit = float(np.mean(np.maximum(dead, live)))
+    return unit if unit > 0 and np.isfinite(unit) else 1.0
+
+
+@dataclass(frozen=True, eq=False)
+class Units:
+    """The units of one assembled problem (see the module docstring).
+
+    Attributes
+    ----------
+    origin : ndarray, shape (2,)
+        Structure point taken as origin of the nondimensional lengths.
+    length_scale, force_scale : float
+        Structure length and force of one nondimensional unit.
+    block_load : ndarray, shape (b,)
+        Load ``l_i`` of each free block (row block of ``E``), nondimensional, > 0.
+    interface_force : ndarray, shape (c,)
+        Force unit ``l_k`` of each interface, > 0.
+    interface_length : ndarray, shape (c,)
+        Interface lengths ``L_k``, nondimensional.
+    """
+
+    origin: np.ndarray
+    length_scale: float
+    force_scale: float
+    block_load: np.ndarray
+    interface_force: np.ndarray
+    interface_length: np.ndarray
+
+    @classmethod
+    def of(cls, ops) -> Units:
+        """The units of assembled operators (:class:`blockmpec.operators.Operators`)."""
+        load = block_load(ops.f_d, ops.f_l)
+        load = np.where(load > 0, load, np.max(load, initial=1.0))
+        side = np.column_stack([ops.minus_dof, ops.plus_dof])
+        unit = np.where(side >= 0, load[np.maximum(side, 0)], np.inf).min(axis=1)
+        origin = np.zeros(2) if ops.origin is None else np.asarray(ops.origin, float)
+        return cls(origin, float(ops.length_scale), float(ops.force_scale), load, unit, np.asarray(ops.length, float))
+
+    @property
+    def load_spread(self) -> float:
+        """Largest over smallest block load (1 for uniform blocks)."""
+        return float(self.block_load.max() / self.block_load.min()) if self.block_load.size else 1.0
+
+    def equilibrium_row_scale(self) -> np.ndarray:
+        """``1 / l_i`` repeated over block ``i``'s three equilibrium rows, shape (3b,)."""
+        return np.repeat(1.0 / self.block_load, 3)
+
+    def force_column_scale(self) -> np.ndarray:
+        """``(l_k, l_k, l_k L_k)`` per interface: the units of ``(t_k, n_k, m_k)``, shape (3c,)."""
+        length = np.maximum(self.interface_length, 1e-300)
+        f = self.interface_force
+        return np.column_stack([f, f, f * length]).ravel()
+
+    def multiplier_column_scale(self, friction: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Units of ``z_u`` (``1/(l_k L_k)``) and ``z_f`` (``1/(l_k max(1, mu_k))``), each shape (2c,): the
+        duals of the yield rows scaled to O(1) (see :func:`blockmpec.solvers.engines.scaling.kinematic_scaling`)."""
+        length = np.maximum(self.interface_length, 1e-300)
+        f = self.interface_force
+        return (np.repeat(1.0 / (f * length), 2),
+                np.repeat(1.0 / (f * np.maximum(1.0, np.asarray(friction, float))), 2))
+
+    def forces_to_physical(self, x: np.ndarray) -> np.ndarray:
+        """Interface forces ``x`` (3c,) in the structure's units (``t, n`` x force_scale, ``m`` x force*length)."""
+        out = np.asarray(x, float) * self.force_scale
+        out[2::3] *= self.length_scale
+        return out
