@@ -1,0 +1,68 @@
+"""The compiled-formulation cache (formulations/_pyomo.py): keyed by content, copies out, disk only on request."""
+
+import numpy as np
+import pytest
+
+import blockmpec as bm
+from blockmpec.formulations import compile_linear, static_lp
+from blockmpec.formulations import _pyomo
+
+
+def _same(a, b):
+    assert (a.A != b.A).nnz == 0 and a.A.shape == b.A.shape
+    for name in ("c", "row_lower", "row_upper", "col_lower", "col_upper"):
+        np.testing.assert_array_equal(getattr(a, name), getattr(b, name))
+    assert a.columns.keys() == b.columns.keys() and a.rows.keys() == b.rows.keys()
+    for g in a.columns:
+        np.testing.assert_array_equal(a.columns[g], b.columns[g])
+    for g in a.rows:
+        np.testing.assert_array_equal(a.rows[g], b.rows[g])
+    assert (a.objective_sign, a.objective_offset) == (b.objective_sign, b.objective_offset)
+
+
+@pytest.fixture(autouse=True)
+def _fresh_cache(monkeypatch):
+    monkeypatch.delenv(_pyomo.CACHE_DIR_VARIABLE, raising=False)
+    _pyomo.clear_cache()
+    yield
+    _pyomo.clear_cache()
+
+
+def test_cached_compile_equals_a_fresh_compile_and_hands_out_copies(monkeypatch, tmp_path):
+    monkeypatch.chdir(tmp_path)
+    ops = bm.assemble(bm.cases.wall())
+    first = _pyomo.compiled_linear(static_lp, ops)
+    _same(first, compile_linear(static_lp(ops)))
+    first.row_upper[:] = 7.0  # an engine's set_row_upper must not reach the cache
+    builds = []
+    monkeypatch.setattr(_pyomo, "compile_linear", lambda problem: builds.append(problem))
+    second = _pyomo.compiled_linear(static_lp, ops)  # a hit: nothing is built
+    assert builds == []
+    _same(second, _pyomo._memory_cache[_pyomo.content_hash(static_lp, ops)])
+    assert not np.any(second.row_upper == 7.0)
+    assert list(tmp_path.iterdir()) == []  # no disk cache unless asked for
+
+
+def test_cache_key_follows_the_content():
+    ops = bm.assemble(bm.cases.wall())
+    same = bm.assemble(bm.cases.wall())
+    other = bm.assemble(bm.cases.wall(mu=0.5))
+    key = _pyomo.content_hash(static_lp, ops)
+    assert _pyomo.content_hash(static_lp, same) == key  # equal content, another object
+    assert _pyomo.content_hash(static_lp, other) != key
+    assert _pyomo.content_hash(static_lp, ops, cohesion=np.ones(ops.n_interfaces)) != key
+
+
+def test_disk_cache_is_opt_in_and_reloads_without_building(monkeypatch, tmp_path):
+    monkeypatch.setenv(_pyomo.CACHE_DIR_VARIABLE, str(tmp_path / "cache"))
+    ops = bm.assemble(bm.cases.wall())
+    built = _pyomo.compiled_linear(static_lp, ops)
+    files = list((tmp_path / "cache").glob("*.npz"))
+    assert len(files) == 1
+    _pyomo.clear_cache()
+
+    def no_build(problem):
+        raise AssertionError("built although the disk cache holds the model")
+
+    monkeypatch.setattr(_pyomo, "compile_linear", no_build)
+    _same(_pyomo.compiled_linear(static_lp, ops), built)
