@@ -122,6 +122,11 @@ class MPECBounds:
         work envelope reads the entries of ``x`` that multiply a ``z`` in ``B``.
     x_associative : ndarray
         ``x`` at the associative optimum.
+    product_lower, product_upper : ndarray, shape (nnz(B),) or None
+        For each entry ``(r, i)`` of :func:`work_matrix` (in its order): bounds of ``x_r`` over
+        ``S ∩ {s_i = 0}`` (the pair active).  Valid for the product: ``z_i > 0`` forces ``s_i = 0``
+        and ``z_i = 0`` makes ``p = 0``, so ``lo z_i <= x_r z_i <= hi z_i`` at every solution
+        (conditional OBBT; a sliding joint that must carry load gets ``hi < 0``: dissipation ``> 0``).
     verified : bool
         Every LP behind the record reported optimal (False: the record must not certify).
     n_lps : int
@@ -139,6 +144,8 @@ class MPECBounds:
     x_lower: np.ndarray
     x_upper: np.ndarray
     x_associative: np.ndarray
+    product_lower: np.ndarray | None = None
+    product_upper: np.ndarray | None = None
     verified: bool = True
     n_lps: int = 0
     time_s: float = 0.0
@@ -326,6 +333,9 @@ def mpec_milp(form: CompiledMCP, bounds: MPECBounds, sense: str = "min", complem
         xr = form.x.start + Bw.row  # column of x_r in w
         zi = form.z.start + Bw.col  # column of z_i in w
         L, U = bounds.x_lower[Bw.row], bounds.x_upper[Bw.row]
+        # the rows p >= L z and p <= U z may use the pair-active bounds (see MPECBounds)
+        Lz = L if bounds.product_lower is None else np.maximum(L, bounds.product_lower)
+        Uz = U if bounds.product_upper is None else np.minimum(U, bounds.product_upper)
         Z = bounds.z_max[Bw.col]
         ne = Bw.nnz
         r = np.arange(ne)
@@ -335,12 +345,12 @@ def mpec_milp(form: CompiledMCP, bounds: MPECBounds, sense: str = "min", complem
                                         np.concatenate([-dead, -Bw.data, [1.0]])), 0.0, 0.0)
         fin_L, fin_U = np.isfinite(L), np.isfinite(U)
         # p - L z >= 0 ; p - U z <= 0
-        k = np.flatnonzero(fin_L)
+        k = np.flatnonzero(np.isfinite(Lz))
         R.add("envelope_lz", _entries(k.size, n, np.r_[np.arange(k.size), np.arange(k.size)],
-                                      np.r_[p[k], zi[k]], np.r_[np.ones(k.size), -L[k]]), 0.0, np.inf)
-        k = np.flatnonzero(fin_U)
+                                      np.r_[p[k], zi[k]], np.r_[np.ones(k.size), -Lz[k]]), 0.0, np.inf)
+        k = np.flatnonzero(np.isfinite(Uz))
         R.add("envelope_uz", _entries(k.size, n, np.r_[np.arange(k.size), np.arange(k.size)],
-                                      np.r_[p[k], zi[k]], np.r_[np.ones(k.size), -U[k]]), -np.inf, 0.0)
+                                      np.r_[p[k], zi[k]], np.r_[np.ones(k.size), -Uz[k]]), -np.inf, 0.0)
         # p - U z - Z x >= -U Z ; p - L z - Z x <= -L Z
         k = np.flatnonzero(fin_U)
         rr = np.tile(np.arange(k.size), 3)

@@ -262,7 +262,27 @@ class MILPSolver(SolverBase):
                 smax[i] = max(-r.objective, 0.0)
         else:
             smax = self._slack_bounds_by_normal(x_bound, x_lower)
-        envelope_rows = np.unique(work_matrix(form).row) if self.options.envelope else np.array([], int)
+        Bw = work_matrix(form) if self.options.envelope else None
+        envelope_rows = np.unique(Bw.row) if self.options.envelope else np.array([], int)
+        product_lower = product_upper = None
+        if self.options.envelope:
+            # conditional OBBT: bounds of x_r over S ∩ {s_i = 0} for each product x_r z_i of B
+            rows = lp.rows["pairs"]
+            product_lower, product_upper = np.full(Bw.nnz, -np.inf), np.full(Bw.nnz, np.inf)
+            for e in range(Bw.nnz):
+                i = int(Bw.col[e])
+                h.changeRowBounds(int(rows[i]), 0.0, 0.0)
+                try:
+                    product_lower[e] = x_bound(int(Bw.row[e]), 1.0)
+                    product_upper[e] = -x_bound(int(Bw.row[e]), -1.0)
+                except _BoundFailure:
+                    # the pair is never active on S (or the LP failed): no conditional bound is
+                    # claimed, the product keeps the unconditional McCormick rows (always valid)
+                    product_lower[e], product_upper[e] = -np.inf, np.inf
+                h.changeRowBounds(int(rows[i]), -np.inf, 0.0)
+            pw = np.abs(product_upper - product_lower)
+            product_lower = product_lower - LP_MARGIN * np.maximum(1.0, np.abs(product_lower)) - BOUND_MARGIN_REL * pw
+            product_upper = product_upper + LP_MARGIN * np.maximum(1.0, np.abs(product_upper)) + BOUND_MARGIN_REL * pw
         for j in envelope_rows:
             if not np.isfinite(x_lower[j]):
                 x_lower[j] = x_bound(j, 1.0)
@@ -280,7 +300,8 @@ class MILPSolver(SolverBase):
         return MPECBounds(lam_associative=lam_assoc, lam_static_min=lam_min, lam_kinematic=kin,
                           lam_lower=max(lam_lower, kin) if kin is not None else lam_lower, lam_upper=lam_upper,
                           slack_max=slack_max, z_max=z_max, tau_max=tau_max, x_lower=x_lower, x_upper=x_upper,
-                          x_associative=x_assoc, n_lps=self._n_lps, time_s=time.perf_counter() - t0)
+                          product_lower=product_lower, product_upper=product_upper, x_associative=x_assoc,
+                          n_lps=self._n_lps, time_s=time.perf_counter() - t0)
 
     def _slack_bounds_by_normal(self, x_bound, x_lower: np.ndarray) -> np.ndarray:
         """``slack_bounds="normal"``: ``nmin_k = min n_k`` over ``S`` (one LP per interface), then
