@@ -260,7 +260,10 @@ def compiled_linear(builder, *args, **kwargs) -> LinearProgram:
     whose model depends only on its arguments.  A cache miss builds the Pyomo model and
     compiles it; a hit returns a copy of the compiled matrices without building.
     """
-    key = content_hash(builder, *args, **kwargs)
+    try:
+        key = content_hash(builder, *args, **kwargs)
+    except TypeError:  # an argument without a content hash: no caching
+        return compile_linear(pause_gc(builder)(*args, **kwargs))
     lp = _memory_cache.get(key)
     directory = os.environ.get(CACHE_DIR_VARIABLE)
     path = Path(directory) / f"{key}.npz" if directory else None

@@ -46,11 +46,12 @@ class StaticLP(SolverBase):
     Options = LPOptions
 
     def setup(self, ops):
-        from blockmpec.formulations import compile_linear, static_lp
+        from blockmpec.formulations import static_lp
+        from blockmpec.formulations._pyomo import compiled_linear
         from blockmpec.solvers.engines.lp_engine import cold_lp_engine
 
         self.ops = ops
-        self.lp = compile_linear(static_lp(ops))
+        self.lp = compiled_linear(static_lp, ops)  # cached per structure (content hash of ops)
         self.engine = cold_lp_engine(self.lp, self.options.algorithm, self.options.time_limit, ops=ops)
 
     def run(self) -> RunOutput:
