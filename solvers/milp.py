@@ -161,13 +161,19 @@ class MILPSolver(SolverBase):
     requires = ("highspy", "pyomo")
     Options = MILPOptions
 
+    def skip_reason(self, ops) -> str | None:
+        import importlib.util
+
+        if self.options.engine == "scip" and importlib.util.find_spec("pyscipopt") is None:
+            return "milp engine='scip' needs pyscipopt (pip install pyscipopt)"
+        return None
+
     def setup(self, ops):
         from blockmpec.formulations import compile_mcp
         from blockmpec.formulations._pyomo import LinearProgram
         from blockmpec.solvers.engines.highs import HighsLP
 
-        if self.options.engine == "scip":
-            import pyscipopt  # noqa: F401  (fail at set-up, not after the bound LPs)
+        self.ops = ops
         form = compile_mcp(ops)
         self.form = form
         eq, cp, nm = form.equilibrium, form.compatibility, form.normalisation

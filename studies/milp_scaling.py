@@ -40,9 +40,9 @@ def run_case(label: str, size: str, structure: bm.Structure, time_limit: float, 
         "case": label, "size": size, "blocks": structure.n_free,
         "interfaces": len(structure.interfaces), "binaries": ex.get("n_binaries"),
         "status": res.status.value, "certified": res.status is bm.Status.OPTIMAL and res.verified,
-        "multiplier": res.multiplier, "associative": assoc.multiplier, "dual_bound": ex.get("dual_bound"),
+        "multiplier": res.multiplier, "associative": assoc.multiplier, "dual_bound": ex.get("bound"),
         "gap_abs": ex.get("gap_abs"), "nodes": ex.get("nodes"), "bound_s": ex.get("bound_time_s"),
-        "milp_s": ex.get("milp_time_s"), "solve_s": res.solve_time_s, "setup_s": res.build_time_s,
+        "milp_s": ex.get("search_time_s"), "solve_s": res.solve_time_s, "setup_s": res.build_time_s,
         "max_residual": res.max_residual, "message": res.message[:120], "_wall_s": wall_s,
     }
 
