@@ -25,7 +25,7 @@ written directly on the operators, as an independent check.
 
 The flow rows depend linearly on ``tan(psi)`` of each interface;
 :meth:`CompiledMCP.with_dilatancy` gives the system at other values (used by the
-continuation of ``mcp-newton``) from one more compile at ``tan(psi) + 1``.
+continuation of ``mcp-newton``) from two more compiles, at ``tan(psi) = 0`` and ``1``.
 """
 
 from __future__ import annotations
@@ -77,7 +77,7 @@ class CompiledMCP:
     friction: np.ndarray
     dilatancy: np.ndarray
     _ops: Operators = field(repr=False)
-    _dilatancy_rows: sp.csr_array | None = field(default=None, repr=False)
+    _dilatancy_rows: tuple[sp.csr_array, sp.csr_array] | None = field(default=None, repr=False)
 
     # ------------------------------------------------------------------ layout
     @property
@@ -212,23 +212,28 @@ class CompiledMCP:
     def with_dilatancy(self, dilatancy: np.ndarray | float) -> CompiledMCP:
         """The same system with ``tan(psi)`` = ``dilatancy`` (per interface) in the flow rows.
 
-        The flow rows are affine in ``tan(psi)``: ``A(d) = A(psi) + S diag(d - psi)``
-        where ``S`` (compiled once, lazily, from the Pyomo model at ``psi + 1``) holds
-        the derivative of each flow entry.
+        The compiled rows are affine in ``tan(psi)``: ``A(d) = A(0) + S diag(d)`` on the
+        ``z_f`` columns, where ``A(0)`` and ``S = A(1) - A(0)`` are compiled once (lazily)
+        from the Pyomo model at ``tan(psi) = 0`` and ``1``.  The model's flow entries are
+        ``tan(psi)`` itself (``S`` holds exact ones), so ``with_dilatancy(d).A`` equals a
+        compile at ``d`` entry for entry, with no round-off.
         """
         d = np.broadcast_to(np.asarray(dilatancy, float), self.dilatancy.shape).copy()
-        S = self._dilatancy_sensitivity()
-        col_shift = np.zeros(self.n_columns)
-        col_shift[self.z_f] = np.repeat(d - self.dilatancy, 2)
-        A = sp.csr_array(self.A + S @ sp.diags_array(col_shift))
-        return replace(self, A=A, dilatancy=d, _dilatancy_rows=S)
+        base, S = self._dilatancy_basis()
+        col = np.zeros(self.n_columns)
+        col[self.z_f] = np.repeat(d, 2)
+        A = sp.csr_array(base + S @ sp.diags_array(col))
+        A.eliminate_zeros()
+        A.sort_indices()
+        return replace(self, A=A, dilatancy=d, _dilatancy_rows=(base, S))
 
-    def _dilatancy_sensitivity(self) -> sp.csr_array:
+    def _dilatancy_basis(self) -> tuple[sp.csr_array, sp.csr_array]:
         if self._dilatancy_rows is None:
-            shifted = _compile(self._ops, self.dilatancy + 1.0)
-            S = sp.csr_array(shifted.A - self.A)
+            c = self.n_interfaces
+            base = _compile(self._ops, np.zeros(c)).A
+            S = sp.csr_array(_compile(self._ops, np.ones(c)).A - base)
             S.eliminate_zeros()
-            object.__setattr__(self, "_dilatancy_rows", S)
+            object.__setattr__(self, "_dilatancy_rows", (base, S))
         return self._dilatancy_rows
 
 

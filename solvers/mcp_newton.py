@@ -2,13 +2,12 @@ r"""``mcp-newton``: a solution of the MCP (3) by a semismooth Newton method (sta
 
 Problem
 -------
-The MCP (3) is stated directly from the operators (the same problem as (3); no
-Pyomo model).  With ``s = -[N_u, N_f]^T x`` and ``z = (z_u, z_f)`` it is the square
-system in ``w = (lam, x, u, z)`` (``1 + 3c + 3b + 4c`` unknowns and equations)::
+The MCP (3) is read from its compiled formulation
+(:func:`blockmpec.formulations.compile_mcp`): with the pair slacks ``s = -G w`` and
+multipliers ``z = w[pair_column]`` it is the square system in ``w = (lam, x, u, z)``
+(``1 + 3c + 3b + 4c`` unknowns and equations)::
 
-    E x + f_d + lam f_l = 0                  (equilibrium)
-    E^T u + N_u z_u + V_f z_f = 0            (compatibility, non-associative flow)
-    f_l^T u = 1                              (normalisation)
+    A w = rhs                                (equilibrium, compatibility, normalisation)
     phi(z_i, s_i) = 0,  i = 1..4c            (complementarity)
 
 where ``phi(a, b) = a + b - sqrt(a^2 + b^2)`` is the Fischer–Burmeister function
@@ -30,9 +29,14 @@ The Jacobian is singular at every solution of a hyperstatic structure (the force
 stationary points that are not solutions.  With ``continuation`` the dilatancy is
 therefore moved from the friction value (where the associative solution solves
 (3) exactly) to its own value, ``tan(psi_t) = (1 - t) tan(phi) + t tan(psi)``,
-``t: 0 -> 1``: each step is a Newton solve of at most ``step_iterations``
-iterations from the previous solution; the step in ``t`` starts at 1 (direct
-solve), is halved after a failure and doubled after a success.
+``t: 0 -> 1`` (:meth:`~blockmpec.formulations.CompiledMCP.with_dilatancy`): each
+step is a Newton solve of at most ``step_iterations`` iterations from the previous
+solution; the step in ``t`` starts at 1 (direct solve), is halved after a failure
+and doubled after a success.  One
+:class:`~blockmpec.solvers.engines.stopping.StoppingCriterion` spans the run: it
+counts every Newton iteration against ``max_iterations``, keeps ``time_limit``
+and writes the trace (``iteration, time_s, residual, merit, step, direction,
+multiplier, continuation``).
 
 The answer is *a* solution of (3), not necessarily the minimum of (4); its
 multiplier lies between the non-associative minimum and the associative one.
@@ -43,7 +47,6 @@ Status: ``CONVERGED`` when ``||Phi||_inf <= tol``; ``ITERATION_LIMIT``,
 
 from __future__ import annotations
 
-import time
 from dataclasses import dataclass, field
 
 from blockmpec import options as check
@@ -92,54 +95,50 @@ class MCPNewton(SolverBase):
     Options = NewtonOptions
 
     def setup(self, ops):
+        from blockmpec.formulations import compile_mcp
         from blockmpec.solvers.static_lp import StaticLP
 
         self.ops = ops
+        self.form = compile_mcp(ops)  # (3), compiled once
         self.start_lp = StaticLP(time_limit=self.options.time_limit)  # the associative start
         self.start_lp.setup(ops)
 
     def run(self) -> RunOutput:
-        from blockmpec.solvers.engines.newton_system import MCPSystem, semismooth_newton, with_dilatancy
+        from blockmpec import facts
+        from blockmpec.solvers.engines.newton_system import MCPSystem, semismooth_newton
+        from blockmpec.solvers.engines.stopping import StoppingCriterion
 
         opt = self.options
-        ops = self.ops
-        t_start = time.perf_counter()
+        form = self.form
+        # one criterion for the run: every Newton iteration, the time limit, the trace
+        stop = StoppingCriterion(opt.tol, opt.max_iterations, opt.time_limit, measure_name="residual").start()
         start = self.start_lp.run()
         if start.status is not Status.OPTIMAL:
-            status = start.status if start.status in (Status.UNBOUNDED, Status.INFEASIBLE, Status.INFEASIBLE_OR_UNBOUNDED,
-                                                                       Status.TIME_LIMIT) \
-                else Status.ERROR
-            return RunOutput(status, message=f"associative start failed: {start.status.value} ({start.message})",
+            passed_on = (Status.UNBOUNDED, Status.INFEASIBLE, Status.INFEASIBLE_OR_UNBOUNDED, Status.TIME_LIMIT)
+            return RunOutput(start.status if start.status in passed_on else Status.ERROR,
+                             message=f"associative start failed: {start.status.value} ({start.message})",
                              raw_status="static LP")
         solution = start.solution
-        trace: list[dict] = []
-        total = 0
         t_done, dt = 0.0, 1.0
         status, message = Status.ITERATION_LIMIT, ""
         n_steps = n_failed = 0
         while True:
-            remaining = opt.time_limit - (time.perf_counter() - t_start)
-            budget = opt.max_iterations - total
+            remaining = stop.remaining()
+            budget = opt.max_iterations - stop.iterations
             if remaining <= 0 or budget <= 0:
                 status = Status.TIME_LIMIT if remaining <= 0 else Status.ITERATION_LIMIT
                 message = f"{status.value} at continuation parameter t = {t_done:.4g}"
                 break
             t_next = min(1.0, t_done + dt)
             final = t_next >= 1.0
-            step_ops = ops if final else with_dilatancy(ops, (1 - t_next) * ops.friction + t_next * ops.dilatancy)
-            system = MCPSystem(step_ops, solution)
-            offset = time.perf_counter() - t_start  # trace times are elapsed since the run started
+            step_form = form if final else form.with_dilatancy((1 - t_next) * form.friction + t_next * form.dilatancy)
+            system = MCPSystem(step_form, solution)
             limit = budget if not opt.continuation else min(budget, opt.step_iterations)
             out = semismooth_newton(
                 system, system.pack(solution), tol=opt.tol if final else max(opt.tol, opt.step_tol),
-                max_iterations=limit, sigma=opt.sigma,
-                backtrack=opt.backtrack, max_backtracks=opt.max_backtracks, regularisation=opt.regularisation,
-                time_limit=remaining,
+                max_iterations=limit, sigma=opt.sigma, backtrack=opt.backtrack, max_backtracks=opt.max_backtracks,
+                regularisation=opt.regularisation, stop=stop, continuation=t_next,
             )
-            for rec in out.trace:
-                trace.append(dict(rec, iteration=total + rec["iteration"], continuation=t_next,
-                                  time_s=offset + rec["time_s"]))
-            total += out.iterations
             if out.status is Status.CONVERGED:
                 n_steps += 1
                 solution, t_done = out.solution, t_next
@@ -160,8 +159,8 @@ class MCPNewton(SolverBase):
                 if t_done == 0.0:
                     solution = out.solution
                 break
-        kinds = [r["direction"] for r in trace]
-        extra = {"associative_multiplier": start.solution.multiplier,
+        kinds = [r["direction"] for r in stop.trace]
+        extra = {facts.ASSOCIATIVE_MULTIPLIER: start.solution.multiplier,
                  "continuation_reached": t_done,
                  "continuation_steps": n_steps,
                  "continuation_failures": n_failed,
@@ -170,5 +169,5 @@ class MCPNewton(SolverBase):
                  "gradient_steps": kinds.count("gradient")}
         if status is not Status.CONVERGED and t_done < 1.0 and n_steps > 0:
             message += " (the returned iterate solves (3) with an intermediate dilatancy only)"
-        return RunOutput(status, solution, iterations=total, trace=trace, message=message,
+        return RunOutput(status, solution, iterations=stop.iterations, trace=stop.trace, message=message,
                          raw_status=status.value, extra=extra)

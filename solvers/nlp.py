@@ -2,15 +2,15 @@ r"""``nlp``: the MPEC (4) by a relaxed-complementarity NLP (Ferris & Tin-Loi 200
 
 Problem
 -------
-The MPEC (4) is ``min lam`` over the solutions of the MCP (3).  It is stated here
-directly from the operators (the same problem as (3)/(4); no Pyomo model), with
-slacks ``s = (s_u, s_f) = -[N_u, N_f]^T x`` and ``z = (z_u, z_f)``::
+The MPEC (4) is ``min lam`` over the solutions of the MCP (3).  (3) is read from
+its compiled formulation (:func:`blockmpec.formulations.compile_mcp`: ``A w = rhs``,
+pair rows ``G w <= 0``, multipliers ``z = w[pair_column]``), with the pair slacks
+``s = -G w`` as extra variables; the NLP's variables are ``v = (w, s)``,
+``w = (lam, x, u, z)``::
 
     min  lam
-    s.t. E x + lam f_l = -f_d                   (equilibrium, 3b rows)
-         E^T u + N_u z_u + V_f z_f = 0          (compatibility, 3c rows)
-         f_l^T u = 1                            (normalisation)
-         s + [N_u, N_f]^T x = 0                 (slack definitions, 4c rows)
+    s.t. A w = rhs                              (equilibrium, compatibility, normalisation)
+         G w + s = 0                            (slack definitions, 4c rows)
          z_i s_i / P <= eps                     (relaxed complementarity, 4c rows)
          z >= 0, s >= 0
 
@@ -18,7 +18,11 @@ slacks ``s = (s_u, s_f) = -[N_u, N_f]^T x`` and ``z = (z_u, z_f)``::
 magnitudes of ``z`` and ``s`` at the starting point, so ``eps`` is scale-free.
 ``eps`` is driven from ``eps_initial`` down to ``eps_final`` by the factor
 ``eps_factor``; each stage is warm-started from the previous one (primal point and,
-with ``warm_start``, Ipopt's multipliers).  Every stage is solved by Ipopt through
+with ``warm_start``, Ipopt's multipliers); a
+:class:`~blockmpec.solvers.engines.stopping.StoppingCriterion` on ``eps`` keeps the time
+limit and writes the trace (one record per Ipopt solve: ``iteration, time_s, eps,
+stage, multiplier, ipopt_status, ipopt_iterations, warm_multipliers, stage_time_s``).
+Every stage is solved by Ipopt through
 cyipopt, with exact sparse derivatives: the Jacobian is the constant matrix of the
 linear rows plus two nonzeros per product row (``s_i/P`` and ``z_i/P``), and the
 Hessian of the Lagrangian has one nonzero per pair,
@@ -30,11 +34,11 @@ min(1e-8, eps/10)`` (Ipopt's own bound relaxation must not exceed ``eps``);
 ``ipopt_options`` override any of these.
 
 The default start is the associative solution (static LP (1) with HiGHS, mechanism
-from its duals), which satisfies every row except compatibility with ``V_f``.  The
+from its duals), which satisfies every row except the non-associative flow rule.  The
 associative multiplier is an upper bound of every solution of (3) (its ``x`` is
 statically admissible), and the NLP reaches a *local* minimum of (4), so
-``lam_NA_min <= lam_nlp <= lam_assoc``.  When ``V_f = N_f`` (associative case) the
-answer is the LP multiplier.
+``lam_NA_min <= lam_nlp <= lam_assoc``.  When ``tan(psi) = tan(phi)`` (associative case)
+the answer is the LP multiplier.
 
 A stage that fails after a warm start is tried once more from the same primal
 point without Ipopt's multipliers.  With ``polish`` the last stage's point is
@@ -56,7 +60,6 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import dataclass, field
-from typing import Any
 
 import numpy as np
 
@@ -135,42 +138,28 @@ class NLPOptions:
 
 
 class _RelaxedMPEC:
-    """cyipopt callbacks of the relaxed NLP; variables ``v = (lam, x, u, z, s)``."""
+    """cyipopt callbacks of the relaxed NLP; variables ``v = (w, s)`` (``w`` of the compiled (3))."""
 
-    def __init__(self, ops, scale: float) -> None:
+    def __init__(self, form, scale: float) -> None:
         import scipy.sparse as sp
 
-        from blockmpec.solvers.engines.newton_system import constraint_operator, flow_operator
-
-        b3, c3 = ops.E.shape
-        p = 2 * ops.N_u.shape[1]  # number of pairs, 4c
-        self.n_lam, self.n_x, self.n_u, self.n_pairs = 1, c3, b3, p
-        o = np.cumsum([0, 1, c3, b3, p, p])
-        self.i_lam, self.i_x, self.i_u, self.i_z, self.i_s = (slice(o[k], o[k + 1]) for k in range(5))
-        self.n = int(o[-1])
-        N = constraint_operator(ops)
-        F = flow_operator(ops)
-        Z = None
-        fl = sp.csr_array(ops.f_l.reshape(-1, 1))
-        A = sp.bmat(
-            [
-                [fl, ops.E, Z, Z, Z],  # equilibrium
-                [Z, Z, ops.E.T, F, Z],  # compatibility
-                [Z, Z, sp.csr_array(ops.f_l.reshape(1, -1)), Z, Z],  # normalisation
-                [Z, N.T, Z, Z, sp.eye_array(p)],  # slack definitions
-            ],
-            format="coo",
-        )
+        self.form = form
+        p = form.n_pairs
+        n_w = form.n_columns
+        self.n_pairs = p
+        self.i_w = slice(0, n_w)
+        self.i_s = slice(n_w, n_w + p)
+        self.n = n_w + p
+        A = sp.bmat([[form.A, None], [form.G, sp.eye_array(p)]], format="csr")  # A w = rhs; G w + s = 0
         self.m_lin = A.shape[0]
         self.m = self.m_lin + p
-        self.A = A.tocsr()
-        self.A.sum_duplicates()
-        A = self.A.tocoo()
+        A.sum_duplicates()
+        self.A = A
+        A = A.tocoo()
         self.scale = float(scale)
-        pair = np.arange(p)
-        z_cols = self.i_z.start + pair
-        s_cols = self.i_s.start + pair
-        prod_rows = self.m_lin + pair
+        z_cols = np.asarray(form.pair_column)
+        s_cols = self.i_s.start + np.arange(p)
+        prod_rows = self.m_lin + np.arange(p)
         self.z_cols, self.s_cols = z_cols, s_cols
         self._jac_rows = np.concatenate([A.row, prod_rows, prod_rows]).astype(np.int32)
         self._jac_cols = np.concatenate([A.col, z_cols, s_cols]).astype(np.int32)
@@ -178,27 +167,27 @@ class _RelaxedMPEC:
         # Lagrangian Hessian: d2(z_i s_i)/dz_i ds_i; lower triangle (s columns after z columns).
         self._hess_rows = s_cols.astype(np.int32)
         self._hess_cols = z_cols.astype(np.int32)
-        self.rhs = np.concatenate([-ops.f_d, np.zeros(c3), [1.0], np.zeros(p)])
+        self.rhs = np.concatenate([form.rhs, np.zeros(p)])
         self.grad = np.zeros(self.n)
-        self.grad[0] = 1.0
+        self.grad[form.lam] = 1.0
         self.iterations = 0
 
     # ---- cyipopt interface
     def objective(self, v):
-        return float(v[0])
+        return float(v[self.form.lam])
 
     def gradient(self, v):
         return self.grad
 
     def constraints(self, v):
-        z, s = v[self.i_z], v[self.i_s]
+        z, s = v[self.z_cols], v[self.i_s]
         return np.concatenate([self.A @ v, z * s / self.scale])
 
     def jacobianstructure(self):
         return self._jac_rows, self._jac_cols
 
     def jacobian(self, v):
-        z, s = v[self.i_z], v[self.i_s]
+        z, s = v[self.z_cols], v[self.i_s]
         return np.concatenate([self._jac_lin, s / self.scale, z / self.scale])
 
     def hessianstructure(self):
@@ -216,17 +205,14 @@ class _RelaxedMPEC:
     def bounds(self, eps: float):
         lb = np.full(self.n, -_INF)
         ub = np.full(self.n, _INF)
-        lb[self.i_z] = 0.0
+        lb[self.z_cols] = 0.0
         lb[self.i_s] = 0.0
         cl = np.concatenate([self.rhs, np.full(self.n_pairs, -_INF)])
         cu = np.concatenate([self.rhs, np.full(self.n_pairs, float(eps))])
         return lb, ub, cl, cu
 
     def split(self, v) -> Solution:
-        z = v[self.i_z]
-        h = self.n_pairs // 2
-        return Solution(multiplier=float(v[0]), x=v[self.i_x].copy(), u=v[self.i_u].copy(),
-                        z_u=z[:h].copy(), z_f=z[h:].copy())
+        return self.form.unpack(v[self.i_w])
 
 
 @register_solver
@@ -240,9 +226,11 @@ class RelaxedNLP(SolverBase):
     Options = NLPOptions
 
     def setup(self, ops):
+        from blockmpec.formulations import compile_mcp
         from blockmpec.solvers.static_lp import StaticLP
 
         self.ops = ops
+        self.form = compile_mcp(ops)  # (3), compiled once
         self.start_lp = None
         if self.options.start == "associative":  # the associative start is the static-lp adapter itself
             self.start_lp = StaticLP(time_limit=self.options.time_limit)
@@ -250,55 +238,63 @@ class RelaxedNLP(SolverBase):
         self.nlp = None  # built in run(): its scale depends on the starting point
 
     def _start_point(self):
-        """``(v0, P, failure status or None, message)``.
+        """``(v0, P, failure status or None, message, associative multiplier or None)``.
 
-        ``v0`` is the associative solution with ``s0 = -N^T x0``, or None for a cold start.
-        ``P = max(z0) max(s0)``; cold: ``max|f_d| / sum|f_l|`` (a force times the size
-        of ``z`` implied by ``f_l^T u = 1``).
+        ``v0 = (w0, s0)`` is the associative solution with ``s0 = -G w0`` (negative parts
+        of ``z0`` and ``s0`` cut to 0), or None for a cold start.  ``P = max(z0) max(s0)``;
+        cold: ``max|f_d| / sum|f_l|`` (a force times the size of ``z`` implied by
+        ``f_l^T u = 1``).
         """
-        ops = self.ops
+        form = self.form
         if self.start_lp is None:
-            force = float(np.max(np.abs(ops.f_d))) if ops.f_d.size else 1.0
-            scale = force / max(float(np.sum(np.abs(ops.f_l))), 1e-300)
-            return None, (scale if scale > 0 else 1.0), None, "cold start"
+            f_d, f_l = form.f_d, form.f_l
+            force = float(np.max(np.abs(f_d))) if f_d.size else 1.0
+            scale = force / max(float(np.sum(np.abs(f_l))), 1e-300)
+            return None, (scale if scale > 0 else 1.0), None, "cold start", None
         start = self.start_lp.run()
         if start.status is not Status.OPTIMAL:
-            return None, 1.0, start.status, f"associative start failed: {start.status.value} ({start.message})"
+            return (None, 1.0, start.status, f"associative start failed: {start.status.value} ({start.message})",
+                    None)
         sol = start.solution
-        from blockmpec.solvers.engines.newton_system import constraint_operator
-
-        s0 = np.maximum(-(constraint_operator(ops).T @ sol.x), 0.0)
-        z0 = np.maximum(np.concatenate([sol.z_u, sol.z_f]), 0.0)
+        w0 = form.pack(sol)
+        s0 = np.maximum(form.slack(w0), 0.0)
+        z0 = np.maximum(form.multipliers(w0), 0.0)
+        w0[form.pair_column] = z0
         zs = float(np.max(z0)) if z0.size else 0.0
         ss = float(np.max(s0)) if s0.size else 0.0
         scale = (zs if zs > 0 else 1.0) * (ss if ss > 0 else 1.0)
-        v0 = np.concatenate([[sol.multiplier], sol.x, sol.u, z0, s0])
-        return v0, scale, None, f"associative start lam = {sol.multiplier:.9g}"
+        return (np.concatenate([w0, s0]), scale, None, f"associative start lam = {sol.multiplier:.9g}",
+                sol.multiplier)
 
     def run(self) -> RunOutput:
         import cyipopt
 
+        from blockmpec import facts
+        from blockmpec.solvers.engines.stopping import StoppingCriterion
+
         opt = self.options
-        t_start = time.perf_counter()
-        v0, scale, fail, start_msg = self._start_point()
+        schedule = opt.schedule()
+        # writes the trace (one record per Ipopt solve, measure eps) and keeps the time limit; the
+        # stages stop on Ipopt's status, so its iteration limit (every solve twice, and the polish) never binds
+        stop = StoppingCriterion(opt.eps_final, 2 * len(schedule) + 1, opt.time_limit, measure_name="eps").start()
+        v0, scale, fail, start_msg, lam_associative = self._start_point()
         if fail is not None:
-            return RunOutput(fail if fail in (Status.UNBOUNDED, Status.INFEASIBLE, Status.INFEASIBLE_OR_UNBOUNDED, Status.TIME_LIMIT) else Status.ERROR,
-                             message=start_msg, raw_status="static LP")
-        nlp = _RelaxedMPEC(self.ops, scale)
+            passed_on = (Status.UNBOUNDED, Status.INFEASIBLE, Status.INFEASIBLE_OR_UNBOUNDED, Status.TIME_LIMIT)
+            return RunOutput(fail if fail in passed_on else Status.ERROR, message=start_msg, raw_status="static LP")
+        nlp = _RelaxedMPEC(self.form, scale)
         self.nlp = nlp
         if v0 is None:
             v0 = np.zeros(nlp.n)
         v = v0
         mult = None
-        trace: list[dict[str, Any]] = []
         total_iter = 0
         final = Status.LOCALLY_OPTIMAL
         raw = ""
         message = ""
-        for k, eps in enumerate(opt.schedule()):
+        for k, eps in enumerate(schedule):
             attempts = [True, False] if opt.warm_start and mult is not None else [False]
             for use_mult in attempts:
-                remaining = opt.time_limit - (time.perf_counter() - t_start)
+                remaining = stop.remaining()
                 if remaining <= 0:
                     status, name, info = Status.TIME_LIMIT, "time_limit", {"status_msg": "time limit before the stage"}
                     v_new = v
@@ -309,10 +305,8 @@ class RelaxedNLP(SolverBase):
                 code = int(info["status"])
                 status, name = _IPOPT_STATUS.get(code, (Status.ERROR, f"ipopt_status_{code}"))
                 total_iter += nlp.iterations
-                trace.append({"iteration": len(trace) + 1, "stage": k + 1, "eps": eps, "multiplier": float(v_new[0]),
-                              "ipopt_status": name, "ipopt_iterations": nlp.iterations,
-                              "warm_multipliers": use_mult, "stage_time_s": dt,
-                              "time_s": time.perf_counter() - t_start})
+                stop.check(eps, stage=k + 1, multiplier=float(v_new[self.form.lam]), ipopt_status=name,
+                           ipopt_iterations=nlp.iterations, warm_multipliers=use_mult, stage_time_s=dt)
                 raw = name
                 # a failed warm-started stage is tried once more from the same primal point, cold
                 if status.is_success or status is Status.TIME_LIMIT:
@@ -330,13 +324,16 @@ class RelaxedNLP(SolverBase):
             final = status
             message = f"stage {k + 1} (eps = {eps:.3g}) ended with Ipopt status {name}: {info.get('status_msg', b'')!r}"
             break
+        trace = stop.trace
         solution = nlp.split(v)
         n_stages = len({t["stage"] for t in trace})
         extra = {"stages": n_stages, "ipopt_solves": len(trace), "scale": scale, "start": opt.start}
+        if lam_associative is not None:
+            extra[facts.ASSOCIATIVE_MULTIPLIER] = lam_associative
         if not message:
             message = f"{n_stages} stages ({len(trace)} Ipopt solves), final eps = {trace[-1]['eps']:.3g}; {start_msg}"
             if opt.polish and opt.polish_iterations > 0:
-                solution, note = self._polish(solution, trace, t_start)
+                solution, note = self._polish(solution, stop)
                 message += f"; {note}"
                 extra["polish"] = note
         return RunOutput(final, solution, iterations=total_iter, trace=trace, message=message, raw_status=raw,
@@ -372,30 +369,29 @@ class RelaxedNLP(SolverBase):
             return problem.solve(v, lagrange=mult[0], zl=mult[1], zu=mult[2])
         return problem.solve(v)
 
-    def _polish(self, solution: Solution, trace: list, t_start: float) -> tuple[Solution, str]:
+    def _polish(self, solution: Solution, stop) -> tuple[Solution, str]:
         """Semismooth Newton steps on (3) from the NLP point (:mod:`blockmpec.solvers.engines.newton_system`).
 
         The relaxed point leaves products ``z_i s_i`` of order ``eps`` and bound
         multipliers of order Ipopt's tolerance; a few Fischer–Burmeister Newton steps
         make them exact.  The polished point is kept only if Newton converged and
         ``|lam_polished - lam| <= 1e-6 max(1, |lam|)`` (the same local solution).
+        ``stop`` is the run's criterion (time left; the polish is one more trace record).
         """
         from blockmpec.solvers.engines.newton_system import MCPSystem, semismooth_newton
 
-        remaining = self.options.time_limit - (time.perf_counter() - t_start)
+        remaining = stop.remaining()
         if remaining <= 0:
             return solution, "no time left for the polish"
         t0 = time.perf_counter()
-        system = MCPSystem(self.ops, solution)
+        system = MCPSystem(self.form, solution)
         out = semismooth_newton(system, system.pack(solution), tol=1e-12,
                                 max_iterations=self.options.polish_iterations, time_limit=remaining)
         dt = time.perf_counter() - t0
         lam, lam_new = solution.multiplier, out.solution.multiplier
         ok = out.status is Status.CONVERGED and abs(lam_new - lam) <= 1e-6 * max(1.0, abs(lam))
-        trace.append({"iteration": len(trace) + 1, "stage": "polish", "eps": 0.0, "multiplier": float(lam_new),
-                      "ipopt_status": "", "ipopt_iterations": 0, "newton_iterations": out.iterations,
-                      "newton_status": out.status.value, "accepted": ok, "stage_time_s": dt,
-                      "time_s": time.perf_counter() - t_start})
+        stop.check(0.0, stage="polish", multiplier=float(lam_new), ipopt_status="", ipopt_iterations=0,
+                   newton_iterations=out.iterations, newton_status=out.status.value, accepted=ok, stage_time_s=dt)
         if ok:
             note = f"polished by {out.iterations} Newton steps (lam {lam:.10g} -> {lam_new:.10g})"
             return out.solution, note

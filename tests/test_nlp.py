@@ -87,10 +87,11 @@ def test_bad_options(bad):
 
 def test_callbacks_have_exact_derivatives():
     """Jacobian and Lagrangian Hessian of the relaxed NLP against finite differences."""
+    from blockmpec.formulations import compile_mcp
     from blockmpec.solvers.nlp import _RelaxedMPEC
 
-    ops = bm.assemble(bm.cases.two_blocks(eta=3, mu=0.65))
-    nlp = _RelaxedMPEC(ops, scale=2.5)
+    ops = bm.assemble(bm.cases.two_blocks(eta=3, mu=0.65, dilatancy=0.2))
+    nlp = _RelaxedMPEC(compile_mcp(ops), scale=2.5)
     rng = np.random.default_rng(0)
     v = rng.normal(size=nlp.n)
     rows, cols = nlp.jacobianstructure()

@@ -1,38 +1,27 @@
-r"""Shared pieces of the non-associative solvers ``nlp`` and ``mcp-newton``.
+r"""The MCP (3) as a semismooth Fischer–Burmeister system, and its Newton method.
 
-Both state problem (3) directly from the assembled operators (no Pyomo model)::
+Used by ``mcp-newton`` (the whole method) and ``nlp`` (its polish).  Problem (3) is
+read from the compiled formulation :class:`~blockmpec.formulations.CompiledMCP`
+(``A w = rhs``, pair rows ``G w <= 0`` with ``pair_column``), never from the
+operators::
 
-    E x + f_d + lam f_l = 0                      (3b equilibrium, 3b rows)
-    E^T u + N_u z_u + V_f z_f = 0                (3c compatibility, 3c rows)
-    f_l^T u = 1                                  (normalisation, 1 row)
-    0 <= s_u = -N_u^T x  ⟂  z_u >= 0             (2c pairs)
-    0 <= s_f = -N_f^T x  ⟂  z_f >= 0             (2c pairs)
+    A w = rhs                                          (equilibrium, compatibility, normalisation)
+    0 <= s_i = -G_i w   _|_   w[pair_column[i]] >= 0   (4c pairs)
 
-with ``c`` interfaces and ``b`` free blocks.  This module provides the associative
-starting point (the static LP (1) solved by HiGHS with its duals as mechanism) and
-a small helper for the stacked complementarity data.
+with ``w = (lam, x, u, z)``, ``c`` interfaces and ``b`` free blocks.
 """
 
 from __future__ import annotations
 
-import time
+import math
 from dataclasses import dataclass
 
 import numpy as np
 import scipy.sparse as sp
 
-from blockmpec.operators import Operators
+from blockmpec.formulations import CompiledMCP
 from blockmpec.result import Solution, Status
-
-
-def constraint_operator(ops: Operators) -> sp.csr_array:
-    """``N = [N_u, N_f]`` (3c x 4c): the slacks of all pairs are ``s = -N^T x``."""
-    return sp.hstack([ops.N_u, ops.N_f], format="csr")
-
-
-def flow_operator(ops: Operators) -> sp.csr_array:
-    """``[N_u, V_f]`` (3c x 4c): compatibility reads ``E^T u + [N_u, V_f] z = 0``."""
-    return sp.hstack([ops.N_u, ops.V_f], format="csr")
+from blockmpec.solvers.engines.stopping import StoppingCriterion
 
 
 # --------------------------------------------------------------------------- semismooth Newton
@@ -74,8 +63,9 @@ class NewtonOutcome:
         The last iterate.
     iterations : int
     trace : list of dict
-        Per iteration: merit, residual (inf-norm of the scaled ``Phi``), step length, direction kind, time_s
-        (elapsed since the call started).
+        This call's records of its :class:`~blockmpec.solvers.engines.stopping.StoppingCriterion`: per
+        iteration ``residual`` (inf-norm of the scaled ``Phi``), merit, step length, direction kind,
+        multiplier and ``time_s`` (elapsed since the criterion started).
     message : str
     """
 
@@ -86,97 +76,74 @@ class NewtonOutcome:
     message: str
 
 
-def with_dilatancy(ops: Operators, dilatancy: np.ndarray) -> Operators:
-    """``ops`` with the friction flow operator ``V_f`` built from another ``tan(psi)`` per interface."""
-    import dataclasses
-
-    coef = np.broadcast_to(np.asarray(dilatancy, float), ops.friction.shape).copy()
-    return dataclasses.replace(ops, V_f=ops.friction_operator(coef), dilatancy=coef)
-
-
 class MCPSystem:
     r"""The MCP (3) as a square semismooth system ``Phi(w) = 0`` with Fischer–Burmeister pairs.
 
-    Unknowns ``w = (lam, x, u, z)``, ``z = (z_u, z_f)``, i.e. ``1 + 3c + 3b + 4c`` values;
-    equations (same count)::
+    Unknowns ``w = (lam, x, u, z)`` of the compiled formulation ``form``
+    (``1 + 3c + 3b + 4c`` values); equations (same count)::
 
-        Phi = [ (E x + f_d + lam f_l) / r_eq             (3b)
-                (E^T u + N_u z_u + V_f z_f) / r_comp     (3c)
-                f_l^T u - 1                              (1)
-                phi(z / z_scale, s / s_scale) ]          (4c),  s = -[N_u, N_f]^T x
+        Phi = [ (A w - rhs)[equilibrium] / r_eq          (3b)
+                (A w - rhs)[compatibility] / r_comp      (3c)
+                (A w - rhs)[normalisation]               (1)
+                phi(z / z_scale, s / s_scale) ]          (4c),  z = w[pair_column],  s = -G w
 
     The row scales ``r_eq, r_comp`` and the pair scales ``z_scale, s_scale`` are
-    typical magnitudes (from the starting point), so ``||Phi||`` is scale-free.  The
-    Newton iteration works in scaled unknowns ``w = D w_hat`` with
-    ``D = diag(1, x_scale, u_scale, z_scale)``.
+    typical magnitudes (from the starting point), so ``||Phi||`` is scale-free:
+    ``r_eq = max(|f_d|_inf, |lam_0| |f_l|_inf)``, ``r_comp`` the larger of the two
+    compatibility terms at the start.  The Newton iteration works in scaled unknowns
+    ``w = D w_hat`` with ``D = diag(1, x_scale, u_scale, z_scale)``.
     """
 
-    def __init__(self, ops: Operators, start: Solution) -> None:
-        self.ops = ops
-        b3, c3 = ops.E.shape
-        self.N = constraint_operator(ops)
-        self.F = flow_operator(ops)
-        p = self.N.shape[1]
-        o = np.cumsum([0, 1, c3, b3, p])
-        self.i_lam, self.i_x, self.i_u, self.i_z = (slice(o[k], o[k + 1]) for k in range(4))
-        self.n = int(o[-1])
-        self.n_pairs = p
+    def __init__(self, form: CompiledMCP, start: Solution) -> None:
+        self.form = form
+        self.n = form.n_columns
+        self.n_pairs = form.n_pairs
 
         def typical(v: np.ndarray) -> float:
             m = float(np.max(np.abs(v))) if v.size else 0.0
             return m if m > 0 and np.isfinite(m) else 1.0
 
-        z0 = np.concatenate([start.z_u, start.z_f])
-        s0 = -(self.N.T @ start.x)
+        w0 = form.pack(start)
+        z0 = form.multipliers(w0)
+        compatibility = form.compatibility
         self.x_scale = typical(start.x)
         self.u_scale = typical(start.u)
         self.z_scale = typical(z0)
-        self.s_scale = typical(s0)
-        self.r_eq = max(typical(ops.f_d), abs(start.multiplier or 0.0) * typical(ops.f_l), 1e-300)
-        self.r_comp = max(typical(ops.E.T @ start.u), typical(self.F @ z0))
-        self.col_scale = np.concatenate([[1.0], np.full(c3, self.x_scale), np.full(b3, self.u_scale),
-                                         np.full(p, self.z_scale)])
-        self.row_scale = np.concatenate([np.full(b3, 1.0 / self.r_eq), np.full(c3, 1.0 / self.r_comp), [1.0],
-                                         np.ones(p)])
-        Z = None
-        fl = sp.csr_array(ops.f_l.reshape(-1, 1))
-        # constant part of the (unscaled) Jacobian of the first 3b + 3c + 1 rows
-        self._J_lin = sp.bmat([[fl, ops.E, Z, Z], [Z, Z, ops.E.T, self.F],
-                               [Z, Z, sp.csr_array(ops.f_l.reshape(1, -1)), Z]], format="csr")
-        self._NT = self.N.T.tocsr()
+        self.s_scale = typical(form.slack(w0))
+        self.r_eq = max(typical(form.f_d), abs(start.multiplier or 0.0) * typical(form.f_l), 1e-300)
+        self.r_comp = max(typical(form.block(compatibility, form.u) @ start.u),
+                          typical(form.block(compatibility, form.z) @ z0))
+        self.col_scale = np.ones(self.n)
+        self.col_scale[form.x] = self.x_scale
+        self.col_scale[form.u] = self.u_scale
+        self.col_scale[form.z] = self.z_scale
+        self.row_scale = np.ones(form.A.shape[0] + self.n_pairs)
+        self.row_scale[form.equilibrium] = 1.0 / self.r_eq
+        self.row_scale[compatibility] = 1.0 / self.r_comp
+        self._pair_rows = np.arange(self.n_pairs)
 
     def pack(self, sol: Solution) -> np.ndarray:
         """Scaled unknowns ``w_hat`` of a solution."""
-        w = np.concatenate([[sol.multiplier], sol.x, sol.u, sol.z_u, sol.z_f])
-        return w / self.col_scale
+        return self.form.pack(sol) / self.col_scale
 
     def unpack(self, w_hat: np.ndarray) -> Solution:
         """The solution at scaled unknowns ``w_hat``."""
-        w = w_hat * self.col_scale
-        z = w[self.i_z]
-        h = self.n_pairs // 2
-        return Solution(multiplier=float(w[0]), x=w[self.i_x].copy(), u=w[self.i_u].copy(),
-                        z_u=z[:h].copy(), z_f=z[h:].copy())
+        return self.form.unpack(w_hat * self.col_scale)
 
     def residual(self, w_hat: np.ndarray, jacobian: bool = False):
         """``Phi(w_hat)`` (scaled) and, if asked, an element of its generalised Jacobian (CSC)."""
-        ops = self.ops
+        form = self.form
         w = w_hat * self.col_scale
-        lam, x, u, z = w[0], w[self.i_x], w[self.i_u], w[self.i_z]
-        s = -(self._NT @ x)
-        a, b = z / self.z_scale, s / self.s_scale
+        a, b = form.multipliers(w) / self.z_scale, form.slack(w) / self.s_scale
         phi, da, db = fischer_burmeister(a, b)
-        lin = np.concatenate([ops.E @ x + ops.f_d + lam * ops.f_l, ops.E.T @ u + self.F @ z, [ops.f_l @ u - 1.0]])
-        Phi = np.concatenate([lin, phi]) * self.row_scale
+        Phi = np.concatenate([form.A @ w - form.rhs, phi]) * self.row_scale
         if not jacobian:
             return Phi
-        p = self.n_pairs
-        # d phi / dx = db / s_scale * (-N^T);  d phi / dz = da / z_scale
-        J_x = sp.diags_array(-db / self.s_scale) @ self._NT
-        J_z = sp.diags_array(da / self.z_scale)
-        b3, c3 = ops.E.shape
-        J_fb = sp.hstack([sp.csr_array((p, 1)), J_x, sp.csr_array((p, b3)), J_z], format="csr")
-        J = sp.vstack([self._J_lin, J_fb], format="csr")
+        # d phi / dw = db / s_scale * (-G)  +  da / z_scale at the pair's multiplier column
+        J_s = sp.diags_array(-db / self.s_scale) @ form.G
+        J_z = sp.csr_array(sp.diags_array(da / self.z_scale) @ sp.csr_array(
+            (np.ones(self.n_pairs), (self._pair_rows, form.pair_column)), shape=(self.n_pairs, self.n)))
+        J = sp.vstack([form.A, J_s + J_z], format="csr")
         J = sp.diags_array(self.row_scale) @ J @ sp.diags_array(self.col_scale)
         return Phi, J.tocsc()
 
@@ -184,7 +151,8 @@ class MCPSystem:
 def semismooth_newton(system: MCPSystem, w0: np.ndarray, *, tol: float = 1e-10, max_iterations: int = 100,
                       sigma: float = 1e-4, backtrack: float = 0.5, max_backtracks: int = 40,
                       regularisation: float = 1.0, descent_rho: float = 1e-8, descent_power: float = 2.1,
-                      newton_refinements: int = 3, time_limit: float = float("inf")) -> NewtonOutcome:
+                      newton_refinements: int = 3, time_limit: float = math.inf,
+                      stop: StoppingCriterion | None = None, **record) -> NewtonOutcome:
     r"""Globalised semismooth Newton method on ``Phi(w) = 0`` (De Luca–Facchinei–Kanzow style).
 
     At each iterate an element ``J`` of the generalised Jacobian is formed and the
@@ -202,26 +170,35 @@ def semismooth_newton(system: MCPSystem, w0: np.ndarray, *, tol: float = 1e-10, 
     ``Psi(w + t d) <= Psi(w) + sigma t grad Psi^T d``.
 
     Stops with ``CONVERGED`` when ``||Phi||_inf <= tol`` (``Phi`` is scaled, see
-    :class:`MCPSystem`), ``ITERATION_LIMIT``, ``TIME_LIMIT``, or ``NUMERICAL`` when
-    no direction yields a step (stalled line search).
+    :class:`MCPSystem`), ``ITERATION_LIMIT`` after ``max_iterations`` steps,
+    ``TIME_LIMIT``, or ``NUMERICAL`` when no direction yields a step (stalled line
+    search).  Every step is counted and recorded by a
+    :class:`~blockmpec.solvers.engines.stopping.StoppingCriterion` on ``||Phi||_inf``
+    (trace keys ``iteration, time_s, residual, merit, step, direction, multiplier``
+    and ``record``): ``stop`` when given (a caller's run-wide criterion: its time and
+    iteration limits and its ``tol`` apply too, and the records go to its trace),
+    else a new one with ``tol``, ``max_iterations`` and ``time_limit``.
     """
     from scipy.sparse.linalg import splu
 
-    t_start = time.perf_counter()
+    if stop is None:
+        stop = StoppingCriterion(tol, max_iterations, time_limit, measure_name="residual").start()
+    first_record = len(stop.trace)
     w = np.asarray(w0, float).copy()
-    trace: list[dict] = []
     Phi, J = system.residual(w, jacobian=True)
     merit = 0.5 * float(Phi @ Phi)
+    res = float(np.max(np.abs(Phi))) if Phi.size else 0.0
     n = w.size
     ident = sp.eye_array(n, format="csc")
+
+    def outcome(status: Status, k: int, message: str) -> NewtonOutcome:
+        return NewtonOutcome(status, system.unpack(w), k, stop.trace[first_record:], message)
+
+    if res <= tol:
+        return outcome(Status.CONVERGED, 0, f"converged: ||Phi||_inf = {res:.3g} <= {tol:g} after 0 iterations")
+    if stop.out_of_time():
+        return outcome(Status.TIME_LIMIT, 0, f"time limit: ||Phi||_inf = {res:.3g} after 0 iterations")
     for k in range(1, max_iterations + 1):
-        res = float(np.max(np.abs(Phi))) if Phi.size else 0.0
-        if res <= tol:
-            return NewtonOutcome(Status.CONVERGED, system.unpack(w), k - 1, trace,
-                                 f"converged: ||Phi||_inf = {res:.3g} <= {tol:g} after {k - 1} iterations")
-        if time.perf_counter() - t_start > time_limit:
-            return NewtonOutcome(Status.TIME_LIMIT, system.unpack(w), k - 1, trace,
-                                 f"time limit: ||Phi||_inf = {res:.3g} after {k - 1} iterations")
         grad = J.T @ Phi
 
         JTJ = (J.T @ J).tocsc()
@@ -276,15 +253,16 @@ def semismooth_newton(system: MCPSystem, w0: np.ndarray, *, tol: float = 1e-10, 
             if step is not None:
                 break
         if step is None:
-            return NewtonOutcome(Status.NUMERICAL, system.unpack(w), k - 1, trace,
-                                 f"line search stalled at ||Phi||_inf = {res:.3g} after {k - 1} iterations")
+            return outcome(Status.NUMERICAL, k - 1,
+                           f"line search stalled at ||Phi||_inf = {res:.3g} after {k - 1} iterations")
         kind, t, w, _ = step
         Phi, J = system.residual(w, jacobian=True)
         merit = 0.5 * float(Phi @ Phi)
-        trace.append({"iteration": k, "merit": merit, "residual": float(np.max(np.abs(Phi))), "step": t,
-                      "direction": kind, "multiplier": float(w[0]), "time_s": time.perf_counter() - t_start})
-    res = float(np.max(np.abs(Phi)))
-    status = Status.CONVERGED if res <= tol else Status.ITERATION_LIMIT
-    return NewtonOutcome(status, system.unpack(w), max_iterations, trace,
-                         f"{'converged' if status is Status.CONVERGED else 'iteration limit'}: "
-                         f"||Phi||_inf = {res:.3g} after {max_iterations} iterations")
+        res = float(np.max(np.abs(Phi)))
+        status = stop.check(res, merit=merit, step=t, direction=kind, multiplier=float(w[0]), **record)
+        if res <= tol:
+            return outcome(Status.CONVERGED, k, f"converged: ||Phi||_inf = {res:.3g} <= {tol:g} after {k} iterations")
+        if status is not None:  # the criterion's own limits (a run-wide budget): stop here
+            return outcome(status, k, f"{status.value.replace('_', ' ')}: ||Phi||_inf = {res:.3g} after {k} iterations")
+    return outcome(Status.ITERATION_LIMIT, max_iterations,
+                   f"iteration limit: ||Phi||_inf = {res:.3g} after {max_iterations} iterations")
