@@ -72,6 +72,15 @@ class Operators:
         Interface lengths ``L`` (in units of ``length_scale``).
     length_scale, force_scale : float
         The units of the nondimensional problem (see the module docstring).
+    origin : ndarray, shape (2,)
+        The structure point taken as the origin of the nondimensional coordinates.
+    interface_flipped : ndarray of bool, shape (c,)
+        Interfaces whose minus and plus block are swapped relative to the structure
+        (canonical orientation; their ``m`` has the opposite sign).
+    block_area : ndarray, shape (b,)
+        Free-block areas, in units of a power of two near ``length_scale`` squared.
+    units : Units
+        :class:`blockmpec.units.Units` of the problem (computed on first use).
     minus_dof, plus_dof : ndarray of int, shape (c,)
         Free-block index (row block of ``E``) of each interface's minus and plus
         block, -1 for a fixed block.
@@ -96,6 +105,7 @@ class Operators:
     plus_dof: np.ndarray | None = None
     origin: np.ndarray | None = None
     interface_flipped: np.ndarray | None = None
+    block_area: np.ndarray | None = None
 
     @cached_property
     def units(self) -> Units:
@@ -333,6 +343,7 @@ def assemble(structure: Structure) -> Operators:
         plus_dof=dof[plus],
         origin=frame.origin,
         interface_flipped=flipped,
+        block_area=(area * ratio * ratio)[free_blocks],
     )
 
 

@@ -19,20 +19,23 @@ Lengths (:class:`Frame`)
     so translated and mirrored structures give the same numbers.
 
 Forces
-    Weights are ``density / rho_ref * area^`` (``rho_ref`` the median density of
-    the free blocks), point loads are divided by ``rho_ref * length_scale**2``
-    (one factor at a time, so that the product is never formed), and then every
-    force by ``force_unit`` = the mean over the free blocks of
-    ``max(|dead force on i|, |live force on i|)``: the loads, *point loads
-    included*, are O(1) on average.  For the built-in cases (no point loads,
-    live factor 1) this is the mean block weight, as before.  ``force_scale =
-    rho_ref * length_scale**2 * force_unit`` converts back (it may over- or
-    underflow at extreme magnitudes; it is used only to report forces).
+    Weights are ``density / rho_ref * area`` with the area in units of ``S**2``
+    (``rho_ref``, ``S`` the powers of two nearest the median density of the free
+    blocks and ``length_scale``, so that this scaling is exact); point loads are
+    divided by ``rho_ref``, ``S`` and ``S`` again (one factor at a time: the
+    product is never formed); then every force by ``force_unit``, the mean over
+    the free blocks of the *live* force, point loads included
+    (:func:`force_unit`).  For the built-in cases (no point loads, live factor 1)
+    this is the mean block weight, as before.  ``force_scale = rho_ref * S**2 *
+    force_unit`` converts back (it may over- or underflow at extreme magnitudes;
+    it is used only to report forces).
 
 Per block and per interface (:class:`Units`)
     Block ``i`` carries the load ``l_i = ||f_d,i|| + ||f_l,i||`` (its three
-    components each, moments in length units; a zero load is replaced by the
-    largest); interface ``k`` the force unit ``l_k = min(l_i)`` over its free
+    components each, moments in length units), but at least half the median
+    load times its area over the mean area (a near-massless block next to a point
+    load carries that load; with uniform density the floor is never active);
+    interface ``k`` the force unit ``l_k = min(l_i)`` over its free
     blocks (a tiny block on a big one loads their interface with its own
     weight).  A solver that divides block ``i``'s equilibrium rows by ``l_i`` and
     measures interface ``k``'s ``(t, n, m)`` in ``(l_k, l_k, l_k L_k)`` has its
@@ -120,13 +123,19 @@ def block_load(f_d: np.ndarray, f_l: np.ndarray) -> np.ndarray:
 
 
 def force_unit(dead_force: np.ndarray, live_force: np.ndarray) -> float:
-    """Mean over blocks of ``max(|dead force|, |live force|)`` (force vectors (b, 2)); 1 if all vanish."""
-    if dead_force.shape[0] == 0:
-        return 1.0
-    dead = np.hypot(dead_force[:, 0], dead_force[:, 1])
-    live = np.hypot(live_force[:, 0], live_force[:, 1])
-    unit = float(np.mean(np.maximum(dead, live)))
-    return unit if unit > 0 and np.isfinite(unit) else 1.0
+    """The force unit: the mean over blocks of the live force ``|f_l,i|`` (force vectors (b, 2)).
+
+    The live load must be resolved (``lam f_l`` against the dead load decides ``lam``): a dead
+    point load 1e10 times the weights must not shrink the live load to 1e-10 (the LP would then
+    see no live load and call the problem unbounded), and a near-massless structure loaded by
+    live point loads must not have them at 1e12.  Falls back to the dead forces, then to 1."""
+    for forces in (live_force, dead_force):
+        if forces.shape[0] == 0:
+            continue
+        unit = float(np.mean(np.hypot(forces[:, 0], forces[:, 1])))
+        if unit > 0 and np.isfinite(unit):
+            return unit
+    return 1.0
 
 
 @dataclass(frozen=True, eq=False)
@@ -158,6 +167,10 @@ class Units:
     def of(cls, ops) -> Units:
         """The units of assembled operators (:class:`blockmpec.operators.Operators`)."""
         load = block_load(ops.f_d, ops.f_l)
+        if ops.block_area is not None and load.size:
+            # a near-massless block is still a block: it carries at least the typical load per area
+            typical = float(np.median(load))
+            load = np.maximum(load, 0.5 * typical * ops.block_area / float(np.mean(ops.block_area)))
         load = np.where(load > 0, load, np.max(load, initial=1.0))
         side = np.column_stack([ops.minus_dof, ops.plus_dof])
         unit = np.where(side >= 0, load[np.maximum(side, 0)], np.inf).min(axis=1)

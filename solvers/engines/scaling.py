@@ -21,6 +21,8 @@ rows or columns) with column vector ``v`` and rows ``A v``:
   (a tiny block on a big one loads their interface with its own weight); the
   columns ``(t_k, n_k, m_k)`` are measured in ``(l_k, l_k, l_k L_k)``, a column group
   named in ``normal_like`` (e.g. the tie-break deviations ``d_k``) in ``l_k``;
+* ``lam`` (and its copies) in :func:`multiplier_scale` units (1 unless the live
+  load is far below or above the block loads);
 * every other row is divided by its largest entry after the column scaling.
 
 With ``R`` (rows) and ``C`` (columns) the scaled LP is ``R A C``, ``R b``, ``C c``;
@@ -53,6 +55,22 @@ def interface_units(ops: Operators) -> tuple[np.ndarray, np.ndarray]:
     return ops.units.block_load, ops.units.interface_force
 
 
+#: The multiplier is rescaled only when the live load in block units is outside [1/this, this].
+MULTIPLIER_SCALE_RANGE = 1e3
+
+
+def multiplier_scale(ops: Operators) -> float:
+    """Unit of ``lam`` in the scaled LPs: 1, unless the live load in block units ``max |f_l,i| / l_i``
+    is below 1e-3 or above 1e3 (a dead point load 1e10 times the weights leaves the live
+    load at 1e-10 of the block's load, below HiGHS's smallest matrix entry 1e-9, and the LP
+    turns "unbounded"); then the power of two nearest ``1 / max |f_l,i| / l_i``, so that
+    ``lam f_l`` is O(1) in the scaled rows (and ``lam`` ~1e10 comes out right)."""
+    live = float(np.max(np.abs(ops.f_l) * ops.units.equilibrium_row_scale(), initial=0.0))
+    if live <= 0 or 1 / MULTIPLIER_SCALE_RANGE <= live <= MULTIPLIER_SCALE_RANGE:
+        return 1.0
+    return float(2.0 ** np.round(np.log2(1.0 / live)))
+
+
 def load_scaling(lp: LinearProgram, ops: Operators, normal_like: tuple[str, ...] = ()) -> tuple[np.ndarray, np.ndarray]:
     """Row and column scales ``(R, C)`` of a static-type LP (see the module docstring).
 
@@ -64,6 +82,9 @@ def load_scaling(lp: LinearProgram, ops: Operators, normal_like: tuple[str, ...]
     units = ops.units
     column_scale = np.ones(lp.c.size)
     _assign(column_scale, lp.columns["x"], units.force_column_scale())
+    for group in ("lam", "lam_copy"):
+        if group in lp.columns:
+            _assign(column_scale, lp.columns[group], np.full(lp.columns[group].size, multiplier_scale(ops)))
     for group in normal_like:
         _assign(column_scale, lp.columns[group], units.interface_force)
     scaled = lp.A @ sp.diags(column_scale)
@@ -90,6 +111,7 @@ def kinematic_scaling(lp: LinearProgram, ops: Operators) -> tuple[np.ndarray, np
     _assign(column_scale, lp.columns["z_f"], z_f_scale)
     row_scale = np.ones(lp.A.shape[0])
     row_scale[lp.rows["compatibility"]] = units.force_column_scale()
+    row_scale[lp.rows["normalisation"]] = multiplier_scale(ops)
     return row_scale, column_scale
 
 
