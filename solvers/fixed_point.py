@@ -70,6 +70,8 @@ class FixedPointOptions:
         "help": "associative | zero | dead-load | random: the first n* (see lp_sequence)"})
     tie_break: str = field(default="closest", metadata={
         "help": "closest | least-compressed | min-lambda | on-oscillation | none: which optimal LP forces a step takes"})
+    fold_weight: float = field(default=0.0, metadata={
+        "help": "0: weighted tie-breaks as their own LP; > 0: folded into the step LP with this weight"})
     acceleration: str = field(default="none", metadata={"help": "none | anderson: update of n*"})
     memory: int = field(default=5, metadata={"help": "Anderson depth"})
     seed: int = field(default=0, metadata={"help": "seed of the random start"})
@@ -86,6 +88,7 @@ class FixedPointOptions:
         check.choice(self, "start", STARTS)
         check.choice(self, "tie_break", TIE_BREAKS)
         check.choice(self, "acceleration", ACCELERATIONS)
+        check.interval(self, "fold_weight", 0, 1, closed="left")
         check.integer(self, "memory", minimum=1)
         check.integer(self, "seed", minimum=0)
         check.choice(self, "algorithm", BASIS_ALGORITHMS)
@@ -108,7 +111,8 @@ class FixedPoint(SolverBase):
         self.ops = ops
         o = self.options
         self.sequence = LPSequence(ops, alpha=0.0, tie_break=o.tie_break, algorithm=o.algorithm,
-                                   need_associative=o.start in ("associative", "dead-load", "random"))
+                                   need_associative=o.start in ("associative", "dead-load", "random"),
+                                   fold_weight=o.fold_weight)
 
     def run(self) -> RunOutput:
         from blockmpec.solvers.engines.lp_sequence import run_sequence

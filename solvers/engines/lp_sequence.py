@@ -71,6 +71,10 @@ from blockmpec.solvers.engines.highs import static_lp_solution
 TIE_BREAKS = ("closest", "least-compressed", "min-lambda", "on-oscillation", "none")
 STARTS = ("associative", "zero", "dead-load", "random")
 ACCELERATIONS = ("none", "anderson")
+#: a folded tie-break hands over to exact "closest" steps once ||n - n*|| <= FOLD_SETTLE_TOL ||n||,
+#: or after FOLD_STALL_STEPS steps without halving its best ||n - n*||
+FOLD_SETTLE_TOL = 1e-6
+FOLD_STALL_STEPS = 8
 #: weight of the closeness term under the weighted tie-break rules (the rule's own costs are scaled to max 1)
 CLOSENESS_WEIGHT = 1e-3
 
@@ -112,10 +116,17 @@ class LPSequence:
         sequence feeds each LP's forces into the next one, and light interfaces
         (top courses) have forces ~1, so 1e-7 absolute row violations show as
         ~1e-7 relative interface violations; 1e-9 keeps them well below.
+    fold_weight : float
+        0: a weighted tie-break rule runs as its own LP after each step.  ``> 0``:
+        the rule's costs (scaled to max 1) times ``fold_weight`` are folded into the
+        step LP's objective (``max lam + fold_weight * sum_k w_k n_k``: one LP per
+        step; exact regularisation when small enough), and the tie-break LP runs
+        only as ``"closest"`` in the closing steps (see :func:`run_sequence`).
     """
 
     def __init__(self, ops: Operators, alpha: float = 0.0, tie_break: str = "closest",
-                 algorithm: str = "auto", need_associative: bool = True, feasibility_tol: float = 1e-9) -> None:
+                 algorithm: str = "auto", need_associative: bool = True, feasibility_tol: float = 1e-9,
+                 fold_weight: float = 0.0) -> None:
         from blockmpec.formulations import compile_linear, modified_lp, static_lp, tie_break_lp
         from blockmpec.solvers.engines.highs import HighsLP
 
@@ -130,6 +141,9 @@ class LPSequence:
         self._step_cold = True  # the next step LP solve is its first
         self._tie_cold = True
         self._tie_rule = "closest"  # the cost vector now loaded in the tie-break LP
+        self.fold_weight = float(fold_weight)
+        self._last_z_f = None
+        self._step_folded = False  # the step LP's objective now carries folded costs
 
         self.step_lp = compile_linear(modified_lp(ops, np.zeros(c), slope=self.slope))
         self.step_highs = HighsLP(self.step_lp, algorithm, **_scales(self.step_lp, ops))
@@ -249,6 +263,27 @@ class LPSequence:
                         lp_iterations=out.iterations)
         return Step(Status.OPTIMAL, out.raw_status, out.message, static_lp_solution(self.assoc_lp, out), out.iterations)
 
+    def set_sensitivity(self, z_f: np.ndarray | None) -> None:
+        """Friction multipliers for the first folded ``"min-lambda"`` step (e.g. the associative LP's)."""
+        self._last_z_f = None if z_f is None else np.asarray(z_f, float)
+
+    def _rule_weights(self, rule: str, z_f: np.ndarray | None) -> np.ndarray:
+        """Weights ``w >= 0`` (max 1) of a weighted rule: the objective term is ``-sum_k w_k n_k``."""
+        c = self.ops.n_interfaces
+        weight = self.cohesion_factor * np.ones(c)
+        if rule == "min-lambda":
+            zeta = np.zeros(c) if z_f is None else np.maximum(z_f[0::2], 0.0) + np.maximum(z_f[1::2], 0.0)
+            weight = weight * zeta
+        top = float(np.max(weight, initial=0.0))
+        return weight / top if top > 0 else np.zeros(c)
+
+    def _fold_costs(self, weights: np.ndarray | None) -> None:
+        """Step LP objective ``min -lam - fold_weight sum_k w_k n_k`` (``weights=None``: plain ``-lam``)."""
+        cols = self.step_lp.columns["x"][1::3].astype(np.int32)
+        cost = np.zeros(cols.size) if weights is None else -self.fold_weight * weights
+        self.step_highs.highs.changeColsCost(cols.size, cols, cost * self.step_highs.column_scale[cols])
+        self._step_folded = weights is not None
+
     def _set_tie_costs(self, rule: str, z_f: np.ndarray | None) -> None:
         """Load the tie-break LP's costs for ``rule`` (see the module docstring)."""
         if rule == "closest" and self._tie_rule == "closest":
@@ -257,13 +292,7 @@ class LPSequence:
         if rule == "closest":
             n_cost, d_cost = np.zeros(c), np.ones(c)
         else:
-            weight = self.cohesion_factor * np.ones(c)
-            if rule == "min-lambda":
-                zeta = np.zeros(c) if z_f is None else np.maximum(z_f[0::2], 0.0) + np.maximum(z_f[1::2], 0.0)
-                weight = weight * zeta
-            top = float(np.max(weight, initial=0.0))
-            n_cost = -weight / top if top > 0 else np.zeros(c)
-            d_cost = np.full(c, CLOSENESS_WEIGHT)
+            n_cost, d_cost = -self._rule_weights(rule, z_f), np.full(c, CLOSENESS_WEIGHT)
         cols = np.concatenate([self._normal_columns, self._d_columns]).astype(np.int32)
         cost = np.concatenate([n_cost, d_cost]) * self.tie_highs.column_scale[cols]
         self.tie_highs.highs.changeColsCost(cols.size, cols, cost)
@@ -282,6 +311,11 @@ class LPSequence:
         cohesion = -self.cohesion_factor * n_star
         rhs = np.repeat(cohesion, 2)  # rows 2k, 2k+1 of interface k
         lp = self.step_lp
+        folded = self.fold_weight > 0 and rule in ("least-compressed", "min-lambda")
+        if folded:
+            self._fold_costs(self._rule_weights(rule, self._last_z_f))
+        elif self._step_folded:
+            self._fold_costs(None)
         self.step_highs.set_row_upper(lp.rows["friction"], rhs)
         if not self._set_time_limit(self.step_highs, deadline):
             return Step(Status.TIME_LIMIT, "", "time limit reached before a step LP")
@@ -293,8 +327,9 @@ class LPSequence:
         if out.status is not Status.OPTIMAL:
             return Step(out.status, out.raw_status, f"modified LP: {out.message}", lp_iterations=out.iterations)
         sol = static_lp_solution(lp, out)
+        self._last_z_f = sol.z_f
         iterations = out.iterations
-        if self.tie_highs is None or rule in ("none", "on-oscillation"):
+        if self.tie_highs is None or rule in ("none", "on-oscillation") or folded:
             return Step(Status.OPTIMAL, out.raw_status, out.message, sol, iterations)
 
         tie = self.tie_lp
@@ -444,6 +479,7 @@ def run_sequence(
         if first.status is not Status.OPTIMAL:
             return output(first.status, None, first.message, first.raw_status)
         facts["lam_start"] = first.solution.multiplier
+        seq.set_sensitivity(first.solution.z_f)
         n_star = np.minimum(normal(first.solution.x), 0.0)
         if start == "random":
             n_star = n_star * np.random.default_rng(seed).uniform(0.0, 1.0, n_star.size)
@@ -457,6 +493,9 @@ def run_sequence(
 
     anderson = Anderson(memory, relaxation) if acceleration == "anderson" else None
     rule = None if seq.tie_break != "on-oscillation" else "none"
+    # folded tie-break: one LP per step until n settles (or stalls), then exact "closest" steps close the loop
+    folding = seq.fold_weight > 0 and seq.tie_break in ("least-compressed", "min-lambda")
+    best_change, since_best = np.inf, 0
     last: Solution | None = None
     lam_prev: float | None = None
     n_change_prev = np.inf
@@ -496,6 +535,12 @@ def run_sequence(
         last = sol
         if status is Status.CONVERGED and crit.iterations < min_iterations:
             status = None
+        if folding:
+            since_best = 0 if n_change < 0.5 * best_change else since_best + 1
+            best_change = min(best_change, n_change)
+            if status is Status.CONVERGED or n_change <= FOLD_SETTLE_TOL or since_best >= FOLD_STALL_STEPS:
+                # a folded step's duals carry the folded costs: close with exact steps
+                folding, rule, status = False, "closest", None
         if status is Status.CONVERGED:
             return output(status, sol, "", step.raw_status)
         if status is Status.ITERATION_LIMIT:

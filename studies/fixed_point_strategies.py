@@ -1,0 +1,175 @@
+"""Fixed-point strategies (starts, tie-breaks, relaxation, Anderson), mcp-newton and slp on the heuristic suite.
+
+Every strategy runs on every structure of ``studies/heuristic_suite.py``; each
+result goes through the shared verifier (``Result.success``).  The reference of a
+structure is its certified minimum of (4) (closed form or ``milp``), or for the
+large walls the lowest verified multiplier of the run.  Per strategy the table gives:
+
+* ``verified``: share of the structures where the run is verified;
+* ``<=1%``, ``<=2%``: share verified *and* within 1 % / 2 % of the reference;
+* ``<=2% below assoc``: the same, over the certified structures whose minimum lies
+  below the associative multiplier (the issue's target population);
+* ``large``: verified runs on the large walls, and those within 2 % of the best;
+* ``median rel err``: median of ``(lam - ref)/ref`` over verified runs;
+* ``below cert``: verified runs below a certificate by more than 1e-7 (must be 0);
+* ``max fric adm``: the worst friction admissibility error of a verified run;
+* ``median time``: median solve time [s] over all runs.
+
+Use ``python studies/fixed_point_strategies.py [--only LABEL,...] [--no-large]``;
+writes ``studies/output/fixed_point_strategies/{runs.csv,table.md}``.  The
+certificates come from the cache of ``heuristic_suite.py`` (run it first; missing
+ones are computed with ``--time-limit``).
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import math
+import statistics
+import sys
+import time
+from pathlib import Path
+
+import blockmpec as bm
+
+sys.path.insert(0, str(Path(__file__).parent))
+from heuristic_suite import certificate, suite  # noqa: E402
+
+OUT = Path(__file__).resolve().parent / "output" / "fixed_point_strategies"
+
+FP = "fixed-point"
+STRATEGIES: list[tuple[str, str, dict]] = [
+    ("fp associative/closest (old default)", FP, {"start": "associative", "tie_break": "closest"}),
+    ("fp associative/none", FP, {"start": "associative", "tie_break": "none"}),
+    ("fp associative/least-compressed", FP, {"start": "associative", "tie_break": "least-compressed"}),
+    ("fp associative/min-lambda", FP, {"start": "associative", "tie_break": "min-lambda"}),
+    ("fp zero/closest", FP, {"start": "zero", "tie_break": "closest"}),
+    ("fp zero/least-compressed", FP, {"start": "zero", "tie_break": "least-compressed"}),
+    ("fp zero/min-lambda", FP, {"start": "zero", "tie_break": "min-lambda"}),
+    ("fp zero/none", FP, {"start": "zero", "tie_break": "none"}),
+    ("fp dead-load/closest", FP, {"start": "dead-load", "tie_break": "closest"}),
+    ("fp dead-load/least-compressed", FP, {"start": "dead-load", "tie_break": "least-compressed"}),
+    ("fp dead-load/min-lambda", FP, {"start": "dead-load", "tie_break": "min-lambda"}),
+    ("fp dead-load/on-oscillation", FP, {"start": "dead-load", "tie_break": "on-oscillation"}),
+    ("fp dead-load/none", FP, {"start": "dead-load", "tie_break": "none"}),
+    *[(f"fp random(seed={s})/least-compressed", FP, {"start": "random", "seed": s, "tie_break": "least-compressed"})
+      for s in (0, 1, 2)],
+    ("fp random(seed=0)/min-lambda", FP, {"start": "random", "seed": 0, "tie_break": "min-lambda"}),
+    ("fp dead-load/least-compressed, relax 0.5", FP,
+     {"start": "dead-load", "tie_break": "least-compressed", "relaxation": 0.5}),
+    ("fp dead-load/least-compressed, Anderson", FP,
+     {"start": "dead-load", "tie_break": "least-compressed", "acceleration": "anderson"}),
+    ("fp associative/min-lambda, Anderson", FP,
+     {"start": "associative", "tie_break": "min-lambda", "acceleration": "anderson"}),
+    ("fp associative/least-compressed, Anderson", FP,
+     {"start": "associative", "tie_break": "least-compressed", "acceleration": "anderson"}),
+    ("mcp-newton (continuation)", "mcp-newton", {}),
+    ("mcp-newton (no continuation)", "mcp-newton", {"continuation": False}),
+    ("slp alpha=0.01 beta=0.6 (Gilbert)", "slp", {"alpha": 0.01, "beta": 0.6}),
+    ("slp alpha=0 beta=0.6", "slp", {"alpha": 0.0, "beta": 0.6}),
+]
+
+
+def run_all(strategies, entries, time_limit: float) -> list[dict]:
+    rows = []
+    for entry in entries:
+        structure = entry.build()
+        ops = bm.assemble(structure)
+        lam_assoc = bm.solve(ops, "static-lp").multiplier
+        ref = certificate(entry, compute=False)
+        for label, method, options in strategies:
+            opts = dict(options)
+            opts.setdefault("time_limit", time_limit)
+            t0 = time.perf_counter()
+            res = bm.solve(ops, method, **opts)
+            rows.append({
+                "structure": entry.label, "family": entry.family, "strategy": label,
+                "reference": ref["value"], "reference_source": ref["source"], "certified": ref["certified"],
+                "associative": lam_assoc, "multiplier": res.multiplier, "status": res.status.value,
+                "verified": bool(res.success), "iterations": res.iterations,
+                "friction_admissibility": res.residuals.get("friction_admissibility", math.nan),
+                "solve_time_s": res.solve_time_s, "wall_s": time.perf_counter() - t0,
+            })
+        print(f"  {entry.label}: done", file=sys.stderr, flush=True)
+    # large structures: the best verified value of the run is their reference
+    for structure in {r["structure"] for r in rows if r["reference_source"] == "best verified"}:
+        mine = [r for r in rows if r["structure"] == structure]
+        best = min((r["multiplier"] for r in mine if r["verified"]), default=None)
+        for r in mine:
+            r["reference"] = best
+    for r in rows:
+        ok = r["verified"] and r["reference"] not in (None, 0) and r["multiplier"] is not None
+        r["rel_error"] = (r["multiplier"] - r["reference"]) / abs(r["reference"]) if ok else math.nan
+    return rows
+
+
+def _share(flags: list[bool]) -> str:
+    return f"{sum(flags)}/{len(flags)}" if flags else "-"
+
+
+def summary(rows: list[dict], strategies) -> list[dict]:
+    table = []
+    for label, _, _ in strategies:
+        mine = [r for r in rows if r["strategy"] == label]
+        cert = [r for r in mine if r["certified"]]
+        below = [r for r in cert if r["reference"] < r["associative"] * (1 - 1e-6)]
+        large = [r for r in mine if r["reference_source"] == "best verified"]
+        errs = [r["rel_error"] for r in cert if not math.isnan(r["rel_error"])]
+        fric = [r["friction_admissibility"] for r in mine if r["verified"]]
+
+        def within(rs, eps):
+            return [r["verified"] and r["rel_error"] <= eps for r in rs]
+
+        table.append({
+            "strategy": label,
+            "verified": _share([r["verified"] for r in cert]),
+            "<=1%": _share(within(cert, 0.01)),
+            "<=2%": _share(within(cert, 0.02)),
+            "<=2% below assoc": _share(within(below, 0.02)),
+            "large verified": _share([r["verified"] for r in large]),
+            "large <=2% of best": _share(within(large, 0.02)),
+            "median rel err": f"{statistics.median(errs):.2%}" if errs else "-",
+            "below cert": sum(1 for r in cert if r["verified"] and r["rel_error"] < -1e-7),
+            "max fric adm": f"{max(fric):.1e}" if fric else "-",
+            "median time s": f"{statistics.median(r['solve_time_s'] for r in mine):.3g}",
+        })
+    return table
+
+
+def markdown(table: list[dict]) -> str:
+    keys = list(table[0])
+    lines = ["| " + " | ".join(keys) + " |", "|" + "|".join(" --- " if k == "strategy" else " ---: " for k in keys) + "|"]
+    lines += ["| " + " | ".join(str(t[k]) for k in keys) + " |" for t in table]
+    return "\n".join(lines)
+
+
+def main(argv: list[str] | None = None) -> list[dict]:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--only", default="", help="comma-separated substrings of strategy labels")
+    parser.add_argument("--no-large", action="store_true", help="leave out the large walls")
+    parser.add_argument("--time-limit", type=float, default=120.0, help="seconds per run")
+    args = parser.parse_args(argv)
+    strategies = [s for s in STRATEGIES if not args.only or any(o in s[0] for o in args.only.split(","))]
+    entries = suite(include_large=not args.no_large)
+    t0 = time.perf_counter()
+    rows = run_all(strategies, entries, args.time_limit)
+    table = summary(rows, strategies)
+    n_cert = len({r["structure"] for r in rows if r["certified"]})
+    n_below = len({r["structure"] for r in rows if r["certified"] and r["reference"] < r["associative"] * (1 - 1e-6)})
+    text = (f"{n_cert} structures with a certified minimum ({n_below} of them below the associative multiplier), "
+            f"{len({r['structure'] for r in rows}) - n_cert} judged against the best verified value; "
+            f"{time.perf_counter() - t0:.0f} s\n\n" + markdown(table))
+    print(text)
+    OUT.mkdir(parents=True, exist_ok=True)
+    with (OUT / "runs.csv").open("w", newline="") as fh:
+        writer = csv.DictWriter(fh, fieldnames=list(rows[0]))
+        writer.writeheader()
+        writer.writerows(rows)
+    (OUT / "table.md").write_text(text + "\n")
+    print(f"wrote {OUT / 'runs.csv'} and {OUT / 'table.md'}")
+    return table
+
+
+if __name__ == "__main__":
+    main()
