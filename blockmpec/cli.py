@@ -3,6 +3,14 @@
 The spellings here are a contract with scripts outside this repo: extend, never rename.
 Errors go to stderr as one line, with exit code 2 (bad input) or 3 (internal error),
 and no traceback (``--debug`` shows it).
+
+Exit codes
+----------
+``solve``: 0 = verified success; 1 = ran, but no verified success (the status says why);
+2 = bad input or usage; 3 = internal error.  ``compare``: 0 when every run finished,
+whatever the statuses; 2 = bad input (every value, including the output folder, is
+checked before any solve runs); 130 after Ctrl-C (143 after SIGTERM), once the finished
+rows are saved.  ``export``, ``cases``, ``methods``: 0, 2 or 3.
 """
 
 from __future__ import annotations
@@ -54,16 +62,49 @@ def parse_pairs(pairs: list[str] | None, flag: str) -> dict[str, Any]:
     return out
 
 
+def _is_number(v: Any) -> bool:
+    return isinstance(v, (int, float)) and not isinstance(v, bool)
+
+
+def check_case_params(case: str, params: dict[str, Any], known: dict[str, Any]) -> None:
+    """Each value of ``params`` must have the type of its default in ``known`` (a number for a
+    number or None, a string for a string, a list for a list); else an OptionError naming it."""
+    for key, value in params.items():
+        if key not in known:
+            continue  # the case names the unknown key itself, with the valid ones
+        default = known[key]
+        if _is_number(default) or default is None:
+            ok = _is_number(value) or (default is None and value is None)
+            want = "a number"
+        elif isinstance(default, str):
+            ok, want = isinstance(value, str), "a string"
+        elif isinstance(default, (list, tuple)):
+            ok, want = isinstance(value, (list, tuple)), "a list"
+        else:
+            ok, want = True, ""
+        if not ok:
+            raise OptionError(f"-p {key}={json.dumps(value) if not isinstance(value, str) else value}: "
+                              f"case {case!r} expects {want} for {key}")
+
+
 def load_case(case: str, params: dict[str, Any]) -> Structure:
-    """A built-in case name or a structure file path, with parameters applied."""
+    """A built-in case name or a structure file path, with parameters applied (bad values: OptionError)."""
     if case in CASES:
-        return get_case(case).build(**params)
+        spec = get_case(case)
+        check_case_params(case, params, spec.parameters)
+        try:
+            return spec.build(**params)
+        except BlockmpecError:
+            raise
+        except (TypeError, ValueError, ArithmeticError, IndexError, KeyError) as exc:
+            raise OptionError(f"case {case!r} with {params}: {type(exc).__name__}: {exc}") from None
     path = Path(case)
     if path.suffix.lower() == ".json" or path.exists():
         structure = load_structure(path)
         unknown = sorted(set(params) - {"mu", "dilatancy"})
         if unknown:
             raise OptionError(f"structure file {case}: only mu and dilatancy can be set with -p; got {unknown[0]!r}")
+        check_case_params(case, params, {"mu": None, "dilatancy": None})
         return structure.with_material(params.get("mu"), params.get("dilatancy"))
     raise OptionError(f"unknown case {case!r}: not a built-in case ({', '.join(CASES)}) nor a structure file")
 
@@ -76,10 +117,14 @@ def _format_result(label: str, r: Result) -> str:
 
 
 def cmd_solve(args: argparse.Namespace) -> int:
+    from blockmpec.study import check_tolerance
+
+    verify_tol = check_tolerance(args.verify_tol)
     params = parse_pairs(args.param, "-p")
     options = parse_pairs(args.option, "-O")
+    get_solver(args.method)(**options)  # unknown method / bad option: exit 2 before building anything
     structure = load_case(args.case, params)
-    result = solve(structure, args.method, verify_tol=args.verify_tol, **options)
+    result = solve(structure, args.method, verify_tol=verify_tol, **options)
     if args.json:
         out = result.to_dict()
         out["case"] = args.case
@@ -89,12 +134,20 @@ def cmd_solve(args: argparse.Namespace) -> int:
         print(_format_result(args.case, result))
         for name, value in result.residuals.items():
             print(f"  {name:28s} {value:.3e}")
-    return 0
+    return 0 if result.success else 1
 
 
 def cmd_export(args: argparse.Namespace) -> int:
+    out = Path(args.output)
+    if out.is_dir():
+        raise OptionError(f"-o {args.output}: is a folder; give a file name such as {out / 'structure.json'}")
+    if not out.parent.is_dir():
+        raise OptionError(f"-o {args.output}: folder {out.parent} does not exist")
     structure = load_case(args.case, parse_pairs(args.param, "-p"))
-    save_structure(structure, args.output)
+    try:
+        save_structure(structure, args.output)
+    except OSError as exc:
+        raise OptionError(f"-o {args.output}: cannot write ({exc.strerror or exc})") from None
     print(f"wrote {args.output} ({structure.n_blocks} blocks, {len(structure.interfaces)} interfaces)")
     return 0
 
@@ -123,43 +176,191 @@ def cmd_methods(args: argparse.Namespace) -> int:
     return 0
 
 
-def cmd_compare(args: argparse.Namespace) -> int:
-    from blockmpec.compare import BENCHMARK_METHOD_OPTIONS, ProgressBar, compare, write_tables
+def compare_cases(items: list[str]) -> list[Any]:
+    """``--cases`` items as :class:`~blockmpec.compare.CaseRun`: suite labels, built-in case names
+    (default parameters) and structure files; each is built now, so a bad one is an error before
+    any solve."""
+    from blockmpec.compare import CaseRun
+    from blockmpec.operators import assemble
 
-    labels = list(BENCHMARK_SUITE) if not args.cases else [c.strip() for c in args.cases.split(",") if c.strip()]
-    for label in labels:
-        if label not in BENCHMARK_SUITE:
-            raise OptionError(f"--cases: unknown suite case {label!r}; choose from {', '.join(BENCHMARK_SUITE)}")
-    methods = list_solvers() if not args.methods else [m.strip() for m in args.methods.split(",") if m.strip()]
-    for m in methods:
-        get_solver(m)
-    if args.repeat < 1:
-        raise OptionError(f"--repeat: must be >= 1; got {args.repeat}")
-    options: dict[str, dict[str, Any]] = {m: dict(BENCHMARK_METHOD_OPTIONS.get(m, {})) for m in methods}
+    out = []
+    for item in items:
+        if item in BENCHMARK_SUITE:
+            name, params = BENCHMARK_SUITE[item]
+            run = CaseRun(item, name, dict(params))
+        elif item in CASES:
+            run = CaseRun(item, item, {})
+        elif item.lower().endswith(".json") or Path(item).exists():
+            run = CaseRun(Path(item).stem, None, {}, load_case(item, {}))
+        else:
+            raise OptionError(f"--cases: {item!r} is not a suite case ({', '.join(BENCHMARK_SUITE)}), a built-in "
+                              f"case ({', '.join(CASES)}) nor a structure file")
+        out.append(_built(run, assemble))
+    return out
+
+
+def _built(run, assemble):
+    """The case run with its structure built and assembled (errors name the case)."""
+    import dataclasses
+
+    try:
+        structure = run.structure if run.structure is not None else load_case(run.name, run.params)
+        assemble(structure)
+    except BlockmpecError as exc:
+        raise OptionError(f"case {run.label!r}: {exc}") from None
+    return dataclasses.replace(run, structure=structure)
+
+
+def _wall_limit_arg(values: list[str] | None) -> dict[str, float] | float | None:
+    """``--wall-limit 90`` (every method) or ``--wall-limit milp=90`` (repeatable)."""
+    out: dict[str, float] = {}
+    for text in values or []:
+        key, sep, value = text.rpartition("=")
+        try:
+            seconds = float(value)
+        except ValueError:
+            seconds = float("nan")
+        if not (seconds > 0 and seconds < float("inf")):
+            raise OptionError(f"--wall-limit {text}: expected SECONDS or METHOD=SECONDS with a finite number > 0")
+        if not sep:
+            out["*"] = seconds
+        else:
+            out[key] = seconds
+    if not out:
+        return None
+    return out
+
+
+class Terminated(KeyboardInterrupt):
+    """SIGTERM, handled like Ctrl-C (the finished rows are saved), exit code 143."""
+
+    signal_name = "SIGTERM"
+
+
+def _on_sigterm(signum, frame):  # pragma: no cover - exercised through a subprocess
+    raise Terminated()
+
+
+def cmd_compare(args: argparse.Namespace) -> int:
+    import signal
+
+    from blockmpec.compare import (
+        BENCHMARK_METHOD_OPTIONS,
+        ComparisonInterrupted,
+        MethodRun,
+        compare,
+        normalise_cases,
+        normalise_methods,
+    )
+    from blockmpec.runner import check_backend
+    from blockmpec.study import ResultsFolder, check_tolerance, load_study, run_metadata
+
+    # ---- every input is checked before anything runs
+    study = load_study(args.config) if args.config else None
+    if study is not None and args.cases:
+        raise OptionError("--cases and --config: give the cases in one place")
+    if study is not None and args.methods:
+        raise OptionError("--methods and --config: give the methods in one place")
+    verify_tol = check_tolerance(args.verify_tol if args.verify_tol is not None
+                                 else (study.verify_tol if study else 1e-6))
+    repeat = args.repeat if args.repeat is not None else (study.repeat if study else 1)
+    if repeat < 1:
+        raise OptionError(f"--repeat: must be >= 1; got {repeat}")
+    jobs = args.jobs if args.jobs is not None else (study.jobs if study and study.jobs else 1)
+    backend = args.backend or (study.backend if study else None)
+    scheduler = args.scheduler or (study.scheduler if study else None)
+    check_backend(jobs, backend, scheduler)
+    if study is not None:
+        case_runs = [_built(c, __import__("blockmpec.operators", fromlist=["assemble"]).assemble) for c in study.cases]
+        method_runs = list(study.methods)
+    else:
+        items = list(BENCHMARK_SUITE) if not args.cases else [c.strip() for c in args.cases.split(",") if c.strip()]
+        case_runs = compare_cases(items)
+        names = list_solvers() if not args.methods else [m.strip() for m in args.methods.split(",") if m.strip()]
+        for m in names:
+            get_solver(m)
+        method_runs = [MethodRun(m, m, dict(BENCHMARK_METHOD_OPTIONS.get(m, {}))) for m in names]
     for key, value in parse_pairs(args.option, "-O").items():
         method, dot, name = key.partition(".")
-        if not dot or method not in options:
+        hits = [m for m in method_runs if m.name == method]
+        if not dot or not hits:
             raise OptionError(f"-O {key}={value}: expected METHOD.OPTION=VALUE "
-                              f"with METHOD one of {', '.join(methods)}")
-        options[method][name] = value
-    out_dir = Path(args.out)
+                              f"with METHOD one of {', '.join(dict.fromkeys(m.name for m in method_runs))}")
+        for m in hits:
+            m.options[name] = value
+    try:
+        case_runs = normalise_cases(case_runs)
+        method_runs = normalise_methods(method_runs)
+    except (ValueError, TypeError) as exc:
+        if isinstance(exc, BlockmpecError):
+            raise
+        raise OptionError(str(exc)) from None
+    limits = dict(study.wall_limits) if study else {}
+    given = _wall_limit_arg(args.wall_limit)
+    if given:
+        every = given.pop("*", None)
+        if every is not None:
+            limits = {m.label: every for m in method_runs}
+        for key in given:
+            if not any(key in (m.label, m.name) for m in method_runs):
+                raise OptionError(f"--wall-limit {key}=...: no method or label {key!r} in this run")
+        limits.update(given)
+    folder = ResultsFolder(args.out, overwrite=args.overwrite, resume=args.resume)
+    try:
+        return _run_compare(args, folder, case_runs, method_runs, repeat, verify_tol, jobs, backend, scheduler,
+                            limits or None, compare, ComparisonInterrupted, run_metadata, signal)
+    finally:
+        folder.close()
+
+
+def _run_compare(args, folder, case_runs, method_runs, repeat, verify_tol, jobs, backend, scheduler, limits,
+                 compare, ComparisonInterrupted, run_metadata, signal) -> int:
+    from datetime import datetime, timezone
+
+    out_dir = folder.path
+    settings = {"cases": [c.label for c in case_runs], "methods": {m.label: [m.name, m.options] for m in method_runs},
+                "repeat": repeat, "verify_tol": verify_tol, "jobs": jobs, "backend": backend or "serial",
+                "scheduler": scheduler, "wall_limits": limits, "resume": args.resume, "config": args.config}
+    meta = run_metadata(["blockmpec", *sys.argv[1:]] if sys.argv and "blockmpec" in sys.argv[0] else sys.argv,
+                        settings)
+    folder.write_metadata(meta)
+    previous = signal.signal(signal.SIGTERM, _on_sigterm)
     t0 = time.perf_counter()
     results: dict = {}
-    df = compare({lbl: BENCHMARK_SUITE[lbl] for lbl in labels}, [(m, m, options[m]) for m in methods],
-                 repeat=args.repeat, progress=None if args.quiet else ProgressBar(), results=results)
+    try:
+        df = compare(case_runs, method_runs, repeat=repeat, progress=False if args.quiet else None,
+                     verify_tol=verify_tol, results=results, n_jobs=jobs, backend=backend, scheduler=scheduler,
+                     wall_limit=limits, out=folder, resume=args.resume)
+    except ComparisonInterrupted as exc:
+        meta.update(finished=datetime.now(timezone.utc).isoformat(timespec="seconds"),
+                    interrupted=exc.signal_name, rows=len(exc.table), wall_time_s=time.perf_counter() - t0)
+        folder.write_metadata(meta)
+        print(f"blockmpec: interrupted ({exc.signal_name}): {len(exc.table)} finished row(s) saved in "
+              f"{out_dir / 'results.csv'}; rerun with --resume to continue", file=sys.stderr)
+        return 143 if exc.signal_name == "SIGTERM" else 130
+    finally:
+        signal.signal(signal.SIGTERM, previous)
     wall_time = time.perf_counter() - t0
-    paths = write_tables(df, out_dir)
+    from blockmpec.profiles import summary_table, summary_text
+
+    summary = summary_table(df)
+    paths = [out_dir / "results.csv", out_dir / "results.parquet"]
+    paths += folder.write_tables(summary, stem="summary")[:1]
     print(_table(df, "multiplier", "{:.5f}", "Collapse multiplier lambda (cf. the paper's Table 1)", reference=True))
     print()
     print(_table(df, "friction_admissibility", "{:.1e}",
                  "Friction admissibility error ||(N_f^T x)+|| / ||N_f^T x|| (cf. the paper's Table 2)"))
     print()
     print(_table(df, "solve_time_s", "{:.3g}", "Solve time [s] (set-up excluded"
-                 + (f"; median of {args.repeat} runs)" if args.repeat > 1 else ")"), median=True))
+                 + (f"; median of {repeat} runs)" if repeat > 1 else ")"), median=True))
+    print()
+    print(summary_text(summary))
     anomalies = df[df["anomaly"].astype(str) != ""]
     for _, r in anomalies.iterrows():
         print(f"ANOMALY {r['case']} · {r['method_label']}: {r['anomaly']} (lam {r['multiplier']:.8g}, "
               f"reference {r['reference']:.8g})")
+    for stale in out_dir.glob("*.png"):  # figures of an earlier state of a resumed run
+        stale.unlink()
     if not args.no_figures:
         from blockmpec.plot import comparison_figures
 
@@ -167,8 +368,11 @@ def cmd_compare(args: argparse.Namespace) -> int:
             paths += comparison_figures(df, results, out_dir)
         except Exception as exc:  # figures are a convenience: tables are already written
             print(f"figures failed: {type(exc).__name__}: {exc}", file=sys.stderr)
+    meta.update(finished=datetime.now(timezone.utc).isoformat(timespec="seconds"), rows=len(df),
+                wall_time_s=wall_time)
+    paths.append(folder.write_metadata(meta))
     print(f"\nran {len(df)} solves in {wall_time:.1f} s; wrote {len(paths)} file(s) into {out_dir.resolve()}")
-    for p in paths[:2]:
+    for p in paths[:3]:
         print(f"  {p}")
     return 0
 
@@ -177,7 +381,9 @@ def _table(df, key: str, fmt: str, title: str, reference: bool = False, median: 
     """A ``case x method`` text table of column ``key`` of the comparison table ``df``."""
     from blockmpec.compare import text_table
 
-    note = ("NA reference: c = certified minimum (MILP), b = best verified value of the run, f = closed form"
+    note = ("NA reference (for a method that produced nothing): f = closed form, c = certified minimum, "
+            "b = best verified value; after the colon the method that produced it.\n"
+            "No method is graded against a value only it produced (results.csv: reference_method, reference_note)."
             if reference else "")
     return text_table(df, key, fmt, title, reference=reference, note=note, median=median)
 
@@ -193,7 +399,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("-p", "--param", action="append", metavar="KEY=VALUE", help="case parameter")
     p.add_argument("-O", "--option", action="append", metavar="KEY=VALUE", help="method option")
     p.add_argument("--json", action="store_true", help="print one JSON object")
-    p.add_argument("--verify-tol", type=float, default=1e-6, help="largest residual accepted as success")
+    p.add_argument("--verify-tol", default=1e-6, help="largest residual accepted as success (finite, > 0)")
     p.set_defaults(func=cmd_solve)
 
     p = sub.add_parser("export", help="write a built-in case as a structure file")
@@ -207,13 +413,28 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("methods", help="list methods and their options")
     p.set_defaults(func=cmd_methods)
 
-    p = sub.add_parser("compare", help="run methods over the benchmark suite and print tables (the main job)")
-    p.add_argument("--cases", default="", help=f"comma-separated subset of: {', '.join(BENCHMARK_SUITE)}")
+    p = sub.add_parser("compare", help="run methods over cases and print tables and figures (the main job)")
+    p.add_argument("--cases", default="", help="comma-separated suite labels "
+                   f"({', '.join(BENCHMARK_SUITE)}), built-in case names or structure files (default: the suite)")
     p.add_argument("--methods", default="", help="comma-separated method names (default: all)")
-    p.add_argument("--repeat", type=int, default=1, help="repetitions per case and method")
-    p.add_argument("--out", default="blockmpec-output", help="output folder (default: ./blockmpec-output)")
+    p.add_argument("--config", metavar="STUDY.toml", help="a study file: cases with parameters, methods with "
+                   "options, repeats, wall-clock limits (see studies/example_study.toml)")
+    p.add_argument("--repeat", type=int, default=None, help="repetitions per case and method (default 1)")
+    p.add_argument("--out", default="blockmpec-output", help="output folder (default: ./blockmpec-output); "
+                   "refused if it holds files, unless --overwrite or --resume")
+    p.add_argument("--overwrite", action="store_true", help="delete the earlier run's outputs in --out first")
+    p.add_argument("--resume", action="store_true", help="keep the finished rows in --out and run only the others")
     p.add_argument("-O", "--option", action="append", metavar="METHOD.KEY=VALUE",
                    help="method option, e.g. -O milp.time_limit=120 (overrides the suite's defaults)")
+    p.add_argument("--jobs", "-j", type=int, default=None, help="worker processes (default 1)")
+    p.add_argument("--backend", choices=["loky", "dask"], default=None,
+                   help="loky: worker processes on this machine (joblib); dask: a Dask cluster")
+    p.add_argument("--scheduler", metavar="ADDRESS", default=None,
+                   help="Dask scheduler address (with --backend dask); without it a local cluster of --jobs workers")
+    p.add_argument("--wall-limit", action="append", metavar="[METHOD=]SECONDS",
+                   help="wall-clock limit per solve, enforced from outside (default: 1.5 x the method's time_limit, "
+                        "at least +30 s; 600 s without one)")
+    p.add_argument("--verify-tol", default=None, help="largest residual accepted as success (finite, > 0; default 1e-6)")
     p.add_argument("--no-figures", action="store_true", help="write the tables only")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=cmd_compare)

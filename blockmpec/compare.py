@@ -1,14 +1,19 @@
 r"""Run several methods over several cases and tabulate the answers in one long table.
 
->>> from blockmpec.compare import compare, write_tables
+>>> from blockmpec.compare import compare
 >>> df = compare({"two-blocks": ("two-blocks", {"eta": 3.0, "mu": 0.65})},
-...              ["static-lp", "fixed-point", ("fixed-point", {"relaxation": 0.5})])  # doctest: +SKIP
->>> df[["case", "method_label", "multiplier", "reference", "rel_error"]]  # doctest: +SKIP
->>> write_tables(df, "out")  # doctest: +SKIP
+...              ["static-lp", "fixed-point", ("fixed-point", {"relaxation": 0.5})],
+...              n_jobs=2, out="my-study")  # doctest: +SKIP
+>>> df[["case", "method_label", "multiplier", "reference", "reference_source", "rel_error"]]  # doctest: +SKIP
 
 One row per (case, method with options, repetition).  Only the solve is timed
 (:func:`blockmpec.solve` times set-up and solve apart; structure generation,
-operator assembly and the residual evaluation are not timed).
+operator assembly and the residual evaluation are not timed).  Every solve runs in
+a worker process under a wall-clock limit enforced from outside
+(:mod:`blockmpec.runner`): a crash or hang becomes a row with status ``error`` or
+``time_limit``.  With ``out=`` every finished row is saved at once
+(:class:`blockmpec.study.ResultsFolder`), so an interrupt keeps it and ``resume=True``
+skips it next time.
 
 Columns
 -------
@@ -17,42 +22,51 @@ Columns
 ``p_method_<option>``, ``repetition``, ``status``, ``success``, ``verified``,
 ``certified`` (see below), ``multiplier``, one column per residual of
 :data:`blockmpec.verify.RESIDUAL_NAMES` and ``max_residual``, ``build_time_s``,
-``solve_time_s``, ``total_time_s`` (build + solve), ``iterations``, ``reference``,
-``reference_source``, ``abs_error``, ``rel_error``, ``anomaly``, ``closed_form``
-(the case's closed form for the row's problem, or empty) and ``message`` (the
-reason of a skip or failure).
+``solve_time_s``, ``total_time_s`` (build + solve), ``iterations``,
+``wall_time_s`` (the whole task as the supervisor saw it) and ``wall_limit_s`` (its
+outside limit), ``reference``, ``reference_source``, ``reference_method`` (the method
+label that produced the reference; empty for a closed form), ``reference_note``,
+``abs_error``, ``rel_error``, ``anomaly``, ``closed_form`` (the case's closed form for
+the row's problem, or empty), ``message`` (the reason of a skip or failure) and
+``run_key`` (case, case parameters, method, options and repetition: what ``resume``
+matches).
 
 Reference multiplier
 --------------------
-Each row is compared with one reference value ``lam_ref`` per (case, problem):
+Each row is compared with one reference value ``lam_ref``, chosen per (case,
+problem) by rank:
 
-non-associative rows (the minimum of the MPEC (4) is the target)
-    1. ``"certified"``: the smallest multiplier of a successful run of a
-       *certifying* method -- one whose class sets ``certifies_minimum = True``,
-       as ``milp`` does -- with status ``optimal`` (a closed branch-and-bound
-       gap: a proven global minimum of (4)); a run asked to maximise
-       (``extra["sense"] == "max"``) is never taken as the minimum;
-    2. else ``"best"``: the smallest *verified* non-associative multiplier of
-       the run (every verified point solves (3), so this is an upper bound on
-       the minimum);
-    3. else ``"closed-form"``: :func:`blockmpec.cases.closed_form` (minimum);
-    4. else ``"none"``.
-associative rows
-    ``"best"``: the smallest verified associative multiplier (the LP optimum is
-    unique, so all verified values agree), else ``"closed-form"``, else ``"none"``.
+1. ``"closed-form"``: :func:`blockmpec.cases.closed_form` for the row's problem
+   (for the non-associative problem: the minimum over solutions of (3));
+2. ``"certified"`` (non-associative rows only): the smallest multiplier of a
+   successful run of a *certifying* method -- one whose class sets
+   ``certifies_minimum = True``, as ``milp`` does -- with status ``optimal`` (a
+   closed branch-and-bound gap: a proven global minimum of (4)); a run asked to
+   maximise (``extra["sense"] == "max"``) is never taken as the minimum;
+3. ``"best"``: the smallest *verified* multiplier of the problem (every verified
+   non-associative point solves (3), so this is an upper bound on the minimum of (4);
+   verified associative values all equal the LP optimum);
+4. ``"none"``.
+
+**A row is never graded against a value that only its own method produced**: ranks 2
+and 3 take only values of *other* methods (``method`` differs), so a method that alone
+certified or alone found a value falls to the next rank, and ``reference_note`` says
+so.  ``reference_method`` names the method label that produced the reference.
 
 ``abs_error = |lam - lam_ref|`` and ``rel_error = abs_error / |lam_ref|``.
 
 Anomalies (column ``anomaly``, ``;``-separated, empty when none), with
 ``tol = 1e-7 max(1, |lam_ref|)``:
 
-* ``below-certified-minimum``: a verified non-associative multiplier below the
-  certified minimum by more than ``tol`` (the certificate or the point is wrong);
+* ``below-certified-minimum``: a verified non-associative multiplier below a
+  certified minimum (of any method) by more than ``tol`` (the certificate or the
+  point is wrong);
+* ``below-closed-form-minimum``: the same against the non-associative closed form;
 * ``above-associative``: a verified non-associative multiplier above the
-  associative one by more than ``tol`` (impossible: the forces of every solution
-  of (3) are statically admissible for the associative LP (1));
-* ``associative-mismatch``: two verified associative multipliers differ by more
-  than ``tol`` (the LP optimum is unique).
+  associative reference by more than ``tol`` (impossible: the forces of every
+  solution of (3) are statically admissible for the associative LP (1));
+* ``associative-mismatch``: a verified associative multiplier differs from the
+  associative reference by more than ``tol`` (the LP optimum is unique).
 """
 
 from __future__ import annotations
@@ -61,17 +75,16 @@ import dataclasses
 import math
 import sys
 import time
-import traceback
 from collections.abc import Callable, Iterable, Mapping
 from pathlib import Path
 from typing import Any
 
 from blockmpec.cases import CASES, closed_form, get_case
+from blockmpec.errors import OptionError
 from blockmpec.geometry import Structure
 from blockmpec.operators import assemble
 from blockmpec.registry import get_solver
 from blockmpec.result import Result, Status
-from blockmpec.solver import solve
 from blockmpec.verify import RESIDUAL_NAMES
 
 #: absolute tolerance (times max(1, |lam_ref|)) of the anomaly checks
@@ -85,8 +98,8 @@ BENCHMARK_METHOD_OPTIONS: dict[str, dict[str, Any]] = {
     "mcp-newton": {"time_limit": 60.0},
 }
 
-#: reference sources, in order of preference for non-associative rows
-REFERENCE_SOURCES = ("certified", "best", "closed-form", "none")
+#: reference sources, in order of rank
+REFERENCE_SOURCES = ("closed-form", "certified", "best", "none")
 
 
 # --------------------------------------------------------------------------- inputs
@@ -239,35 +252,84 @@ def certifies_minimum(method: str) -> bool:
 # --------------------------------------------------------------------------- progress
 
 
-class ProgressBar:
-    """Plain-text progress line on a stream (stderr by default), rewritten with ``\\r``.
+class Progress:
+    """A tqdm progress bar on stderr: completed/total, the solve in progress with its elapsed
+    time (refreshed twice a second, also during a long solve) and the failures so far.
 
-    Call it as ``bar(done, total, case_label, method_label)`` before each run and
-    ``bar.close()`` at the end.
+    The running solves are read from start markers that the supervisors write into
+    ``marker_dir`` (:class:`blockmpec.runner.Task`), so the elapsed time is the real one for
+    every backend on this machine.
     """
 
-    def __init__(self, stream: Any = None, width: int = 24) -> None:
-        self.stream = sys.stderr if stream is None else stream
-        self.width = width
-        self.t0 = time.perf_counter()
-        self._last = 0
+    def __init__(self, total: int, labels: dict[int, str], marker_dir: str, *, enabled: bool | None = None,
+                 initial: int = 0) -> None:
+        import threading
 
-    def __call__(self, done: int, total: int, case: str, method: str) -> None:
-        filled = int(self.width * done / max(total, 1))
-        text = (f"[{'#' * filled}{'.' * (self.width - filled)}] {done}/{total} "
-                f"{time.perf_counter() - self.t0:6.1f}s  {case} · {method}")
-        pad = max(self._last - len(text), 0)
-        self._last = len(text)
-        self.stream.write("\r" + text + " " * pad)
-        self.stream.flush()
+        from tqdm.auto import tqdm
+
+        self.labels, self.marker_dir, self.failed = labels, Path(marker_dir), 0
+        self.bar = tqdm(total=total, initial=initial, desc="compare", unit="solve", file=sys.stderr,
+                        disable=(not enabled) if enabled is not None else None, dynamic_ncols=True, leave=True,
+                        bar_format="{desc}: {percentage:3.0f}%|{bar:20}| {n_fmt}/{total_fmt} [{elapsed}] {postfix}")
+        self._stop = threading.Event()
+        self._thread = threading.Thread(target=self._tick, daemon=True)
+        if not self.bar.disable:
+            self._thread.start()
+
+    def running(self) -> list[tuple[float, str]]:
+        """``(elapsed seconds, "case · method")`` of the solves in progress, longest first."""
+        now, out = time.time(), []
+        try:
+            for marker in self.marker_dir.glob("*.start"):
+                try:
+                    started = float(marker.read_text())
+                except (OSError, ValueError):
+                    continue
+                out.append((now - started, self.labels.get(int(marker.stem), marker.stem)))
+        except OSError:
+            pass
+        return sorted(out, reverse=True)
+
+    def _postfix(self) -> str:
+        run = self.running()
+        text = "" if not run else f"running {run[0][1]} {run[0][0]:.0f}s" + (f" (+{len(run) - 1})" if len(run) > 1 else "")
+        return f"{text}{', ' if text else ''}failed {self.failed}"
+
+    def _tick(self) -> None:
+        while not self._stop.wait(0.5):
+            self.bar.set_postfix_str(self._postfix(), refresh=True)
+
+    def finished(self, row: dict[str, Any]) -> None:
+        if row.get("status") in (Status.ERROR.value, Status.TIME_LIMIT.value):
+            self.failed += 1
+        self.bar.update(1)
+        self.bar.set_postfix_str(self._postfix(), refresh=False)
 
     def close(self) -> None:
-        """End the line."""
-        self.stream.write("\n")
-        self.stream.flush()
+        self._stop.set()
+        self.bar.set_postfix_str(f"failed {self.failed}", refresh=False)
+        self.bar.close()
 
 
 # --------------------------------------------------------------------------- the run
+
+
+class ComparisonInterrupted(KeyboardInterrupt):
+    """Raised by :func:`compare` after an interrupt, once the finished rows are saved.
+
+    ``table`` holds the finished rows (with references), ``saved`` the folder or None.
+    """
+
+    def __init__(self, table, saved: Path | None, signal_name: str = "SIGINT") -> None:
+        super().__init__(f"interrupted by {signal_name}; {len(table)} finished row(s) saved")
+        self.table, self.saved, self.signal_name = table, saved, signal_name
+
+
+def run_key(case: CaseRun, method: MethodRun, rep: int) -> str:
+    """What ``resume`` matches: case label and parameters, method name and options, repetition."""
+    import json
+
+    return json.dumps([case.label, case.params, method.name, method.options, rep], sort_keys=True, default=str)
 
 
 def compare(
@@ -278,6 +340,14 @@ def compare(
     progress: Callable[[int, int, str, str], None] | bool | None = None,
     verify_tol: float = 1e-6,
     results: dict | None = None,
+    n_jobs: int = 1,
+    backend: str | None = None,
+    scheduler: str | None = None,
+    wall_limit: float | Mapping[str, float] | None = None,
+    isolate: bool = True,
+    out: Any = None,
+    resume: bool = False,
+    overwrite: bool = False,
 ):
     """Run every method on every case and return one long-format table.
 
@@ -289,66 +359,192 @@ def compare(
         See :func:`normalise_methods` (e.g. ``["static-lp", ("fixed-point", {"relaxation": 0.5})]``).
     repeat : int
         Repetitions of every (case, method) pair (timings vary; answers should not).
-    progress : callable, True or None
-        ``progress(done, total, case_label, method_label)`` before each run;
-        ``True`` shows a :class:`ProgressBar` on stderr.
+    progress : bool, callable or None
+        ``True``: a tqdm bar on stderr (see :class:`Progress`); ``None``: the same when stderr is
+        a terminal; ``False``: none; a callable is called as ``progress(done, total, case, method)``
+        after each finished run.
     verify_tol : float
         Passed to :func:`blockmpec.solve`.
     results : dict, optional
         If given, filled with ``(case_label, method_label, repetition) -> (Result, Structure)``
-        (for figures of mechanisms and traces).
+        (for figures of mechanisms and traces), also for rows taken over by ``resume``.
+    n_jobs : int
+        Worker processes (each supervising one solve at a time).
+    backend : {None, "loky", "dask"}
+        ``None``: serial for ``n_jobs=1``, else ``"loky"`` (joblib); ``"dask"``: a Dask cluster
+        (see :func:`blockmpec.runner.execute`).
+    scheduler : str, optional
+        Address of a running Dask scheduler; without it ``backend="dask"`` starts a local
+        cluster of ``n_jobs`` workers.
+    wall_limit : float or mapping, optional
+        Outside wall-clock limit per solve [s]: one number for all, or a mapping from method
+        label or method name to seconds; the default is :func:`blockmpec.runner.default_wall_limit`.
+    isolate : bool
+        ``False`` runs the solves in the supervising process (no protection; for debugging).
+    out : path or :class:`~blockmpec.study.ResultsFolder`, optional
+        Save every finished row there at once (``rows.jsonl``, ``solutions/``) and the tables
+        at the end (``results.csv``, ``results.parquet``).  A path is opened with ``resume``
+        and ``overwrite``; a folder with files is refused without one of them.
+    resume : bool
+        Skip the runs whose ``run_key`` is already in ``out`` and keep their rows.
 
     Returns
     -------
     pandas.DataFrame
-        One row per (case, method, repetition); columns described in the module
-        docstring and :data:`COLUMNS`.  Reference columns come from
-        :func:`add_references`.
+        One row per (case, method, repetition); columns in the module docstring and
+        :data:`COLUMNS`.
+
+    Raises
+    ------
+    ComparisonInterrupted
+        On Ctrl-C (or SIGTERM, where the caller turns it into KeyboardInterrupt), after the
+        finished rows are saved; its ``table`` holds them.
     """
-    import pandas as pd
+    import tempfile
+
+    from blockmpec.runner import Task, check_backend, default_wall_limit, execute
+    from blockmpec.study import ResultsFolder, check_tolerance
 
     if isinstance(repeat, bool) or not isinstance(repeat, int) or repeat < 1:
         raise ValueError(f"repeat must be an integer >= 1; got {repeat!r}")
+    verify_tol = check_tolerance(verify_tol, "verify_tol")
+    check_backend(n_jobs, backend, scheduler)
     case_runs = normalise_cases(cases)
     method_runs = normalise_methods(methods)
-    bar = ProgressBar() if progress is True else (progress or None)
-    total = len(case_runs) * len(method_runs) * repeat
-    done = 0
-    rows: list[dict[str, Any]] = []
+    limits = _wall_limits(wall_limit, method_runs, default_wall_limit)
+    folder = None
+    if out is not None:
+        folder = out if isinstance(out, ResultsFolder) else ResultsFolder(out, overwrite=overwrite, resume=resume,
+                                                                          flag="out")
+    try:
+        previous = {r["run_key"]: r for r in folder.finished_rows()} if (folder is not None and resume) else {}
+        return _run(case_runs, method_runs, repeat, progress, verify_tol, results, n_jobs, backend, scheduler,
+                    limits, isolate, folder, previous, Task, execute, tempfile)
+    finally:
+        if folder is not None and not isinstance(out, ResultsFolder):
+            folder.close()
+
+
+def _wall_limits(wall_limit, method_runs, default) -> dict[str, float]:
+    out = {}
+    for m in method_runs:
+        if wall_limit is None:
+            value = default(m.options)
+        elif isinstance(wall_limit, Mapping):
+            value = wall_limit.get(m.label, wall_limit.get(m.name, default(m.options)))
+        else:
+            value = wall_limit
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or not (0 < value < math.inf):
+            raise OptionError(f"wall limit of {m.label}: must be a finite number of seconds > 0; got {value!r}")
+        out[m.label] = float(value)
+    return out
+
+
+def _run(case_runs, method_runs, repeat, progress, verify_tol, results, n_jobs, backend, scheduler, limits,
+         isolate, folder, previous, Task, execute, tempfile):
+    import pandas as pd
+
+    # ---- the tasks (cases built once, here: a case that fails to build gives error rows)
+    plans: list[tuple[str, dict[str, Any], Any]] = []  # (run_key, base row, task or None)
+    structures: dict[str, Structure | None] = {}
+    marker_dir = tempfile.mkdtemp(prefix="blockmpec-progress-")
+    sys_path = tuple(p for p in sys.path if p)
+    labels: dict[int, str] = {}
     for case in case_runs:
-        structure, ops, case_error = None, None, ""
+        structure, case_error = None, ""
         try:
             structure = case.build()
-            ops = assemble(structure)
+            assemble(structure)  # bad geometry is reported once per case, not once per solve
         except Exception as exc:  # one bad case must not stop the run
             case_error = f"case failed to build: {type(exc).__name__}: {exc}"
+            structure = None
+        structures[case.label] = structure
         refs = {p: _closed_form(case, p) for p in ("associative", "non-associative")}
         for method in method_runs:
             cls = get_solver(method.name)
             for rep in range(repeat):
-                done += 1
-                if bar:
-                    bar(done, total, case.label, method.label)
+                key = run_key(case, method, rep)
                 row = _base_row(case, method, rep, cls.problem, structure)
-                row["closed_form"] = refs[cls.problem]
+                row.update(closed_form=refs[cls.problem], wall_limit_s=limits[method.label], run_key=key)
+                task = None
                 if case_error:
                     row.update(status=Status.ERROR.value, message=case_error)
-                    rows.append(row)
-                    continue
-                try:
-                    res = solve(ops, method.name, verify_tol=verify_tol, **method.options)
-                except Exception as exc:  # solve() already turns backend failures into a status
-                    row.update(status=Status.ERROR.value,
-                               message=f"run failed: {type(exc).__name__}: {exc}",
-                               traceback=traceback.format_exc(limit=3))
-                    rows.append(row)
-                    continue
-                row.update(_result_fields(res))
-                rows.append(row)
+                elif key not in previous:
+                    plugin = cls.__module__
+                    task = Task(len(plans), structure, method.name, dict(method.options), verify_tol,
+                                limits[method.label],
+                                plugins=() if plugin.startswith("blockmpec.") else (plugin,),
+                                sys_path=sys_path, marker_dir=marker_dir)
+                    labels[task.task_id] = f"{case.label} · {method.label}"
+                plans.append((key, row, task))
+    rows: dict[int, dict[str, Any]] = {}
+    for i, (key, row, task) in enumerate(plans):
+        if key in previous:
+            rows[i] = previous[key]
+            if results is not None and folder is not None:
+                res = folder.load_result(key)
+                if res is not None:
+                    results[(row["case"], row["method_label"], row["repetition"])] = (res, structures[row["case"]])
+        elif task is None:  # the case failed to build
+            rows[i] = row
+            if folder is not None:
+                folder.append(row)
+    extra_previous = [r for k, r in previous.items() if k not in {p[0] for p in plans}]
+    tasks = [t for _, _, t in plans if t is not None]
+    total = len(plans)
+    bar = None
+    if progress is True or progress is None:
+        bar = Progress(total, labels, marker_dir, enabled=True if progress else None, initial=total - len(tasks))
+    callback = progress if callable(progress) else None
+    last_write = time.perf_counter()
+
+    def table():
+        frame = [rows[i] for i in sorted(rows)] + extra_previous
+        return _frame(pd, frame)
+
+    interrupted = None
+    try:
+        for outcome in execute(tasks, n_jobs=n_jobs, backend=backend, scheduler=scheduler, isolate=isolate):
+            key, row, task = plans[outcome.task_id]
+            row = dict(row)
+            row["wall_time_s"] = float(outcome.wall_time_s)
+            if outcome.result is not None:
+                row.update(_result_fields(outcome.result))
                 if results is not None:
-                    results[(case.label, method.label, rep)] = (res, structure)
-    if bar and hasattr(bar, "close"):
-        bar.close()
+                    results[(row["case"], row["method_label"], row["repetition"])] = (
+                        outcome.result, structures[row["case"]])
+            else:
+                row.update(status=outcome.status, message=outcome.message)
+                if outcome.traceback:
+                    row["traceback"] = outcome.traceback
+            rows[outcome.task_id] = row
+            if folder is not None:
+                folder.append(row, outcome.result)
+                if time.perf_counter() - last_write > 5.0:  # the tables too, now and then (by rename)
+                    folder.write_tables(table())
+                    last_write = time.perf_counter()
+            if bar is not None:
+                bar.finished(row)
+            if callback is not None:
+                callback(len(rows), total, row["case"], row["method_label"])
+    except KeyboardInterrupt as exc:
+        interrupted = exc
+    finally:
+        if bar is not None:
+            bar.close()
+        import shutil
+
+        shutil.rmtree(marker_dir, ignore_errors=True)
+    df = table()
+    if folder is not None:
+        folder.write_tables(df)
+    if interrupted is not None:
+        raise ComparisonInterrupted(df, folder.path if folder is not None else None,
+                                    getattr(interrupted, "signal_name", "SIGINT")) from None
+    return df
+
+
+def _frame(pd, rows: list[dict[str, Any]]):
     df = pd.DataFrame(rows)
     for col in COLUMNS:
         if col not in df.columns:
@@ -368,9 +564,9 @@ COLUMNS = (
     "method", "method_label", "problem",
     "repetition", "status", "success", "verified", "certified", "multiplier",
     *RESIDUAL_NAMES, "max_residual",
-    "build_time_s", "solve_time_s", "total_time_s", "iterations",
-    "reference", "reference_source", "abs_error", "rel_error", "anomaly",
-    "closed_form", "message",
+    "build_time_s", "solve_time_s", "total_time_s", "iterations", "wall_time_s", "wall_limit_s",
+    "reference", "reference_source", "reference_method", "reference_note", "abs_error", "rel_error", "anomaly",
+    "closed_form", "message", "run_key",
 )
 
 
@@ -428,76 +624,110 @@ def _finite(v: Any) -> bool:
         return False
 
 
-def select_reference(rows, problem: str) -> tuple[float | None, str]:
-    """The reference multiplier of one (case, problem) group and its source.
+def _candidates(grp, column: str) -> list[tuple[float, str, str]]:
+    """``(lam, method, method_label)`` of the rows of ``grp`` with a finite lam and a true ``column``."""
+    out = []
+    for lam, flag, method, label in zip(grp["multiplier"], grp[column], grp["method"], grp["method_label"]):
+        if _finite(lam) and bool(flag) and not (isinstance(flag, float) and math.isnan(flag)):
+            out.append((float(lam), str(method), str(label)))
+    return out
+
+
+def select_reference(rows, problem: str, method: str | None = None) -> tuple[float | None, str, str, str]:
+    """The reference of the rows of one (case, problem) group, for a row of ``method``.
 
     Parameters
     ----------
     rows : pandas.DataFrame
-        The rows of one case and one problem, with columns ``verified``,
-        ``certified``, ``multiplier`` and ``closed_form``.
+        The rows of one case and one problem, with columns ``method``, ``method_label``,
+        ``verified``, ``certified``, ``multiplier`` and ``closed_form``.
     problem : {"associative", "non-associative"}
+    method : str, optional
+        The method of the row to be graded: values it produced are left out (ranks 2 and 3).
+        ``None``: the reference for a method that produced nothing (the table's headline).
 
     Returns
     -------
-    (float or None, str)
-        The value and its source (one of :data:`REFERENCE_SOURCES`).
+    (value or None, source, producing method label, note)
+        ``source`` is one of :data:`REFERENCE_SOURCES`; the note says when the row's own
+        method was passed over.
     """
-    lam = rows["multiplier"]
-    ok = [_finite(v) for v in lam]
-    if problem == "non-associative":
-        cert = [float(v) for v, c, g in zip(lam, rows["certified"], ok) if g and bool(c)]
-        if cert:
-            return min(cert), "certified"
-    verified = [float(v) for v, vv, g in zip(lam, rows["verified"], ok) if g and bool(vv)]
-    if verified:
-        return min(verified), "best"
     forms = [float(v) for v in rows["closed_form"] if _finite(v)]
     if forms:
-        return forms[0], "closed-form"
-    return None, "none"
+        return forms[0], "closed-form", "", ""
+    notes = []
+    if problem == "non-associative":
+        cert = _candidates(rows, "certified")
+        other = [c for c in cert if c[1] != method]
+        if other:
+            lam, _, label = min(other)
+            return lam, "certified", label, ""
+        if cert:
+            notes.append("the only certificate is this method's own")
+    verified = _candidates(rows, "verified")
+    other = [c for c in verified if c[1] != method]
+    if other:
+        lam, _, label = min(other)
+        if verified and not notes and min(verified)[1] == method and min(verified)[0] < lam:
+            notes.append("the best verified value is this method's own")
+        return lam, "best", label, "; ".join(notes + ["graded against another method's best verified value"]
+                                            if notes else [])
+    if verified:
+        notes.append("no other method produced a verified value")
+    return None, "none", "", "; ".join(notes + ["not graded"]) if notes else ""
 
 
 def add_references(df, tol: float = ANOMALY_TOL):
-    """Fill ``reference``, ``reference_source``, ``abs_error``, ``rel_error`` and ``anomaly``.
+    """Fill ``reference``, ``reference_source``, ``reference_method``, ``reference_note``,
+    ``abs_error``, ``rel_error`` and ``anomaly``.
 
-    Works on any frame with columns ``case, problem, multiplier, verified,
-    certified, closed_form`` (see the module docstring for the rules).  Returns
+    Works on any frame with columns ``case, problem, method, method_label, multiplier,
+    verified, certified, closed_form`` (see the module docstring for the rules).  Returns
     the same frame (modified in place).
     """
     import numpy as np
 
     n = len(df)
-    reference = [None] * n
-    source = ["none"] * n
-    anomaly = [""] * n
+    cols = ("reference", "reference_source", "reference_method", "reference_note", "abs_error", "rel_error", "anomaly")
     if n == 0:
-        for col in ("reference", "reference_source", "abs_error", "rel_error", "anomaly"):
+        for col in cols:
             df[col] = []
         return df
+    if "method" not in df.columns:
+        df["method"] = df["method_label"] if "method_label" in df.columns else ""
+    if "method_label" not in df.columns:
+        df["method_label"] = df["method"]
+    reference = [None] * n
+    source, producer, note, anomaly = ["none"] * n, [""] * n, [""] * n, [""] * n
     pos = {idx: i for i, idx in enumerate(df.index)}
     assoc_ref: dict[Any, float | None] = {}
+    floor: dict[Any, list[tuple[float, str]]] = {}  # proven lower bounds of the non-associative minimum
     for (case, problem), grp in df.groupby(["case", "problem"], sort=False):
-        value, src = select_reference(grp, problem)
         if problem == "associative":
-            assoc_ref[case] = value
-        for idx in grp.index:
-            reference[pos[idx]] = value
-            source[pos[idx]] = src
-    for i, (idx, r) in enumerate(df.iterrows()):
-        lam, ref = r["multiplier"], reference[i]
+            assoc_ref[case] = select_reference(grp, problem)[0]
+        else:
+            floor[case] = [(c[0], "below-certified-minimum") for c in _candidates(grp, "certified")]
+            floor[case] += [(float(v), "below-closed-form-minimum") for v in grp["closed_form"] if _finite(v)][:1]
+        for idx, method in zip(grp.index, grp["method"]):
+            i = pos[idx]
+            reference[i], source[i], producer[i], note[i] = select_reference(grp, problem, str(method))
+    for i, (_, r) in enumerate(df.iterrows()):
+        lam = r["multiplier"]
         if not (_finite(lam) and bool(r["verified"])):
             continue
         lam = float(lam)
         flags = []
         if r["problem"] == "non-associative":
-            if source[i] == "certified" and lam < ref - tol * max(1.0, abs(ref)):
-                flags.append("below-certified-minimum")
+            for bound, flag in floor.get(r["case"], []):
+                if lam < bound - tol * max(1.0, abs(bound)) and flag not in flags:
+                    flags.append(flag)
             a = assoc_ref.get(r["case"])
             if a is not None and lam > a + tol * max(1.0, abs(a)):
                 flags.append("above-associative")
-        elif ref is not None and abs(lam - ref) > tol * max(1.0, abs(ref)):
-            flags.append("associative-mismatch")
+        else:
+            ref = reference[i]
+            if ref is not None and abs(lam - ref) > tol * max(1.0, abs(ref)):
+                flags.append("associative-mismatch")
         anomaly[i] = ";".join(flags)
     lam_arr = np.array([float(v) if _finite(v) else np.nan for v in df["multiplier"]])
     ref_arr = np.array([np.nan if v is None else float(v) for v in reference])
@@ -507,6 +737,8 @@ def add_references(df, tol: float = ANOMALY_TOL):
     rel_err[np.isnan(abs_err)] = np.nan
     df["reference"] = ref_arr
     df["reference_source"] = source
+    df["reference_method"] = producer
+    df["reference_note"] = note
     df["abs_error"] = abs_err
     df["rel_error"] = rel_err
     df["anomaly"] = anomaly
@@ -517,29 +749,10 @@ def add_references(df, tol: float = ANOMALY_TOL):
 
 
 def write_tables(df, out_dir: str | Path, stem: str = "results") -> list[Path]:
-    """Write ``<stem>.csv`` (and ``<stem>.parquet`` when pyarrow is importable) into ``out_dir``.
+    """Write ``<stem>.csv`` and ``<stem>.parquet`` into ``out_dir`` (each by rename); returns the paths."""
+    from blockmpec.study import write_frame
 
-    Returns the paths written.
-    """
-    out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
-    paths = [out / f"{stem}.csv"]
-    df.drop(columns=[c for c in ("traceback",) if c in df.columns]).to_csv(paths[0], index=False)
-    try:
-        import pyarrow  # noqa: F401
-    except ImportError:
-        return paths
-    path = out / f"{stem}.parquet"
-    try:
-        safe = df.copy()
-        for col in safe.columns:
-            if safe[col].dtype == object:
-                safe[col] = safe[col].map(lambda v: None if v is None else str(v))
-        safe.to_parquet(path, index=False)
-        paths.append(path)
-    except Exception:  # parquet is a convenience; the CSV is the table of record
-        pass
-    return paths
+    return write_frame(df, out_dir, stem)
 
 
 def pivot(df, value: str, *, repetition: int = 0):
@@ -552,14 +765,43 @@ def pivot(df, value: str, *, repetition: int = 0):
     return table.reindex(index=cases, columns=assoc + na)
 
 
+#: the marks of the text tables and what they mean
+MARKS = {
+    "*": "not verified (a residual of (3) exceeds the tolerance)",
+    "†": "verified but not certified (a certifying method stopped before closing its gap, e.g. at its time limit)",
+    "‡": "verified, but the method stopped without claiming success (status in results.csv)",
+    "×": "failed (no multiplier: error, time limit, infeasible or unbounded)",
+    "skip": "skipped (the method does not fit the case or cannot run here)",
+}
+
+
+def cell_mark(row) -> str:
+    """The mark of one row in the text tables: "" (verified success), or a key of :data:`MARKS`."""
+    status = row["status"]
+    if status == Status.SKIPPED.value:
+        return "skip"
+    if not _finite(row["multiplier"]) or status in ("error", "infeasible", "unbounded"):
+        return "×"
+    if bool(row["success"]):
+        return ""
+    if not bool(row["verified"]):
+        return "*"
+    try:
+        certifying = row["problem"] == "non-associative" and certifies_minimum(str(row["method"]))
+    except Exception:
+        certifying = False
+    return "†" if certifying else "‡"
+
+
 def text_table(df, value: str, fmt: str, title: str, *, reference: bool = False, note: str = "",
                median: bool = False) -> str:
     """A printable ``case x method`` table of ``value`` (first repetition; ``median=True``: median over repetitions).
 
-    Cells: the formatted value, ``*`` appended when not verified, ``×`` for a failed
-    run (error, infeasible, no multiplier), ``skip`` for a skipped method.  With
-    ``reference=True`` a last column shows the non-associative reference and its
-    source (c = certified minimum, b = best verified value, f = closed form).
+    Cells: the formatted value followed by its mark (:func:`cell_mark`), ``×`` for a failed
+    run, ``skip`` for a skipped method; the footnote explains every mark present.  With
+    ``reference=True`` a last column shows the non-associative reference a method that
+    produced nothing would be graded against, its source (f = closed form, c = certified
+    minimum, b = best verified value) and the method that produced it.
     """
     sub = df[df["repetition"] == 0].copy()
     if median and df["repetition"].max() > 0:
@@ -570,31 +812,33 @@ def text_table(df, value: str, fmt: str, title: str, *, reference: bool = False,
     na = list(dict.fromkeys(sub.loc[sub["problem"] != "associative", "method_label"]))
     methods = assoc + na
     cell: dict[tuple[str, str], str] = {}
+    used: set[str] = set()
     for _, r in sub.iterrows():
-        v = r[value]
-        if r["status"] == Status.SKIPPED.value:
-            text = "skip"
-        elif not _finite(v) or r["status"] in ("error", "infeasible", "unbounded"):
-            text = "×"
+        mark = cell_mark(r)
+        used.add(mark)
+        if mark in ("skip", "×"):
+            text = mark
+        elif not _finite(r[value]):
+            text = "–"
         else:
-            text = fmt.format(float(v)) + ("" if bool(r["success"]) else "*")
+            text = fmt.format(float(r[value])) + mark
         cell[(r["case"], r["method_label"])] = text
     ref_col = []
     if reference:
         short = {"certified": "c", "best": "b", "closed-form": "f", "none": ""}
         for c in cases:
-            rr = sub[(sub["case"] == c) & (sub["problem"] == "non-associative")]
-            if len(rr) and _finite(rr["reference"].iloc[0]):
-                ref_col.append(f"{float(rr['reference'].iloc[0]):.5f} ({short[rr['reference_source'].iloc[0]]})")
-            else:
-                ref_col.append("")
+            rr = df[(df["case"] == c) & (df["problem"] == "non-associative")]
+            value_, src, by, _ = select_reference(rr, "non-associative") if len(rr) else (None, "none", "", "")
+            ref_col.append("" if value_ is None else f"{value_:.5f} ({short[src]}{': ' + by if by else ''})")
     header = methods + (["NA reference"] if reference else [])
     widths = [max(len(h), 9) + 2 for h in header]
+    if reference:
+        widths[-1] = max(widths[-1], max((len(t) for t in ref_col), default=0) + 2)
     first = max(len(c) for c in cases + ["case"]) + 2
     lines = [title, "case".ljust(first) + "".join(h.rjust(w) for h, w in zip(header, widths))]
     for i, c in enumerate(cases):
         cells = [cell.get((c, m), "") for m in methods] + ([ref_col[i]] if reference else [])
         lines.append(c.ljust(first) + "".join(t.rjust(w) for t, w in zip(cells, widths)))
-    lines.append("* = not verified (a residual of (3) exceeds the tolerance); × = failed; skip = method does not fit"
-                 + (note and "\n" + note))
+    legend = [f"{k} = {v}" for k, v in MARKS.items() if k in used or k in ("*", "×")]
+    lines.append("; ".join(legend) + (note and "\n" + note))
     return "\n".join(lines)

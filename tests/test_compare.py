@@ -1,8 +1,10 @@
-"""The comparator: reference selection, errors, failures, skips, output files."""
+"""The comparator: honest references, failures in isolation, marks, output folders, parallel runs."""
 
 from __future__ import annotations
 
+import json
 import math
+import os
 
 import numpy as np
 import pandas as pd
@@ -10,9 +12,7 @@ import pytest
 
 import blockmpec as bm
 from blockmpec import registry
-from blockmpec.compare import add_references, compare, normalise_methods, parametrised_label, write_tables
-from blockmpec.result import Solution, Status
-from blockmpec.solver import RunOutput, SolverBase
+from blockmpec.compare import add_references, cell_mark, compare, normalise_methods, parametrised_label, text_table
 
 TWO_BLOCKS = {"two-blocks": ("two-blocks", {"eta": 3.0, "mu": 0.65})}
 NA_MIN = 1.0 / 3.0  # closed form, paper Sect. 3: mu > 1/eta -> lam_min = 1/eta
@@ -20,161 +20,168 @@ ASSOC = 0.41973  # paper Sect. 3, eta = 3, mu = 0.65 (5 digits)
 
 
 def _frame(rows):
-    base = {"case": "c", "problem": "non-associative", "multiplier": None, "verified": False,
+    base = {"case": "c", "problem": "non-associative", "method": "m", "multiplier": None, "verified": False,
             "certified": False, "closed_form": None}
-    return pd.DataFrame([{**base, **r} for r in rows])
+    df = pd.DataFrame([{**base, **r} for r in rows])
+    df["method_label"] = df["method"]
+    return df
 
 
-# --------------------------------------------------------------------------- reference selection (synthetic)
+# --------------------------------------------------------------------------- reference by rank (synthetic)
 
 
-def test_certified_minimum_is_the_reference_and_undercutting_it_is_an_anomaly():
+def test_closed_form_outranks_a_certificate_and_the_best_value():
     df = add_references(_frame([
-        {"multiplier": 0.30, "verified": True, "certified": True, "closed_form": 0.25},
-        {"multiplier": 0.40, "verified": True},
-        {"multiplier": 0.29, "verified": True},  # below the certificate
-        {"multiplier": 0.30 - 1e-9, "verified": True},  # within tolerance
-        {"multiplier": 0.10, "verified": False},  # not a solution: no anomaly
+        {"method": "milp", "multiplier": 0.30, "verified": True, "certified": True, "closed_form": 0.25},
+        {"method": "fp", "multiplier": 0.40, "verified": True, "closed_form": 0.25},
     ]))
-    assert set(df["reference_source"]) == {"certified"}
-    assert np.allclose(df["reference"], 0.30)
-    assert list(df["anomaly"]) == ["", "", "below-certified-minimum", "", ""]
-    expected = np.abs(np.array([0.30, 0.40, 0.29, 0.30 - 1e-9, 0.10]) - 0.30)
-    np.testing.assert_allclose(df["abs_error"], expected, rtol=1e-15)
-    np.testing.assert_allclose(df["rel_error"], expected / 0.30, rtol=1e-15)
+    assert list(df["reference_source"]) == ["closed-form"] * 2
+    assert np.allclose(df["reference"], 0.25) and list(df["reference_method"]) == ["", ""]
+    assert list(df["anomaly"]) == ["", ""]
+    np.testing.assert_allclose(df["rel_error"], [0.05 / 0.25, 0.15 / 0.25], rtol=1e-14)
+    # a verified value below the closed-form minimum is impossible: flagged
+    low = add_references(_frame([{"method": "x", "multiplier": 0.2, "verified": True, "closed_form": 0.25}]))
+    assert low["anomaly"].iloc[0] == "below-closed-form-minimum"
 
 
-def test_best_verified_value_without_certificate():
+def test_certificate_of_another_method_then_undercutting_it_is_an_anomaly():
     df = add_references(_frame([
-        {"multiplier": 0.35, "verified": True, "closed_form": 0.2},
-        {"multiplier": 0.31, "verified": True},
-        {"multiplier": 0.05, "verified": False},  # unverified values never set the reference
-        {"multiplier": None},
+        {"method": "milp", "multiplier": 0.30, "verified": True, "certified": True},
+        {"method": "fp", "multiplier": 0.40, "verified": True},
+        {"method": "nlp", "multiplier": 0.29, "verified": True},  # below the certificate
+        {"method": "slp", "multiplier": 0.10, "verified": False},  # not a solution: no anomaly
     ]))
-    assert set(df["reference_source"]) == {"best"}
-    assert np.allclose(df["reference"], 0.31)
+    assert list(df["reference_source"][1:]) == ["certified"] * 3
+    assert list(df["reference_method"][1:]) == ["milp"] * 3
+    assert list(df["anomaly"]) == ["", "", "below-certified-minimum", ""]
+    np.testing.assert_allclose(df["abs_error"][1:], [0.10, 0.01, 0.20], rtol=1e-12)
+
+
+def test_a_method_is_never_graded_against_its_own_value():
+    df = add_references(_frame([
+        {"method": "milp", "multiplier": 0.30, "verified": True, "certified": True},
+        {"method": "fp", "multiplier": 0.40, "verified": True},
+    ]))
+    own = df.iloc[0]
+    # the only certificate is milp's own: milp is compared with the best value of another method
+    assert own["reference_source"] == "best" and own["reference"] == 0.40 and own["reference_method"] == "fp"
+    assert "this method's own" in own["reference_note"]
+    alone = add_references(_frame([{"method": "fp", "multiplier": 0.4, "verified": True}])).iloc[0]
+    assert alone["reference_source"] == "none" and math.isnan(alone["rel_error"])
+    assert "no other method produced a verified value" in alone["reference_note"]
+
+
+def test_best_verified_value_of_another_method():
+    df = add_references(_frame([
+        {"method": "a", "multiplier": 0.35, "verified": True},
+        {"method": "b", "multiplier": 0.31, "verified": True},
+        {"method": "c", "multiplier": 0.05, "verified": False},  # unverified values never set the reference
+        {"method": "c", "multiplier": None},
+    ]))
+    assert list(df["reference"]) == [0.31, 0.35, 0.31, 0.31]
+    assert list(df["reference_method"]) == ["b", "a", "b", "b"]
     assert math.isnan(df["rel_error"].iloc[3])
     assert df["rel_error"].iloc[0] == pytest.approx(0.04 / 0.31, rel=1e-12)
 
 
-def test_closed_form_then_none():
-    df = add_references(_frame([{"multiplier": 0.5, "verified": False, "closed_form": 0.4}]))
-    assert df["reference_source"].iloc[0] == "closed-form"
-    assert df["rel_error"].iloc[0] == pytest.approx(0.25, rel=1e-12)
-    df = add_references(_frame([{"multiplier": 0.5, "verified": False}]))
-    assert df["reference_source"].iloc[0] == "none" and math.isnan(df["reference"].iloc[0])
-    assert math.isnan(df["rel_error"].iloc[0])
-
-
 def test_references_are_per_case_and_problem():
     df = add_references(_frame([
-        {"case": "a", "problem": "associative", "multiplier": 0.5, "verified": True},
-        {"case": "a", "problem": "associative", "multiplier": 0.5 + 1e-3, "verified": True},
-        {"case": "a", "problem": "non-associative", "multiplier": 0.45, "verified": True},
-        {"case": "a", "problem": "non-associative", "multiplier": 0.6, "verified": True},
-        {"case": "b", "problem": "non-associative", "multiplier": 0.7, "verified": True},
+        {"case": "a", "problem": "associative", "method": "s", "multiplier": 0.5, "verified": True},
+        {"case": "a", "problem": "associative", "method": "k", "multiplier": 0.5 + 1e-3, "verified": True},
+        {"case": "a", "problem": "non-associative", "method": "x", "multiplier": 0.45, "verified": True},
+        {"case": "a", "problem": "non-associative", "method": "y", "multiplier": 0.6, "verified": True},
+        {"case": "b", "problem": "non-associative", "method": "x", "multiplier": 0.7, "verified": True},
     ]))
-    assert list(df["reference"]) == [0.5, 0.5, 0.45, 0.45, 0.7]
-    # the LP optimum is unique: two verified associative values must agree
-    assert df["anomaly"].iloc[1] == "associative-mismatch"
+    assert list(df["reference"][:4]) == [0.501, 0.5, 0.6, 0.45]
+    assert math.isnan(df["reference"].iloc[4])
+    assert df["anomaly"].iloc[0] == "associative-mismatch" and df["anomaly"].iloc[1] == "associative-mismatch"
     # no solution of (3) exceeds the associative multiplier
     assert df["anomaly"].iloc[3] == "above-associative"
+
+
+def test_marks_say_exactly_what_they_mean():
+    rows = pd.DataFrame([
+        {"case": "c", "method": "milp", "method_label": "milp", "problem": "non-associative", "repetition": 0,
+         "status": "time_limit", "success": False, "verified": True, "multiplier": 0.5},
+        {"case": "c", "method": "slp", "method_label": "slp", "problem": "non-associative", "repetition": 0,
+         "status": "numerical", "success": False, "verified": False, "multiplier": 0.6},
+        {"case": "c", "method": "fixed-point", "method_label": "fixed-point", "problem": "non-associative",
+         "repetition": 0, "status": "iteration_limit", "success": False, "verified": True, "multiplier": 0.55},
+        {"case": "c", "method": "nlp", "method_label": "nlp", "problem": "non-associative", "repetition": 0,
+         "status": "error", "success": False, "verified": False, "multiplier": None},
+        {"case": "c", "method": "static-lp", "method_label": "static-lp", "problem": "associative", "repetition": 0,
+         "status": "skipped", "success": False, "verified": False, "multiplier": None},
+    ])
+    assert [cell_mark(r) for _, r in rows.iterrows()] == ["†", "*", "‡", "×", "skip"]
+    text = text_table(rows, "multiplier", "{:.2f}", "t")
+    assert "0.50†" in text and "0.60*" in text and "0.55‡" in text
+    assert "† = verified but not certified" in text and "* = not verified" in text and "skip = skipped" in text
 
 
 # --------------------------------------------------------------------------- real runs
 
 
-def test_two_blocks_certified_minimum_matches_closed_form():
+def test_the_closed_form_is_the_reference_not_the_runs_own_value():
+    """The issue's example: static-lp and fixed-point on two blocks; the reference is 1/3, not 0.41973."""
+    df = compare(TWO_BLOCKS, ["static-lp", "fixed-point"], progress=False)
+    fp = df.set_index("method").loc["fixed-point"]
+    assert fp["reference_source"] == "closed-form" and fp["reference"] == pytest.approx(NA_MIN, rel=1e-12)
+    assert fp["rel_error"] == pytest.approx(abs(fp["multiplier"] - NA_MIN) / NA_MIN, rel=1e-9)
+    assert fp["rel_error"] > 0.2  # the fixed point stops at the associative solution here
+    lp = df.set_index("method").loc["static-lp"]
+    assert lp["reference_source"] == "closed-form" and lp["rel_error"] < 1e-9
+
+
+def test_certified_minimum_of_milp_grades_the_others():
     res: dict = {}
-    df = compare(TWO_BLOCKS, ["static-lp", "fixed-point", "milp"], results=res)
+    df = compare({"arch": ("round-arch", {"n_voussoirs": 6})}, ["fixed-point", "milp"], results=res, progress=False)
     row = df.set_index("method_label")
-    assert row.loc["static-lp", "multiplier"] == pytest.approx(ASSOC, abs=5e-6)
     assert row.loc["milp", "status"] == "optimal", row.loc["milp", "message"]
     assert row.loc["milp", "certified"]
     assert row.loc["fixed-point", "reference_source"] == "certified"
-    assert row.loc["fixed-point", "reference"] == pytest.approx(NA_MIN, rel=1e-8)
-    lam = row.loc["fixed-point", "multiplier"]
-    assert row.loc["fixed-point", "rel_error"] == pytest.approx(abs(lam - NA_MIN) / NA_MIN, rel=1e-9)
-    assert row.loc["static-lp", "reference_source"] == "best"
-    assert set(res) == {("two-blocks", m, 0) for m in ("static-lp", "fixed-point", "milp")}
+    assert row.loc["fixed-point", "reference_method"] == "milp"
+    assert row.loc["fixed-point", "reference"] == row.loc["milp", "multiplier"]
+    # milp's own certificate is not its reference
+    assert row.loc["milp", "reference_method"] != "milp"
+    assert set(res) == {("arch", m, 0) for m in ("fixed-point", "milp")}
 
 
 @pytest.fixture
-def dummy_solvers():
-    """Three throw-away methods: one raising in run, one raising in setup, one that never fits."""
+def dummies():
+    import dummy_solvers
 
-    class _Base(SolverBase):
-        problem = "non-associative"
-        summary = "test dummy"
-
-    class RaisesInRun(_Base):
-        name = "test-raises-in-run"
-
-        def run(self):
-            raise RuntimeError("deliberate failure")
-
-    class RaisesInSetup(_Base):
-        name = "test-raises-in-setup"
-
-        def setup(self, ops):
-            raise ZeroDivisionError("deliberate set-up failure")
-
-    class NeverFits(_Base):
-        name = "test-never-fits"
-
-        def skip_reason(self, ops):
-            return "this dummy fits no case"
-
-        def run(self):  # pragma: no cover - never reached
-            return RunOutput(Status.CONVERGED, Solution(multiplier=1.0))
-
-    classes = [RaisesInRun, RaisesInSetup, NeverFits]
-    registry.list_solvers()  # load the plug-ins first
-    for cls in classes:
+    for cls in dummy_solvers.DUMMIES:
         registry.register_solver(cls)
-    yield [c.name for c in classes]
-    for cls in classes:
-        registry._SOLVERS.pop(cls.name, None)
+    yield dummy_solvers.NAMES
+    for name in dummy_solvers.NAMES:
+        registry._SOLVERS.pop(name, None)
 
 
-def test_failures_and_skips_get_rows_and_the_run_goes_on(dummy_solvers):
-    methods = [*dummy_solvers, "static-lp"]
-    df = compare(TWO_BLOCKS, methods)
+def test_crash_hang_exception_and_skip_become_rows_and_the_study_goes_on(dummies, tmp_path):
+    methods = [*dummies, "static-lp"]
+    df = compare(TWO_BLOCKS, methods, wall_limit={"test-hangs": 8.0}, out=tmp_path / "out", progress=False)
     assert list(df["method"]) == methods
     row = df.set_index("method")
     assert row.loc["test-raises-in-run", "status"] == "error"
     assert "deliberate failure" in row.loc["test-raises-in-run", "message"]
-    assert row.loc["test-raises-in-setup", "status"] == "error"
     assert "set-up failed" in row.loc["test-raises-in-setup", "message"]
     assert row.loc["test-never-fits", "status"] == "skipped"
     assert row.loc["test-never-fits", "message"] == "this dummy fits no case"
-    for m in dummy_solvers:
+    assert row.loc["test-escapes-solve", "status"] == "error"
+    assert "escaped from solve" in row.loc["test-escapes-solve", "message"]
+    assert row.loc["test-segfaults", "status"] == "error"
+    assert "SIGSEGV" in row.loc["test-segfaults", "message"]
+    assert row.loc["test-hangs", "status"] == "time_limit"
+    assert "wall-clock limit of 8 s" in row.loc["test-hangs", "message"]
+    assert 8.0 <= row.loc["test-hangs", "wall_time_s"] < 30.0
+    for m in dummies:
         assert not row.loc[m, "success"] and pd.isna(row.loc[m, "multiplier"])
-        # nothing verified: the non-associative reference falls back to the closed form
         assert row.loc[m, "reference_source"] == "closed-form"
-        assert row.loc[m, "reference"] == pytest.approx(NA_MIN, rel=1e-12)
+    # the solve after the crash and the hang ran in a fresh worker and succeeded
     assert row.loc["static-lp", "success"]
     assert row.loc["static-lp", "multiplier"] == pytest.approx(ASSOC, abs=5e-6)
-
-
-def test_exception_escaping_solve_is_caught(monkeypatch):
-    from blockmpec import compare as compare_module
-
-    calls = []
-
-    def flaky(ops, method, **kw):
-        calls.append(method)
-        if len(calls) == 1:
-            raise bm.BlockmpecError("escaped from solve")
-        return bm.solve(ops, method, **kw)
-
-    monkeypatch.setattr(compare_module, "solve", flaky)
-    df = compare({"a": ("single-block", {}), "b": ("single-block", {"mu": 0.3})}, ["static-lp"])
-    assert list(df["status"]) == ["error", "optimal"]
-    assert "escaped from solve" in df["message"].iloc[0]
-    # single block: lam = min(mu, b/h) = min(0.3, 0.5)
-    assert df["multiplier"].iloc[1] == pytest.approx(0.3, rel=1e-9)
-    assert df["reference_source"].iloc[0] == "closed-form" and df["reference"].iloc[0] == pytest.approx(0.5)
+    saved = pd.read_csv(tmp_path / "out" / "results.csv")
+    assert list(saved["status"]) == list(df["status"])
 
 
 def test_labels_options_repeat_and_columns(tmp_path):
@@ -182,7 +189,7 @@ def test_labels_options_repeat_and_columns(tmp_path):
     with pytest.raises(bm.OptionError, match="no option 'nope'"):
         normalise_methods([("fixed-point", {"nope": 1})])
     df = compare({"sb": ("single-block", {"width": 1.0, "height": 4.0})},
-                 ["static-lp", ("fixed-point", {"relaxation": 0.5})], repeat=2)
+                 ["static-lp", ("fixed-point", {"relaxation": 0.5})], repeat=2, progress=False)
     assert len(df) == 4
     assert list(df["method_label"]) == ["static-lp"] * 2 + ["fixed-point[relaxation=0.5]"] * 2
     assert list(df["repetition"]) == [0, 1, 0, 1]
@@ -191,37 +198,102 @@ def test_labels_options_repeat_and_columns(tmp_path):
 
     for col in ("case", "case_name", "method", "method_label", "problem", "status", "success", "verified",
                 "multiplier", *RESIDUAL_NAMES, "build_time_s", "solve_time_s", "total_time_s", "iterations",
-                "message", "reference", "reference_source", "abs_error", "rel_error", "anomaly"):
+                "wall_time_s", "wall_limit_s", "message", "reference", "reference_source", "reference_method",
+                "reference_note", "abs_error", "rel_error", "anomaly", "run_key"):
         assert col in df.columns, col
     np.testing.assert_allclose(df["total_time_s"], df["build_time_s"] + df["solve_time_s"])
     # closed form of the single block: lam = min(mu, b/h) = 0.25 for both problems
     np.testing.assert_allclose(df["multiplier"], 0.25, rtol=1e-8)
-    assert (df["rel_error"] < 1e-8).all()
-    paths = write_tables(df, tmp_path)
-    assert paths[0].name == "results.csv"
-    back = pd.read_csv(paths[0])
-    assert len(back) == 4 and list(back["method_label"]) == list(df["method_label"])
-
-
-def test_cli_compare_takes_method_options(tmp_path, capsys):
-    from blockmpec.cli import main
-
-    code = main(["compare", "--cases", "two-blocks", "--methods", "static-lp,fixed-point",
-                 "-O", "fixed-point.relaxation=0.5", "--out", str(tmp_path), "--no-figures", "--quiet"])
-    assert code == 0
-    out = capsys.readouterr().out
-    assert "0.41973" in out and "Friction admissibility" in out
-    df = pd.read_csv(tmp_path / "results.csv")
-    assert df.loc[df["method"] == "fixed-point", "p_method_relaxation"].iloc[0] == 0.5
-    assert main(["compare", "--methods", "static-lp", "-O", "nlp.tol=1", "--out", str(tmp_path)]) == 2
+    assert (df["rel_error"] < 1e-8).all() and set(df["reference_source"]) == {"closed-form"}
+    assert list(df["wall_limit_s"]) == [600.0] * 4
 
 
 def test_a_certified_maximum_is_never_the_minimum_reference():
-    cases = {"two-blocks": ("two-blocks", {"eta": 3.0, "mu": 0.65})}
-    only_max = compare(cases, [("milp", {"sense": "max"})])
-    row = only_max.iloc[0]
-    assert row["status"] == "optimal" and abs(row["multiplier"] - 0.4197271773) < 1e-7
-    assert not row["certified"] and row["reference_source"] != "certified"
-    both = compare(cases, [("milp", {"sense": "max"}), "milp"])
-    assert set(both["reference_source"]) == {"certified"}
-    assert abs(both["reference"].iloc[0] - 1 / 3) < 1e-9
+    cases = {"arch": ("round-arch", {"n_voussoirs": 6})}
+    both = compare(cases, [("milp", {"sense": "max"}), "milp", "fixed-point"], progress=False)
+    row = both.set_index("method_label")
+    assert not row.loc["milp[sense=max]", "certified"] and row.loc["milp", "certified"]
+    assert row.loc["fixed-point", "reference"] == row.loc["milp", "multiplier"]
+
+
+# --------------------------------------------------------------------------- output folders
+
+
+def test_rows_are_saved_as_they_finish_and_resume_skips_them(tmp_path):
+    out = tmp_path / "study"
+    first = compare(TWO_BLOCKS, ["static-lp"], out=out, progress=False)
+    lines = (out / "rows.jsonl").read_text().splitlines()
+    assert len(lines) == 1 and json.loads(lines[0])["method"] == "static-lp"
+    assert pd.read_parquet(out / "results.parquet")["multiplier"].iloc[0] == pytest.approx(ASSOC, abs=5e-6)
+    with pytest.raises(bm.OptionError, match="not empty"):
+        compare(TWO_BLOCKS, ["static-lp"], out=out, progress=False)
+    res: dict = {}
+    again = compare(TWO_BLOCKS, ["static-lp", "kinematic-lp"], out=out, resume=True, results=res, progress=False)
+    assert list(again["method"]) == ["static-lp", "kinematic-lp"]
+    # the static-lp row is the saved one (same wall time), not a new solve
+    assert again["wall_time_s"].iloc[0] == first["wall_time_s"].iloc[0]
+    assert len((out / "rows.jsonl").read_text().splitlines()) == 2
+    assert ("two-blocks", "static-lp", 0) in res  # its result came back from solutions/ for the figures
+    assert again["reference_source"].iloc[0] == "closed-form"
+
+
+def test_overwrite_leaves_no_stale_figure_and_a_live_run_locks_the_folder(tmp_path):
+    from blockmpec.study import LOCK_NAME, ResultsFolder
+
+    out = tmp_path / "o"
+    out.mkdir()
+    (out / "mechanism_old-case.png").write_bytes(b"old")
+    (out / "results.csv").write_text("old")
+    (out / "notes.txt").write_text("mine")
+    with pytest.raises(bm.OptionError, match="--overwrite"):
+        ResultsFolder(out)
+    with ResultsFolder(out, overwrite=True):
+        assert sorted(p.name for p in out.iterdir()) == sorted([LOCK_NAME, "notes.txt", "solutions"])
+        with pytest.raises(bm.OptionError, match="another blockmpec run"):
+            ResultsFolder(out, resume=True)
+    assert not (out / LOCK_NAME).exists()
+    (out / LOCK_NAME).write_text("999999999")  # a dead process's lock is taken over
+    ResultsFolder(out, resume=True).close()
+    with pytest.raises(bm.OptionError, match="not a folder"):
+        ResultsFolder(tmp_path / "o" / "notes.txt")
+
+
+def test_metadata_sidecar():
+    from blockmpec.study import run_metadata
+
+    meta = run_metadata(["blockmpec", "compare"], {"jobs": 2})
+    assert meta["command"] == ["blockmpec", "compare"] and meta["settings"] == {"jobs": 2}
+    assert meta["versions"]["numpy"] == np.__version__ and meta["versions"]["blockmpec"]
+    assert meta["cpu_count"] == os.cpu_count() and meta["cpu"] and meta["started"].endswith("+00:00")
+
+
+# --------------------------------------------------------------------------- parallel and distributed
+
+
+def test_two_local_workers_give_the_serial_answers():
+    cases = {"two-blocks": TWO_BLOCKS["two-blocks"], "arch": ("round-arch", {"n_voussoirs": 6})}
+    serial = compare(cases, ["static-lp", "fixed-point"], progress=False)
+    parallel = compare(cases, ["static-lp", "fixed-point"], n_jobs=2, progress=False)
+    assert list(parallel["run_key"]) == list(serial["run_key"])  # task order, whatever the finishing order
+    np.testing.assert_allclose(parallel["multiplier"], serial["multiplier"], rtol=1e-9)
+
+
+def test_two_worker_dask_local_cluster():
+    pytest.importorskip("distributed")
+    cases = {"two-blocks": TWO_BLOCKS["two-blocks"], "sb": ("single-block", {})}
+    df = compare(cases, ["static-lp", "kinematic-lp"], n_jobs=2, backend="dask", progress=False)
+    assert df["success"].all()
+    np.testing.assert_allclose(df["multiplier"], [0.4197271773, 0.4197271773, 0.5, 0.5], rtol=1e-8)
+
+
+def test_bad_backend_settings_are_option_errors():
+    with pytest.raises(bm.OptionError, match="backend"):
+        compare(TWO_BLOCKS, ["static-lp"], backend="threads")
+    with pytest.raises(bm.OptionError, match="jobs"):
+        compare(TWO_BLOCKS, ["static-lp"], n_jobs=0)
+    with pytest.raises(bm.OptionError, match="scheduler"):
+        compare(TWO_BLOCKS, ["static-lp"], scheduler="tcp://127.0.0.1:1")
+    with pytest.raises(bm.OptionError, match="verify_tol"):
+        compare(TWO_BLOCKS, ["static-lp"], verify_tol=float("nan"))
+    with pytest.raises(bm.OptionError, match="wall limit"):
+        compare(TWO_BLOCKS, ["static-lp"], wall_limit=-1)

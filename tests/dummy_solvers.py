@@ -1,0 +1,75 @@
+"""Throw-away methods for the comparator's tests, registered on import.
+
+They live in a module (not inside a test) so that the comparator's worker processes can
+import them too (:class:`blockmpec.runner.Task` carries the module name and ``sys.path``).
+"""
+
+from __future__ import annotations
+
+import os
+import signal
+import time
+
+from blockmpec import registry
+from blockmpec.errors import BlockmpecError
+from blockmpec.result import Solution, Status
+from blockmpec.solver import RunOutput, SolverBase
+
+
+class _Base(SolverBase):
+    problem = "non-associative"
+    summary = "test dummy"
+
+
+class RaisesInRun(_Base):
+    name = "test-raises-in-run"
+
+    def run(self):
+        raise RuntimeError("deliberate failure")
+
+
+class RaisesInSetup(_Base):
+    name = "test-raises-in-setup"
+
+    def setup(self, ops):
+        raise ZeroDivisionError("deliberate set-up failure")
+
+
+class NeverFits(_Base):
+    name = "test-never-fits"
+
+    def skip_reason(self, ops):
+        return "this dummy fits no case"
+
+    def run(self):  # pragma: no cover - never reached
+        return RunOutput(Status.CONVERGED, Solution(multiplier=1.0))
+
+
+class EscapesSolve(_Base):
+    name = "test-escapes-solve"
+
+    def run(self):
+        raise BlockmpecError("escaped from solve")  # solve() re-raises its own errors
+
+
+class Segfaults(_Base):
+    name = "test-segfaults"
+
+    def run(self):
+        os.kill(os.getpid(), signal.SIGSEGV)
+        time.sleep(10)  # pragma: no cover
+
+
+class Hangs(_Base):
+    name = "test-hangs"
+
+    def run(self):
+        time.sleep(3600)  # pragma: no cover - killed from outside
+
+
+DUMMIES = [RaisesInRun, RaisesInSetup, NeverFits, EscapesSolve, Segfaults, Hangs]
+NAMES = [c.name for c in DUMMIES]
+
+registry.list_solvers()  # load the real plug-ins first
+for _cls in DUMMIES:
+    registry.register_solver(_cls)
