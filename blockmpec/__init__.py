@@ -17,6 +17,7 @@ from blockmpec.errors import (
     BlockmpecError,
     GeometryError,
     OptionError,
+    PrecisionWarning,
     SolverUnavailableError,
     StructureError,
     StructureFileError,
@@ -24,6 +25,7 @@ from blockmpec.errors import (
 )
 from blockmpec.geometry import Interfaces, PointLoad, Structure, make_structure
 from blockmpec.operators import Operators, assemble
+from blockmpec.units import Units
 from blockmpec.registry import get_solver, list_solvers, register_solver
 from blockmpec.result import Result, Solution, Status
 from blockmpec.solver import RunOutput, SolverBase, solve
@@ -31,9 +33,9 @@ from blockmpec.structure_file import load_structure, save_structure, structure_f
 from blockmpec.verify import residuals
 
 __all__ = [
-    "BlockmpecError", "GeometryError", "Interfaces", "Operators", "OptionError", "PointLoad", "Result",
+    "BlockmpecError", "GeometryError", "Interfaces", "Operators", "OptionError", "PointLoad", "PrecisionWarning", "Result",
     "RunOutput", "Solution", "SolverBase", "SolverUnavailableError", "Status", "Structure", "StructureError",
-    "StructureFileError", "UnknownNameError", "assemble", "build_case", "cases", "get_solver", "list_solvers",
+    "StructureFileError", "UnknownNameError", "Units", "assemble", "build_case", "cases", "get_solver", "list_solvers",
     "load_structure", "make_structure", "register_solver", "residuals", "save_structure", "solve",
     "structure_from_dict", "structure_to_dict",
 ]

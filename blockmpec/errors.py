@@ -36,3 +36,9 @@ class UnknownNameError(BlockmpecError, KeyError):
 
 class SolverUnavailableError(BlockmpecError, ImportError):
     """A solver's backend library is not installed."""
+
+
+class PrecisionWarning(UserWarning):
+    """Input whose floating-point resolution is coarse against its own size (e.g. a unit block
+    1e15 from the origin, whose coordinates are resolved only to 0.125): digits the author meant
+    may already be lost in the input, which no computation can recover."""

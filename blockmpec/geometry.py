@@ -31,7 +31,7 @@ from scipy.sparse import coo_array
 from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
 
-from blockmpec.errors import GeometryError, StructureError
+from blockmpec.errors import GeometryError, PrecisionWarning, StructureError
 from blockmpec.units import Frame, block_extent, power_of_two
 
 #: Default relative tolerance for geometric tests (scaled by block size).
@@ -307,6 +307,28 @@ def block_sizes(vertices: np.ndarray, n_vertices: np.ndarray) -> np.ndarray:
 
 
 # --------------------------------------------------------------------------- validation
+
+
+#: Largest ratio of a free block's density to the median density of the free blocks.
+DENSITY_RANGE = 1e100
+
+#: Largest ratio of two block sizes in one structure (beyond it, areas span more than floating point).
+SIZE_RANGE = 1e100
+
+
+def _check_size_range(vertices: np.ndarray) -> None:
+    """Raise when a block is more than ``SIZE_RANGE`` times smaller or larger than the median block."""
+    size = block_extent(vertices)
+    median = float(np.median(size))
+    with np.errstate(divide="ignore", over="ignore"):
+        ratio = size / median
+    bad = np.flatnonzero(~((ratio > 1 / SIZE_RANGE) & (ratio < SIZE_RANGE)))
+    if bad.size:
+        i = int(bad[np.argmax(np.abs(np.log10(np.maximum(ratio[bad], 1e-320))))])
+        raise GeometryError(
+            f"block {i}: its size {size[i]:.3g} is {ratio[i]:.3g} times the median block size {median:.3g}; "
+            f"block sizes in one structure must lie within a factor {SIZE_RANGE:.0e} of each other"
+        )
 
 
 def _check_polygons(vertices: np.ndarray, n_vertices: np.ndarray, tol: float) -> None:
@@ -590,7 +612,7 @@ def _normalised(s: Structure) -> tuple[Structure, Frame]:
     """``s`` with vertices and interface points in its :class:`~blockmpec.units.Frame`, and the frame."""
     from dataclasses import replace
 
-    frame = Frame.of(s.vertices)
+    frame = Frame.of(s.vertices, exact=True)
     itf = s.interfaces
     with np.errstate(over="ignore", invalid="ignore"):
         itf = Interfaces(itf.minus, itf.plus, frame(itf.start).reshape(-1, 2), frame(itf.end).reshape(-1, 2),
@@ -627,16 +649,49 @@ def _check_point_loads(s: Structure, frame: Frame, tol: float) -> None:
             )
 
 
+#: Relative resolution of a block's coordinates above which a PrecisionWarning is issued.
+COORDINATE_RESOLUTION_WARNING = 1e-9
+
+
+def _warn_coarse_coordinates(s: Structure) -> None:
+    """Warn when a block's coordinates are resolved coarser than 1e-9 of its size (far from the origin)."""
+    size = block_sizes(s.vertices, s.n_vertices)
+    reach = np.abs(s.vertices).max(axis=(1, 2))
+    resolution = np.spacing(reach) / size
+    bad = np.flatnonzero(resolution > COORDINATE_RESOLUTION_WARNING)
+    if bad.size:
+        import warnings
+
+        i = int(bad[np.argmax(resolution[bad])])
+        warnings.warn(
+            f"block {i}: its coordinates (up to {reach[i]:.3g}) are resolved only to {np.spacing(reach[i]):.3g}, "
+            f"{resolution[i]:.2g} of its size: digits of the geometry may already be lost in the input; "
+            "give coordinates near the origin",
+            PrecisionWarning, stacklevel=3,
+        )
+
+
 def validate(s: Structure, tol: float = DEFAULT_GEOMETRY_TOL, check_overlap: bool = True) -> Structure:
     """Check a structure; return it unchanged or raise a GeometryError/StructureError.
 
     Geometry is checked in the structure's :class:`~blockmpec.units.Frame` (lengths over a power
     of two near the median block size, about the centre of the structure), so that the checks
     mean the same at any magnitude and offset."""
+    Frame.of(s.vertices)  # raises when the coordinates overflow
+    _check_size_range(s.vertices)
     _check_polygons(s.vertices, s.n_vertices, tol)
     bad = np.flatnonzero(~np.isfinite(s.density) | (s.density <= 0))
     if bad.size:
         raise StructureError(f"block {bad[0]}: density must be a finite number > 0; got {s.density[bad[0]]}")
+    free_density = s.density[~s.fixed] if (~s.fixed).any() else s.density
+    ratio = s.density / float(np.median(free_density))
+    bad = np.flatnonzero(~((ratio > 1 / DENSITY_RANGE) & (ratio < DENSITY_RANGE)) & ~s.fixed)
+    if bad.size:
+        i = int(bad[0])
+        raise StructureError(
+            f"block {i}: density {s.density[i]:.3g} is {ratio[i]:.3g} times the median density; densities in one "
+            f"structure must lie within a factor {DENSITY_RANGE:.0e} of each other"
+        )
     unit, frame = _normalised(s)
     if check_overlap:
         _check_overlaps(unit.vertices, unit.n_vertices, 10 * tol, unit=frame.length_scale)
@@ -651,6 +706,7 @@ def validate(s: Structure, tol: float = DEFAULT_GEOMETRY_TOL, check_overlap: boo
             "(the sign of the live load is live_direction, +1 or -1)"
         )
     _check_point_loads(unit, frame, tol)
+    _warn_coarse_coordinates(s)
     live_point = any(pl.kind == "live" and not s.fixed[pl.block] and np.any(pl.force) for pl in s.point_loads)
     if s.live_factor == 0 and not live_point:
         raise StructureError(
@@ -699,6 +755,8 @@ def make_structure(
         With the offending block, interface or field named.
     """
     vertices, n_vertices = pad_polygons(list(polygons))
+    Frame.of(vertices)  # raises when the coordinates overflow
+    _check_size_range(vertices)
     n = vertices.shape[0]
     fixed_arr = np.asarray(fixed, dtype=bool).reshape(-1)
     if fixed_arr.shape[0] != n:
@@ -706,7 +764,7 @@ def make_structure(
     dens = np.broadcast_to(np.asarray(density, dtype=float), (n,)).copy()
     _check_polygons(vertices, n_vertices, tol)
     if interfaces is None:
-        frame = Frame.of(vertices)
+        frame = Frame.of(vertices, exact=True)
         found = detect_interfaces(frame(vertices), n_vertices, tol)
         interfaces = Interfaces(found.minus, found.plus, frame.back(found.start), frame.back(found.end),
                                 found.friction, found.dilatancy)

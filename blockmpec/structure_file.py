@@ -128,16 +128,28 @@ def structure_from_dict(data: dict[str, Any], source: str = "structure") -> Stru
             np.array(cols["friction"], dtype=float), np.array(cols["dilatancy"], dtype=float),
         )
     loads = []
-    for k, pl in enumerate(data.get("point_loads", [])):
+    point_loads = data.get("point_loads", [])
+    if not isinstance(point_loads, list):
+        raise StructureFileError(f"{source}: field 'point_loads' must be a list")
+    for k, pl in enumerate(point_loads):
         where = f"{source}: point_loads[{k}]"
         _check_keys(pl, _POINT_LOAD, {"block", "point", "force"}, where)
         if isinstance(pl["block"], bool) or not isinstance(pl["block"], int):
             raise StructureFileError(f"{where}.block: expected a block index; got {pl['block']!r}")
+        kind = pl.get("kind", "dead")
+        if kind not in ("dead", "live"):
+            raise StructureFileError(f"{where}.kind: expected \"dead\" or \"live\"; got {kind!r}")
         loads.append(PointLoad(pl["block"], _point(pl["point"], f"{where}.point"),
-                               _point(pl["force"], f"{where}.force"), pl.get("kind", "dead")))
+                               _point(pl["force"], f"{where}.force"), kind))
     direction = live.get("direction", 1)
     if direction not in (1, -1) or isinstance(direction, bool):
         raise StructureFileError(f"{source}: live_load.direction must be 1 or -1; got {direction!r}")
+    factor = _number(live.get("factor", 1.0), f"{source}: live_load.factor")
+    if not (math.isfinite(factor) and factor >= 0):
+        raise StructureFileError(
+            f"{source}: live_load.factor must be a finite number >= 0; got {factor!r} "
+            "(the sign of the live load is live_load.direction, 1 or -1)"
+        )
     metadata = data.get("metadata", {})
     if not isinstance(metadata, dict):
         raise StructureFileError(f"{source}: field 'metadata' must be an object")
@@ -146,7 +158,7 @@ def structure_from_dict(data: dict[str, Any], source: str = "structure") -> Stru
         friction=_number(data["friction"], f"{source}: friction"),
         dilatancy=_number(data.get("dilatancy", 0.0), f"{source}: dilatancy"),
         density=density, interfaces=interfaces, live_direction=direction,
-        live_factor=_number(live.get("factor", 1.0), f"{source}: live_load.factor"),
+        live_factor=factor,
         point_loads=loads, name=str(data.get("name", "structure")), metadata=metadata,
     )
 

@@ -64,8 +64,9 @@ def power_of_two(x: float | np.ndarray):
 
 def block_extent(vertices: np.ndarray) -> np.ndarray:
     """Bounding-box diagonal of each padded polygon (n, k, 2) -> (n,), without overflow of squares."""
-    span = vertices.max(axis=1) - vertices.min(axis=1)
-    return np.hypot(span[:, 0], span[:, 1])
+    with np.errstate(over="ignore", invalid="ignore"):
+        span = vertices.max(axis=1) - vertices.min(axis=1)
+        return np.hypot(span[:, 0], span[:, 1])
 
 
 @dataclass(frozen=True)
@@ -76,10 +77,11 @@ class Frame:
     length_scale: float
 
     @classmethod
-    def of(cls, vertices: np.ndarray, blocks: np.ndarray | None = None) -> Frame:
+    def of(cls, vertices: np.ndarray, blocks: np.ndarray | None = None, exact: bool = False) -> Frame:
         """The frame of padded polygons ``vertices`` (n, k, 2), sized from all blocks (or ``blocks``).
 
-        ``length_scale`` is the median block size; ``origin`` the centre of the bounding box of
+        ``length_scale`` is the median block size (with ``exact``, the power of two nearest it,
+        so that ``back(frame(p)) == p`` bit for bit); ``origin`` the centre of the bounding box of
         *all* blocks rounded to a
         multiple of ``G``, the power of two above the structure's extent.  Then ``p - origin``
         is exact (a structure offset by 1e15 loses no digit), a structure near the origin keeps
@@ -106,7 +108,7 @@ class Frame:
             raise StructureError("blocks: every block has zero size")
         grid = power_of_two(extent) * 2.0 if extent > 0 else 1.0
         origin = np.round(centre / grid) * grid
-        return cls(origin=np.asarray(origin, float), length_scale=scale)
+        return cls(origin=np.asarray(origin, float), length_scale=power_of_two(scale) if exact else scale)
 
     def __call__(self, points: np.ndarray) -> np.ndarray:
         """Points (..., 2) in this frame."""

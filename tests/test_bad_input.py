@@ -1,6 +1,9 @@
 """Every class of bad input gets a clear error naming the block, interface or field."""
 
 import json
+import re
+import warnings
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -166,3 +169,80 @@ def test_unknown_method_and_option():
         bm.solve(s, "simplex-lp")
     with pytest.raises(bm.OptionError, match=r"method 'static-lp' has no option 'tolerance'"):
         bm.solve(s, "static-lp", tolerance=1)
+
+
+# ---------------------------------------------------------------- the committed bad-input corpus
+
+CORPUS = Path(__file__).resolve().parent / "data"
+MANIFEST = json.loads((CORPUS / "bad_inputs.manifest.json").read_text())
+
+
+def test_corpus_has_at_least_100_files_each_in_the_manifest():
+    files = sorted(p.name for p in (CORPUS / "bad_inputs").glob("*.json"))
+    assert len(MANIFEST) >= 100
+    assert files == sorted(e["file"] for e in MANIFEST)
+    assert all(e["expect"] for e in MANIFEST)
+
+
+@pytest.mark.parametrize("entry", MANIFEST, ids=[e["file"][:40] for e in MANIFEST])
+def test_corpus_file_gets_one_clear_line_and_exit_code_2(entry, capsys):
+    """Every bad file: exit 2, one line on stderr naming what is wrong, nothing on stdout (no result,
+    so no success with a wrong lambda), no traceback, no warning lines."""
+    from blockmpec.cli import main
+
+    path = CORPUS / "bad_inputs" / entry["file"]
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # a RuntimeWarning from numpy would be a second line
+        code = main(["solve", str(path), "--method", "static-lp"])
+    out, err = capsys.readouterr()
+    assert code == 2, (code, out, err)
+    assert out == ""
+    lines = err.strip().splitlines()
+    assert len(lines) == 1, err
+    assert entry["expect"] in lines[0], lines[0]
+    assert "Traceback" not in err
+
+
+def test_corpus_files_fail_alike_through_the_library():
+    for entry in MANIFEST[:: 7]:
+        with pytest.raises(bm.BlockmpecError, match=re.escape(entry["expect"])):
+            bm.load_structure(CORPUS / "bad_inputs" / entry["file"])
+
+
+# ---------------------------------------------------------------- point loads and the live-load sign
+
+def test_point_load_on_the_boundary_is_accepted_and_just_outside_is_not():
+    on_edge = bm.PointLoad(1, (1.0, 0.5), (0.0, -1.0))
+    corner = bm.PointLoad(1, (1.0 + 1e-9, 1.0), (0.0, -1.0))
+    make([BASE, SQUARE], [True, False], point_loads=[on_edge, corner])
+    outside = bm.PointLoad(1, (1.001, 0.5), (0.0, -1.0))
+    with pytest.raises(bm.StructureError, match=r"point load 0: its point \[1.001, 0.5\] lies outside block 1"):
+        make([BASE, SQUARE], [True, False], point_loads=[outside])
+
+
+def test_point_load_check_is_scale_free():
+    s = 1e-120
+    ok = bm.PointLoad(1, (0.5 * s, 0.5 * s), (0.0, -1e-240))
+    make([[[x * s, y * s] for x, y in BASE], [[x * s, y * s] for x, y in SQUARE]], [True, False], point_loads=[ok])
+    bad_load = bm.PointLoad(1, (0.5 * s, 1.5 * s), (0.0, -1e-240))
+    with pytest.raises(bm.StructureError, match=r"point load 0: its point .* lies outside block 1"):
+        make([[[x * s, y * s] for x, y in BASE], [[x * s, y * s] for x, y in SQUARE]], [True, False],
+             point_loads=[bad_load])
+
+
+def test_negative_live_factor_is_rejected_the_sign_is_the_direction():
+    with pytest.raises(bm.StructureError, match=r"live_factor: must be a finite number >= 0; got -1.0 "
+                                               r"\(the sign of the live load is live_direction"):
+        make([BASE, SQUARE], [True, False], live_factor=-1.0)
+    left = bm.solve(make([BASE, SQUARE], [True, False], live_direction=-1), "static-lp")
+    right = bm.solve(make([BASE, SQUARE], [True, False], live_direction=1), "static-lp")
+    assert left.success and right.success and left.multiplier == pytest.approx(right.multiplier, rel=1e-12)
+
+
+def test_coordinates_far_from_the_origin_warn_that_digits_may_be_lost():
+    off = 1e15
+    with pytest.warns(bm.PrecisionWarning, match=r"block \d: its coordinates \(up to 1e\+15\) are resolved only to 0.125"):
+        make([[[x + off, y] for x, y in BASE], [[x + off, y] for x, y in SQUARE]], [True, False])
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        make([[[x + 1e3, y] for x, y in BASE], [[x + 1e3, y] for x, y in SQUARE]], [True, False])
