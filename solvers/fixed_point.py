@@ -59,6 +59,10 @@ from blockmpec.result import Status
 from blockmpec.solver import RunOutput, SolverBase
 
 
+#: residual tolerance under which a multistart run counts as a solution of (3) (the verifier's default)
+MULTISTART_VERIFY_TOL = 1e-6
+
+
 @dataclass
 class FixedPointOptions:
     """Options of the fixed-point method."""
@@ -74,7 +78,9 @@ class FixedPointOptions:
         "help": "0: weighted tie-breaks as their own LP; > 0: folded into the step LP with this weight"})
     acceleration: str = field(default="none", metadata={"help": "none | anderson: update of n*"})
     memory: int = field(default=5, metadata={"help": "Anderson depth"})
-    seed: int = field(default=0, metadata={"help": "seed of the random start"})
+    seed: int = field(default=0, metadata={"help": "seed of the random start (run i of a multistart: seed + i)"})
+    multistart: int = field(default=1, metadata={
+        "help": "runs: the start above, then random starts; returns the lowest verified (residuals <= 1e-6)"})
     algorithm: str = field(default="auto", metadata={"help": "HiGHS: auto | simplex | dual-simplex | primal-simplex | ipm"})
     time_limit: float = field(default=float("inf"), metadata={"help": "seconds for the whole iteration"})
 
@@ -91,6 +97,7 @@ class FixedPointOptions:
         check.interval(self, "fold_weight", 0, 1, closed="left")
         check.integer(self, "memory", minimum=1)
         check.integer(self, "seed", minimum=0)
+        check.integer(self, "multistart", minimum=1)
         check.choice(self, "algorithm", BASIS_ALGORITHMS)
         check.positive(self, "time_limit", finite=False)
 
@@ -110,17 +117,47 @@ class FixedPoint(SolverBase):
 
         self.ops = ops
         o = self.options
+        needs_lp1 = o.start in ("associative", "dead-load", "random") or o.multistart > 1
         self.sequence = LPSequence(ops, alpha=0.0, tie_break=o.tie_break, algorithm=o.algorithm,
-                                   need_associative=o.start in ("associative", "dead-load", "random"),
-                                   fold_weight=o.fold_weight)
+                                   need_associative=needs_lp1, fold_weight=o.fold_weight)
 
-    def run(self) -> RunOutput:
+    def _run_once(self, start: str, seed: int, time_limit: float):
         from blockmpec.solvers.engines.lp_sequence import run_sequence
 
         o = self.options
-        out, facts = run_sequence(self.sequence, start=o.start, relaxation=o.relaxation, stop_on="normal",
-                                  tol=o.tol, max_iterations=o.max_iterations, time_limit=o.time_limit,
-                                   acceleration=o.acceleration, memory=o.memory, seed=o.seed)
+        return run_sequence(self.sequence, start=start, relaxation=o.relaxation, stop_on="normal", tol=o.tol,
+                            max_iterations=o.max_iterations, time_limit=time_limit,
+                            acceleration=o.acceleration, memory=o.memory, seed=seed)
+
+    def run(self) -> RunOutput:
+        import time
+
+        from blockmpec.verify import residuals
+
+        o = self.options
+        t0 = time.perf_counter()
+        out, facts = self._run_once(o.start, o.seed, o.time_limit)
+        runs = [(out.solution.multiplier, o.start, o.seed, out.status.value)]
+        if o.multistart > 1:
+            # further runs from seeded random starts; keep the lowest verified solution of (3)
+            def verified(run_out):
+                return (run_out.status is Status.CONVERGED and run_out.solution.multiplier is not None
+                        and all(v <= MULTISTART_VERIFY_TOL
+                                for v in residuals(self.ops, run_out.solution, associative=False).values()))
+
+            best, best_facts = (out, facts) if verified(out) else (None, None)
+            for i in range(1, o.multistart):
+                left = o.time_limit - (time.perf_counter() - t0)
+                if left <= 0:
+                    break
+                other, other_facts = self._run_once("random", o.seed + i, left)
+                runs.append((other.solution.multiplier, "random", o.seed + i, other.status.value))
+                if verified(other) and (best is None or other.solution.multiplier < best.solution.multiplier):
+                    best, best_facts = other, other_facts
+            if best is not None:
+                out, facts = best, best_facts
+            out.extra = self.sequence.facts()
+            out.extra["multistart_runs"] = runs
         out.extra["tie_break_failures"] = facts["tie_break_failures"]
         if facts["lam_start"] is not None:
             out.extra[ASSOCIATIVE_MULTIPLIER] = facts["lam_start"]
@@ -128,6 +165,8 @@ class FixedPoint(SolverBase):
             last = out.trace[-1]
             out.message = (f"normal forces converged in {out.iterations} LP steps: ||n - n*||/||n|| = "
                            f"{last['n_change']:.2e} <= {o.tol:g}")
+            if o.multistart > 1:
+                out.message += f" (lowest verified of {len(runs)} runs)"
         if facts["tie_break_failures"]:
             out.message += (f" ({facts['tie_break_failures']} tie-break LP(s) failed; "
                             "the step LP's own forces were used there)")

@@ -51,12 +51,25 @@ from blockmpec.result import Status
 from blockmpec.solver import RunOutput, SolverBase
 
 
+ALPHA_SCHEDULES = ("constant", "halving")
+
+
+def alpha_of_step(alpha: float, schedule: str, k: int) -> float:
+    """The tilt of step ``k`` (1-based) under ``schedule``."""
+    if schedule == "constant":
+        return alpha
+    a = alpha * 0.5 ** (k - 1)
+    return a if a >= 1e-6 else 0.0
+
+
 @dataclass
 class SLPOptions:
     """Options of the SLP heuristic."""
 
     alpha: float = field(default=0.01, metadata={
         "help": "in [0, 1]: slope of each LP's friction surface, tan(psi) + alpha (tan(phi) - tan(psi))"})
+    alpha_schedule: str = field(default="constant", metadata={
+        "help": "constant | halving: alpha_k = alpha / 2^(k-1), 0 once below 1e-6 (surface tilted back to (5))"})
     beta: float = field(default=0.6, metadata={"help": "relaxation in (0, 1]: n* <- beta n + (1 - beta) n*"})
     tol: float = field(default=1e-6, metadata={"help": "stop when |lam_k - lam_(k-1)| <= tol (k >= 2)"})
     max_iterations: int = field(default=500, metadata={"help": "most LP steps"})
@@ -70,6 +83,7 @@ class SLPOptions:
         from blockmpec.solvers.engines.lp_sequence import TIE_BREAKS
 
         check.interval(self, "alpha", 0, 1, closed="both")
+        check.choice(self, "alpha_schedule", ALPHA_SCHEDULES)
         check.interval(self, "beta", 0, 1, closed="right")
         check.positive(self, "tol")
         check.integer(self, "max_iterations", minimum=2)
@@ -103,7 +117,9 @@ class SLP(SolverBase):
         o = self.options
         out, facts = run_sequence(self.sequence, start="associative", relaxation=o.beta, stop_on="multiplier",
                                   tol=o.tol, max_iterations=o.max_iterations, time_limit=o.time_limit,
-                                  min_iterations=2)
+                                  min_iterations=2,
+                                  alpha_schedule=None if o.alpha_schedule == "constant"
+                                  else (lambda k: alpha_of_step(o.alpha, o.alpha_schedule, k)))
         out.extra.update({ASSOCIATIVE_MULTIPLIER: facts["lam_start"], "tie_break_failures": facts["tie_break_failures"]})
         if out.trace:
             last = out.trace[-1]

@@ -11,7 +11,7 @@ Each entry is a structure and where its reference minimum comes from:
   reference is the lowest verified multiplier any strategy of the run found.
 
 Certificates are cached on disk (``studies/output/heuristic_suite/certificates.json``,
-keyed by a hash of the structure's JSON form, never in git); an uncertified
+keyed by the entry's label, with a hash of the structure's JSON form; never in git); an uncertified
 ``milp`` run (time limit) leaves its structure out of the certified set and says so.
 
 Use ``python studies/heuristic_suite.py [--time-limit 120]`` to (re)compute and list
@@ -78,9 +78,11 @@ def _buttressed(**kw) -> Entry:
 def suite(include_large: bool = True) -> list[Entry]:
     """The suite's entries, in a fixed order."""
     entries = [_two_blocks(eta, mu) for eta in ETAS for mu in MUS]
-    entries += [_wall(c, b, "stack") for c, b in ((2, 2), (3, 2), (4, 2), (3, 3), (5, 2), (4, 3))]
-    entries += [_wall(c, b, "running") for c, b in ((2, 2), (3, 2), (2, 3), (4, 2), (3, 3))]
-    entries += [_wall(4, 2, "stack", mu=0.4), _wall(4, 2, "running", mu=0.9)]
+    entries += [_wall(c, b, "stack") for c, b in ((2, 2), (3, 2), (4, 2), (3, 3), (5, 2))]
+    entries += [_wall(c, b, "running") for c, b in ((2, 2), (3, 2), (2, 3))]
+    entries += [_wall(4, 2, "stack", mu=mu) for mu in (0.4, 0.5, 0.8, 1.0)]
+    entries += [_wall(5, 2, "stack", mu=0.8), _wall(3, 2, "stack", block_height=1.0),
+                _wall(4, 2, "stack", block_height=0.75), _wall(3, 1, "stack", block_height=1.5)]
     entries += [
         _wall(3, 2, "running", family="wall with opening", openings=[[0.0, 0.0, 1.0, 0.5]]),
         _wall(3, 2, "running", family="wall with opening", openings=[[0.5, 0.5, 1.5, 1.0]]),
@@ -89,7 +91,7 @@ def suite(include_large: bool = True) -> list[Entry]:
     ]
     entries += [_arch(n_voussoirs=n, thickness=t, mu=mu)
                 for n, t, mu in ((6, 0.15, 0.65), (8, 0.15, 0.65), (10, 0.15, 0.65), (12, 0.12, 0.65),
-                                 (10, 0.2, 0.4), (10, 0.15, 0.3))]
+                                 (10, 0.2, 0.4), (10, 0.15, 0.5))]
     entries += [_buttressed(), _buttressed(buttress_courses=4, mu=0.5), _buttressed(n_voussoirs=8, mu=0.4)]
     entries += [_two_blocks(3.0, 0.65, 0.2), _two_blocks(5.0, 1.2, 0.4),
                 _wall(4, 2, "stack", family="psi>0", dilatancy=0.3), _arch(n_voussoirs=10, mu=0.65, dilatancy=0.3)]
@@ -121,7 +123,7 @@ def certificate(entry: Entry, time_limit: float = 120.0, compute: bool = True) -
     if entry.source == "best verified":
         return {"value": None, "source": "best verified", "certified": False}
     structure = entry.build()
-    key = structure_key(structure)
+    key = entry.label  # labels name the generator and its parameters; the hash is kept to spot changes
     cache = _load_cache()
     hit = cache.get(key)
     if hit is not None and (hit["certified"] or hit.get("time_limit", 0) >= time_limit or not compute):
@@ -131,7 +133,7 @@ def certificate(entry: Entry, time_limit: float = 120.0, compute: bool = True) -
     t0 = time.perf_counter()
     res = bm.solve(structure, "milp", time_limit=time_limit)
     certified = res.status is bm.Status.OPTIMAL
-    record = {"label": entry.label, "value": res.multiplier if certified else None, "source": "milp",
+    record = {"structure_hash": structure_key(structure), "value": res.multiplier if certified else None, "source": "milp",
               "certified": certified, "status": res.status.value, "time_limit": time_limit,
               "seconds": round(time.perf_counter() - t0, 3)}
     cache = _load_cache()
@@ -150,9 +152,10 @@ def main(argv: list[str] | None = None) -> None:
         ref = certificate(entry, args.time_limit)
         ops = bm.assemble(entry.build())
         lam_assoc = bm.solve(ops, "static-lp").multiplier
+        assoc = "-" if lam_assoc is None else f"{lam_assoc:.6f}"
         certified += bool(ref["certified"])
         value = "-" if ref["value"] is None else f"{ref['value']:.6f}"
-        print(f"{entry.label:<58} {entry.family:<20} {ref['source']:<12} {value:>9}  assoc {lam_assoc:.6f}"
+        print(f"{entry.label:<58} {entry.family:<20} {ref['source']:<12} {value:>9}  assoc {assoc}"
               f"  {ref.get('status', '')} {ref.get('seconds', '')}", flush=True)
     print(f"{certified} structures with a certified minimum; cache {CACHE}")
 

@@ -49,7 +49,7 @@ optimal at an accelerated ``n*`` is retried at the plain update (memory cleared)
 The stopping test stays ``||n - n*|| <= tol ||n||`` on the LP's own output.
 
 Persistence: the LPs are built (Pyomo, in :mod:`blockmpec.formulations`),
-compiled and loaded into HiGHS once; a new ``n*`` changes only row upper bounds
+compiled (through the compiled-formulation cache) and loaded into HiGHS once; a new ``n*`` changes only row upper bounds
 (and, for the weighted tie-breaks, costs) and each solve starts from the previous
 basis.
 """
@@ -127,7 +127,8 @@ class LPSequence:
     def __init__(self, ops: Operators, alpha: float = 0.0, tie_break: str = "closest",
                  algorithm: str = "auto", need_associative: bool = True, feasibility_tol: float = 1e-9,
                  fold_weight: float = 0.0) -> None:
-        from blockmpec.formulations import compile_linear, modified_lp, static_lp, tie_break_lp
+        from blockmpec.formulations import modified_lp, static_lp, tie_break_lp
+        from blockmpec.formulations._pyomo import compiled_linear
         from blockmpec.solvers.engines.highs import HighsLP
 
         self.ops = ops
@@ -145,13 +146,13 @@ class LPSequence:
         self._last_z_f = None
         self._step_folded = False  # the step LP's objective now carries folded costs
 
-        self.step_lp = compile_linear(modified_lp(ops, np.zeros(c), slope=self.slope))
+        self.step_lp = compiled_linear(modified_lp, ops, np.zeros(c), slope=self.slope)
         self.step_highs = HighsLP(self.step_lp, algorithm, **_scales(self.step_lp, ops))
 
         self.tie_lp = None
         self.tie_highs = None
         if tie_break != "none":
-            self.tie_lp = compile_linear(tie_break_lp(ops, np.zeros(c), slope=self.slope))
+            self.tie_lp = compiled_linear(tie_break_lp, ops, np.zeros(c), slope=self.slope)
             row = int(self.tie_lp.rows["floor"][0])
             col = int(self.tie_lp.columns["lam"][0])
             a = self.tie_lp.A[[row], :].toarray().ravel()
@@ -164,7 +165,7 @@ class LPSequence:
         self.assoc_lp = None
         self.assoc_highs = None
         if need_associative:
-            self.assoc_lp = compile_linear(static_lp(ops))
+            self.assoc_lp = compiled_linear(static_lp, ops)
             self.assoc_highs = HighsLP(self.assoc_lp, algorithm, **_scales(self.assoc_lp, ops))
         for highs in (self.step_highs, self.tie_highs, self.assoc_highs):
             if highs is not None:
@@ -262,6 +263,28 @@ class LPSequence:
             return Step(out.status, out.raw_status, f"dead-load start LP: {out.message}",
                         lp_iterations=out.iterations)
         return Step(Status.OPTIMAL, out.raw_status, out.message, static_lp_solution(self.assoc_lp, out), out.iterations)
+
+    def set_alpha(self, alpha: float) -> None:
+        """Tilt the friction rows of the step (and tie-break) LP to ``alpha`` (the SLP's schedule).
+
+        Changes the ``n`` coefficient ``s_k`` of both friction rows of every interface in
+        HiGHS (the basis is kept) and the cohesion factor ``tan(phi) - s``.
+        """
+        if alpha == self.alpha:
+            return
+        slope = self.ops.dilatancy + alpha * (self.ops.friction - self.ops.dilatancy)
+        slope = np.broadcast_to(slope, (self.ops.n_interfaces,))
+        for lp, highs in ((self.step_lp, self.step_highs), (self.tie_lp, self.tie_highs)):
+            if highs is None:
+                continue
+            rows = lp.rows["friction"]
+            cols = np.repeat(lp.columns["x"][1::3], 2)
+            values = highs.row_scale[rows] * np.repeat(slope, 2) * highs.column_scale[cols]
+            for r, col, v in zip(rows.tolist(), cols.tolist(), values.tolist()):
+                highs.highs.changeCoeff(r, col, v)
+        self.alpha = float(alpha)
+        self.slope = slope
+        self.cohesion_factor = self.ops.friction - slope
 
     def set_sensitivity(self, z_f: np.ndarray | None) -> None:
         """Friction multipliers for the first folded ``"min-lambda"`` step (e.g. the associative LP's)."""
@@ -426,6 +449,7 @@ def run_sequence(
     acceleration: str = "none",
     memory: int = 5,
     seed: int = 0,
+    alpha_schedule=None,
 ) -> tuple[RunOutput, dict[str, Any]]:
     r"""Iterate ``n* -> LP step -> n``, ``n* <- min(n* + relaxation (n - n*), 0)`` (or Anderson's update).
 
@@ -453,6 +477,8 @@ def run_sequence(
         Anderson depth.
     seed : int
         Seed of the ``"random"`` start.
+    alpha_schedule : callable, optional
+        ``k -> alpha`` of step ``k`` (1-based) for the SLP (:meth:`LPSequence.set_alpha`).
 
     Returns
     -------
@@ -501,6 +527,8 @@ def run_sequence(
     n_change_prev = np.inf
     plain_next = n_star
     while True:
+        if alpha_schedule is not None:
+            seq.set_alpha(alpha_schedule(crit.iterations + 1))
         step = seq.step(n_star, deadline, rule, first_from_associative=from_associative_basis)
         if step.status is not Status.OPTIMAL and anderson is not None and step.status is not Status.TIME_LIMIT \
                 and not np.array_equal(n_star, plain_next):
