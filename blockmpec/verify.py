@@ -1,5 +1,14 @@
 r"""The one verifier: residuals of problem (3) for any solver's iterate.
 
+This module is a deliberate second, independent statement of (3), written
+directly on the operators ``E, N_u, N_f, V_f, f_d, f_l``.  The one statement of (3)
+as a model is :mod:`blockmpec.formulations.mcp` (the Pyomo model), compiled once
+per structure by :func:`blockmpec.formulations.compile_mcp`, and that compiled
+object is what the solvers read.  The verifier shares nothing with them but the
+operators, so a slip in the model or its compilation shows up as a residual here
+instead of being checked against itself.  Keep it that way: do not rewrite this
+module on top of :class:`~blockmpec.formulations.CompiledMCP`.
+
 Given ``(lam, x, u, z_u, z_f)`` every residual is relative (scale-free):
 
 =============================  =================================================================

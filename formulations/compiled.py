@@ -20,8 +20,14 @@ The result, :class:`CompiledMCP`, holds
 
 so that no solver does stride arithmetic or reads an operator.  Everything a
 solver needs of (3) is here: ``nlp``, ``mcp-newton`` and ``milp`` consume this
-object.  The verifier :mod:`blockmpec.verify` is a deliberate second statement,
-written directly on the operators, as an independent check.
+object.
+
+Where (3) is written, and where it is checked: :mod:`blockmpec.formulations.mcp`
+(the Pyomo model) together with this module (its compilation) is the one
+statement of (3) as a model.  The verifier :mod:`blockmpec.verify` is a
+deliberate second, independent statement, written directly on the operators: it
+checks every solver's answer and shares no code with this path, so it must not
+be rewritten on top of :class:`CompiledMCP`.
 
 The flow rows depend linearly on ``tan(psi)`` of each interface;
 :meth:`CompiledMCP.with_dilatancy` gives the system at other values (used by the
