@@ -109,6 +109,9 @@ class MPECBounds:
         ``min lam`` over ``S``.
     lam_kinematic : float or None
         ``min -f_d^T u`` over the non-associative kinematic set with ``f_l^T u = 1`` (None: unbounded).
+    lam_dissipation : float or None
+        The work identity's LP bound (friction work bounded below by conditional OBBT on ``n``;
+        :meth:`blockmpec.solvers.milp.MILPSolver._dissipation_minimum`).
     lam_lower, lam_upper : float
         Column bounds of ``lam``: the LP optima widened by their round-off margin.
     slack_max : ndarray, shape (4c,)
@@ -136,6 +139,7 @@ class MPECBounds:
     lam_associative: float
     lam_static_min: float
     lam_kinematic: float | None
+    lam_dissipation: float | None
     lam_lower: float
     lam_upper: float
     slack_max: np.ndarray

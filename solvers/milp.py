@@ -62,6 +62,7 @@ import time
 from dataclasses import dataclass, field
 
 import numpy as np
+import scipy.sparse as sp
 
 from blockmpec import facts
 from blockmpec.registry import register_solver
@@ -88,6 +89,10 @@ class MILPOptions:
     multiplier_bounds: bool = field(default=True, metadata={"help": "tighten z_i <= y_i to z_i <= zmax_i y_i by LPs"})
     envelope: bool = field(default=False, metadata={
         "help": "McCormick envelope of the work identity lam tau = -f_d^T u + x^T B z (OBBT bounds on n)"})
+    dissipation_bound: bool = field(default=True, metadata={
+        "help": "lam >= an LP of the work identity with the friction work bounded by conditional OBBT on n"})
+    heuristic: str = field(default="fixed-point", metadata={
+        "help": "a method whose verified point, polished on its pattern, is a further incumbent ('' for none)"})
     bilinear: bool = field(default=False, metadata={
         "help": "engine=scip: the work identity's products as exact bilinear constraints (spatial branching)"})
     incumbent: bool = field(default=True, metadata={
@@ -116,7 +121,7 @@ class MILPOptions:
             raise ValueError(f"sense must be 'min' or 'max'; got {self.sense!r}")
         if self.slack_bounds not in ("row", "normal"):
             raise ValueError(f"slack_bounds must be 'row' or 'normal'; got {self.slack_bounds!r}")
-        for name in ("multiplier_bounds", "envelope", "bilinear", "incumbent", "warm_bounds", "verbose"):
+        for name in ("multiplier_bounds", "envelope", "dissipation_bound", "bilinear", "incumbent", "warm_bounds", "verbose"):
             if not isinstance(getattr(self, name), bool):
                 raise ValueError(f"{name} must be True or False; got {getattr(self, name)!r}")
         if self.bilinear and self.engine != "scip":
@@ -130,12 +135,24 @@ BOUND_MARGIN_REL = 1e-4
 BOUND_MARGIN_ABS = 1e-6
 #: relative widening of LP-derived bounds (round-off of the LP optima)
 LP_MARGIN = 1e-6
+#: relative widening of the lam lower bounds of the kinematic LPs, solved with feasibility
+#: tolerances BOUND_LP_TOL (below CERTIFICATE_TOL, so that a root bound can close the gap)
+LAM_MARGIN = 1e-8
+BOUND_LP_TOL = 1e-10
 #: the engine solves to its feasibility tolerances, so its dual bound and the exact (polished)
 #: multiplier of the same pattern may differ by about this much (times max(1, |lam|)) without any
 #: real gap; a larger difference voids the certificate.
 CERTIFICATE_TOL = 1e-7
 #: a slack within this (times the largest bound) of its M is "at its bound"
 ACTIVE_TOL = 1e-7
+
+
+def _widen(lower: np.ndarray, upper: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """LP-derived bounds widened by ``LP_MARGIN`` (relative) and ``BOUND_MARGIN_REL`` of the finite width."""
+    width = np.abs(upper - lower)
+    width = np.where(np.isfinite(width), width, 0.0)
+    return (lower - LP_MARGIN * np.maximum(1.0, np.abs(lower)) - BOUND_MARGIN_REL * width,
+            upper + LP_MARGIN * np.maximum(1.0, np.abs(upper)) + BOUND_MARGIN_REL * width)
 
 
 class _BoundFailure(Exception):
@@ -207,6 +224,8 @@ class MILPSolver(SolverBase):
         self.polish_static = HighsLP(self.static, "dual-simplex")
         self.polish_kinematic = HighsLP(self.kinematic, "dual-simplex")
         self.kinematic_bound = HighsLP(self.kinematic, "dual-simplex")
+        for name in ("primal_feasibility_tolerance", "dual_feasibility_tolerance"):
+            self.kinematic_bound.highs.setOptionValue(name, BOUND_LP_TOL)
 
     # ------------------------------------------------------------------ 1. bounds
     def _solve_cost(self, hl, cost: np.ndarray, deadline: float):
@@ -268,10 +287,16 @@ class MILPSolver(SolverBase):
                 smax[i] = max(-r.objective, 0.0)
         else:
             smax = self._slack_bounds_by_normal(x_bound, x_lower)
-        Bw = work_matrix(form) if self.options.envelope else None
-        envelope_rows = np.unique(Bw.row) if self.options.envelope else np.array([], int)
+        need_products = self.options.envelope or self.options.dissipation_bound
+        Bw = work_matrix(form) if need_products else None
+        envelope_rows = np.unique(Bw.row) if need_products else np.array([], int)
+        for j in envelope_rows:
+            if not np.isfinite(x_lower[j]):
+                x_lower[j] = x_bound(j, 1.0)
+            x_upper[j] = -x_bound(j, -1.0)
+        x_lower, x_upper = _widen(x_lower, x_upper)
         product_lower = product_upper = None
-        if self.options.envelope:
+        if need_products:
             # conditional OBBT: bounds of x_r over S ∩ {s_i = 0} for each product x_r z_i of B
             rows = lp.rows["pairs"]
             product_lower, product_upper = np.full(Bw.nnz, -np.inf), np.full(Bw.nnz, np.inf)
@@ -279,35 +304,80 @@ class MILPSolver(SolverBase):
                 i = int(Bw.col[e])
                 h.changeRowBounds(int(rows[i]), 0.0, 0.0)
                 try:
-                    product_lower[e] = x_bound(int(Bw.row[e]), 1.0)
+                    if self.options.envelope:
+                        product_lower[e] = x_bound(int(Bw.row[e]), 1.0)
                     product_upper[e] = -x_bound(int(Bw.row[e]), -1.0)
                 except _BoundFailure:
                     # the pair is never active on S (or the LP failed): no conditional bound is
-                    # claimed, the product keeps the unconditional McCormick rows (always valid)
+                    # claimed, the product keeps the unconditional bounds (always valid)
                     product_lower[e], product_upper[e] = -np.inf, np.inf
                 h.changeRowBounds(int(rows[i]), -np.inf, 0.0)
-            pw = np.abs(product_upper - product_lower)
-            product_lower = product_lower - LP_MARGIN * np.maximum(1.0, np.abs(product_lower)) - BOUND_MARGIN_REL * pw
-            product_upper = product_upper + LP_MARGIN * np.maximum(1.0, np.abs(product_upper)) + BOUND_MARGIN_REL * pw
-        for j in envelope_rows:
-            if not np.isfinite(x_lower[j]):
-                x_lower[j] = x_bound(j, 1.0)
-            x_upper[j] = -x_bound(j, -1.0)
-        width = np.abs(x_upper - x_lower)
-        width = np.where(np.isfinite(width), width, 0.0)
-        x_lower = x_lower - LP_MARGIN * np.maximum(1.0, np.abs(x_lower)) - BOUND_MARGIN_REL * width
-        x_upper = x_upper + LP_MARGIN * np.maximum(1.0, np.abs(x_upper)) + BOUND_MARGIN_REL * width
+            product_lower, product_upper = _widen(product_lower, product_upper)
+            # exact signs: x_r <= 0 wherever the pair rows imply it (no LP round-off involved)
+            nonpositive = self._implied_nonpositive()
+            x_upper[nonpositive] = np.minimum(x_upper[nonpositive], 0.0)
+            product_upper = np.where(nonpositive[Bw.row], np.minimum(product_upper, 0.0), product_upper)
         h.changeColBounds(0, -np.inf, np.inf)
         scale = float(max(smax.max(initial=0.0), 1e-300))
         slack_max = np.where(smax <= 1e-12 * scale, 0.0,
                              smax * (1.0 + BOUND_MARGIN_REL) + BOUND_MARGIN_ABS * scale)
         z_max, tau_max = self._multiplier_bounds(deadline)
         kin = self._kinematic_minimum(deadline)
+        diss = None
+        if self.options.dissipation_bound:
+            diss = self._dissipation_minimum(Bw, np.minimum(x_upper[Bw.row], product_upper), deadline)
+        lower = max([lam_lower] + [v for v in (kin, diss) if v is not None])
         return MPECBounds(lam_associative=lam_assoc, lam_static_min=lam_min, lam_kinematic=kin,
-                          lam_lower=max(lam_lower, kin) if kin is not None else lam_lower, lam_upper=lam_upper,
+                          lam_dissipation=diss, lam_lower=lower, lam_upper=lam_upper,
                           slack_max=slack_max, z_max=z_max, tau_max=tau_max, x_lower=x_lower, x_upper=x_upper,
                           product_lower=product_lower, product_upper=product_upper, x_associative=x_assoc,
                           n_lps=self._n_lps, time_s=time.perf_counter() - t0)
+
+    def _implied_nonpositive(self) -> np.ndarray:
+        """``x_r <= 0`` implied exactly by ``G x <= 0``: the two friction rows of an interface add up to
+        a positive multiple of ``e_r`` (Coulomb: ``(t + tan(phi) n) + (-t + tan(phi) n) = 2 tan(phi) n``)."""
+        from blockmpec.formulations.compiled import FRICTION
+
+        form = self.form
+        Gx = form.pair_matrix.tocsr()
+        out = np.zeros(Gx.shape[1], dtype=bool)
+        for k in range(form.n_interfaces):
+            pairs = np.flatnonzero((form.pair_interface == k) & (form.pair_kind == FRICTION))
+            if pairs.size != 2:
+                continue
+            v = sp.csr_array(Gx[[pairs[0]]] + Gx[[pairs[1]]])
+            v.eliminate_zeros()
+            scale = np.abs(Gx[pairs].data).max(initial=0.0)
+            big = np.flatnonzero(np.abs(v.toarray().ravel()) > 1e-14 * scale)
+            if big.size == 1 and v.toarray().ravel()[big[0]] > 0:
+                out[big[0]] = True
+        return out
+
+    def _dissipation_minimum(self, Bw, upper: np.ndarray, deadline: float) -> float | None:
+        r"""A lower bound on lam from the work identity with the friction work bounded below.
+
+        At a solution of (3) with ``f_l^T u = 1``: ``lam = -f_d^T u + sum_e B_e x_r z_i`` (identity (W)
+        of :mod:`blockmpec.formulations.mpec_milp`).  Each ``B_e < 0`` and ``x_r <= upper_e`` whenever
+        ``z_i > 0`` (conditional bound: the pair is active), so ``B_e x_r z_i >= B_e upper_e z_i`` and ::
+
+            lam >= min { -f_d^T u + c^T z : compatibility, f_l^T u = 1, z >= 0 },  c_i = sum_e B_e upper_e,
+
+        an LP over a superset of the kinematic part of every solution.  None when some
+        ``B_e > 0`` or ``upper_e`` is not finite (no sign argument) or the LP is not optimal.
+        """
+        form, kp, hk = self.form, self.kinematic, self.kinematic_bound
+        if np.any(Bw.data > 0) or not np.all(np.isfinite(upper)):
+            return None
+        cz = np.zeros(form.n_pairs)
+        np.add.at(cz, Bw.col, Bw.data * upper)
+        g = hk.highs
+        g.changeRowBounds(int(kp.rows["live"][0]), 1.0, 1.0)
+        g.changeRowBounds(int(kp.rows["total"][0]), -np.inf, np.inf)
+        cost = np.r_[-form.f_d, cz]
+        r = self._solve_cost(hk, cost, deadline)
+        if r.status is not Status.OPTIMAL:
+            return None
+        return float(r.objective - LAM_MARGIN * max(1.0, abs(r.objective)))
 
     def _slack_bounds_by_normal(self, x_bound, x_lower: np.ndarray) -> np.ndarray:
         """``slack_bounds="normal"``: ``nmin_k = min n_k`` over ``S`` (one LP per interface), then
@@ -367,7 +437,7 @@ class MILPSolver(SolverBase):
         r = self._solve_cost(hk, cost, deadline)
         if r.status is not Status.OPTIMAL:
             return None
-        return float(r.objective - LP_MARGIN * max(1.0, abs(r.objective)))
+        return float(r.objective - LAM_MARGIN * max(1.0, abs(r.objective)))
 
     # ------------------------------------------------------------------ 2. build
     def _build(self, bd, tau_min: float = 0.0):
@@ -481,6 +551,43 @@ class MILPSolver(SolverBase):
             return None
         return self._solution(bd.lam_associative, bd.x_associative, *mech)
 
+    def _incumbent(self, bd, deadline: float) -> Solution | None:
+        """The better of the associative-pattern point and the ``heuristic``'s verified point, each
+        polished on its pattern (so an exact solution of (3)); None when neither exists."""
+        opt = self.options
+        best = self._associative_incumbent(bd)
+        if opt.heuristic:
+            import blockmpec as bm
+
+            limit = max(min(0.25 * (deadline - time.perf_counter()), 30.0), 1e-3)
+            res = bm.solve(self.ops, opt.heuristic, time_limit=limit)
+            if res.verified and res.status.is_success:
+                w = self.form.pack(res.solution)
+                s, z = self.form.slack(w), self.form.multipliers(w)
+                sol, _ = self._polish(z > s)
+                better = sol is not None and (best is None or (sol.multiplier < best.multiplier) != (opt.sense == "max"))
+                if better:
+                    best = sol
+        return best
+
+    def _root_certificate(self, incumbent: Solution, bd, trace: list, t_build: float) -> RunOutput | None:
+        """OPTIMAL without search when the incumbent meets the LP bound on lam (within CERTIFICATE_TOL)."""
+        maximise = self.options.sense == "max"
+        bound = bd.lam_upper if maximise else bd.lam_lower
+        lam = incumbent.multiplier
+        gap = max(0.0, (bound - lam) if maximise else (lam - bound))
+        if gap > CERTIFICATE_TOL * max(1.0, abs(lam)) or self.options.bigm_scale < 1:
+            return None
+        extra = {facts.SENSE: self.options.sense, facts.ASSOCIATIVE_MULTIPLIER: bd.lam_associative,
+                 facts.BOUND: bound, facts.GAP_ABS: gap, facts.GAP_REL: gap / max(abs(lam), 1e-12),
+                 facts.LP_SOLVES: bd.n_lps, "engine": "root", "lam_kinematic": bd.lam_kinematic,
+                 "lam_dissipation": bd.lam_dissipation, "bound_time_s": bd.time_s, "build_time_s": t_build,
+                 "search_time_s": 0.0, "nodes": 0, "bigm_active": [], "bigm": (bd.slack_max).tolist()}
+        word = "maximum" if maximise else "minimum"
+        return RunOutput(Status.OPTIMAL, incumbent, 0, trace,
+                         f"certified global {word} at the root: the incumbent meets the LP bound; gap {gap:.2e}",
+                         "root", extra)
+
     def _pattern(self, mip, v: np.ndarray) -> np.ndarray:
         """Active pairs of an engine point: ``y_i = 1`` (big-M) or ``z_i > s_i`` (SOS1)."""
         if "y" in mip.columns:
@@ -507,7 +614,14 @@ class MILPSolver(SolverBase):
         t0 = time.perf_counter()
         mip = self._build(bd)
         t_build = time.perf_counter() - t0
-        incumbent = self._associative_incumbent(bd) if opt.incumbent else None
+        incumbent = self._incumbent(bd, deadline) if opt.incumbent else None
+        if incumbent is not None:
+            trace.append({"iteration": len(trace), "stage": "incumbent", "time_s": time.perf_counter() - t_start,
+                          "bound": bd.lam_upper if maximise else bd.lam_lower, "incumbent": incumbent.multiplier,
+                          "gap_abs": abs(incumbent.multiplier - (bd.lam_upper if maximise else bd.lam_lower))})
+            root = self._root_certificate(incumbent, bd, trace, t_build)
+            if root is not None:
+                return root
         run = self._solve(mip, deadline, self._start(mip, incumbent), t_start)
         trace += [dict(r, iteration=len(trace) + k, stage="search") for k, r in enumerate(run.trace)]
         sign = mip.objective_sign
@@ -520,6 +634,7 @@ class MILPSolver(SolverBase):
             "engine": opt.engine,
             "lam_static_min": bd.lam_static_min,
             "lam_kinematic": bd.lam_kinematic,
+            "lam_dissipation": bd.lam_dissipation,
             "tau_max": bd.tau_max,
             "bigm": mip.bigm.tolist(),
             "bigm_scale": opt.bigm_scale,
