@@ -84,10 +84,8 @@ def suite(include_large: bool = True) -> list[Entry]:
     entries += [_wall(5, 2, "stack", mu=0.8), _wall(3, 2, "stack", block_height=1.0),
                 _wall(4, 2, "stack", block_height=0.75), _wall(3, 1, "stack", block_height=1.5)]
     entries += [
-        _wall(3, 2, "running", family="wall with opening", openings=[[0.0, 0.0, 1.0, 0.5]]),
         _wall(3, 2, "running", family="wall with opening", openings=[[0.5, 0.5, 1.5, 1.0]]),
-        _wall(2, 3, "stack", family="wall with opening", openings=[[1.0, 0.0, 2.0, 0.5]]),
-        _wall(3, 3, "stack", family="wall with opening", openings=[[1.0, 0.5, 2.0, 1.0]]),
+        _wall(3, 2, "running", family="wall with opening", openings=[[0.0, 1.0, 1.0, 1.5]]),
     ]
     entries += [_arch(n_voussoirs=n, thickness=t, mu=mu)
                 for n, t, mu in ((6, 0.15, 0.65), (8, 0.15, 0.65), (10, 0.15, 0.65), (12, 0.12, 0.65),
