@@ -32,3 +32,20 @@ def test_no_generic_top_level_packages_installed():
     assert (Path(solvers.__file__).parent / "engines" / "highs.py").exists()
     mods = _modules_after("import blockmpec; blockmpec.list_solvers()")
     assert "solvers" not in mods and "formulations" not in mods
+
+
+def test_solvers_read_problem_3_from_the_compiled_formulation():
+    # (3) is written once as a model (formulations/mcp.py, compiled by compile_mcp) and checked once
+    # (blockmpec/verify.py); no method may rebuild its flow rule from the operators
+    import ast
+
+    import blockmpec.solvers as solvers
+
+    forbidden = {"V_f", "friction_operator"}
+    found = []
+    for path in sorted(Path(solvers.__file__).parent.rglob("*.py")):
+        for node in ast.walk(ast.parse(path.read_text(), filename=str(path))):
+            name = node.attr if isinstance(node, ast.Attribute) else node.id if isinstance(node, ast.Name) else None
+            if name in forbidden:
+                found.append(f"{path.name}:{node.lineno}: {name}")
+    assert not found, found
