@@ -71,14 +71,15 @@ def _pyplot():
     matplotlib.use("Agg", force=False)
     import matplotlib.pyplot as plt
 
-    plt.rcParams.update({"font.size": 10, "axes.titlesize": 10, "legend.fontsize": 8, "savefig.dpi": 200})
+    plt.rcParams.update({"font.size": 10, "axes.titlesize": 10, "legend.fontsize": 8, "savefig.dpi": 150})
     return plt
 
 
 def _save(fig, path: str | Path) -> Path:
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, bbox_inches="tight")
+    # constrained layout already fits the labels: a "tight" bounding box would draw everything twice
+    fig.savefig(path, bbox_inches=None if fig.get_layout_engine() is not None else "tight")
     import matplotlib.pyplot as plt
 
     plt.close(fig)
