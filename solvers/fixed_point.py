@@ -13,30 +13,52 @@ the LP's duals ``(u, z_u, z_f)`` satisfy compatibility with ``V_f`` (friction
 ``tan(psi)``), so ``(lam, x, u, z_u, z_f)`` solves (3).  Any solution of (3) has
 ``lam`` at most the associative multiplier, because its ``x`` is feasible for (1).
 
-Start: ``n*_0`` = normal forces of the associative static LP (1) (``start=
-"associative"``) or ``0`` (``start="zero"``).
+Start (``start``): ``n*_0`` = normal forces of the associative static LP (1)
+(``"associative"``), ``0`` (``"zero"``), a statically admissible field under the
+dead load alone (``"dead-load"``), or the associative forces scaled per interface
+by seeded uniform factors in [0, 1] (``"random"``, ``seed``).
 
-Tie-break (default ``tie_break="closest"``).  The LP's optimal forces are often
-not unique (e.g. running-bond walls): HiGHS then returns some vertex, ``n`` can
-keep wandering between optimal vertices while ``lam`` has levelled off, and the
-plain iteration does not meet its test.  With ``"closest"`` each step also solves
-a second LP that keeps ``lam >= lam* - 1e-10 max(1, |lam*|)`` and picks the optimal
-forces closest to ``n*`` in the 1-norm (auxiliary deviations ``d >= |n - n*|``).
-This makes ``F`` single-valued where it matters: once ``n*`` is itself optimal for
-its own LP, ``F(n*) = n*`` exactly and the test is met.  ``u, z_u, z_f`` come from
-the duals of the first LP; ``x`` from the tie-break LP (any optimal primal and
-dual of one LP are complementary).  ``tie_break="none"`` is the plain method.
+Tie-break (``tie_break``).  The LP's optimal forces are often not unique (e.g.
+running-bond walls): HiGHS then returns some vertex, ``n`` can keep wandering
+between optimal vertices while ``lam`` has levelled off, and the plain iteration
+(``"none"``) does not meet its test.  A second LP
+(:func:`blockmpec.formulations.tie_break_lp`) keeps ``lam >= lam* - 1e-10 max(1,
+|lam*|)`` and picks one optimal force field:
 
-Which solution of (3) is found depends on the choice (the MCP has many).  With
-the associative start, whenever the associative forces are optimal for their own
-LP (5) (``lam_1 = lam_assoc``), they are a fixed point and ``"closest"`` stops
-there after one step, returning the associative multiplier: a genuine solution of
-(3) (zero-dilatancy mechanism from the duals), but the largest one.  The plain
-method's answer depends on which optimal vertex HiGHS returns: two blocks
-(``eta = 3``, ``mu = 0.65``) with HiGHS's default feasibility tolerance 1e-7 it
-drifted to 1/3 (the minimum) in 11 steps, with 1e-9 it stops at 0.41973 after
-one step; on ``wall(10, 20)`` it does not converge at all (``||n - n*||/||n||``
-still ~1e-2 after 500 steps) while ``"closest"`` converges in about 37 steps.
+* ``"closest"``: closest to ``n*`` in the 1-norm.  Once ``n*`` is optimal for its
+  own LP, ``F(n*) = n*`` exactly and the test is met.  With the associative start,
+  whenever the associative forces are optimal for their own LP (5) they are a
+  fixed point and the method stops after one step with the associative multiplier:
+  a genuine solution of (3), but the largest one (the behaviour before the
+  strategy study; ``start="associative", tie_break="closest"``).
+* ``"least-compressed"``: minimises the next step's total cohesion
+  ``-sum_k (tan(phi_k) - tan(psi_k)) n_k`` over the optimal forces (closeness
+  breaks the remaining ties).  Less cohesion can only lower the next ``lam``.
+* ``"min-lambda"``: minimises the first-order estimate of the next step's ``lam``,
+  ``sum_k zeta_k (tan(phi_k) - tan(psi_k)) (-n_k)``, where ``zeta_k`` are this step's
+  friction multipliers (the LP sensitivity ``d lam / d cohesion_k``).
+* ``"on-oscillation"``: the plain step until ``||n - n*||`` stops decreasing, then
+  ``"closest"``.
+
+``u, z_u, z_f`` come from the duals of the step LP; ``x`` from the tie-break LP (any
+optimal primal and dual of one LP are complementary).  ``fold_weight > 0`` folds a
+weighted rule into the step LP's objective (one LP per step) and closes with exact
+``"closest"`` steps (see :mod:`blockmpec.solvers.engines.lp_sequence`).
+
+Every rule keeps the paper's convergence test on ``n``; which solution of (3) is
+found depends on the start and the rule (the MCP has many).  The plain method's
+answer depends on which optimal vertex HiGHS returns: two blocks (``eta = 3``,
+``mu = 0.65``) with HiGHS's default feasibility tolerance 1e-7 it drifted to 1/3
+(the minimum) in 11 steps, with 1e-9 it stops at 0.41973 after one step.
+
+Update: ``relaxation`` ``omega`` as above, or Anderson mixing on ``n*``
+(``acceleration="anderson"``, depth ``memory``).  ``multistart > 1`` runs the
+configured start and then seeded random starts (seeds ``seed + 1, ...``) and
+returns the converged run with the lowest verified multiplier (residuals of (3)
+at most 1e-6); nothing unverified is preferred over a verified run.
+
+Defaults: chosen by ``studies/fixed_point_strategies.py`` (the README's strategy
+table); see :class:`FixedPointOptions`.
 
 Safeguards: ``n*`` is kept ``<= 0`` (a round-off tension within the LP tolerance
 would give a negative cohesion and an infeasible next LP), and the LPs run with

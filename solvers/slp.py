@@ -27,6 +27,11 @@ package's choice, not a published value.  The step LPs are the fixed point's
 (:mod:`blockmpec.solvers.engines.lp_sequence`): built once, warm re-solves; ``tie_break`` defaults
 to ``"none"`` as published.
 
+``alpha_schedule="halving"`` tilts step ``k`` by ``alpha / 2^(k-1)`` (0 once below
+1e-6): the surface starts near Coulomb's and returns to the modified LP (5) of the
+fixed point, as schedules that let ``alpha`` decay do; the coefficients change in
+the persistent HiGHS LP (:meth:`~blockmpec.solvers.engines.lp_sequence.LPSequence.set_alpha`).
+
 With ``alpha = 0``, ``beta = 1`` an SLP step is exactly a fixed-point step (same
 LP, same update).
 
@@ -74,7 +79,7 @@ class SLPOptions:
     tol: float = field(default=1e-6, metadata={"help": "stop when |lam_k - lam_(k-1)| <= tol (k >= 2)"})
     max_iterations: int = field(default=500, metadata={"help": "most LP steps"})
     tie_break: str = field(default="none", metadata={
-        "help": "none (as published) | closest: among optimal LP forces take those closest to n*"})
+        "help": "none (as published) | closest | least-compressed | min-lambda | on-oscillation (see fixed-point)"})
     algorithm: str = field(default="auto", metadata={"help": "HiGHS: auto | simplex | dual-simplex | primal-simplex | ipm"})
     time_limit: float = field(default=float("inf"), metadata={"help": "seconds for the whole iteration"})
 

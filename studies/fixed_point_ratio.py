@@ -4,14 +4,16 @@ For each running-bond wall size, in one process and one run:
 
 * ``cold LP``: ``static-lp`` with each algorithm of ``--lp-algorithms`` (solve time only;
   set-up, i.e. Pyomo build + compile + load, is reported apart);
-* ``fixed point``: ``fixed-point`` with its defaults (solve time, iterations, status), and
-  the seconds its LPs took per kind: the associative start, the step LPs (5) and the
-  tie-break LPs (``Result.extra["lp_time_s"]``);
+* ``fixed point``: ``fixed-point`` with each option set of ``--fixed-point`` (default: its
+  defaults, and the old default ``start=associative, tie_break=closest``): solve time,
+  iterations, status, lam, and the seconds its LPs took per kind (the start LP, the step
+  LPs (5), the tie-break LPs; ``Result.extra["lp_time_s"]``);
 * the ratios ``fixed point / cold LP`` for each LP algorithm.
 
 Usage::
 
-    python studies/fixed_point_ratio.py [--sizes 200,1000] [--lp-algorithms auto,ipm] [--time-limit 600]
+    python studies/fixed_point_ratio.py [--sizes 200,1000 | --walls 20x50,100x100] [--lp-algorithms auto,ipm]
+        [--fixed-point "default;start=associative,tie_break=closest"] [--time-limit 600]
 
 Prints a markdown table and writes ``studies/output/fixed_point_ratio/ratio.csv``.
 """
@@ -32,37 +34,67 @@ from lp_timing import wall_for  # noqa: E402
 OUT = Path(__file__).parent / "output" / "fixed_point_ratio"
 
 
-def measure(n_blocks: int, lp_algorithms: list[str], time_limit: float) -> dict:
-    ops = bm.assemble(wall_for(n_blocks))
-    row: dict = {"blocks": ops.n_free_blocks}
+def parse_options(text: str) -> dict:
+    """``"a=1,b=x"`` -> ``{"a": 1, "b": "x"}`` (numbers parsed); ``"default"`` -> ``{}``."""
+    out: dict = {}
+    for item in filter(None, text.split(",")):
+        if item == "default":
+            continue
+        key, value = item.split("=", 1)
+        try:
+            out[key] = int(value)
+        except ValueError:
+            try:
+                out[key] = float(value)
+            except ValueError:
+                out[key] = value
+    return out
+
+
+def measure(wall: str, lp_algorithms: list[str], fixed_points: list[str], time_limit: float) -> list[dict]:
+    if "x" in wall:
+        courses, per = (int(v) for v in wall.split("x"))
+        structure = bm.cases.wall(courses=courses, blocks_per_course=per)
+    else:
+        structure = wall_for(int(wall))
+    ops = bm.assemble(structure)
+    base: dict = {"blocks": ops.n_free_blocks, "wall": wall}
     for algorithm in lp_algorithms:
         res = bm.solve(ops, "static-lp", algorithm=algorithm, time_limit=time_limit)
-        row[f"lp_{algorithm}_s"] = res.solve_time_s
-        row[f"lp_{algorithm}_setup_s"] = res.build_time_s
-        row[f"lp_{algorithm}_status"] = res.status.value
-    fp = bm.solve(ops, "fixed-point", time_limit=time_limit)
-    row.update({
-        "fp_s": fp.solve_time_s, "fp_setup_s": fp.build_time_s, "fp_status": fp.status.value,
-        "fp_iterations": fp.iterations, "fp_multiplier": fp.multiplier,
-        **{f"fp_{k}_s": v for k, v in fp.extra.get("lp_time_s", {}).items()},
-    })
-    for algorithm in lp_algorithms:
-        lp = row[f"lp_{algorithm}_s"]
-        row[f"ratio_vs_{algorithm}"] = fp.solve_time_s / lp if lp else math.nan
-    return row
+        base[f"lp_{algorithm}_s"] = res.solve_time_s
+        base[f"lp_{algorithm}_setup_s"] = res.build_time_s
+        base[f"lp_{algorithm}_status"] = res.status.value
+        base[f"lp_{algorithm}_multiplier"] = res.multiplier
+        print(f"{wall}: static-lp {algorithm} {res.status.value} {res.solve_time_s:.3g} s", flush=True)
+    rows = []
+    for text in fixed_points:
+        fp = bm.solve(ops, "fixed-point", time_limit=time_limit, **parse_options(text))
+        row = {**base, "fixed_point": text, "fp_s": fp.solve_time_s, "fp_setup_s": fp.build_time_s,
+               "fp_status": fp.status.value, "fp_iterations": fp.iterations, "fp_multiplier": fp.multiplier,
+               **{f"fp_{k}_s": v for k, v in fp.extra.get("lp_time_s", {}).items()}}
+        for algorithm in lp_algorithms:
+            lp = base[f"lp_{algorithm}_s"]
+            row[f"ratio_vs_{algorithm}"] = fp.solve_time_s / lp if lp else math.nan
+        print(f"{wall}: fixed-point {text}: {fp.status.value} lam={fp.multiplier} {fp.solve_time_s:.3g} s", flush=True)
+        rows.append(row)
+    return rows
 
 
 def main(argv: list[str] | None = None) -> list[dict]:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--sizes", default="200,1000")
+    parser.add_argument("--sizes", default="200,1000", help="wall sizes in blocks (lp_timing.wall_for)")
+    parser.add_argument("--walls", default="", help="walls as CxB (courses x blocks per course); overrides --sizes")
+    parser.add_argument("--fixed-point", default="default;start=associative,tie_break=closest",
+                        help="';'-separated fixed-point option sets (k=v,...; 'default' = its defaults)")
     parser.add_argument("--lp-algorithms", default="auto,ipm", help="static-lp algorithms to time cold")
     parser.add_argument("--time-limit", type=float, default=600.0)
     args = parser.parse_args(argv)
     algorithms = args.lp_algorithms.split(",")
-    rows = [measure(int(n), algorithms, args.time_limit) for n in args.sizes.split(",")]
-    keys = ["blocks", *[f"lp_{a}_s" for a in algorithms], "fp_s", "fp_iterations", "fp_status",
-            "fp_associative_s", "fp_step_s", "fp_tie_break_s", *[f"ratio_vs_{a}" for a in algorithms]]
-    print(markdown(rows, [(k, k, "{}" if k == "fp_status" else "{:.3g}") for k in keys]))
+    walls = args.walls.split(",") if args.walls else args.sizes.split(",")
+    rows = [r for w in walls for r in measure(w, algorithms, args.fixed_point.split(";"), args.time_limit)]
+    keys = ["blocks", *[f"lp_{a}_s" for a in algorithms], "fixed_point", "fp_s", "fp_iterations", "fp_status",
+            "fp_multiplier", "fp_associative_s", "fp_step_s", "fp_tie_break_s", *[f"ratio_vs_{a}" for a in algorithms]]
+    print(markdown(rows, [(k, k, "{}" if k in ("fp_status", "fixed_point") else "{:.3g}") for k in keys]))
     OUT.mkdir(parents=True, exist_ok=True)
     write_csv(OUT / "ratio.csv", rows)
     print(f"wrote {OUT / 'ratio.csv'}")

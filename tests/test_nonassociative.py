@@ -130,7 +130,7 @@ def test_tie_break_choice_keeps_convergence(name, tie_break):
 def test_associative_friction_gives_associative_multiplier(name, tie_break):
     case = bm.build_case(name, dilatancy=0.65)  # psi = phi
     lam_assoc = associative(case).multiplier
-    res = bm.solve(case, "fixed-point", tie_break=tie_break)
+    res = bm.solve(case, "fixed-point", start="associative", tie_break=tie_break)
     assert_mcp_solution(res)
     assert res.multiplier == pytest.approx(lam_assoc, abs=1e-9)
     assert res.iterations == 1
@@ -151,7 +151,7 @@ def test_relaxation_still_converges(tie_break):
 def test_slp_with_alpha0_beta1_is_the_fixed_point_step(tie_break):
     case = bm.cases.wall(10, 5)
     k = 6
-    fp = bm.solve(case, "fixed-point", tie_break=tie_break, max_iterations=k, tol=1e-300)
+    fp = bm.solve(case, "fixed-point", start="associative", tie_break=tie_break, max_iterations=k, tol=1e-300)
     slp = bm.solve(case, "slp", alpha=0.0, beta=1.0, tie_break=tie_break, max_iterations=k, tol=1e-300)
     m = min(len(fp.trace), len(slp.trace))
     assert m >= 2
@@ -195,7 +195,7 @@ def test_time_limit_status():
 
 
 def test_trace_fields():
-    res = bm.solve(bm.cases.wall(), "fixed-point", tie_break="none")
+    res = bm.solve(bm.cases.wall(), "fixed-point", start="associative", tie_break="none")
     for k, row in enumerate(res.trace, start=1):
         assert row["iteration"] == k
         for key in ("time_s", "multiplier", "n_change", "friction_admissibility"):
@@ -218,3 +218,103 @@ def test_bad_options(method, options):
     name = next(iter(options))
     with pytest.raises(OptionError, match=name):
         bm.solve(bm.cases.two_blocks(), method, **options)
+
+
+# ------------------------------------------------------------------ aiming at the minimum (issue 13)
+
+#: strategies of the study (studies/fixed_point_strategies.py) that must stay sound
+STRATEGIES = [
+    {"start": "associative", "tie_break": "closest"},
+    {"start": "associative", "tie_break": "min-lambda"},
+    {"start": "associative", "tie_break": "least-compressed"},
+    {"start": "dead-load", "tie_break": "least-compressed"},
+    {"start": "dead-load", "tie_break": "on-oscillation"},
+    {"start": "random", "seed": 3, "tie_break": "min-lambda"},
+    {"start": "dead-load", "tie_break": "least-compressed", "acceleration": "anderson"},
+    {"start": "dead-load", "tie_break": "least-compressed", "fold_weight": 1e-4},
+]
+
+
+def certified_minimum(case):
+    res = bm.solve(case, "milp", time_limit=60.0)
+    assert res.status is bm.Status.OPTIMAL and res.success, res.message
+    return res.multiplier
+
+
+@pytest.mark.parametrize("eta,mu", [(3, 0.65), (5, 1.2), (2.5, 0.9), (4, 0.5), (6, 0.3)])
+def test_default_fixed_point_reaches_the_two_block_closed_form_minimum(eta, mu):
+    case = bm.cases.two_blocks(eta=eta, mu=mu)
+    minimum = bm.cases.closed_form("two-blocks", "non-associative", eta=eta, mu=mu)
+    assert minimum < associative(case).multiplier - 1e-3  # a point where the minimum is below the associative
+    res = bm.solve(case, "fixed-point")
+    assert_mcp_solution(res)
+    assert res.multiplier == pytest.approx(minimum, abs=1e-7)
+
+
+def test_default_fixed_point_reaches_the_certified_minimum_of_the_stack_wall():
+    case = bm.cases.wall(4, 2, bond="stack")
+    minimum = certified_minimum(case)
+    assert minimum < associative(case).multiplier - 1e-3
+    res = bm.solve(case, "fixed-point")
+    assert_mcp_solution(res)
+    assert res.multiplier == pytest.approx(minimum, abs=1e-7)
+
+
+def test_old_default_is_an_option_and_returns_the_associative_solution():
+    case = bm.cases.two_blocks(eta=3, mu=0.65)
+    res = bm.solve(case, "fixed-point", start="associative", tie_break="closest")
+    assert_mcp_solution(res)
+    assert res.iterations == 1
+    assert res.multiplier == pytest.approx(associative(case).multiplier, abs=1e-9)
+    assert res.extra["associative_multiplier"] == pytest.approx(res.multiplier, abs=1e-9)
+
+
+@pytest.mark.parametrize("case", [
+    bm.cases.two_blocks(eta=4, mu=0.9),
+    bm.cases.wall(5, 2, bond="stack"),
+    bm.cases.wall(3, 2, openings=[[0.5, 0.5, 1.5, 1.0]]),
+], ids=["two-blocks", "stack-5x2", "running-3x2-opening"])
+def test_no_strategy_falls_below_the_certificate(case):
+    minimum = certified_minimum(case)
+    for options in STRATEGIES:
+        res = bm.solve(case, "fixed-point", **options)
+        assert res.status is bm.Status.CONVERGED, (options, res.message)
+        assert_mcp_solution(res)
+        assert res.multiplier >= minimum - 1e-7, options
+        assert res.residuals["friction_admissibility"] <= 1e-6
+
+
+@pytest.mark.parametrize("options", [{}, {"start": "random", "seed": 7}, {"multistart": 3}])
+def test_fixed_point_is_deterministic(options):
+    case = bm.cases.wall(10, 5)
+    a = bm.solve(case, "fixed-point", **options)
+    b = bm.solve(case, "fixed-point", **options)
+    assert a.multiplier == b.multiplier  # bitwise
+    assert a.iterations == b.iterations
+    np.testing.assert_array_equal(a.solution.x, b.solution.x)
+
+
+def test_multistart_keeps_the_lowest_verified_run():
+    case = bm.cases.wall(10, 5)
+    res = bm.solve(case, "fixed-point", multistart=3)
+    assert_mcp_solution(res)
+    runs = res.extra["multistart_runs"]
+    assert len(runs) == 3
+    converged = [lam for lam, _, _, status in runs if status == "converged"]
+    assert res.multiplier == min(converged)
+
+
+def test_tie_break_lp_is_a_formulation():
+    """The tie-break LP is built in formulations/ and holds the step LP (5) as its first rows."""
+    from blockmpec.formulations import compile_linear, modified_lp, tie_break_lp
+
+    ops = bm.assemble(bm.cases.wall())
+    n_star = -np.linspace(1.0, 2.0, ops.n_interfaces)
+    step = compile_linear(modified_lp(ops, n_star))
+    tie = compile_linear(tie_break_lp(ops, n_star))
+    for group in ("equilibrium", "unilateral", "friction"):
+        np.testing.assert_array_equal(tie.row_upper[tie.rows[group]], step.row_upper[step.rows[group]])
+    np.testing.assert_array_equal(tie.row_upper[tie.rows["deviation_up"]], n_star)
+    np.testing.assert_array_equal(tie.row_upper[tie.rows["deviation_down"]], -n_star)
+    # friction rows' right-hand side: the cohesion -(tan(phi) - tan(psi)) n* of each interface, twice
+    np.testing.assert_allclose(step.row_upper[step.rows["friction"]], np.repeat(-ops.friction * n_star, 2))

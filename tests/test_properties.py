@@ -197,3 +197,29 @@ def test_associative_multiplier_bounds_every_non_associative_one(structure):
         assert maximum.success, maximum.residuals
         assert abs(maximum.multiplier - assoc.multiplier) <= margin(CERTIFIED_TOL, assoc.multiplier), (
             maximum.multiplier, assoc.multiplier)
+
+
+#: fixed-point strategies of studies/fixed_point_strategies.py besides the default (run above)
+FIXED_POINT_STRATEGIES = [
+    {"start": "associative", "tie_break": "closest"},
+    {"start": "associative", "tie_break": "min-lambda"},
+    {"start": "dead-load", "tie_break": "least-compressed"},
+    {"start": "random", "seed": 1, "tie_break": "least-compressed", "acceleration": "anderson"},
+    {"multistart": 3},
+]
+
+
+@settings(max_examples=8, deadline=None, suppress_health_check=[HealthCheck.too_slow, HealthCheck.filter_too_much])
+@given(small_structures())
+def test_no_fixed_point_strategy_below_the_certified_minimum(structure):
+    """Starts, tie-breaks, acceleration and multistart aim lower, but never below the certificate."""
+    ops = bm.assemble(structure)
+    minimum = bm.solve(ops, "milp", time_limit=MILP_TIME_LIMIT)
+    assume(minimum.status is bm.Status.OPTIMAL)
+    for options in FIXED_POINT_STRATEGIES:
+        res = bm.solve(ops, "fixed-point", **options)
+        note(f"{options}: {res.status.value} {res.multiplier}")
+        if res.success:
+            assert res.multiplier >= minimum.multiplier - margin(HEURISTIC_TOL, minimum.multiplier), (
+                options, res.multiplier, minimum.multiplier)
+            assert res.residuals["friction_admissibility"] <= 1e-6
