@@ -69,7 +69,7 @@ from blockmpec.registry import register_solver
 from blockmpec.result import Solution, Status
 from blockmpec.solver import RunOutput, SolverBase
 
-ENGINES = ("highs", "scip")
+ENGINES = ("highs", "scip", "bnb")
 
 
 @dataclass
@@ -78,7 +78,8 @@ class MILPOptions:
 
     time_limit: float = field(default=60.0, metadata={"help": "seconds for the whole run (bounds + MILP + polish)"})
     engine: str = field(default="highs", metadata={
-        "help": "highs: HiGHS branch and cut on the big-M model | scip: SCIP with SOS1 complementarity"})
+        "help": "highs: HiGHS branch and cut on the big-M model | scip: SCIP with SOS1 complementarity | "
+                "bnb: branch and bound over the pairs on the lifted work-identity LP (no big-M; sense=min)"})
     mip_rel_gap: float = field(default=1e-9, metadata={"help": "relative gap |primal - dual| / |primal|"})
     mip_abs_gap: float = field(default=1e-9, metadata={"help": "absolute gap on lam"})
     feasibility_tol: float = field(default=1e-9, metadata={
@@ -124,6 +125,8 @@ class MILPOptions:
         for name in ("multiplier_bounds", "envelope", "dissipation_bound", "bilinear", "incumbent", "warm_bounds", "verbose"):
             if not isinstance(getattr(self, name), bool):
                 raise ValueError(f"{name} must be True or False; got {getattr(self, name)!r}")
+        if self.engine == "bnb" and self.sense != "min":
+            raise ValueError("engine='bnb' bounds the minimum only; use engine='highs' or 'scip' for sense='max'")
         if self.bilinear and self.engine != "scip":
             raise ValueError("bilinear=True needs engine='scip' (HiGHS has no bilinear constraints)")
         if isinstance(self.threads, bool) or not isinstance(self.threads, int) or self.threads < 1:
@@ -485,6 +488,20 @@ class MILPSolver(SolverBase):
         return v
 
     # ------------------------------------------------------------------ 3. solve
+    def _solve_bnb(self, bd, incumbent: Solution | None, deadline: float, t0: float):
+        """engine="bnb": (MIPRun with lam-unit bounds, best polished Solution or None)."""
+        from blockmpec.formulations.mpec_milp import work_matrix
+        from blockmpec.solvers.engines.complementarity_bnb import ComplementarityBnB
+
+        def polish(active):
+            return self._polish(active)[0]
+
+        bnb = ComplementarityBnB(self.form, work_matrix(self.form), bd.lam_lower, bd.lam_upper, polish,
+                                 fixed_active=bd.slack_max == 0.0, fixed_idle=bd.z_max == 0.0)
+        run, best = bnb.solve(deadline - time.perf_counter(), incumbent, t0=t0)
+        self._bnb_lps = bnb.n_lps
+        return run, best
+
     def _solve(self, mip, deadline: float, start: np.ndarray | None, t0: float):
         from blockmpec.solvers.engines import mip as engines
 
@@ -622,6 +639,8 @@ class MILPSolver(SolverBase):
             root = self._root_certificate(incumbent, bd, trace, t_build)
             if root is not None:
                 return root
+        if opt.engine == "bnb":
+            return self._run_bnb(bd, incumbent, deadline, t_build, trace)
         run = self._solve(mip, deadline, self._start(mip, incumbent), t_start)
         trace += [dict(r, iteration=len(trace) + k, stage="search") for k, r in enumerate(run.trace)]
         sign = mip.objective_sign
@@ -680,6 +699,22 @@ class MILPSolver(SolverBase):
             return RunOutput(Status.NUMERICAL, Solution(), run.nodes, trace,
                              f"{pmsg}; the {bound_word} bound {bound:.10g} stands", run.raw_status, extra)
         return self._certify(sol, run, bound, bd, extra, trace)
+
+    def _run_bnb(self, bd, incumbent, deadline: float, t_build: float, trace: list) -> RunOutput:
+        """Stages 3-5 with engine="bnb": its points are polished patterns already, its bound is in lam."""
+        run, best = self._solve_bnb(bd, incumbent, deadline, self._t_start)
+        trace += [dict(r, iteration=len(trace) + k, stage="search") for k, r in enumerate(run.trace)]
+        bound = float(run.dual_bound)
+        extra = {facts.SENSE: "min", facts.ASSOCIATIVE_MULTIPLIER: bd.lam_associative, facts.BOUND: bound,
+                 facts.LP_SOLVES: bd.n_lps + self._bnb_lps, "engine": "bnb", "lam_static_min": bd.lam_static_min,
+                 "lam_kinematic": bd.lam_kinematic, "lam_dissipation": bd.lam_dissipation, "bound_time_s": bd.time_s,
+                 "build_time_s": t_build, "search_time_s": run.time_s, "nodes": run.nodes, "bigm_active": [],
+                 "bigm": [], "engine_multiplier": None if best is None else best.multiplier}
+        if best is None:
+            st = Status.TIME_LIMIT if run.status is Status.TIME_LIMIT else Status.ERROR
+            return RunOutput(st, Solution(), run.nodes, trace, f"no point of (3) found; bound {bound:.10g}",
+                             run.raw_status, extra)
+        return self._certify(best, run, bound, bd, extra, trace)
 
     def _no_point(self, run, incumbent, bound, extra, trace) -> RunOutput:
         opt = self.options

@@ -41,6 +41,8 @@ CONFIGS = {
     "scip": ("milp", {"engine": "scip"}),
     "scip+env": ("milp", {"engine": "scip", "envelope": True}),
     "scip+bilinear": ("milp", {"engine": "scip", "envelope": True, "bilinear": True}),
+    "bnb": ("milp", {"engine": "bnb"}),
+    "highs-nodiss": ("milp", {"engine": "highs", "dissipation_bound": False, "heuristic": ""}),
     "before": ("milp-before", {}),
 }
 
