@@ -1,0 +1,168 @@
+"""Which sparse factorisation for the block IPM's ``K``: orderings and packages side by side.
+
+``K = A_B H^{-1} A_B^T`` (symmetric positive definite, 3 rows per free block) of a
+running-bond wall's static LP, at a generic interior point (random ``s, y`` in
+1e-3..1e3, so every entry of the structural pattern is nonzero, as in the IPM's later
+iterations).  For each candidate: the ordering time (once per solve), one
+factorisation, one solve, the nonzeros of the factors and the relative residual
+``||K x - b|| / ||b||``.  Candidates that are not installed are skipped:
+
+* ``superlu-mmd``, ``superlu-metis``: what :mod:`blockmpec.solvers.engines.cholesky`
+  does (scipy's SuperLU, natural order after a symmetric permutation from the
+  structural pattern; METIS via ``pymetis``);
+* ``superlu-colamd``: SuperLU's own column ordering, with its partial-pivoting defaults
+  relaxed to symmetric mode, for reference;
+* ``qdldl`` (``pip install qdldl``, Apache-2.0): LDL^T with AMD;
+* ``cholmod`` (``pip install sksparse-minimal``): CHOLMOD, whose Supernodal module
+  (bundled in that wheel) is GPL, so never a default dependency;
+* ``pardiso`` (``pip install pypardiso``, Intel MKL, Intel Simplified Software
+  License): supernodal Cholesky (``mtype=2``) with numeric refactorisation.
+
+Usage::
+
+    python studies/cholesky_choice.py [--walls 100x100,316x316] [--methods ...]
+
+Writes ``studies/output/cholesky_choice/cholesky_choice.csv``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import time
+from pathlib import Path
+
+import numpy as np
+import scipy.sparse as sp
+import scipy.sparse.linalg as spla
+
+import blockmpec as bm
+from blockmpec.formulations import compile_linear, static_lp
+from blockmpec.formulations._pyomo import pause_gc
+from blockmpec.solvers.engines.block_ipm import IPMIterate
+from blockmpec.solvers.engines.cholesky import SymmetricFactoriser, metis_available, structural_pattern
+from blockmpec.solvers.engines.lp_engine import cold_lp_engine
+
+OUT = Path(__file__).parent / "output" / "cholesky_choice"
+METHODS = ("superlu-mmd", "superlu-metis", "superlu-colamd", "qdldl", "cholmod", "pardiso")
+LICENCE = {
+    "superlu-mmd": "BSD-3 (scipy)", "superlu-metis": "BSD-3 (scipy) + MIT/Apache-2.0 (pymetis)",
+    "superlu-colamd": "BSD-3 (scipy)", "qdldl": "Apache-2.0", "cholmod": "GPL (Supernodal) + LGPL, bundled",
+    "pardiso": "Intel Simplified Software License (proprietary)",
+}
+
+
+def reduced_matrix(courses: int, per_course: int, seed: int = 0):
+    """``(K, engine)`` at a random interior point of the wall's static LP in load units."""
+    ops = bm.assemble(bm.cases.wall(courses=courses, blocks_per_course=per_course))
+    lp = compile_linear(pause_gc(static_lp)(ops))
+    engine = cold_lp_engine(lp, "block-ipm", ops=ops)
+    rng = np.random.default_rng(seed)
+    p = engine.h.size
+    it = IPMIterate(np.zeros(engine.c.size), 10.0 ** rng.uniform(-3, 3, p), np.zeros(engine.b.size),
+                    10.0 ** rng.uniform(-3, 3, p))
+    K, _ = engine.reduced_matrix(it)
+    return sp.csc_array(K), engine
+
+
+def measure(method: str, K: sp.csc_array, engine) -> dict | None:
+    """Ordering, one factorisation and one solve of ``K x = b`` by ``method``; None if not installed."""
+    n = K.shape[0]
+    b = np.random.default_rng(1).standard_normal(n)
+    t_order = 0.0
+    if method in ("superlu-mmd", "superlu-metis"):
+        ordering = method.split("-")[1]
+        if ordering == "metis" and not metis_available():
+            return None
+        t = time.perf_counter()
+        f = SymmetricFactoriser(structural_pattern(engine.A_B, engine.k), ordering)
+        t_order = time.perf_counter() - t
+        t = time.perf_counter()
+        solve = f.factorise(K)
+        t_factor = time.perf_counter() - t
+        nnz = f.factor_nnz
+    elif method == "superlu-colamd":
+        t = time.perf_counter()
+        lu = spla.splu(sp.csc_matrix(K), permc_spec="COLAMD", diag_pivot_thresh=0.0, options={"SymmetricMode": True})
+        t_factor = time.perf_counter() - t
+        solve, nnz = lu.solve, lu.nnz
+    elif method == "qdldl":
+        try:
+            import qdldl
+        except ImportError:
+            return None
+        t = time.perf_counter()
+        solver = qdldl.Solver(sp.csc_matrix(K))
+        t_factor = time.perf_counter() - t
+        solve, nnz = solver.solve, 2 * solver.factors()[0].nnz + n
+    elif method == "cholmod":
+        try:
+            from sksparse_minimal import SparseCholesky
+        except ImportError:
+            return None
+        t = time.perf_counter()
+        factor = SparseCholesky(sp.csc_matrix(K))
+        t_factor = time.perf_counter() - t
+        solve, nnz = factor.solve_A, 0
+    elif method == "pardiso":
+        try:
+            import pypardiso
+        except (ImportError, OSError):
+            return None
+        solver = pypardiso.PyPardisoSolver(mtype=2)  # real symmetric positive definite
+        upper = sp.triu(K, format="csr")
+        upper.sort_indices()
+        t = time.perf_counter()
+        solver.factorize(upper)
+        t_factor = time.perf_counter() - t
+
+        def solve(rhs):
+            return solver.solve(upper, rhs)
+
+        nnz = 2 * int(solver.iparm[17])
+    else:
+        raise ValueError(f"unknown method {method!r}; use one of {', '.join(METHODS)}")
+    t = time.perf_counter()
+    x = solve(b)
+    t_solve = time.perf_counter() - t
+    residual = float(np.linalg.norm(K @ x - b) / np.linalg.norm(b))
+    return {"method": method, "rows": n, "nnz_K": K.nnz, "order_s": t_order, "factor_s": t_factor, "solve_s": t_solve,
+            "factor_nnz": nnz, "residual": residual, "licence": LICENCE[method]}
+
+
+def main(argv: list[str] | None = None) -> list[dict]:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--walls", default="100x100", help="comma-separated CxB walls (courses x blocks per course)")
+    parser.add_argument("--methods", default=",".join(METHODS))
+    args = parser.parse_args(argv)
+    rows = []
+    for wall in args.walls.split(","):
+        courses, per = (int(v) for v in wall.split("x"))
+        K, engine = reduced_matrix(courses, per)
+        for method in args.methods.split(","):
+            row = measure(method, K, engine)
+            if row is None:
+                print(f"{method}: not installed, skipped", flush=True)
+                continue
+            row["blocks"] = K.shape[0] // 3  # free blocks: 3 equilibrium rows each
+            rows.append(row)
+            print(row, flush=True)
+    print()
+    print("| blocks | rows of K | method | licence | ordering | factorisation | solve | nonzeros of factors | residual |")
+    print("| ---: | ---: | --- | --- | ---: | ---: | ---: | ---: | ---: |")
+    for r in rows:
+        nnz = f"{r['factor_nnz'] / 1e6:.1f}M" if r["factor_nnz"] else "–"
+        print(f"| {r['blocks']:,} | {r['rows']:,} | {r['method']} | {r['licence']} | {r['order_s']:.2f} s "
+              f"| {r['factor_s']:.2f} s | {r['solve_s']:.3f} s | {nnz} | {r['residual']:.0e} |")
+    if rows:
+        OUT.mkdir(parents=True, exist_ok=True)
+        with (OUT / "cholesky_choice.csv").open("w", newline="") as fh:
+            w = csv.DictWriter(fh, fieldnames=list(rows[0]))
+            w.writeheader()
+            w.writerows(rows)
+        print(f"wrote {OUT / 'cholesky_choice.csv'}")
+    return rows
+
+
+if __name__ == "__main__":
+    main()
