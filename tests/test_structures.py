@@ -5,6 +5,7 @@ import pytest
 
 import blockmpec as bm
 from blockmpec.geometry import detect_interfaces
+from helpers import block_on_block
 
 
 def test_two_blocks_interfaces_and_normals():
@@ -123,3 +124,74 @@ def test_large_wall_assembles_quickly_enough_to_test():
     s = bm.cases.wall(courses=50, blocks_per_course=50)
     ops = bm.assemble(s)
     assert ops.E.shape[0] == 3 * s.n_free
+
+
+# ---------------------------------------------------------------- units and canonical order (issue 16)
+
+def _shifted_scaled(s, scale=1.0, dx=0.0, dy=0.0):
+    polys = [(s.polygon(i) + (dx, dy)) * scale for i in range(s.n_blocks)]
+    return bm.make_structure(polys, s.fixed, friction=s.friction)
+
+
+def _same_operators(a, b):
+    for name in ("f_d", "f_l", "length", "friction"):
+        np.testing.assert_array_equal(getattr(a, name), getattr(b, name), err_msg=name)
+    assert (a.E != b.E).nnz == 0 and (a.N_u != b.N_u).nnz == 0
+
+
+@pytest.mark.parametrize("k", [-500, -360, -100, 0, 100, 465])
+def test_power_of_two_scaling_gives_bitwise_identical_operators(k):
+    """Lengths 2^k (1e-150 ... 1e140): areas, centroids and arms are computed in the structure's units
+    without ever forming a product of two lengths, so the nondimensional operators are the same bits."""
+    ref = bm.cases.two_blocks(eta=3.0, mu=0.65)
+    _same_operators(bm.assemble(ref), bm.assemble(_shifted_scaled(ref, scale=2.0**k)))
+
+
+@pytest.mark.filterwarnings("ignore::blockmpec.PrecisionWarning")  # dyadic coordinates: nothing is lost
+@pytest.mark.parametrize("offset", [2.0**20, 2.0**40, 2.0**49])
+def test_exact_translation_gives_bitwise_identical_operators(offset):
+    """The origin is the structure's centre rounded to a power-of-two grid: the subtraction is exact."""
+    ref = bm.cases.wall(courses=3, blocks_per_course=3)
+    _same_operators(bm.assemble(ref), bm.assemble(_shifted_scaled(ref, dx=offset, dy=-offset / 2)))
+
+
+def test_canonical_order_ignores_the_block_order_of_the_file():
+    ref = bm.cases.wall(courses=3, blocks_per_course=3)
+    order = np.random.default_rng(1).permutation(ref.n_blocks)
+    shuffled = bm.make_structure([ref.polygon(i) for i in order], ref.fixed[order], friction=ref.friction)
+    a, b = bm.assemble(ref), bm.assemble(shuffled)
+    _same_operators(a, b)
+    np.testing.assert_array_equal(order[b.free_blocks], a.free_blocks)
+
+
+def test_canonical_order_rows_by_height_then_along_the_live_load():
+    s = bm.cases.wall(courses=3, blocks_per_course=2, bond="stack")
+    ops = bm.assemble(s)
+    c = s.centroid[ops.free_blocks]
+    key = list(zip(np.round(c[:, 1], 9), np.round(c[:, 0], 9)))
+    assert key == sorted(key)
+    assert np.all(ops.minus_dof < ops.plus_dof)  # oriented from the earlier (or fixed, -1) block
+
+
+def test_units_object_serves_the_scalings():
+    from blockmpec.units import block_load
+
+    s = block_on_block(1.0, 1e-3)
+    ops = bm.assemble(s)
+    u = ops.units
+    np.testing.assert_allclose(u.block_load, block_load(ops.f_d, ops.f_l))
+    side = np.column_stack([ops.minus_dof, ops.plus_dof])
+    expect = np.where(side >= 0, u.block_load[np.maximum(side, 0)], np.inf).min(axis=1)
+    np.testing.assert_array_equal(u.interface_force, expect)
+    assert u.load_spread == pytest.approx(1 / 2e-6, rel=1e-9)
+    np.testing.assert_allclose(-ops.f_d[1::3] * u.force_scale, s.weight[ops.free_blocks], rtol=1e-14)
+
+
+def test_force_unit_includes_point_loads_for_near_massless_blocks():
+    base = [[-1, -1], [3, -1], [3, 0], [-1, 0]]
+    square = [[0, 0], [1, 0], [1, 1], [0, 1]]
+    loads = [bm.PointLoad(1, (0.5, 1.0), (0.0, -2.0)), bm.PointLoad(1, (0.0, 0.5), (1.0, 0.0), "live")]
+    s = bm.make_structure([base, square], [True, False], friction=0.5, density=1e-12, point_loads=loads)
+    ops = bm.assemble(s)
+    assert ops.force_scale == pytest.approx(1.0, rel=1e-9)  # the live point load, not the 1e-12 weight
+    assert abs(ops.f_d[1]) == pytest.approx(2.0, rel=1e-9) and abs(ops.f_l[0]) == pytest.approx(1.0, rel=1e-9)
