@@ -29,13 +29,22 @@ Operators (scipy.sparse CSR)
 
 Scaling
 -------
-The solvers see a nondimensional problem: lengths are divided by
-``length_scale`` (median size of the free blocks) and forces by ``force_scale``
-(mean weight of the free blocks).  ``lam`` is unchanged; ``x`` holds ``t, n`` in
-units of ``force_scale`` and ``m`` in units of ``force_scale * length_scale``
-(:meth:`Operators.forces_to_physical` converts back).  Without this, a wall of
-1 km blocks (weights ~1e6, moments ~1e9) defeats the solvers' absolute
-tolerances.
+The solvers see a nondimensional problem (:mod:`blockmpec.units`): lengths are
+taken about ``origin`` (the structure's centre on a power-of-two grid, so the
+shift is exact) and divided by ``length_scale`` (median size of the free
+blocks); forces are divided by ``force_scale`` (the mean live force of the free
+blocks, point loads included; the mean weight for the built-in cases).  Areas,
+centroids and arms are computed without forming a product of two lengths in
+the structure's units, so the operators are the same at lengths 1e-150 or
+1e140 and at offsets of 1e15 (exact inputs give the same bits).  ``lam`` is
+unchanged; ``x`` holds ``t, n`` in units of ``force_scale`` and ``m`` in units
+of ``force_scale * length_scale`` (:meth:`Operators.forces_to_physical`).
+``ops.units`` adds the load of each block and the force unit of each interface
+for the per-block scalings of the solvers.  Operators and loads are checked
+finite (the block is named), so no NaN ever reaches a solver.
+
+Rows and columns are in canonical order (see :func:`assemble`): the file's
+block order, a translation or a mirror image give the same problem.
 
 Compatibility (flow rule) reads ``E^T u + N_u z_u + V_f z_f = 0`` and the
 normalisation ``f_l^T u = 1``.  Interfaces between two fixed blocks carry no
