@@ -18,7 +18,8 @@ Each benchmark also checks its result, so a benchmark of a broken stage fails:
   ``N_u, N_f (3c x 2c)``, and the live load is the horizontal image of the dead load
   (``sum f_l,x = -sum f_d,y``: unit-density weight as live load);
 * Pyomo build + compile of the static LP (1) of that wall: ``3b`` equilibrium rows,
-  ``2c`` unilateral and ``2c`` friction rows, ``3c + 1`` columns ``(x, lam)``;
+  ``2c`` unilateral and ``2c`` friction rows, ``3c + 1`` columns ``(x, lam)``; and a
+  cache hit of the same compile (``compiled_linear``), equal to a fresh compile;
 * ``static-lp`` on the two-block problem (closed form, Sect. 3 of the paper) and on
   the 1,001-block wall (verified success);
 * ``fixed-point`` on a 10 x 20 wall, ``nlp`` on the 5 x 4 wall: verified solutions of
@@ -71,6 +72,18 @@ def test_static_lp_build_and_compile_wall_1k(benchmark, wall_1k_ops):
     b, c = wall_1k_ops.n_free_blocks, wall_1k_ops.n_interfaces
     assert {k: len(v) for k, v in lp.rows.items()} == {"equilibrium": 3 * b, "unilateral": 2 * c, "friction": 2 * c}
     assert lp.A.shape == (3 * b + 4 * c, 3 * c + 1)
+
+
+def test_static_lp_compile_cache_hit_wall_1k(benchmark, wall_1k_ops):
+    """A second compile of the same structure is a cache hit (a copy of the matrices, no Pyomo build)."""
+    from blockmpec.formulations import compile_linear, static_lp
+    from blockmpec.formulations._pyomo import compiled_linear
+
+    fresh = compile_linear(static_lp(wall_1k_ops))
+    compiled_linear(static_lp, wall_1k_ops)
+    lp = benchmark(compiled_linear, static_lp, wall_1k_ops)
+    assert lp.A.shape == fresh.A.shape and (lp.A != fresh.A).nnz == 0
+    assert np.array_equal(lp.row_upper, fresh.row_upper)
 
 
 def test_static_lp_solve_two_blocks(benchmark):
