@@ -497,7 +497,8 @@ class MILPSolver(SolverBase):
             return self._polish(active)[0]
 
         bnb = ComplementarityBnB(self.form, work_matrix(self.form), bd.lam_lower, bd.lam_upper, polish,
-                                 fixed_active=bd.slack_max == 0.0, fixed_idle=bd.z_max == 0.0)
+                                 fixed_active=bd.slack_max == 0.0, fixed_idle=bd.z_max == 0.0,
+                                 slack_max=bd.slack_max)
         run, best = bnb.solve(deadline - time.perf_counter(), incumbent, t0=t0)
         self._bnb_lps = bnb.n_lps
         return run, best

@@ -64,9 +64,10 @@ class _Layout:
     copies: list  # per copy: (pair i, x-slice, zeta column)
     static_pair_rows: np.ndarray  # row of G_j x in the static block, per pair j
     copy_pair_rows: dict  # pair j -> rows of G_j x^(i) over copies
+    zeta_upper_rows: np.ndarray  # rows zeta_i - lam_upper z_i <= 0, per copy
 
 
-def lifted_lp(form, B: sp.coo_array, lam_lower: float, lam_upper: float):
+def lifted_lp(form, B: sp.coo_array, lam_lower: float, lam_upper: float, slack_max: np.ndarray | None = None):
     """The lifted relaxation's matrices: (A, row_lower, row_upper, col_lower, col_upper, c, layout)."""
     nx = form.x.stop - form.x.start
     nu = form.u.stop - form.u.start
@@ -112,15 +113,19 @@ def lifted_lp(form, B: sp.coo_array, lam_lower: float, lam_upper: float):
     add(place(f_l.reshape(1, -1), us.start), 1.0, 1.0)
     # copies
     copy_pair_rows = {j: [] for j in range(npair)}
+    zeta_upper_rows = []
     identity = column([1.0], lam) - place(-f_d.reshape(1, -1), us.start)  # lam + f_d^T u - sum B p = 0
     for i, xi, zeta in copies:
         add(place(E, xi.start) + column(f_l, zeta) + column(f_d, zs.start + i), 0.0, 0.0)
         rows = add(place(Gx, xi.start), -np.inf, 0.0)
         for j in range(npair):
             copy_pair_rows[j].append(rows[j])
+        if slack_max is not None:
+            # s_j z_i <= slack_max_j z_i:  -G x^(i) - slack_max z_i <= 0
+            add(place(-Gx, xi.start) - column(slack_max, zs.start + i), -np.inf, 0.0)
         # lam_lower z_i <= zeta_i <= lam_upper z_i
         add(column([1.0], zeta) - column([lam_lower], zs.start + i), 0.0, np.inf)
-        add(column([1.0], zeta) - column([lam_upper], zs.start + i), -np.inf, 0.0)
+        zeta_upper_rows.append(add(column([1.0], zeta) - column([lam_upper], zs.start + i), -np.inf, 0.0)[0])
     for e in range(B.nnz):
         i, r = int(B.col[e]), int(B.row[e])
         xi = next(c[1] for c in copies if c[0] == i)
@@ -135,7 +140,7 @@ def lifted_lp(form, B: sp.coo_array, lam_lower: float, lam_upper: float):
     c = np.zeros(n)
     c[lam] = 1.0
     layout = _Layout(n, lam, xs, us, zs, copies, static_pair_rows,
-                     {j: np.array(r, dtype=int) for j, r in copy_pair_rows.items()})
+                     {j: np.array(r, dtype=int) for j, r in copy_pair_rows.items()}, np.array(zeta_upper_rows))
     # the equality rows of the pairs fixed active on S (slack_max = 0) are set by the caller
     return A, np.concatenate(lo), np.concatenate(hi), col_lower, col_upper, c, layout
 
@@ -146,10 +151,11 @@ class ComplementarityBnB:
     ``polish(active) -> Solution | None`` gives the exact point (and leaf value) of a pattern.
     """
 
-    def __init__(self, form, B, lam_lower, lam_upper, polish, fixed_active=None, fixed_idle=None, strong=4):
+    def __init__(self, form, B, lam_lower, lam_upper, polish, fixed_active=None, fixed_idle=None, strong=4,
+                 slack_max=None):
         import highspy
 
-        A, rl, ru, cl, cu, c, layout = lifted_lp(form, B, lam_lower, lam_upper)
+        A, rl, ru, cl, cu, c, layout = lifted_lp(form, B, lam_lower, lam_upper, slack_max)
         self.form, self.B, self.layout, self.polish = form, B, layout, polish
         self.rl0, self.ru0, self.cl0, self.cu0 = rl, ru, cl, cu
         h = highspy.Highs()
@@ -174,6 +180,7 @@ class ComplementarityBnB:
         self.n_lps = 0
         self.last_basis = None
         self.strong = max(1, int(strong))
+        self.lam_cap = float(lam_upper)
 
     def _apply(self, state: np.ndarray) -> None:
         lay, h = self.layout, self.h
@@ -207,6 +214,17 @@ class ComplementarityBnB:
         self.last_basis = self.h.getBasis()
         return st, float(self.h.getInfo().objective_function_value), v
 
+    def _restrict_to_improvements(self, best_val: float) -> None:
+        """Only points with ``lam <= best_val`` can improve the incumbent: ``lam <= best_val`` and
+        ``zeta_i <= best_val z_i`` (valid for every such point; the incumbent itself is kept apart)."""
+        if not np.isfinite(best_val) or best_val >= self.lam_cap:
+            return
+        self.lam_cap = best_val
+        lay = self.layout
+        self.h.changeColBounds(lay.lam, self.cl0[lay.lam], best_val)
+        for (i, _, _), row in zip(lay.copies, lay.zeta_upper_rows):
+            self.h.changeCoeff(int(row), int(lay.z.start + i), -best_val)
+
     def _candidates(self, state: np.ndarray, v: np.ndarray) -> list[int]:
         """Free pairs violated at the LP point, most violated first (complementarity + work defect)."""
         lay, form = self.layout, self.form
@@ -229,8 +247,13 @@ class ComplementarityBnB:
         tracer = _Tracer(1.0, t0)
         best = incumbent
         best_val = incumbent.multiplier if incumbent is not None else np.inf
+        self._restrict_to_improvements(best_val)
         st, bound, v = self._node_lp(self.root)
         if st is Status.INFEASIBLE:
+            if best is not None:  # nothing has lam <= the incumbent's value but the incumbent: optimal
+                tracer.record(best_val, best_val, force=True)
+                return MIPRun(Status.OPTIMAL, "optimal", "root LP infeasible below the incumbent", None, best_val,
+                              best_val, 1, time.perf_counter() - t0, tracer.records), best
             return MIPRun(Status.INFEASIBLE, "infeasible", "root LP infeasible", None, np.inf, np.inf, 1,
                           time.perf_counter() - t0, tracer.records), best
         if st is not Status.OPTIMAL:
@@ -249,6 +272,7 @@ class ComplementarityBnB:
             if time.perf_counter() > deadline:
                 status = Status.TIME_LIMIT
                 break
+            self._restrict_to_improvements(best_val)
             nb, _, state, v, basis = heapq.heappop(heap)
             nodes += 1
             if nb >= best_val - PRUNE_TOL * max(1.0, abs(best_val)):
