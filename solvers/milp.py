@@ -20,18 +20,28 @@ derives every row).  A run has five stages, all timed:
    ``x_upper`` for the normal forces that multiply a flow multiplier in ``B``
    (``envelope=True``).  On the kinematic set ``K = {compatibility, 1^T z = 1, z >= 0}``:
    ``z_max_i = max z_i`` and ``tau_max = max f_l^T u``; ``lam_kinematic = min -f_d^T u``
-   over the non-associative kinematic set.  Each LP optimum is widened by
+   over the non-associative kinematic set.  ``dissipation_bound=True`` (default): for each
+   product ``x_r z_i`` of the work identity, ``max x_r`` over ``S ∩ {s_i = 0}`` (conditional
+   OBBT; ``n_k <= 0`` exactly where the two friction rows imply it), then ``lam_dissipation``
+   = an LP of the identity with the friction work bounded below
+   (:meth:`MILPSolver._dissipation_minimum` derives it); ``lam_lower`` is the largest of
+   these bounds.  The kinematic LPs run at ``BOUND_LP_TOL`` and are widened by
+   ``LAM_MARGIN``; every other LP optimum is widened by
    ``LP_MARGIN`` (relative), each slack bound by ``BOUND_MARGIN_REL`` and
    ``BOUND_MARGIN_ABS`` times the largest one, so that a slack *at* ``M_i`` cannot
    happen under a proven bound and flags a too-small one.  LPs are solved cold
    (warm re-solves after cost changes were measured to return wrong "optimal" values).
 2. **build**: the mixed-integer model; pairs with ``slack_max_i = 0`` get ``y_i = 1``,
    pairs with ``z_max_i = 0`` get ``y_i = 0``.
-3. **solve**: HiGHS on the big-M model (``engine="highs"``) or SCIP
-   (``engine="scip"``, SOS1 sets ``{s_i, z_i}``), started from the associative-pattern
-   solution when its active set admits a mechanism (an upper bound only).  ``tau >= 0``
-   makes the model a relaxation of (4), so the engine's dual bound is a certified
-   bound on the minimum (an upper bound on the maximum).
+3. **solve**.  Incumbent first: the associative-pattern point (when its active set admits
+   a mechanism) and the ``heuristic``'s verified point polished on its pattern, the better
+   one.  If it meets ``lam_lower`` within ``CERTIFICATE_TOL`` it is certified at the root
+   (no search).  Otherwise HiGHS on the big-M model (``engine="highs"``), SCIP
+   (``engine="scip"``, SOS1 sets ``{s_i, z_i}``) or the branch and bound over the pairs
+   of :mod:`blockmpec.solvers.engines.complementarity_bnb` (``engine="bnb"``, a lifted LP
+   bound, no big-M), started from the incumbent.  ``tau >= 0`` makes the model a
+   relaxation of (4), so the engine's dual bound is a certified bound on the minimum
+   (an upper bound on the maximum).
 4. **polish**: with the pattern of the engine's point fixed (active pair: slack 0;
    inactive: ``z_i = 0``) two exact LPs give ``(lam, x)`` (min ``lam``; max for
    ``sense="max"``) and ``(u, z)`` (``f_l^T u = 1``, min ``1^T z``); complementarity
