@@ -132,7 +132,8 @@ class MILPOptions:
             raise ValueError(f"sense must be 'min' or 'max'; got {self.sense!r}")
         if self.slack_bounds not in ("row", "normal"):
             raise ValueError(f"slack_bounds must be 'row' or 'normal'; got {self.slack_bounds!r}")
-        for name in ("multiplier_bounds", "envelope", "dissipation_bound", "bilinear", "incumbent", "warm_bounds", "verbose"):
+        for name in ("multiplier_bounds", "envelope", "dissipation_bound", "bilinear", "incumbent", "warm_bounds",
+                     "verbose"):
             if not isinstance(getattr(self, name), bool):
                 raise ValueError(f"{name} must be True or False; got {getattr(self, name)!r}")
         if self.engine == "bnb" and self.sense != "min":
@@ -593,8 +594,8 @@ class MILPSolver(SolverBase):
                 w = self.form.pack(res.solution)
                 s, z = self.form.slack(w), self.form.multipliers(w)
                 sol, _ = self._polish(z > s)
-                better = sol is not None and (best is None or (sol.multiplier < best.multiplier) != (opt.sense == "max"))
-                if better:
+                lower = sol is not None and best is not None and sol.multiplier < best.multiplier
+                if sol is not None and (best is None or lower != (opt.sense == "max")):
                     best = sol
         return best
 
