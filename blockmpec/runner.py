@@ -133,9 +133,8 @@ def _signal_name(code: int) -> str:
 
 def run_isolated(task: Task) -> Outcome:
     """Solve ``task`` in this supervisor's child process, killed after ``task.wall_limit_s``
-    (see the module docstring).  The child is started on first use and kept for the next task
-    unless it died or was killed."""
-    global _SERVER
+    (see the module docstring).  The child is started on first use and kept for this thread's
+    next task unless it died or was killed."""
     marker = None
     if task.marker_dir:
         marker = Path(task.marker_dir) / f"{task.task_id}.start"
@@ -143,14 +142,15 @@ def run_isolated(task: Task) -> Outcome:
             marker.write_text(repr(time.time()))
         except OSError:
             marker = None
+    server = getattr(_LOCAL, "server", None)
     try:
-        if _SERVER is None or not _SERVER.alive(task.sys_path):
-            _SERVER = SolveServer(task.sys_path)
-        return _SERVER.solve(task)
+        if server is None or not server.alive(task.sys_path):
+            server = _LOCAL.server = SolveServer(task.sys_path)
+        return server.solve(task)
     except BaseException:  # KeyboardInterrupt or a worker shut down: take the child with us
-        if _SERVER is not None:
-            _SERVER.kill()
-            _SERVER = None
+        if server is not None:
+            server.kill()
+            _LOCAL.server = None
         raise
     finally:
         if marker is not None:
@@ -258,7 +258,8 @@ class SolveServer:
         self._task_w = self._out_r = -1
 
 
-_SERVER: SolveServer | None = None
+#: one child per supervising thread (a Dask worker may run several tasks at once)
+_LOCAL = threading.local()
 
 
 def _write_all(fd: int, data: bytes) -> None:

@@ -286,6 +286,15 @@ def test_two_worker_dask_local_cluster():
     np.testing.assert_allclose(df["multiplier"], [0.4197271773, 0.4197271773, 0.5, 0.5], rtol=1e-8)
 
 
+def test_an_existing_dask_cluster_by_its_scheduler_address():
+    distributed = pytest.importorskip("distributed")
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=2, processes=True, dashboard_address=None,
+                                  silence_logs=40) as cluster:
+        df = compare({"sb": ("single-block", {"height": 4.0})}, ["static-lp", "kinematic-lp", "fixed-point"],
+                     backend="dask", scheduler=cluster.scheduler_address, progress=False)
+    np.testing.assert_allclose(df["multiplier"], 0.25, rtol=1e-8)
+
+
 def test_bad_backend_settings_are_option_errors():
     with pytest.raises(bm.OptionError, match="backend"):
         compare(TWO_BLOCKS, ["static-lp"], backend="threads")
