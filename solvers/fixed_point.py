@@ -57,8 +57,12 @@ configured start and then seeded random starts (seeds ``seed + 1, ...``) and
 returns the converged run with the lowest verified multiplier (residuals of (3)
 at most 1e-6); nothing unverified is preferred over a verified run.
 
-Defaults: chosen by ``studies/fixed_point_strategies.py`` (the README's strategy
-table); see :class:`FixedPointOptions`.
+Defaults (``start="dead-load", tie_break="least-compressed"``), chosen by
+``studies/fixed_point_strategies.py`` (the README's strategy table): on the 56
+structures with a certified minimum it is verified on all and within 1 % of the
+minimum on all (28 of 28 where the minimum lies below the associative multiplier,
+against 1 of 28 for the former default ``start="associative", tie_break="closest"``),
+and it converges on the large walls to within 2 % of the best verified value.
 
 Safeguards: ``n*`` is kept ``<= 0`` (a round-off tension within the LP tolerance
 would give a negative cohesion and an infeasible next LP), and the LPs run with
@@ -92,9 +96,9 @@ class FixedPointOptions:
     tol: float = field(default=1e-9, metadata={"help": "stop when ||n - n*|| <= tol ||n||"})
     max_iterations: int = field(default=500, metadata={"help": "most modified-LP steps"})
     relaxation: float = field(default=1.0, metadata={"help": "omega in (0, 1]: n* <- n* + omega (n - n*)"})
-    start: str = field(default="associative", metadata={
+    start: str = field(default="dead-load", metadata={
         "help": "associative | zero | dead-load | random: the first n* (see lp_sequence)"})
-    tie_break: str = field(default="closest", metadata={
+    tie_break: str = field(default="least-compressed", metadata={
         "help": "closest | least-compressed | min-lambda | on-oscillation | none: which optimal LP forces a step takes"})
     fold_weight: float = field(default=0.0, metadata={
         "help": "0: weighted tie-breaks as their own LP; > 0: folded into the step LP with this weight"})

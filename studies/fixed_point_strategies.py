@@ -140,7 +140,7 @@ def summary(rows: list[dict], strategies) -> list[dict]:
             "<=2% below assoc": _share(within(below, 0.02)),
             "large verified": _share([r["verified"] for r in large]),
             "large <=2% of best": _share(within(large, 0.02)),
-            "median rel err": f"{statistics.median(errs):.2%}" if errs else "-",
+            "median rel err": f"{round(statistics.median(errs), 6) + 0.0:.2%}" if errs else "-",
             "below cert": sum(1 for r in cert if r["verified"] and r["rel_error"] < -1e-7),
             "max fric adm": f"{max(fric):.1e}" if fric else "-",
             "median time s": f"{statistics.median(r['solve_time_s'] for r in mine):.3g}",
