@@ -218,3 +218,23 @@ def test_sigint_during_milp_saves_the_finished_rows_and_exits_130(tmp_path):
     df = pd.read_csv(out / "results.csv")
     assert len(df) == 4 and df.iloc[3]["status"] == "time_limit" and df.iloc[3]["wall_limit_s"] == 3.0
     assert "killed after the wall-clock limit" in df.iloc[3]["message"]
+
+
+def test_sigterm_is_handled_like_ctrl_c(tmp_path):
+    import signal
+    import time
+
+    out = tmp_path / "out"
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "blockmpec.cli", "compare", "--cases", "single-block,wall-10x5", "--methods", "milp",
+         "-O", "milp.time_limit=300", "--out", str(out), "--quiet"],
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    rows = out / "rows.jsonl"
+    deadline = time.time() + 120
+    while time.time() < deadline and not (rows.exists() and rows.read_text().strip()):
+        time.sleep(0.2)
+    time.sleep(1.0)
+    proc.send_signal(signal.SIGTERM)
+    _, stderr = proc.communicate(timeout=60)
+    assert proc.returncode == 143, stderr
+    assert "interrupted (SIGTERM): 1 finished row(s) saved" in stderr and "Traceback" not in stderr

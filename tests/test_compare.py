@@ -306,3 +306,21 @@ def test_bad_backend_settings_are_option_errors():
         compare(TWO_BLOCKS, ["static-lp"], verify_tol=float("nan"))
     with pytest.raises(bm.OptionError, match="wall limit"):
         compare(TWO_BLOCKS, ["static-lp"], wall_limit=-1)
+
+
+def test_progress_shows_the_running_solve_its_elapsed_time_and_failures(tmp_path):
+    import io
+    import time
+
+    from blockmpec.compare import Progress
+
+    bar = Progress(3, {7: "arch · milp"}, str(tmp_path), enabled=True)
+    stream = io.StringIO()
+    bar.bar.fp = stream
+    (tmp_path / "7.start").write_text(repr(time.time() - 12.0))  # a supervisor started task 7 twelve seconds ago
+    assert bar.running()[0][1] == "arch · milp" and 12.0 <= bar.running()[0][0] < 60.0
+    assert bar._postfix().startswith("running arch · milp 12s") and bar._postfix().endswith("failed 0")
+    bar.finished({"status": "error"})
+    bar.finished({"status": "optimal"})
+    assert bar.failed == 1 and bar.bar.n == 2 and "failed 1" in bar._postfix()
+    bar.close()
