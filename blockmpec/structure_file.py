@@ -8,7 +8,7 @@ Format (``"format": "blockmpec-structure"``, ``"version": 1``)::
       "name": "my-wall",                              # optional
       "friction": 0.65,                               # required: tan(phi)
       "dilatancy": 0.0,                               # optional: tan(psi), default 0
-      "live_load": {"direction": 1, "factor": 1.0},   # optional: +x body force = factor * weight
+      "live_load": {"direction": 1, "factor": 1.0},   # optional: direction (+1/-1) x factor (>= 0) x weight
       "blocks": [                                     # required, >= 1
         {"vertices": [[0, 0], [1, 0], [1, 1], [0, 1]],  # convex, counter-clockwise
          "fixed": false,                                # optional, default false
@@ -18,14 +18,17 @@ Format (``"format": "blockmpec-structure"``, ``"version": 1``)::
         {"minus": 0, "plus": 1, "start": [1, 0], "end": [0, 0],   # normal = rot90(end - start), minus -> plus
          "friction": null, "dilatancy": null}          # optional per-interface overrides
       ],
-      "point_loads": [                                # optional
-        {"block": 1, "point": [0.5, 1], "force": [0, -2], "kind": "dead"}
+      "point_loads": [                                # optional; point inside its block or on its boundary
+        {"block": 1, "point": [0.5, 1], "force": [0, -2], "kind": "dead"}     # kind "dead" or "live"
       ],
       "metadata": {}                                  # optional, free-form
     }
 
 Unknown or misspelled keys are errors (with a suggestion), so a typo never
-silently falls back to a default.  Floats are written with ``repr`` precision,
+silently falls back to a default.  A negative ``live_load.factor`` is an error:
+the sign of the live load is ``direction``.  Every error is one line naming the
+file and the field, block, interface or point load (``tests/data/bad_inputs``
+holds a corpus of bad files with their errors).  Floats are written with ``repr`` precision,
 so load(save(s)) reproduces ``s`` exactly.
 """
 
