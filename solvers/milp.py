@@ -253,16 +253,28 @@ class MILPSolver(SolverBase):
         return hl.solve()
 
     def _bounds(self, deadline: float):
-        """LP bounds valid at every solution of (3): an :class:`MPECBounds`; raises ``_BoundFailure``."""
+        """All LP bounds (:meth:`_root_bounds` then :meth:`_model_bounds`)."""
+        return self._model_bounds(self._root_bounds(deadline), deadline)
+
+    def _x_bound(self, j: int, direction: float, deadline: float) -> float:
+        """``min direction * x_j`` over the static LP's current set; raises ``_BoundFailure``."""
+        cost = np.zeros(self.static.c.size)
+        cost[1 + j] = direction  # x columns of the static LP start after lam
+        r = self._solve_cost(self.bound_lp, cost, deadline)
+        if r.status is not Status.OPTIMAL:
+            raise _BoundFailure(r.status, f"bound LP of x[{j}]: {r.status.value} ({r.raw_status})")
+        return float(r.objective)
+
+    def _root_bounds(self, deadline: float):
+        """The bounds on lam (enough for a root certificate): an :class:`MPECBounds` whose model
+        bounds (``slack_max``, ``z_max``, ``tau_max``) are not computed yet (None)."""
         from blockmpec.formulations.mpec_milp import MPECBounds, work_matrix
 
         t0 = time.perf_counter()
         self._n_lps = 0
         form, lp, hl = self.form, self.static, self.bound_lp
         h = hl.highs
-        nc = lp.c.size
-        x0 = 1  # x columns of the static LP start after lam
-        cost = np.zeros(nc)
+        cost = np.zeros(lp.c.size)
         cost[0] = -1.0
         up = self._solve_cost(hl, cost, deadline)
         if up.status is not Status.OPTIMAL:
@@ -277,40 +289,18 @@ class MILPSolver(SolverBase):
         lam_upper = lam_assoc + LP_MARGIN * max(1.0, abs(lam_assoc))
         lam_lower = lam_min - LP_MARGIN * max(1.0, abs(lam_min))
         h.changeColBounds(0, lam_lower, lam_upper)
-        Gx = form.pair_matrix.tocsr()
-        npair, nx = Gx.shape
+        nx = form.pair_matrix.shape[1]
         x_lower, x_upper = np.full(nx, -np.inf), np.full(nx, np.inf)
-
-        def x_bound(j: int, direction: float) -> float:
-            cost = np.zeros(nc)
-            cost[x0 + j] = direction
-            r = self._solve_cost(hl, cost, deadline)
-            if r.status is not Status.OPTIMAL:
-                raise _BoundFailure(r.status, f"bound LP of x[{j}]: {r.status.value} ({r.raw_status})")
-            return float(r.objective)
-
-        if self.options.slack_bounds == "row":
-            smax = np.empty(npair)
-            for i in range(npair):
-                a, b = Gx.indptr[i], Gx.indptr[i + 1]
-                cost = np.zeros(nc)
-                cost[x0 + Gx.indices[a:b]] = Gx.data[a:b]  # min G_i x = -max s_i
-                r = self._solve_cost(hl, cost, deadline)
-                if r.status is not Status.OPTIMAL:
-                    raise _BoundFailure(r.status, f"slack bound LP {i}: {r.status.value} ({r.raw_status})")
-                smax[i] = max(-r.objective, 0.0)
-        else:
-            smax = self._slack_bounds_by_normal(x_bound, x_lower)
         need_products = self.options.envelope or self.options.dissipation_bound
         Bw = work_matrix(form) if need_products else None
-        envelope_rows = np.unique(Bw.row) if need_products else np.array([], int)
-        for j in envelope_rows:
-            if not np.isfinite(x_lower[j]):
-                x_lower[j] = x_bound(j, 1.0)
-            x_upper[j] = -x_bound(j, -1.0)
-        x_lower, x_upper = _widen(x_lower, x_upper)
         product_lower = product_upper = None
+        diss = None
         if need_products:
+            for j in np.unique(Bw.row):
+                if self.options.envelope:
+                    x_lower[j] = self._x_bound(j, 1.0, deadline)
+                x_upper[j] = -self._x_bound(j, -1.0, deadline)
+            x_lower, x_upper = _widen(x_lower, x_upper)
             # conditional OBBT: bounds of x_r over S ∩ {s_i = 0} for each product x_r z_i of B
             rows = lp.rows["pairs"]
             product_lower, product_upper = np.full(Bw.nnz, -np.inf), np.full(Bw.nnz, np.inf)
@@ -319,33 +309,66 @@ class MILPSolver(SolverBase):
                 h.changeRowBounds(int(rows[i]), 0.0, 0.0)
                 try:
                     if self.options.envelope:
-                        product_lower[e] = x_bound(int(Bw.row[e]), 1.0)
-                    product_upper[e] = -x_bound(int(Bw.row[e]), -1.0)
-                except _BoundFailure:
+                        product_lower[e] = self._x_bound(int(Bw.row[e]), 1.0, deadline)
+                    product_upper[e] = -self._x_bound(int(Bw.row[e]), -1.0, deadline)
+                except _BoundFailure as fail:
+                    if fail.status is Status.TIME_LIMIT:
+                        raise
                     # the pair is never active on S (or the LP failed): no conditional bound is
                     # claimed, the product keeps the unconditional bounds (always valid)
                     product_lower[e], product_upper[e] = -np.inf, np.inf
-                h.changeRowBounds(int(rows[i]), -np.inf, 0.0)
+                finally:
+                    h.changeRowBounds(int(rows[i]), -np.inf, 0.0)
             product_lower, product_upper = _widen(product_lower, product_upper)
             # exact signs: x_r <= 0 wherever the pair rows imply it (no LP round-off involved)
             nonpositive = self._implied_nonpositive()
             x_upper[nonpositive] = np.minimum(x_upper[nonpositive], 0.0)
             product_upper = np.where(nonpositive[Bw.row], np.minimum(product_upper, 0.0), product_upper)
+            if self.options.dissipation_bound:
+                diss = self._dissipation_minimum(Bw, np.minimum(x_upper[Bw.row], product_upper), deadline)
         h.changeColBounds(0, -np.inf, np.inf)
+        kin = self._kinematic_minimum(deadline)
+        lower = max([lam_lower] + [v for v in (kin, diss) if v is not None])
+        return MPECBounds(lam_associative=lam_assoc, lam_static_min=lam_min, lam_kinematic=kin,
+                          lam_dissipation=diss, lam_lower=lower, lam_upper=lam_upper,
+                          slack_max=None, z_max=None, tau_max=None, x_lower=x_lower, x_upper=x_upper,
+                          product_lower=product_lower, product_upper=product_upper, x_associative=x_assoc,
+                          n_lps=self._n_lps, time_s=time.perf_counter() - t0)
+
+    def _model_bounds(self, bd, deadline: float):
+        """``slack_max`` (the big-M), ``z_max`` and ``tau_max`` added to the root bounds ``bd``."""
+        import dataclasses
+
+        t0 = time.perf_counter()
+        n0 = self._n_lps
+        lp, hl = self.static, self.bound_lp
+        h = hl.highs
+        # the slacks are bounded over S ∩ {lam_static_min <= lam <= lam_associative} (widened)
+        h.changeColBounds(0, bd.lam_static_min - LP_MARGIN * max(1.0, abs(bd.lam_static_min)), bd.lam_upper)
+        Gx = self.form.pair_matrix.tocsr()
+        npair = Gx.shape[0]
+        x_lower = bd.x_lower.copy()
+        try:
+            if self.options.slack_bounds == "row":
+                smax = np.empty(npair)
+                for i in range(npair):
+                    a, b = Gx.indptr[i], Gx.indptr[i + 1]
+                    cost = np.zeros(lp.c.size)
+                    cost[1 + Gx.indices[a:b]] = Gx.data[a:b]  # min G_i x = -max s_i
+                    r = self._solve_cost(hl, cost, deadline)
+                    if r.status is not Status.OPTIMAL:
+                        raise _BoundFailure(r.status, f"slack bound LP {i}: {r.status.value} ({r.raw_status})")
+                    smax[i] = max(-r.objective, 0.0)
+            else:
+                smax = self._slack_bounds_by_normal(lambda j, d: self._x_bound(j, d, deadline), x_lower)
+        finally:
+            h.changeColBounds(0, -np.inf, np.inf)
         scale = float(max(smax.max(initial=0.0), 1e-300))
         slack_max = np.where(smax <= 1e-12 * scale, 0.0,
                              smax * (1.0 + BOUND_MARGIN_REL) + BOUND_MARGIN_ABS * scale)
         z_max, tau_max = self._multiplier_bounds(deadline)
-        kin = self._kinematic_minimum(deadline)
-        diss = None
-        if self.options.dissipation_bound:
-            diss = self._dissipation_minimum(Bw, np.minimum(x_upper[Bw.row], product_upper), deadline)
-        lower = max([lam_lower] + [v for v in (kin, diss) if v is not None])
-        return MPECBounds(lam_associative=lam_assoc, lam_static_min=lam_min, lam_kinematic=kin,
-                          lam_dissipation=diss, lam_lower=lower, lam_upper=lam_upper,
-                          slack_max=slack_max, z_max=z_max, tau_max=tau_max, x_lower=x_lower, x_upper=x_upper,
-                          product_lower=product_lower, product_upper=product_upper, x_associative=x_assoc,
-                          n_lps=self._n_lps, time_s=time.perf_counter() - t0)
+        return dataclasses.replace(bd, slack_max=slack_max, z_max=z_max, tau_max=tau_max,
+                                   n_lps=bd.n_lps + self._n_lps - n0, time_s=bd.time_s + time.perf_counter() - t0)
 
     def _implied_nonpositive(self) -> np.ndarray:
         """``x_r <= 0`` implied exactly by ``G x <= 0``: the two friction rows of an interface add up to
@@ -611,7 +634,7 @@ class MILPSolver(SolverBase):
                  facts.BOUND: bound, facts.GAP_ABS: gap, facts.GAP_REL: gap / max(abs(lam), 1e-12),
                  facts.LP_SOLVES: bd.n_lps, "engine": "root", "lam_kinematic": bd.lam_kinematic,
                  "lam_dissipation": bd.lam_dissipation, "bound_time_s": bd.time_s, "build_time_s": t_build,
-                 "search_time_s": 0.0, "nodes": 0, "bigm_active": [], "bigm": (bd.slack_max).tolist()}
+                 "search_time_s": 0.0, "nodes": 0, "bigm_active": [], "bigm": []}
         word = "maximum" if maximise else "minimum"
         return RunOutput(Status.OPTIMAL, incumbent, 0, trace,
                          f"certified global {word} at the root: the incumbent meets the LP bound; gap {gap:.2e}",
@@ -632,7 +655,7 @@ class MILPSolver(SolverBase):
         t_start = self._t_start = time.perf_counter()
         deadline = t_start + opt.time_limit
         try:
-            bd = self._bounds(deadline)
+            bd = self._root_bounds(deadline)
         except _BoundFailure as fail:
             st = fail.status if fail.status in (Status.UNBOUNDED, Status.INFEASIBLE, Status.TIME_LIMIT,
                                                 Status.INFEASIBLE_OR_UNBOUNDED) else Status.ERROR
@@ -640,17 +663,31 @@ class MILPSolver(SolverBase):
                                                            facts.SENSE: opt.sense, facts.LP_SOLVES: self._n_lps})
         trace = [{"iteration": 0, "stage": "bounds", "time_s": bd.time_s,
                   "bound": bd.lam_lower if not maximise else bd.lam_upper, "incumbent": None, "gap_abs": None}]
-        t0 = time.perf_counter()
-        mip = self._build(bd)
-        t_build = time.perf_counter() - t0
         incumbent = self._incumbent(bd, deadline) if opt.incumbent else None
         if incumbent is not None:
             trace.append({"iteration": len(trace), "stage": "incumbent", "time_s": time.perf_counter() - t_start,
                           "bound": bd.lam_upper if maximise else bd.lam_lower, "incumbent": incumbent.multiplier,
                           "gap_abs": abs(incumbent.multiplier - (bd.lam_upper if maximise else bd.lam_lower))})
-            root = self._root_certificate(incumbent, bd, trace, t_build)
+            root = self._root_certificate(incumbent, bd, trace, 0.0)
             if root is not None:
                 return root
+        try:
+            bd = self._model_bounds(bd, deadline)
+        except _BoundFailure as fail:
+            extra = {"bound_time_s": time.perf_counter() - t_start, facts.SENSE: opt.sense,
+                     facts.LP_SOLVES: self._n_lps, facts.BOUND: bd.lam_upper if maximise else bd.lam_lower}
+            if incumbent is not None and fail.status is Status.TIME_LIMIT:
+                gap = abs(incumbent.multiplier - extra[facts.BOUND])
+                extra[facts.GAP_ABS], extra[facts.GAP_REL] = gap, gap / max(abs(incumbent.multiplier), 1e-12)
+                return RunOutput(Status.TIME_LIMIT, incumbent, 0, trace, f"time limit in the bound LPs: {fail}; "
+                                 f"best lam {incumbent.multiplier:.10g}, bound {extra[facts.BOUND]:.10g}",
+                                 "bounds", extra)
+            st = fail.status if fail.status in (Status.UNBOUNDED, Status.INFEASIBLE, Status.TIME_LIMIT,
+                                                Status.INFEASIBLE_OR_UNBOUNDED) else Status.ERROR
+            return RunOutput(st, message=str(fail), extra=extra)
+        t0 = time.perf_counter()
+        mip = self._build(bd)
+        t_build = time.perf_counter() - t0
         if opt.engine == "bnb":
             return self._run_bnb(bd, incumbent, deadline, t_build, trace)
         run = self._solve(mip, deadline, self._start(mip, incumbent), t_start)
