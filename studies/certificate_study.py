@@ -122,7 +122,7 @@ def write(rows: list[dict], name: str, columns: list[str]) -> Path:
 FAMILIES = {
     "running": ["2x2", "3x2", "2x3", "4x2", "2x4", "5x2", "4x3", "3x4", "6x3", "5x4", "6x4", "6x5", "8x4", "6x6"],
     "stack": ["3x2s", "4x2s", "6x2s", "4x3s", "8x2s", "6x3s", "5x4s", "6x4s", "8x4s", "6x6s", "8x6s"],
-    "arch": ["arch:10", "arch:20", "arch:40", "arch:80", "arch:160"],
+    "arch": ["arch:10", "arch:20", "arch:40", "arch:80", "arch:160", "arch:320", "arch:640"],
 }
 
 
