@@ -46,7 +46,8 @@ def wall_for(n_blocks: int) -> bm.Structure:
     return bm.cases.wall(courses=courses, blocks_per_course=per)
 
 
-def time_one(wall: str, algorithm: str, time_limit: float = float("inf"), ordering: str = "auto") -> dict:
+def time_one(wall: str, algorithm: str, time_limit: float = float("inf"), ordering: str = "auto",
+             max_iterations: int | None = None) -> dict:
     """One cold solve of the static LP of ``wall`` (a size ``"1000"`` or ``"CxB"`` courses x blocks per course)."""
     from blockmpec.solvers.engines.block_ipm import BlockIPM
     from blockmpec.solvers.engines.highs import static_lp_solution
@@ -67,6 +68,8 @@ def time_one(wall: str, algorithm: str, time_limit: float = float("inf"), orderi
     engine = cold_lp_engine(lp, algorithm, time_limit, ops=ops)  # as static-lp runs it: in load units
     if isinstance(engine, BlockIPM):
         engine.ordering = ordering
+        if max_iterations is not None:  # a per-iteration cost measurement (status: iteration limit)
+            engine.max_iterations = max_iterations
     t5, c5 = time.perf_counter(), time.process_time()
     out = engine.solve()
     t6, c6 = time.perf_counter(), time.process_time()
@@ -82,6 +85,7 @@ def time_one(wall: str, algorithm: str, time_limit: float = float("inf"), orderi
         "build_over_solve_cpu": (c4 - c2) / (c6 - c5),
         "algorithm": algorithm, "engine": type(engine).__name__, "status": out.status.value,
         "multiplier": lam, "lp_iterations": out.iterations, "max_residual": residual,
+        "solve_cpu_s_per_iteration": (c6 - c5) / max(out.iterations, 1),
         "verified_1e-8": bool(residual <= 1e-8),
         "ordering": factoriser.ordering if factoriser else "", "factorisations": factoriser.factorisations if factoriser else 0,
         "factorise_s": factoriser.factorise_s if factoriser else 0.0, "factor_nnz": factoriser.factor_nnz if factoriser else 0,
@@ -100,9 +104,11 @@ def main(argv: list[str] | None = None) -> list[dict]:
     parser.add_argument("--walls", default="", help="comma-separated CxB walls (courses x blocks per course)")
     parser.add_argument("--orderings", default="auto", help="block IPM orderings of K: auto, metis, mmd")
     parser.add_argument("--time-limit", type=float, default=float("inf"), help="seconds per solve")
+    parser.add_argument("--max-iterations", type=int, default=None,
+                        help="block IPM iteration cap: measures the cost per iteration of a size too slow to finish")
     args = parser.parse_args(argv)
     walls = args.walls.split(",") if args.walls else args.sizes.split(",")
-    cases = [(w, a, args.time_limit, o) for w in walls for a in args.algorithms.split(",")
+    cases = [(w, a, args.time_limit, o, args.max_iterations) for w in walls for a in args.algorithms.split(",")
              for o in (args.orderings.split(",") if a in ("auto", "block-ipm") else ["auto"])]
     context = multiprocessing.get_context("spawn")  # a fresh process per case: its own peak memory
     rows = []
