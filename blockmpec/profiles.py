@@ -125,7 +125,10 @@ def summary_table(df, tol: float = SOLVED_TOL, shift: float = SHIFT_S):
                      "solved": int(grp["_solved"].sum()), "success_rate": float(grp["_solved"].mean()),
                      "sgm_time_s": sgm, "median_rel_error": float(np.median(errs)) if errs else math.nan})
     table = pd.DataFrame(rows)
-    if len(table):
+    if len(table):  # associative methods first, each problem in the order the methods appear in the table
+        first = {label: i for i, label in reversed(list(enumerate(df["method_label"])))}
+        table["_order"] = [(p != "associative", first[m]) for p, m in zip(table["problem"], table["method"])]
+        table = table.sort_values("_order", kind="stable").drop(columns="_order").reset_index(drop=True)
         best = table.groupby("problem")["sgm_time_s"].transform("min")
         table.insert(6, "sgm_time_ratio", table["sgm_time_s"] / best)
     return table
