@@ -15,7 +15,8 @@ the LP's duals ``(u, z_u, z_f)`` satisfy compatibility with ``V_f`` (friction
 
 Start (``start``): ``n*_0`` = normal forces of the associative static LP (1)
 (``"associative"``), ``0`` (``"zero"``), a statically admissible field under the
-dead load alone (``"dead-load"``), or the associative forces scaled per interface
+dead load alone (``"dead-load"``; the associative start when the structure does
+not stand under its dead load, i.e. ``lam < 0``), or the associative forces scaled per interface
 by seeded uniform factors in [0, 1] (``"random"``, ``seed``).
 
 Tie-break (``tie_break``).  The LP's optimal forces are often not unique (e.g.
@@ -185,6 +186,7 @@ class FixedPoint(SolverBase):
             out.extra = self.sequence.facts()
             out.extra["multistart_runs"] = runs
         out.extra["tie_break_failures"] = facts["tie_break_failures"]
+        out.extra["start"] = facts["start_used"]
         if facts["lam_start"] is not None:
             out.extra[ASSOCIATIVE_MULTIPLIER] = facts["lam_start"]
         if out.status is Status.CONVERGED:

@@ -77,7 +77,7 @@ def test_non_uniqueness_at_eta3_mu1p5():
     s = bm.cases.two_blocks(eta=3, mu=1.5)
     assoc = bm.solve(s, "static-lp")
     minimum = bm.solve(s, "milp")
-    fixed = bm.solve(s, "fixed-point")
+    fixed = bm.solve(s, "fixed-point", start="associative", tie_break="closest")
     assert assoc.multiplier == pytest.approx(2 / 3, rel=1e-9)
     assert minimum.status is Status.OPTIMAL and minimum.multiplier == pytest.approx(1 / 3, abs=1e-7)
     # the fixed point, started from the associative solution, returns a verified solution of (3) ...

@@ -38,7 +38,8 @@ the step LP and ``x`` of the tie-break LP form a consistent pair.
 
 Starts (:data:`STARTS`): ``"associative"`` (normal forces of the static LP (1)),
 ``"zero"`` (``n* = 0``: no cohesion), ``"dead-load"`` (a statically admissible
-field under the dead load alone: the LP (1) with ``lam`` fixed at 0), ``"random"``
+field under the dead load alone: the LP (1) with ``lam`` fixed at 0; when there is
+none, i.e. the structure needs ``lam < 0``, the associative start), ``"random"``
 (``n* = r * n_assoc``, ``r_k`` uniform in [0, 1] from a seeded generator).
 
 Acceleration (``"anderson"``): Anderson mixing of depth ``m`` on ``n*`` (type II):
@@ -493,7 +494,7 @@ def run_sequence(
     crit = StoppingCriterion(tol, max_iterations, time_limit, measure_name=measure).start()
     deadline = crit.t0 + time_limit
     ops = seq.ops
-    facts: dict[str, Any] = {"lam_start": None, "tie_break_failures": 0}
+    facts: dict[str, Any] = {"lam_start": None, "tie_break_failures": 0, "start_used": start}
 
     def output(status, sol, message, raw=""):
         return RunOutput(status, sol if sol is not None else Solution(), crit.iterations, crit.trace, message, raw,
@@ -511,6 +512,13 @@ def run_sequence(
             n_star = n_star * np.random.default_rng(seed).uniform(0.0, 1.0, n_star.size)
     elif start == "dead-load":
         first = seq.dead_load(deadline)
+        if first.status is Status.INFEASIBLE:
+            # no equilibrium under the dead load alone (lam < 0 is needed): start from the associative forces
+            facts["start_used"] = "associative"
+            first = seq.associative(deadline)
+            if first.status is Status.OPTIMAL:
+                facts["lam_start"] = first.solution.multiplier
+                seq.set_sensitivity(first.solution.z_f)
         if first.status is not Status.OPTIMAL:
             return output(first.status, None, first.message, first.raw_status)
         n_star = np.minimum(normal(first.solution.x), 0.0)
