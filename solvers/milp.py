@@ -296,29 +296,17 @@ class MILPSolver(SolverBase):
         product_lower = product_upper = None
         diss = None
         if need_products:
-            for j in np.unique(Bw.row):
-                if self.options.envelope:
-                    x_lower[j] = self._x_bound(j, 1.0, deadline)
-                x_upper[j] = -self._x_bound(j, -1.0, deadline)
+            try:
+                self._product_bounds(Bw, x_lower, x_upper, deadline)
+            except _BoundFailure as fail:
+                if fail.status is not Status.TIME_LIMIT:
+                    raise
+                need_products = False  # out of time: lam keeps its plain LP bounds (valid), no envelope
+                x_lower[:], x_upper[:] = -np.inf, np.inf
+                self._products = None
+        if need_products:
             x_lower, x_upper = _widen(x_lower, x_upper)
-            # conditional OBBT: bounds of x_r over S ∩ {s_i = 0} for each product x_r z_i of B
-            rows = lp.rows["pairs"]
-            product_lower, product_upper = np.full(Bw.nnz, -np.inf), np.full(Bw.nnz, np.inf)
-            for e in range(Bw.nnz):
-                i = int(Bw.col[e])
-                h.changeRowBounds(int(rows[i]), 0.0, 0.0)
-                try:
-                    if self.options.envelope:
-                        product_lower[e] = self._x_bound(int(Bw.row[e]), 1.0, deadline)
-                    product_upper[e] = -self._x_bound(int(Bw.row[e]), -1.0, deadline)
-                except _BoundFailure as fail:
-                    if fail.status is Status.TIME_LIMIT:
-                        raise
-                    # the pair is never active on S (or the LP failed): no conditional bound is
-                    # claimed, the product keeps the unconditional bounds (always valid)
-                    product_lower[e], product_upper[e] = -np.inf, np.inf
-                finally:
-                    h.changeRowBounds(int(rows[i]), -np.inf, 0.0)
+            product_lower, product_upper = self._products
             product_lower, product_upper = _widen(product_lower, product_upper)
             # exact signs: x_r <= 0 wherever the pair rows imply it (no LP round-off involved)
             nonpositive = self._implied_nonpositive()
@@ -332,8 +320,37 @@ class MILPSolver(SolverBase):
         return MPECBounds(lam_associative=lam_assoc, lam_static_min=lam_min, lam_kinematic=kin,
                           lam_dissipation=diss, lam_lower=lower, lam_upper=lam_upper,
                           slack_max=None, z_max=None, tau_max=None, x_lower=x_lower, x_upper=x_upper,
-                          product_lower=product_lower, product_upper=product_upper, x_associative=x_assoc,
+                          product_lower=product_lower if need_products else None,
+                          product_upper=product_upper if need_products else None, x_associative=x_assoc,
                           n_lps=self._n_lps, time_s=time.perf_counter() - t0)
+
+    def _product_bounds(self, Bw, x_lower: np.ndarray, x_upper: np.ndarray, deadline: float) -> None:
+        """Bounds of the ``x_r`` of the work identity over ``S`` (in place) and over ``S ∩ {s_i = 0}``
+        for each product ``x_r z_i`` (conditional OBBT; kept in ``self._products``)."""
+        lp, h = self.static, self.bound_lp.highs
+        for j in np.unique(Bw.row):
+            if self.options.envelope:
+                x_lower[j] = self._x_bound(j, 1.0, deadline)
+            x_upper[j] = -self._x_bound(j, -1.0, deadline)
+        # conditional OBBT: bounds of x_r over S ∩ {s_i = 0} for each product x_r z_i of B
+        rows = lp.rows["pairs"]
+        product_lower, product_upper = np.full(Bw.nnz, -np.inf), np.full(Bw.nnz, np.inf)
+        for e in range(Bw.nnz):
+            i = int(Bw.col[e])
+            h.changeRowBounds(int(rows[i]), 0.0, 0.0)
+            try:
+                if self.options.envelope:
+                    product_lower[e] = self._x_bound(int(Bw.row[e]), 1.0, deadline)
+                product_upper[e] = -self._x_bound(int(Bw.row[e]), -1.0, deadline)
+            except _BoundFailure as fail:
+                if fail.status is Status.TIME_LIMIT:
+                    raise
+                # the pair is never active on S (or the LP failed): no conditional bound is
+                # claimed, the product keeps the unconditional bounds (always valid)
+                product_lower[e], product_upper[e] = -np.inf, np.inf
+            finally:
+                h.changeRowBounds(int(rows[i]), -np.inf, 0.0)
+        self._products = (product_lower, product_upper)
 
     def _model_bounds(self, bd, deadline: float):
         """``slack_max`` (the big-M), ``z_max`` and ``tau_max`` added to the root bounds ``bd``."""
