@@ -183,14 +183,24 @@ def test_the_example_study_file_is_valid():
     assert any(c.structure is not None for c in study.cases)  # a structure file
 
 
+def _big_wall(folder):
+    """A 20 x 10 running-bond wall as a structure file: far beyond what milp certifies in seconds."""
+    from blockmpec.structure_file import save_structure
+
+    path = folder / "big-wall.json"
+    save_structure(bm.cases.wall(courses=20, blocks_per_course=10), path)
+    return path
+
+
 def test_sigint_during_milp_saves_the_finished_rows_and_exits_130(tmp_path):
     """A real Ctrl-C while milp works on a wall it cannot certify quickly."""
     import signal
     import time
 
     out = tmp_path / "out"
+    wall = _big_wall(tmp_path)
     proc = subprocess.Popen(
-        [sys.executable, "-m", "blockmpec.cli", "compare", "--cases", "two-blocks,wall-10x5", "--methods",
+        [sys.executable, "-m", "blockmpec.cli", "compare", "--cases", f"two-blocks,{wall}", "--methods",
          "static-lp,milp", "-O", "milp.time_limit=300", "--out", str(out), "--quiet"],
         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     rows = out / "rows.jsonl"
@@ -198,7 +208,7 @@ def test_sigint_during_milp_saves_the_finished_rows_and_exits_130(tmp_path):
     while time.time() < deadline and (not rows.exists() or len(rows.read_text().splitlines()) < 3):
         time.sleep(0.2)
     assert rows.exists() and len(rows.read_text().splitlines()) == 3, "the first three solves did not finish"
-    time.sleep(1.5)  # milp on wall-10x5 is running now
+    time.sleep(1.5)  # milp on the 200-block wall is running now
     t0 = time.time()
     proc.send_signal(signal.SIGINT)
     stdout, stderr = proc.communicate(timeout=60)
@@ -208,11 +218,11 @@ def test_sigint_during_milp_saves_the_finished_rows_and_exits_130(tmp_path):
     import pandas as pd
 
     df = pd.read_csv(out / "results.csv")
-    assert len(df) == 3 and "wall-10x5" in set(df["case"]) and df["success"].all()
+    assert len(df) == 3 and "big-wall" in set(df["case"]) and df["success"].all()
     assert json.loads((out / "run.json").read_text())["interrupted"] == "SIGINT"
     assert not (out / ".blockmpec.lock").exists()
     # --resume runs only what is missing (here: with a short limit, so milp stops at once)
-    p = run("compare", "--cases", "two-blocks,wall-10x5", "--methods", "static-lp,milp", "-O", "milp.time_limit=300",
+    p = run("compare", "--cases", f"two-blocks,{wall}", "--methods", "static-lp,milp", "-O", "milp.time_limit=300",
             "--wall-limit", "milp=3", "--out", str(out), "--resume", "--quiet", "--no-figures")
     assert p.returncode == 0, p.stderr
     df = pd.read_csv(out / "results.csv")
@@ -226,7 +236,8 @@ def test_sigterm_is_handled_like_ctrl_c(tmp_path):
 
     out = tmp_path / "out"
     proc = subprocess.Popen(
-        [sys.executable, "-m", "blockmpec.cli", "compare", "--cases", "single-block,wall-10x5", "--methods", "milp",
+        [sys.executable, "-m", "blockmpec.cli", "compare", "--cases", f"single-block,{_big_wall(tmp_path)}",
+         "--methods", "milp",
          "-O", "milp.time_limit=300", "--out", str(out), "--quiet"],
         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     rows = out / "rows.jsonl"
