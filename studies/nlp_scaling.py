@@ -1,0 +1,102 @@
+"""How large a running-bond wall ``nlp`` solves within a time limit, per option set.
+
+For each option set (``--configs``), walls of growing size (``--walls``, ``courses x
+blocks_per_course``, running bond) are solved with ``nlp`` under ``time_limit``; a
+set's sweep stops at its first wall without a verified answer.  Per run: status,
+verified, lam (and the associative lam it started from), wall-clock and process CPU
+seconds (the CPU column is the fair one on a shared machine: Ipopt and MUMPS are
+single-threaded here, so CPU seconds are what the run would take alone), Ipopt
+iterations and the iterations per eps stage.  Usage::
+
+    python studies/nlp_scaling.py [--walls 5x4,10x5,10x10,20x10] [--time-limit 60]
+                                  [--configs "default={};factor-0.01={'eps_factor': 0.01}"] [--tag T]
+
+Writes ``studies/output/nlp/nlp_scaling[_TAG].csv`` and prints a table.
+"""
+
+from __future__ import annotations
+
+import argparse
+import ast
+import csv
+import time
+from pathlib import Path
+
+import blockmpec as bm
+from blockmpec import facts
+
+OUT = Path(__file__).parent / "output" / "nlp"
+COLUMNS = ["config", "wall", "blocks", "status", "verified", "multiplier", "associative", "wall_s", "cpu_s",
+           "setup_s", "ipopt_iterations", "stages", "message"]
+DEFAULT_CONFIGS = "default={};factor-0.01={'eps_factor': 0.01}"
+
+
+def parse_configs(text: str) -> dict[str, dict]:
+    """``"name={options};name2={...}"`` -> ``{name: options}`` (options as a Python dict literal)."""
+    out = {}
+    for part in filter(None, (p.strip() for p in text.split(";"))):
+        name, _, literal = part.partition("=")
+        options = ast.literal_eval(literal.strip() or "{}")
+        if not isinstance(options, dict):
+            raise SystemExit(f"--configs: {name!r} must map to a dict of nlp options; got {literal!r}")
+        out[name.strip()] = options
+    return out
+
+
+def run_wall(config: str, courses: int, per_course: int, time_limit: float, options: dict) -> dict:
+    """Solve one running-bond wall with ``nlp`` and ``options``; one table row."""
+    structure = bm.cases.wall(courses=courses, blocks_per_course=per_course)
+    c0, t0 = time.process_time(), time.perf_counter()
+    res = bm.solve(structure, "nlp", time_limit=time_limit, **options)
+    wall_s, cpu_s = time.perf_counter() - t0, time.process_time() - c0
+    stages = " ".join(f"{rec['stage']}:{rec.get('ipopt_iterations', 0)}" for rec in res.trace)
+    return {"config": config, "wall": f"{courses}x{per_course}", "blocks": structure.n_free,
+            "status": res.status.value, "verified": res.success, "multiplier": res.multiplier,
+            "associative": res.extra.get(facts.ASSOCIATIVE_MULTIPLIER), "wall_s": wall_s, "cpu_s": cpu_s,
+            "setup_s": res.build_time_s, "ipopt_iterations": res.iterations, "stages": stages,
+            "message": res.message[:100]}
+
+
+def _fmt(v) -> str:
+    if v is None:
+        return "-"
+    if isinstance(v, float):
+        return f"{v:.6g}"
+    return str(v)
+
+
+def main(argv: list[str] | None = None) -> list[dict]:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--walls", default="5x4,10x5,10x10,20x10,20x25")
+    ap.add_argument("--time-limit", type=float, default=60.0)
+    ap.add_argument("--configs", default=DEFAULT_CONFIGS)
+    ap.add_argument("--tag", default="")
+    args = ap.parse_args(argv)
+    walls = [tuple(int(v) for v in w.split("x")) for w in args.walls.split(",") if w.strip()]
+    OUT.mkdir(parents=True, exist_ok=True)
+    path = OUT / f"nlp_scaling{'_' + args.tag if args.tag else ''}.csv"
+    rows = []
+    with path.open("w", newline="") as fh:
+        writer = csv.DictWriter(fh, COLUMNS)
+        writer.writeheader()
+        for config, options in parse_configs(args.configs).items():
+            for courses, per_course in walls:
+                row = run_wall(config, courses, per_course, args.time_limit, options)
+                rows.append(row)
+                writer.writerow(row)
+                fh.flush()
+                print("  ".join(f"{k}={_fmt(row[k])}" for k in COLUMNS[:11]), flush=True)
+                if not row["verified"]:
+                    break
+    print(f"\n| config | largest verified wall (blocks) | its wall s | its CPU s |\n|---|---|---|---|")
+    for config in parse_configs(args.configs):
+        ok = [r for r in rows if r["config"] == config and r["verified"]]
+        best = max(ok, key=lambda r: r["blocks"]) if ok else None
+        print(f"| {config} | {best['wall'] + ' (' + str(best['blocks']) + ')' if best else 'none'} | "
+              f"{_fmt(best['wall_s']) if best else '-'} | {_fmt(best['cpu_s']) if best else '-'} |")
+    print(f"\nwritten: {path}")
+    return rows
+
+
+if __name__ == "__main__":
+    main()
