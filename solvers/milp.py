@@ -187,7 +187,7 @@ class MILPSolver(SolverBase):
     name = "milp"
     problem = "non-associative"
     summary = ("certified global minimum of the MPEC (4) (sense=max: maximum of lam over solutions of (3)): "
-               "MILP with LP-proven bounds, HiGHS big-M or SCIP SOS1")
+               "LP bounds from the work identity, then HiGHS big-M MILP (or SCIP SOS1, or a pair branch and bound)")
     certifies_minimum = True
     requires = ("highspy", "pyomo")
     Options = MILPOptions
