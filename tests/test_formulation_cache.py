@@ -4,8 +4,7 @@ import numpy as np
 import pytest
 
 import blockmpec as bm
-from blockmpec.formulations import compile_linear, static_lp
-from blockmpec.formulations import _pyomo
+from blockmpec.formulations import _pyomo, compile_linear, static_lp
 
 
 def _same(a, b):

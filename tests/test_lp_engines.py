@@ -11,11 +11,11 @@ import numpy as np
 import pytest
 
 import blockmpec as bm
-from helpers import assert_success, block_on_block, two_block_associative
 from blockmpec.formulations import compile_linear, kinematic_lp, static_lp
 from blockmpec.solvers.engines.block_ipm import BlockIPM, interface_blocks
-from blockmpec.solvers.engines.lp_engine import AUTO_BLOCK_IPM_ROWS, cold_lp_engine
 from blockmpec.solvers.engines.highs import HighsLP
+from blockmpec.solvers.engines.lp_engine import AUTO_BLOCK_IPM_ROWS, cold_lp_engine
+from helpers import assert_success, block_on_block, two_block_associative
 
 
 def _scaled(structure, factor):

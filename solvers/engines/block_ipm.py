@@ -61,10 +61,9 @@ from dataclasses import dataclass
 
 import numpy as np
 import scipy.sparse as sp
-import scipy.sparse.linalg as spla
 
-from blockmpec.result import Status
 from blockmpec.formulations import LinearProgram
+from blockmpec.result import Status
 from blockmpec.solvers.engines.cholesky import SymmetricFactoriser, structural_pattern
 from blockmpec.solvers.engines.highs import LPOutcome
 
