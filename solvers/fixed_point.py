@@ -58,12 +58,14 @@ configured start and then seeded random starts (seeds ``seed + 1, ...``) and
 returns the converged run with the lowest verified multiplier (residuals of (3)
 at most 1e-6); nothing unverified is preferred over a verified run.
 
-Defaults (``start="dead-load", tie_break="least-compressed"``), chosen by
+Defaults (``start="dead-load", tie_break="least-compressed", fold_weight=1e-4``), chosen by
 ``studies/fixed_point_strategies.py`` (the README's strategy table): on the 56
 structures with a certified minimum it is verified on all and within 1 % of the
 minimum on all (28 of 28 where the minimum lies below the associative multiplier,
 against 1 of 28 for the former default ``start="associative", tie_break="closest"``),
 and it converges on the large walls to within 2 % of the best verified value.
+Folding the rule into the step LP gives the same table and was 2.5x faster than
+the separate tie-break LP on the 1,000-block wall (337 s against 854 s, one run).
 
 Safeguards: ``n*`` is kept ``<= 0`` (a round-off tension within the LP tolerance
 would give a negative cohesion and an infeasible next LP), and the LPs run with
@@ -101,7 +103,7 @@ class FixedPointOptions:
         "help": "associative | zero | dead-load | random: the first n* (see lp_sequence)"})
     tie_break: str = field(default="least-compressed", metadata={
         "help": "closest | least-compressed | min-lambda | on-oscillation | none: which optimal LP forces a step takes"})
-    fold_weight: float = field(default=0.0, metadata={
+    fold_weight: float = field(default=1e-4, metadata={
         "help": "0: weighted tie-breaks as their own LP; > 0: folded into the step LP with this weight"})
     acceleration: str = field(default="none", metadata={"help": "none | anderson: update of n*"})
     memory: int = field(default=5, metadata={"help": "Anderson depth"})
