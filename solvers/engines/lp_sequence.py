@@ -94,7 +94,8 @@ class Step:
     message: str
     solution: Solution = field(default_factory=Solution)
     lp_iterations: int = 0
-    tie_break_used: bool = False
+    #: True: x from the tie-break LP; False: that LP failed (x from the step LP); None: none was run
+    tie_break_used: bool | None = None
 
 
 class LPSequence:
@@ -550,7 +551,7 @@ def run_sequence(
             if step.status is Status.TIME_LIMIT:
                 msg = f"time limit {time_limit:g} s reached at iteration {k}; returning the last iterate"
             return output(step.status, last, msg, step.raw_status)
-        if rule != "none" and seq.tie_highs is not None and not step.tie_break_used:
+        if step.tie_break_used is False:
             facts["tie_break_failures"] += 1
         sol = step.solution
         n = normal(sol.x)
