@@ -15,7 +15,7 @@ Usage::
     python studies/fixed_point_ratio.py [--sizes 200,1000 | --walls 20x50,100x100] [--lp-algorithms auto,ipm]
         [--fixed-point "default;start=associative,tie_break=closest"] [--time-limit 600]
 
-Prints a markdown table and writes ``studies/output/fixed_point_ratio/ratio.csv``.
+Prints a markdown table and writes ``studies/output/fixed_point_ratio/ratio_<walls>.csv``.
 """
 
 from __future__ import annotations
@@ -96,8 +96,9 @@ def main(argv: list[str] | None = None) -> list[dict]:
             "fp_multiplier", "fp_associative_s", "fp_step_s", "fp_tie_break_s", *[f"ratio_vs_{a}" for a in algorithms]]
     print(markdown(rows, [(k, k, "{}" if k in ("fp_status", "fixed_point") else "{:.3g}") for k in keys]))
     OUT.mkdir(parents=True, exist_ok=True)
-    write_csv(OUT / "ratio.csv", rows)
-    print(f"wrote {OUT / 'ratio.csv'}")
+    path = OUT / f"ratio_{'_'.join(walls)}.csv"
+    write_csv(path, rows)
+    print(f"wrote {path}")
     return rows
 
 
