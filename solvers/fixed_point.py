@@ -104,7 +104,8 @@ class FixedPointOptions:
     tie_break: str = field(default="least-compressed", metadata={
         "help": "closest | least-compressed | min-lambda | on-oscillation | none: which optimal LP forces a step takes"})
     fold_weight: float = field(default=1e-4, metadata={
-        "help": "0: weighted tie-breaks as their own LP; > 0: folded into the step LP with this weight"})
+        "help": "0: weighted tie-breaks as their own LP; > 0: folded into the step LP with this weight, "
+                "then exact closest steps close the loop"})
     acceleration: str = field(default="none", metadata={"help": "none | anderson: update of n*"})
     memory: int = field(default=5, metadata={"help": "Anderson depth"})
     seed: int = field(default=0, metadata={"help": "seed of the random start (run i of a multistart: seed + i)"})
