@@ -85,6 +85,7 @@ from blockmpec.geometry import Structure
 from blockmpec.operators import assemble
 from blockmpec.registry import get_solver
 from blockmpec.result import Result, Status
+from blockmpec.result import is_finite_number as _finite
 from blockmpec.verify import RESIDUAL_NAMES
 
 #: absolute tolerance (times max(1, |lam_ref|)) of the anomaly checks
@@ -617,11 +618,6 @@ def _result_fields(res: Result) -> dict[str, Any]:
 # --------------------------------------------------------------------------- references
 
 
-def _finite(v: Any) -> bool:
-    try:
-        return v is not None and math.isfinite(float(v))
-    except (TypeError, ValueError):
-        return False
 
 
 def _candidates(grp, column: str) -> list[tuple[float, str, str]]:

@@ -26,6 +26,8 @@ from typing import Any
 
 import numpy as np
 
+from blockmpec.result import is_finite_number as _finite
+
 #: relative errors below this are drawn at this value on log axes (exact answers)
 ERROR_FLOOR = 1e-16
 
@@ -426,11 +428,6 @@ def mechanisms(
 # --------------------------------------------------------------------------- helpers
 
 
-def _finite(v: Any) -> bool:
-    try:
-        return v is not None and math.isfinite(float(v))
-    except (TypeError, ValueError):
-        return False
 
 
 def _num(v: Any) -> float:

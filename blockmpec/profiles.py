@@ -46,6 +46,8 @@ from typing import Any
 
 import numpy as np
 
+from blockmpec.result import is_finite_number as _finite
+
 #: shift of the shifted geometric mean of times [s] (our solves take milliseconds to minutes)
 SHIFT_S = 0.01
 #: times below this are raised to it in the profiles [s]
@@ -180,8 +182,3 @@ def plot_profiles(df, path: str | Path, tol: float = SOLVED_TOL) -> Path:
     return _save(fig, path)
 
 
-def _finite(v: Any) -> bool:
-    try:
-        return v is not None and math.isfinite(float(v))
-    except (TypeError, ValueError):
-        return False

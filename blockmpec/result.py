@@ -150,6 +150,14 @@ class Result:
         }
 
 
+def is_finite_number(v: Any) -> bool:
+    """True for a value that converts to a finite float (None, NaN, inf and text are not)."""
+    try:
+        return v is not None and math.isfinite(float(v))
+    except (TypeError, ValueError):
+        return False
+
+
 def _json_float(v: float | None) -> float | None:
     if v is None:
         return None
