@@ -13,8 +13,8 @@ from __future__ import annotations
 
 import pyomo.environ as pyo
 
-from blockmpec.operators import Operators
 from blockmpec.formulations._pyomo import PyomoProblem, linear_dot, sparse_rows
+from blockmpec.operators import Operators
 
 
 def kinematic_lp(ops: Operators) -> PyomoProblem:

@@ -27,9 +27,9 @@ import numpy as np
 import pyomo.environ as pyo
 from pyomo.mpec import Complementarity, complements
 
+from blockmpec.formulations._pyomo import PyomoProblem, linear_dot, sparse_rows
 from blockmpec.operators import Operators
 from blockmpec.result import Solution
-from blockmpec.formulations._pyomo import PyomoProblem, linear_dot, sparse_rows
 
 
 def mcp(ops: Operators, name: str = "mcp", dilatancy: np.ndarray | None = None) -> PyomoProblem:

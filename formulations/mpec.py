@@ -12,9 +12,9 @@ from __future__ import annotations
 
 import pyomo.environ as pyo
 
-from blockmpec.operators import Operators
 from blockmpec.formulations._pyomo import PyomoProblem
 from blockmpec.formulations.mcp import evaluate_mcp, mcp
+from blockmpec.operators import Operators
 
 __all__ = ["evaluate_mcp", "mpec"]
 

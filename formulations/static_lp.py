@@ -30,8 +30,8 @@ import numpy as np
 import pyomo.environ as pyo
 import scipy.sparse as sp
 
-from blockmpec.operators import Operators
 from blockmpec.formulations._pyomo import PyomoProblem, sparse_rows
+from blockmpec.operators import Operators
 
 
 def static_lp(ops: Operators, friction: np.ndarray | None = None, cohesion: np.ndarray | None = None,

@@ -26,9 +26,9 @@ from __future__ import annotations
 import numpy as np
 import pyomo.environ as pyo
 
-from blockmpec.operators import Operators
 from blockmpec.formulations._pyomo import PyomoProblem
 from blockmpec.formulations.static_lp import modified_lp
+from blockmpec.operators import Operators
 
 
 def tie_break_lp(ops: Operators, n_star: np.ndarray | None = None, slope: np.ndarray | None = None,

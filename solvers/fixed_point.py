@@ -87,7 +87,6 @@ from blockmpec.registry import register_solver
 from blockmpec.result import Status
 from blockmpec.solver import RunOutput, SolverBase
 
-
 #: residual tolerance under which a multistart run counts as a solution of (3) (the verifier's default)
 MULTISTART_VERIFY_TOL = 1e-6
 

@@ -55,7 +55,6 @@ from blockmpec.registry import register_solver
 from blockmpec.result import Status
 from blockmpec.solver import RunOutput, SolverBase
 
-
 ALPHA_SCHEDULES = ("constant", "halving")
 
 

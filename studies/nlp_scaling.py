@@ -88,7 +88,7 @@ def main(argv: list[str] | None = None) -> list[dict]:
                 print("  ".join(f"{k}={_fmt(row[k])}" for k in COLUMNS[:11]), flush=True)
                 if not row["verified"]:
                     break
-    print(f"\n| config | largest verified wall (blocks) | its wall s | its CPU s |\n|---|---|---|---|")
+    print("\n| config | largest verified wall (blocks) | its wall s | its CPU s |\n|---|---|---|---|")
     for config in parse_configs(args.configs):
         ok = [r for r in rows if r["config"] == config and r["verified"]]
         best = max(ok, key=lambda r: r["blocks"]) if ok else None

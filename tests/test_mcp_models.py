@@ -9,10 +9,10 @@ pytest.importorskip("highspy")
 from pyomo.mpec import Complementarity  # noqa: E402
 
 import blockmpec as bm  # noqa: E402
-from blockmpec.operators import assemble  # noqa: E402
-from blockmpec.verify import positive_part_ratio, residuals  # noqa: E402
 from blockmpec.formulations.mcp import evaluate_mcp, mcp, mcp_violation  # noqa: E402
 from blockmpec.formulations.mpec import mpec  # noqa: E402
+from blockmpec.operators import assemble  # noqa: E402
+from blockmpec.verify import positive_part_ratio, residuals  # noqa: E402
 
 
 @pytest.fixture(scope="module")

@@ -14,8 +14,8 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.sparse as sp
 
-from blockmpec.result import Solution, Status
 from blockmpec.formulations import LinearProgram
+from blockmpec.result import Solution, Status
 from blockmpec.solvers.engines.lp_engine import BASIS_ALGORITHMS, select_algorithm
 
 

@@ -66,8 +66,8 @@ import numpy as np
 from blockmpec.operators import Operators, normal
 from blockmpec.result import Solution, Status
 from blockmpec.solver import RunOutput
-from blockmpec.verify import positive_part_ratio
 from blockmpec.solvers.engines.highs import static_lp_solution
+from blockmpec.verify import positive_part_ratio
 
 TIE_BREAKS = ("closest", "least-compressed", "min-lambda", "on-oscillation", "none")
 STARTS = ("associative", "zero", "dead-load", "random")

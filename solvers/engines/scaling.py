@@ -34,9 +34,9 @@ from __future__ import annotations
 import numpy as np
 import scipy.sparse as sp
 
+from blockmpec.formulations import LinearProgram
 from blockmpec.operators import Operators
 from blockmpec.units import block_load
-from blockmpec.formulations import LinearProgram
 
 
 def block_loads(ops: Operators) -> np.ndarray:
