@@ -20,26 +20,50 @@ Method
 Semismooth Newton with an Armijo line search on ``Psi = ||Phi||^2 / 2`` and a
 Levenberg–Marquardt fallback (``nu = regularisation * ||Phi||``), then steepest
 descent, when the Newton direction does not exist or is not a descent direction
-(:func:`blockmpec.solvers.engines.newton_system.semismooth_newton`).  It starts from the associative
-solution (static LP (1) with HiGHS and its duals), which satisfies (3) except the
-friction flow.
+(:func:`blockmpec.solvers.engines.newton_system.semismooth_newton`).
+
+Start (``start``).  (3) has many solutions and Newton finds the one near its
+start, so the start decides the answer:
+
+* ``"fixed-point"`` (default): the solution of the registered ``fixed-point``
+  method with its own defaults (which aim at the minimum of (4)); Newton then
+  solves (3) at ``tan(psi)`` from it (usually it already meets ``tol`` or
+  needs a few polishing steps).
+* ``"dead-load"`` / ``"random"``: one step of ``fixed-point`` from the normal
+  forces under the dead load alone, or from the associative forces scaled by
+  seeded uniform factors in [0, 1] (``seed``): the LP (5) with those forces'
+  cohesion gives ``(lam, x, u, z)`` that solve (3) except the friction flow.
+* ``"nlp"``: the solution of the registered ``nlp`` method (MPEC (4) by a
+  relaxed NLP).
+* ``"associative"``: the associative solution (static LP (1) with HiGHS and its
+  duals), which solves (3) with the dilatancy ``tan(phi)``; with
+  ``continuation`` the dilatancy is moved from there to its own value,
+  ``tan(psi_t) = (1 - t) tan(phi) + t tan(psi)``, ``t: 0 -> 1``
+  (:meth:`~blockmpec.formulations.CompiledMCP.with_dilatancy`): each step is a
+  Newton solve of at most ``step_iterations`` iterations from the previous
+  solution; the step in ``t`` starts at 1 (direct solve), is halved after a
+  failure and doubled after a success.  It follows the branch of the
+  associative solution and mostly returns the associative multiplier (the
+  behaviour before the strategy study).
+
+From the other starts Newton solves (3) at ``tan(psi)`` directly: with
+``fallback``, in at most ``step_iterations`` iterations, and a start that fails,
+or from which Newton does not converge, is followed by the associative path within
+the remaining time and iterations (without it, with the whole budget)
+(``Result.extra["start"]`` names the start that gave the answer).  One
+:class:`~blockmpec.solvers.engines.stopping.StoppingCriterion` spans the run: it
+counts every Newton iteration against ``max_iterations``, keeps ``time_limit``
+(the start's solver gets the remaining time) and writes the trace
+(``iteration, time_s, residual, merit, step, direction, multiplier, continuation``).
 
 The Jacobian is singular at every solution of a hyperstatic structure (the forces
 ``x`` of the rigid part are not unique), and the Fischer–Burmeister merit can have
-stationary points that are not solutions.  With ``continuation`` the dilatancy is
-therefore moved from the friction value (where the associative solution solves
-(3) exactly) to its own value, ``tan(psi_t) = (1 - t) tan(phi) + t tan(psi)``,
-``t: 0 -> 1`` (:meth:`~blockmpec.formulations.CompiledMCP.with_dilatancy`): each
-step is a Newton solve of at most ``step_iterations`` iterations from the previous
-solution; the step in ``t`` starts at 1 (direct solve), is halved after a failure
-and doubled after a success.  One
-:class:`~blockmpec.solvers.engines.stopping.StoppingCriterion` spans the run: it
-counts every Newton iteration against ``max_iterations``, keeps ``time_limit``
-and writes the trace (``iteration, time_s, residual, merit, step, direction,
-multiplier, continuation``).
+stationary points that are not solutions; hence the continuation and the fallback.
 
 The answer is *a* solution of (3), not necessarily the minimum of (4); its
 multiplier lies between the non-associative minimum and the associative one.
+The default start was chosen by ``studies/mcp_newton_strategies.py`` on the
+heuristic suite (``studies/heuristic_suite.py``): see that script's table.
 
 Status: ``CONVERGED`` when ``||Phi||_inf <= tol``; ``ITERATION_LIMIT``,
 ``TIME_LIMIT`` or ``NUMERICAL`` (stalled line search) with the last iterate.
@@ -47,6 +71,7 @@ Status: ``CONVERGED`` when ``||Phi||_inf <= tol``; ``ITERATION_LIMIT``,
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass, field
 
 from blockmpec import options as check
@@ -54,27 +79,50 @@ from blockmpec.registry import register_solver
 from blockmpec.result import Status
 from blockmpec.solver import RunOutput, SolverBase
 
+#: starting points of the Newton iteration (see the module docstring)
+STARTS = ("fixed-point", "dead-load", "random", "nlp", "associative")
+
+#: the options of the registered method each start runs (``fixed-point`` one step for the perturbed starts)
+_START_METHODS = {
+    "fixed-point": ("fixed-point", {}),
+    "dead-load": ("fixed-point", {"start": "dead-load", "max_iterations": 1}),
+    "random": ("fixed-point", {"start": "random", "max_iterations": 1}),
+    "nlp": ("nlp", {}),
+}
+
+#: statuses of a start whose solution is worth starting Newton from
+_USABLE_START = (Status.OPTIMAL, Status.CONVERGED, Status.LOCALLY_OPTIMAL, Status.ACCEPTABLE,
+                 Status.ITERATION_LIMIT, Status.TIME_LIMIT)
+
 
 @dataclass
 class NewtonOptions:
     """Options of the semismooth Newton method."""
 
+    start: str = field(default="fixed-point", metadata={
+        "help": "fixed-point | dead-load | random | nlp | associative: the starting point (see the docstring)"})
+    seed: int = field(default=0, metadata={"help": "seed of the random start"})
+    fallback: bool = field(default=True, metadata={
+        "help": "after a failed start or a Newton run that does not converge, the associative path"})
     tol: float = field(default=1e-12, metadata={"help": "stop when the scaled ||Phi||_inf <= tol"})
     max_iterations: int = field(default=2000, metadata={"help": "Newton iterations in total"})
-    step_iterations: int = field(default=30, metadata={"help": "Newton iterations per continuation step"})
+    step_iterations: int = field(default=30, metadata={"help": "Newton iterations per continuation step (and from a non-associative start, with fallback)"})
     step_tol: float = field(default=1e-7,
                             metadata={"help": "tolerance of the intermediate continuation steps (the last uses tol)"})
-    continuation: bool = field(default=True,
-                               metadata={"help": "continuation in the dilatancy from tan(phi) to tan(psi)"})
+    continuation: bool = field(default=True, metadata={
+        "help": "associative start: continuation in the dilatancy from tan(phi) to tan(psi)"})
     min_step: float = field(default=1e-4, metadata={"help": "smallest continuation step before giving up"})
     sigma: float = field(default=1e-4, metadata={"help": "Armijo sufficient-decrease constant, in (0, 0.5)"})
     backtrack: float = field(default=0.5, metadata={"help": "step reduction factor of the line search, in (0, 1)"})
     max_backtracks: int = field(default=40, metadata={"help": "step reductions before a direction is given up"})
     regularisation: float = field(default=1.0,
                                   metadata={"help": "Levenberg-Marquardt fallback: nu = regularisation * ||Phi||"})
-    time_limit: float = field(default=float("inf"), metadata={"help": "seconds"})
+    time_limit: float = field(default=600.0, metadata={"help": "seconds for the whole run, start included"})
 
     def __post_init__(self) -> None:
+        check.choice(self, "start", STARTS)
+        check.integer(self, "seed", minimum=0)
+        check.boolean(self, "fallback")
         check.positive(self, "tol", "step_tol", "regularisation")
         check.integer(self, "max_iterations", "step_iterations", "max_backtracks", minimum=0)
         check.interval(self, "sigma", 0, 0.5)
@@ -90,64 +138,85 @@ class MCPNewton(SolverBase):
 
     name = "mcp-newton"
     problem = "non-associative"
-    summary = "MCP (3): Fischer-Burmeister semismooth Newton from the associative solution (PATH stand-in)"
+    summary = "MCP (3): Fischer-Burmeister semismooth Newton from the fixed point's solution (PATH stand-in)"
     requires = ("highspy", "pyomo", "scipy")
     Options = NewtonOptions
 
     def setup(self, ops):
         from blockmpec.formulations import compile_mcp
+        from blockmpec.registry import get_solver
         from blockmpec.solvers.static_lp import StaticLP
 
+        opt = self.options
         self.ops = ops
         self.form = compile_mcp(ops)  # (3), compiled once
-        self.start_lp = StaticLP(time_limit=self.options.time_limit)  # the associative start
-        self.start_lp.setup(ops)
+        self.start_lp = None
+        if opt.start == "associative" or opt.fallback:
+            self.start_lp = StaticLP(time_limit=opt.time_limit)  # the associative start
+            self.start_lp.setup(ops)
+        self.start_solver = None
+        if opt.start != "associative":
+            method, start_options = _START_METHODS[opt.start]
+            start_options = dict(start_options, time_limit=opt.time_limit)
+            if opt.start == "random":
+                start_options["seed"] = opt.seed
+            self.start_solver = get_solver(method)(**start_options)  # the registered method, not a copy
+            self.start_solver.setup(ops)
 
-    def run(self) -> RunOutput:
-        from blockmpec import facts
+    # ------------------------------------------------------------------ paths
+
+    def _newton(self, form, solution, stop, max_iterations, tol, t):
         from blockmpec.solvers.engines.newton_system import MCPSystem, semismooth_newton
-        from blockmpec.solvers.engines.stopping import StoppingCriterion
 
         opt = self.options
+        system = MCPSystem(form, solution)
+        return semismooth_newton(
+            system, system.pack(solution), tol=tol, max_iterations=max_iterations, sigma=opt.sigma,
+            backtrack=opt.backtrack, max_backtracks=opt.max_backtracks, regularisation=opt.regularisation,
+            stop=stop, continuation=t)
+
+    def _budget(self, stop):
+        """(status, message) when the run's time or iterations are spent, else None."""
+        if stop.remaining() <= 0:
+            return Status.TIME_LIMIT
+        if self.options.max_iterations - stop.iterations <= 0:
+            return Status.ITERATION_LIMIT
+        return None
+
+    def _associative_path(self, stop, counts):
+        """Static LP (1), then the continuation in the dilatancy ``tan(phi) -> tan(psi)``."""
+        opt = self.options
         form = self.form
-        # one criterion for the run: every Newton iteration, the time limit, the trace
-        stop = StoppingCriterion(opt.tol, opt.max_iterations, opt.time_limit, measure_name="residual").start()
         start = self.start_lp.run()
         if start.status is not Status.OPTIMAL:
             passed_on = (Status.UNBOUNDED, Status.INFEASIBLE, Status.INFEASIBLE_OR_UNBOUNDED, Status.TIME_LIMIT)
-            return RunOutput(start.status if start.status in passed_on else Status.ERROR,
-                             message=f"associative start failed: {start.status.value} ({start.message})",
-                             raw_status="static LP")
+            return (start.status if start.status in passed_on else Status.ERROR, start.solution,
+                    f"associative start failed: {start.status.value} ({start.message})", None)
         solution = start.solution
         t_done, dt = 0.0, 1.0
         status, message = Status.ITERATION_LIMIT, ""
-        n_steps = n_failed = 0
         while True:
-            remaining = stop.remaining()
-            budget = opt.max_iterations - stop.iterations
-            if remaining <= 0 or budget <= 0:
-                status = Status.TIME_LIMIT if remaining <= 0 else Status.ITERATION_LIMIT
+            spent = self._budget(stop)
+            if spent is not None:
+                status = spent
                 message = f"{status.value} at continuation parameter t = {t_done:.4g}"
                 break
+            budget = opt.max_iterations - stop.iterations
             t_next = min(1.0, t_done + dt)
             final = t_next >= 1.0
             step_form = form if final else form.with_dilatancy((1 - t_next) * form.friction + t_next * form.dilatancy)
-            system = MCPSystem(step_form, solution)
             limit = budget if not opt.continuation else min(budget, opt.step_iterations)
-            out = semismooth_newton(
-                system, system.pack(solution), tol=opt.tol if final else max(opt.tol, opt.step_tol),
-                max_iterations=limit, sigma=opt.sigma, backtrack=opt.backtrack, max_backtracks=opt.max_backtracks,
-                regularisation=opt.regularisation, stop=stop, continuation=t_next,
-            )
+            out = self._newton(step_form, solution, stop, limit, opt.tol if final else max(opt.tol, opt.step_tol),
+                               t_next)
             if out.status is Status.CONVERGED:
-                n_steps += 1
+                counts["continuation_steps"] += 1
                 solution, t_done = out.solution, t_next
                 if final:
                     status, message = Status.CONVERGED, out.message
                     break
                 dt = min(2 * dt, 1.0)
                 continue
-            n_failed += 1
+            counts["continuation_failures"] += 1
             if not opt.continuation or out.status is Status.TIME_LIMIT:
                 solution, status, message = out.solution, out.status, out.message
                 break
@@ -159,15 +228,57 @@ class MCPNewton(SolverBase):
                 if t_done == 0.0:
                     solution = out.solution
                 break
+        counts["continuation_reached"] = t_done
+        if status is not Status.CONVERGED and t_done < 1.0 and counts["continuation_steps"] > 0:
+            message += " (the returned iterate solves (3) with an intermediate dilatancy only)"
+        return status, solution, message, start.solution.multiplier
+
+    def _started_path(self, stop):
+        """The start's solver (registered method) with the remaining time, then Newton at ``tan(psi)``."""
+        opt = self.options
+        self.start_solver.options = dataclasses.replace(self.start_solver.options,
+                                                        time_limit=max(stop.remaining(), 1e-3))
+        start = self.start_solver.run()
+        from blockmpec import facts
+
+        lam_assoc = start.extra.get(facts.ASSOCIATIVE_MULTIPLIER)
+        if start.status not in _USABLE_START or start.solution.multiplier is None:
+            return start.status, start.solution, f"{opt.start} start failed: {start.status.value}", lam_assoc
+        spent = self._budget(stop)
+        if spent is not None:
+            return spent, start.solution, f"{spent.value} after the {opt.start} start", lam_assoc
+        # near a solution Newton converges in a few steps; past step_iterations it wanders (leave time for the fallback)
+        limit = opt.max_iterations - stop.iterations
+        if opt.fallback:
+            limit = min(limit, opt.step_iterations)
+        out = self._newton(self.form, start.solution, stop, limit, opt.tol, 1.0)
+        return out.status, out.solution, out.message, lam_assoc
+
+    def run(self) -> RunOutput:
+        from blockmpec import facts
+        from blockmpec.solvers.engines.stopping import StoppingCriterion
+
+        opt = self.options
+        # one criterion for the run: every Newton iteration, the time limit, the trace
+        stop = StoppingCriterion(opt.tol, opt.max_iterations, opt.time_limit, measure_name="residual").start()
+        counts = {"continuation_reached": 0.0, "continuation_steps": 0, "continuation_failures": 0}
+        start_used = opt.start
+        lam_assoc = None
+        if opt.start == "associative":
+            status, solution, message, lam_assoc = self._associative_path(stop, counts)
+        else:
+            status, solution, message, lam_assoc = self._started_path(stop)
+            if status is not Status.CONVERGED and opt.fallback and self._budget(stop) is None:
+                first = f"{opt.start} start: {message}"
+                status, solution, message, lam_assoc = self._associative_path(stop, counts)
+                start_used = "associative"
+                message = f"{message} (fallback after {first})"
         kinds = [r["direction"] for r in stop.trace]
-        extra = {facts.ASSOCIATIVE_MULTIPLIER: start.solution.multiplier,
-                 "continuation_reached": t_done,
-                 "continuation_steps": n_steps,
-                 "continuation_failures": n_failed,
+        extra = {"start": start_used, **counts,
                  "newton_steps": kinds.count("newton"),
                  "levenberg_marquardt_steps": kinds.count("levenberg-marquardt"),
                  "gradient_steps": kinds.count("gradient")}
-        if status is not Status.CONVERGED and t_done < 1.0 and n_steps > 0:
-            message += " (the returned iterate solves (3) with an intermediate dilatancy only)"
+        if lam_assoc is not None:
+            extra[facts.ASSOCIATIVE_MULTIPLIER] = lam_assoc
         return RunOutput(status, solution, iterations=stop.iterations, trace=stop.trace, message=message,
                          raw_status=status.value, extra=extra)

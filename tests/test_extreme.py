@@ -437,7 +437,7 @@ _NO_DEFAULT_LIMIT = ("no default time limit (time_limit = inf): every method nee
 
 
 @pytest.mark.parametrize("method", [
-    pytest.param(m, marks=[] if m == "milp" else _xfail(_NO_DEFAULT_LIMIT))
+    pytest.param(m, marks=[] if m in ("milp", "mcp-newton") else _xfail(_NO_DEFAULT_LIMIT))
     for m in ("static-lp", "kinematic-lp", "fixed-point", "mcp-newton", "slp", "nlp", "milp")])
 def test_every_method_has_a_finite_default_time_limit(method):
     import dataclasses

@@ -2,8 +2,10 @@
 
 Checks: the two-block bounds of Nodargi, Intrigila & Bisegna (Sect. 3: every
 solution of (3) lies between the non-associative minimum ``mu`` if ``mu <= 1/eta``
-else ``1/eta`` and the associative multiplier), the round arch of their Table 1
-(0.16034), the associative control, the Fischer–Burmeister function, and failures
+else ``1/eta`` and the associative multiplier), the default start reaching that
+closed-form minimum and never falling below a certificate, the former associative
+start kept as an option, the round arch of their Table 1 (0.16034), the associative
+control, the Fischer–Burmeister function, and failures (iteration and time limits)
 reported as statuses.
 """
 
@@ -32,6 +34,40 @@ def test_two_blocks_between_bounds(eta, mu):
     assert two_block_nonassociative_min(eta, mu) - 1e-9 <= res.multiplier <= two_block_associative(eta, mu) + 1e-9
 
 
+@pytest.mark.parametrize(("eta", "mu"), [(3, 0.65), (5, 1.2), (1.5, 0.9)])
+def test_default_reaches_the_two_block_minimum(eta, mu):
+    """The default start (the fixed point's solution) gives the closed-form minimum min(mu, 1/eta), which
+    lies below the associative multiplier here (0.41973 against 1/3 at eta = 3, mu = 0.65)."""
+    res = bm.solve(bm.cases.two_blocks(eta=eta, mu=mu), "mcp-newton")
+    assert_mcp_solution(res)
+    assert two_block_nonassociative_min(eta, mu) < two_block_associative(eta, mu) - 1e-3
+    assert res.multiplier == pytest.approx(two_block_nonassociative_min(eta, mu), rel=1e-7)  # n converged to 1e-9
+    assert res.extra["start"] == "fixed-point"
+
+
+@pytest.mark.parametrize("start", ["fixed-point", "dead-load", "random", "associative"])
+@pytest.mark.parametrize("case", [bm.cases.wall(3, 1, bond="stack", block_height=1.5),
+                                  bm.cases.round_arch(n_voussoirs=6, thickness=0.15)], ids=["stack-3x1", "arch-6"])
+def test_never_below_the_milp_certificate(case, start):
+    cert = bm.solve(case, "milp")
+    assert cert.status is Status.OPTIMAL
+    res = bm.solve(case, "mcp-newton", start=start)
+    assert_mcp_solution(res)
+    assert res.multiplier >= cert.multiplier - 1e-9 * max(1.0, abs(cert.multiplier))
+
+
+def test_associative_start_keeps_the_former_behaviour():
+    res = bm.solve(bm.cases.two_blocks(eta=3, mu=0.65), "mcp-newton", start="associative")
+    assert_mcp_solution(res)
+    assert res.multiplier == pytest.approx(two_block_associative(3, 0.65), rel=1e-9)  # 0.41973, not 1/3
+
+
+def test_time_limit_is_honoured():
+    res = bm.solve(bm.cases.wall(12, 10), "mcp-newton", time_limit=0.05)
+    assert res.status is Status.TIME_LIMIT
+    assert res.solve_time_s < 0.05 + 0.5
+
+
 def test_round_arch_table_1():
     res = bm.solve(bm.cases.round_arch(), "mcp-newton")
     assert_mcp_solution(res)
@@ -50,7 +86,7 @@ def test_associative_control_gives_the_lp_multiplier(case):
 def test_wall_needs_iterations_and_stays_below_the_lp():
     case = bm.cases.wall(5, 4)
     lp = bm.solve(case, "static-lp")
-    res = bm.solve(case, "mcp-newton")
+    res = bm.solve(case, "mcp-newton", start="associative")
     assert_mcp_solution(res)
     assert res.iterations > 0
     assert res.multiplier <= lp.multiplier + 1e-9
@@ -60,19 +96,20 @@ def test_wall_needs_iterations_and_stays_below_the_lp():
 
 
 def test_iteration_limit_is_a_status():
-    res = bm.solve(bm.cases.wall(5, 4), "mcp-newton", max_iterations=1)
+    res = bm.solve(bm.cases.wall(5, 4), "mcp-newton", start="associative", max_iterations=1)
     assert res.status is Status.ITERATION_LIMIT
     assert not res.success
 
 
 def test_without_continuation():
-    res = bm.solve(bm.cases.two_blocks(eta=2, mu=0.65), "mcp-newton", continuation=False)
+    res = bm.solve(bm.cases.two_blocks(eta=2, mu=0.65), "mcp-newton", start="associative", continuation=False)
     assert_mcp_solution(res)
     assert res.multiplier <= two_block_associative(2, 0.65) + 1e-9
 
 
 @pytest.mark.parametrize("bad", [dict(tol=0.0), dict(sigma=0.7), dict(backtrack=1.0), dict(max_iterations=-1),
-                                 dict(regularisation=-1.0), dict(continuation="yes"), dict(min_step=2.0)])
+                                 dict(regularisation=-1.0), dict(continuation="yes"), dict(min_step=2.0),
+                                 dict(start="origin"), dict(seed=-1), dict(fallback="no"), dict(time_limit=0.0)])
 def test_bad_options(bad):
     with pytest.raises(bm.OptionError, match=next(iter(bad))):
         bm.solve(bm.cases.single_block(), "mcp-newton", **bad)
