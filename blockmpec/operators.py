@@ -27,21 +27,27 @@ Operators (scipy.sparse CSR)
 ``V_f`` (3c x 2c)
     friction flow directions: ``N_f`` with ``tan(psi)`` in place of ``tan(phi)``.
 
-Scaling
--------
+Scaling and canonical frame
+---------------------------
 The solvers see a nondimensional problem (:mod:`blockmpec.units`): lengths are
-taken about ``origin`` (the structure's centre on a power-of-two grid, so the
-shift is exact) and divided by ``length_scale`` (median size of the free
-blocks); forces are divided by ``force_scale`` (the mean live force of the free
-blocks, point loads included; the mean weight for the built-in cases).  Areas,
-centroids and arms are computed without forming a product of two lengths in
-the structure's units, so the operators are the same at lengths 1e-150 or
-1e140 and at offsets of 1e15 (exact inputs give the same bits).  ``lam`` is
-unchanged; ``x`` holds ``t, n`` in units of ``force_scale`` and ``m`` in units
-of ``force_scale * length_scale`` (:meth:`Operators.forces_to_physical`).
-``ops.units`` adds the load of each block and the force unit of each interface
-for the per-block scalings of the solvers.  Operators and loads are checked
-finite (the block is named), so no NaN ever reaches a solver.
+taken in the structure's :class:`~blockmpec.units.CanonicalFrame`, about the
+centre of its bounding box, over ``length_scale`` (the median shorter side of the
+free blocks), with the ``x`` axis along the total live load (``mirror = -1``
+when that points to ``-x``), and snapped to a dyadic grid of about 1e-12 of the
+smallest block; forces are divided by ``force_scale`` (the mean live force of
+the free blocks, point loads included; the mean weight for the built-in cases)
+and snapped alike.  Areas, centroids and arms are computed from the snapped
+coordinates, each polygon from its lowest vertex, without forming a product of
+two lengths in the structure's units, so the operators are the same at lengths
+1e-150 or 1e140 and at offsets of 1e15, and a translation, a mirror image (live
+load mirrored) or a change of units gives the same bits (see
+:mod:`blockmpec.units` for the exception and the bound on ``lam`` from the
+snapping).  ``lam`` is unchanged; ``x`` holds ``t, n`` in units of
+``force_scale`` and ``m`` in units of ``force_scale * length_scale``
+(:meth:`Operators.forces_to_physical`).  ``ops.units`` adds the load of each
+block and the force unit of each interface for the per-block scalings of the
+solvers.  Operators and loads are checked finite (the block is named), so no NaN
+ever reaches a solver.
 
 Rows and columns are in canonical order (see :func:`assemble`): the file's
 block order, a translation or a mirror image give the same problem.
@@ -61,7 +67,7 @@ import scipy.sparse as sp
 
 from blockmpec.errors import StructureError
 from blockmpec.geometry import Structure, polygon_shape
-from blockmpec.units import Frame, Units, force_unit, power_of_two
+from blockmpec.units import SNAP_BITS, CanonicalFrame, Units, block_load, force_unit, power_of_two, snap
 
 
 @dataclass(frozen=True, eq=False)
@@ -87,7 +93,10 @@ class Operators:
         Interfaces whose minus and plus block are swapped relative to the structure
         (canonical orientation; their ``m`` has the opposite sign).
     block_area : ndarray, shape (b,)
-        Free-block areas, in units of a power of two near ``length_scale`` squared.
+        Free-block areas, in units of ``length_scale`` squared.
+    mirror : float
+        -1 when the canonical ``x`` axis is the structure's ``-x`` (the total live load points
+        to ``-x``), else +1; see :meth:`velocities_to_structure`.
     units : Units
         :class:`blockmpec.units.Units` of the problem (computed on first use).
     minus_dof, plus_dof : ndarray of int, shape (c,)
@@ -115,6 +124,7 @@ class Operators:
     origin: np.ndarray | None = None
     interface_flipped: np.ndarray | None = None
     block_area: np.ndarray | None = None
+    mirror: float = 1.0
 
     @cached_property
     def units(self) -> Units:
@@ -127,6 +137,14 @@ class Operators:
         out = np.asarray(x, float) * self.force_scale
         out[2::3] *= self.length_scale
         return out
+
+    def velocities_to_structure(self, u: np.ndarray) -> np.ndarray:
+        """Block velocities ``u`` (3b,) of the canonical frame in the structure's axes:
+        ``(mirror u_x, u_y, mirror theta)`` (lengths still in units of ``length_scale``)."""
+        out = np.array(u, float).reshape(-1, 3)
+        out[:, 0] *= self.mirror
+        out[:, 2] *= self.mirror
+        return out.ravel()
 
     @property
     def n_interfaces(self) -> int:
@@ -186,33 +204,64 @@ def _canonical_ranks(keys: list[np.ndarray]) -> np.ndarray:
     return rank
 
 
-def _position_key(points: np.ndarray, mirror: float) -> list[np.ndarray]:
-    """Sort keys of points (in frame units): height, then ``mirror * x``, on a grid of ``POSITION_GRID``."""
-    return [np.round(points[:, 1] / POSITION_GRID), np.round(mirror * points[:, 0] / POSITION_GRID)]
+def _position_key(points: np.ndarray) -> list[np.ndarray]:
+    """Sort keys of points (canonical coordinates): height, then ``x``, on a grid of ``POSITION_GRID``."""
+    return [np.round(points[:, 1] / POSITION_GRID), np.round(points[:, 0] / POSITION_GRID)]
 
 
 #: Positions closer than this (in length units) count as equal in the canonical order.
 POSITION_GRID = 1e-7
 
 
+def _canonical_polygons(q: np.ndarray, n_vertices: np.ndarray, reverse: bool) -> np.ndarray:
+    """Padded polygons ``q`` (n, k, 2) with each one's vertices reversed (``reverse``: a mirror image,
+    to stay counter-clockwise) and rolled to start at its lowest, then leftmost vertex, so that the
+    shoelace sums of a polygon do not depend on where its vertex list starts; padding repeats the last."""
+    n, k, _ = q.shape
+    j = np.arange(k)[None, :]
+    nv = n_vertices[:, None]
+    valid = j < nv
+    y = np.where(valid, q[..., 1], np.inf)
+    lowest = valid & (q[..., 1] == y.min(axis=1, keepdims=True))
+    first = np.argmin(np.where(lowest, q[..., 0], np.inf), axis=1)[:, None]  # index in the file's order
+    start = nv - 1 - first if reverse else first  # its position in the oriented order
+    pos = np.where(valid, (start + j) % nv, (start + nv - 1) % nv)
+    index = nv - 1 - pos if reverse else pos
+    return q[np.arange(n)[:, None], index]
+
+
+def _snap_loads(dead: np.ndarray, live: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Nondimensional loads (b, 3) snapped to ``2**-SNAP_BITS`` of the power of two nearest the smallest
+    positive block load (see :mod:`blockmpec.units`)."""
+    load = block_load(dead, live)
+    positive = load[load > 0]
+    if positive.size == 0:
+        return dead, live
+    grid = float(np.ldexp(power_of_two(float(positive.min())), -SNAP_BITS))
+    return snap(dead, grid), snap(live, grid)
+
+
 def assemble(structure: Structure) -> Operators:
     """Assemble ``E, N_u, N_f, V_f, f_d, f_l`` for a structure (vectorised), in canonical order.
 
-    Geometry is taken in the structure's :class:`~blockmpec.units.Frame` (origin near its
-    centre, lengths over a power of two near the median free-block size) and each polygon in
-    its own units, so that no product of lengths is formed in the structure's units; loads
-    are divided by a density unit, the length unit squared and then the force unit of
-    :mod:`blockmpec.units` (point loads included).  The result is the same at any
-    magnitude (1e-150 ... 1e150) and offset.
+    Geometry is taken in the structure's :class:`~blockmpec.units.CanonicalFrame` (origin at the
+    centre of its bounding box, lengths over the median shorter side of the free blocks, ``x``
+    along the total horizontal live load, coordinates snapped to a dyadic grid ~1e-12 of the
+    smallest block) and each polygon from its lowest vertex, so that no product of lengths is
+    formed in the structure's units and a translation, a mirror image (with the live load
+    mirrored) or a change of length or force unit assembles *the same bits*; loads are divided
+    by a density unit, the length unit squared and then the force unit of :mod:`blockmpec.units`
+    (point loads included), and snapped alike.  The result is the same at any magnitude
+    (1e-150 ... 1e150) and offset.
 
     *Canonical order*: free blocks (rows of ``E``) are ordered by centroid height, then by
-    ``x`` taken along the total horizontal live load (``x`` mirrored when it points to
-    ``-x``), fixed blocks likewise before them; interfaces (columns) are oriented from the
-    earlier block (minus; a fixed block is always earlier) to the later one (plus) and ordered
-    by minus block, plus block, then midpoint; ``interface_flipped`` marks those whose
+    canonical ``x``, fixed blocks likewise before them; interfaces (columns) are oriented from
+    the earlier block (minus; a fixed block is always earlier) to the later one (plus) and
+    ordered by minus block, plus block, then midpoint; ``interface_flipped`` marks those whose
     minus and plus are swapped relative to the structure (their ``m`` changes sign, ``t`` and
-    ``n`` do not).  So the file's block order, a translation or a mirror image (with the load
-    reversed) gives the same problem up to round-off (and exact sign changes under a mirror).
+    ``n`` do not).  In a mirrored frame (``mirror = -1``) velocities ``u_x, theta`` and forces
+    ``t, m`` have the opposite sign of the structure's (:meth:`Operators.velocities_to_structure`).
+    So the file's block order, a translation or a mirror image give the same problem.
 
     Parameters
     ----------
@@ -232,44 +281,55 @@ def assemble(structure: Structure) -> Operators:
     itf = s.interfaces
     free = np.flatnonzero(~s.fixed)
     b = free.size
-    frame = Frame.of(s.vertices, free)
-    ell, origin = frame.length_scale, frame.origin
-    # each polygon relative to its first vertex in units of s_i (a power of two): exact, no underflow
-    scale, area, local_centroid = polygon_shape(s.vertices)
-    centroid = ((s.vertices[:, 0, :] - origin) + local_centroid * scale[:, None]) / ell
-
-    # loads, nondimensional: weights in units of rho S^2 (rho, S powers of two near the median density
-    # and ell, so the scaling is exact), point loads likewise, then all over the force unit
+    frame = CanonicalFrame.of(s.vertices, free)
+    ell = frame.length_scale
     density_unit = power_of_two(float(np.median(s.density[free]))) if b else 1.0
-    area_unit = power_of_two(ell)
+    live_sign = s.live_direction * s.live_factor
+
+    # the canonical x axis points along the total horizontal live load (weights and live point loads)
+    q = frame(s.vertices)
     with np.errstate(over="ignore", under="ignore", invalid="ignore"):
-        ratio = scale / area_unit
-        weight = (s.density / density_unit) * (area * ratio * ratio)
+        scale, area, _ = polygon_shape(q)
+        area = area * scale * scale
+        live_x = live_sign * (s.density[free] / density_unit) * area[free]
+        live_x = list(live_x) + [pl.force[0] / density_unit / ell / ell for pl in s.point_loads
+                                 if pl.kind == "live" and not s.fixed[pl.block]]
+        total, size = float(np.sum(live_x)), float(np.sum(np.abs(live_x)))
+    mirror = -1.0 if total < -1e-12 * size else 1.0
+    frame = frame.mirrored(mirror)
+
+    # each polygon in the canonical frame, from its lowest vertex: its shape data are the same bits
+    q = _canonical_polygons(frame(s.vertices), s.n_vertices, reverse=mirror < 0)
+    scale, area, local_centroid = polygon_shape(q)
+    with np.errstate(over="ignore", under="ignore", invalid="ignore"):
+        area = area * scale * scale
+        centroid = q[:, 0, :] + local_centroid * scale[:, None]
+
+        # loads, nondimensional: weights in units of rho ell^2 (rho a power of two near the median
+        # density), point loads likewise, then all over the force unit
+        weight = (s.density / density_unit) * area
         dead = np.zeros((s.n_blocks, 3))
         live = np.zeros((s.n_blocks, 3))
         dead[:, 1] = -weight
-        live[:, 0] = s.live_direction * s.live_factor * weight
+        live[:, 0] = mirror * live_sign * weight
         for pl in s.point_loads:
             target = live if pl.kind == "live" else dead
-            force = np.asarray(pl.force, float) / density_unit / area_unit / area_unit
-            arm = frame(pl.point) - centroid[pl.block]
+            force = frame.vector(pl.force) / density_unit / ell / ell
+            arm = frame(np.asarray(pl.point, float)) - centroid[pl.block]
             target[pl.block, :2] += force
             target[pl.block, 2] += arm[0] * force[1] - arm[1] * force[0]
     _check_finite_loads(s, dead, live, free)
     dead, live = dead[free], live[free]
     unit = force_unit(dead[:, :2], live[:, :2])
-    dead /= unit
-    live /= unit
+    dead, live = _snap_loads(dead / unit, live / unit)
     with np.errstate(over="ignore", under="ignore"):
-        force_scale = float(density_unit * area_unit * area_unit * unit)
+        force_scale = float(density_unit * ell * ell * unit)
 
     # canonical order of blocks and interfaces
-    total_live_x = float(live[:, 0].sum())
-    mirror = -1.0 if total_live_x < 0 else 1.0
     fixed = np.flatnonzero(s.fixed)
     rank = np.empty(s.n_blocks, int)
-    rank[free] = _canonical_ranks(_position_key(centroid[free], mirror))
-    rank[fixed] = _canonical_ranks(_position_key(centroid[fixed], mirror)) - fixed.size  # fixed blocks first
+    rank[free] = _canonical_ranks(_position_key(centroid[free]))
+    rank[fixed] = _canonical_ranks(_position_key(centroid[fixed])) - fixed.size  # fixed blocks first
     free_blocks = free[np.argsort(rank[free])]
     dof = np.full(s.n_blocks, -1)
     dof[free_blocks] = np.arange(b)
@@ -280,10 +340,12 @@ def assemble(structure: Structure) -> Operators:
     flipped = rank[itf.minus[keep]] > rank[itf.plus[keep]]
     minus = np.where(flipped, itf.plus[keep], itf.minus[keep])
     plus = np.where(flipped, itf.minus[keep], itf.plus[keep])
-    start, end = itf.start[keep] - origin, itf.end[keep] - origin  # exact (see Frame.of)
+    start, end = frame(itf.start[keep]).reshape(-1, 2), frame(itf.end[keep]).reshape(-1, 2)
+    if mirror < 0:  # a mirror turns the normal: swap the ends to keep it from minus into plus
+        start, end = end, start
     start, end = np.where(flipped[:, None], end, start), np.where(flipped[:, None], start, end)
-    mid = (0.5 * start + 0.5 * end) / ell
-    itf_order = np.lexsort((keep,) + tuple(reversed(_position_key(mid, mirror))) + (rank[plus], rank[minus]))
+    mid = 0.5 * start + 0.5 * end
+    itf_order = np.lexsort((keep,) + tuple(reversed(_position_key(mid))) + (rank[plus], rank[minus]))
     ids, flipped, minus, plus = keep[itf_order], flipped[itf_order], minus[itf_order], plus[itf_order]
     start, end, mid = start[itf_order], end[itf_order], mid[itf_order]
     c = ids.size
@@ -295,7 +357,7 @@ def assemble(structure: Structure) -> Operators:
     seg_length = np.sqrt((seg * seg).sum(axis=1))
     tau = seg / seg_length[:, None]
     nu = np.column_stack([-tau[:, 1], tau[:, 0]])
-    length = seg_length * seg_unit / ell
+    length = seg_length * seg_unit
 
     # E: generalised force (Fx, Fy, M about centroid) of x_k on the minus block; minus that on plus.
     rows, cols, vals = [], [], []
@@ -352,7 +414,8 @@ def assemble(structure: Structure) -> Operators:
         plus_dof=dof[plus],
         origin=frame.origin,
         interface_flipped=flipped,
-        block_area=(area * ratio * ratio)[free_blocks],
+        block_area=area[free_blocks],
+        mirror=mirror,
     )
 
 

@@ -14,11 +14,12 @@ have the same collapse multiplier.  Each transformed run must return the unit-sc
 field.  The structures are small stacks and walls, loaded by their weights or (the
 "point-load-only" family) near-massless and loaded by point loads.
 
-The LP methods are invariant (to round-off) by construction: the assembly works in
-units of the structure (:mod:`blockmpec.units`) and in canonical order
-(:func:`blockmpec.operators.assemble`).  The heuristics that pick one of many
-solutions of (3) are tested on the fixed cases of issue 16; where they are not yet
-invariant the test is an ``xfail(strict=True)`` naming what their owner must change.
+Every method is invariant by construction: the assembly works in units of the
+structure, in a canonical frame (``x`` along the live load) with snapped coordinates
+(:mod:`blockmpec.units`) and in canonical order (:func:`blockmpec.operators.assemble`),
+so a transformed structure assembles to the same bits.  The heuristics that pick one
+of many solutions of (3) are tested on the fixed cases of issue 16; where one is not
+invariant the test is an ``xfail(strict=True)`` naming what its owner must change.
 """
 
 from __future__ import annotations
@@ -229,7 +230,10 @@ def test_two_blocks_at_extreme_widths_give_the_closed_form(width, method):
 
 
 def _wall_spec(**kw) -> dict:
-    s = bm.cases.wall(**kw)
+    return _spec_of(bm.cases.wall(**kw))
+
+
+def _spec_of(s: bm.Structure) -> dict:
     return {
         "polys": [s.polygon(i).tolist() for i in range(s.n_blocks)], "fixed": s.fixed.tolist(),
         "density": s.density.tolist(), "mu": s.friction, "direction": s.live_direction, "factor": s.live_factor,
@@ -260,8 +264,30 @@ def test_wall_10x5_lp_methods_invariant(method, transform):
     assert abs(_wall_lam(method, transform) - _wall_lam(method, None)) <= TOL
 
 
-#: measured with the canonical assembly (see the report of issue 16): the heuristics' owners use the
-#: canonical order but their iterations still depend on round-off in the data
+def _same_bits(a, b) -> None:
+    for name in ("f_d", "f_l", "length", "friction", "dilatancy", "block_area", "minus_dof", "plus_dof"):
+        np.testing.assert_array_equal(getattr(a, name), getattr(b, name), err_msg=name)
+    for name in ("E", "N_u", "N_f", "V_f"):
+        x, y = getattr(a, name), getattr(b, name)
+        assert x.shape == y.shape and (x != y).nnz == 0, name
+
+
+@pytest.mark.parametrize("transform", list(TRANSFORMS))
+@pytest.mark.parametrize("case", ["wall-10x5", "round-arch"])
+def test_canonical_frame_assembles_the_same_bits(case, transform):
+    """Canonical frame (x along the live load, origin at the centre, unit the median block side) and
+    snapped coordinates: the transformed structures are the same problem bit for bit, so every
+    deterministic method returns the same lam."""
+    spec = WALL if case == "wall-10x5" else _spec_of(bm.cases.round_arch())
+    _same_bits(bm.assemble(spec_to_structure(spec)), bm.assemble(spec_to_structure(TRANSFORMS[transform](spec))))
+
+
+#: |dlam| on the 10x5 wall per (method, transformation), from `python tests/test_invariance.py`, with the
+#: canonical frame and snapped coordinates (blockmpec.units): every heuristic gives the same bits
+HEURISTIC_MEASURED: dict[tuple[str, str], float] = {
+    (m, t): 0.0 for m in ("fixed-point", "mcp-newton") for t in TRANSFORMS}
+
+#: what to change where a heuristic is not invariant (none today)
 HEURISTIC_XFAIL = {
     "fixed-point": "fixed point: the step LP and its 'closest' tie-break are not unique on running-bond walls; "
                    "round-off in the data picks another optimal vertex (solvers/fixed_point.py, lp_sequence.py)",
@@ -276,16 +302,6 @@ def _heuristic_case(method: str, transform: str):
         return pytest.param(method, transform, id=f"{method}-{transform}")
     return pytest.param(method, transform, id=f"{method}-{transform}",
                         marks=pytest.mark.xfail(strict=True, reason=f"{HEURISTIC_XFAIL[method]}; |dlam| = {measured:.1e}"))
-
-
-#: |dlam| on the 10x5 wall per (method, transformation), from `python tests/test_invariance.py`
-#: (canonical assembly; the heuristics as they were at the time): block order is exact for all
-HEURISTIC_MEASURED: dict[tuple[str, str], float] = {
-    ("fixed-point", "translate (3.7, -2.1)"): 9.5e-5, ("fixed-point", "mirror"): 3.6e-5,
-    ("fixed-point", "reverse block order"): 0.0, ("fixed-point", "scale 1e-100"): 9.2e-5,
-    ("mcp-newton", "translate (3.7, -2.1)"): 1.9e-8, ("mcp-newton", "mirror"): 1.7e-5,
-    ("mcp-newton", "reverse block order"): 0.0, ("mcp-newton", "scale 1e-100"): 1.1e-8,
-}
 
 
 @pytest.mark.slow

@@ -60,8 +60,8 @@ def test_arch_on_buttresses_has_26_free_blocks():
 def test_operators_shapes_and_sparsity():
     s = bm.cases.wall()
     ops = bm.assemble(s)
-    # 18 full blocks (1 x 0.5) and 4 half blocks: median size is a full block's diagonal, mean weight 10/22
-    assert ops.length_scale == pytest.approx(np.hypot(1, 0.5)) and ops.force_scale == pytest.approx(10 / 22)
+    # 18 full blocks (1 x 0.5) and 4 half blocks: the length unit is the median shorter side, mean weight 10/22
+    assert ops.length_scale == 0.5 and ops.force_scale == pytest.approx(10 / 22)
     b, c = s.n_free, len(s.interfaces)
     assert ops.E.shape == (3 * b, 3 * c)
     assert ops.N_u.shape == ops.N_f.shape == ops.V_f.shape == (3 * c, 2 * c)
@@ -80,7 +80,7 @@ def test_equilibrium_operator_is_minus_jump_transpose():
     jump = -(ops.E.T @ u)  # B u, per interface (tau, nu, rotation) of plus relative to minus
     itf = s.interfaces
     g = s.centroid[2]
-    assert ops.length_scale == pytest.approx(np.hypot(1, 2))
+    assert ops.length_scale == 1.0  # the blocks' shorter side
     ell = ops.length_scale
     for k in range(3):
         sign = int(itf.plus[k] == 2) - int(itf.minus[k] == 2)
@@ -150,7 +150,7 @@ def test_power_of_two_scaling_gives_bitwise_identical_operators(k):
 @pytest.mark.filterwarnings("ignore::blockmpec.PrecisionWarning")  # dyadic coordinates: nothing is lost
 @pytest.mark.parametrize("offset", [2.0**20, 2.0**40, 2.0**49])
 def test_exact_translation_gives_bitwise_identical_operators(offset):
-    """The origin is the structure's centre rounded to a power-of-two grid: the subtraction is exact."""
+    """The origin is the structure's centre and the coordinates are snapped to a dyadic grid."""
     ref = bm.cases.wall(courses=3, blocks_per_course=3)
     _same_operators(bm.assemble(ref), bm.assemble(_shifted_scaled(ref, dx=offset, dy=-offset / 2)))
 
@@ -184,7 +184,9 @@ def test_units_object_serves_the_scalings():
     expect = np.where(side >= 0, u.block_load[np.maximum(side, 0)], np.inf).min(axis=1)
     np.testing.assert_array_equal(u.interface_force, expect)
     assert u.load_spread == pytest.approx(1 / 2e-6, rel=1e-9)
-    np.testing.assert_allclose(-ops.f_d[1::3] * u.force_scale, s.weight[ops.free_blocks], rtol=1e-14)
+    # the weights are those of the snapped geometry: every vertex moved by less than 2^-40 of the smallest
+    # block side (blockmpec.units), so the area of a rectangle by less than 4 * 2^-40 (measured: 3.9e-13)
+    np.testing.assert_allclose(-ops.f_d[1::3] * u.force_scale, s.weight[ops.free_blocks], rtol=4 * 2.0**-40)
 
 
 def test_force_unit_includes_point_loads_for_near_massless_blocks():
