@@ -299,7 +299,7 @@ def displaced_polygons(structure, ops, u: np.ndarray, amplitude: float = 0.12) -
     (dict, float)
         Structure block index -> displaced vertices, and the factor ``s``.
     """
-    u = np.asarray(u, float).reshape(-1, 3)
+    u = ops.velocities_to_structure(u).reshape(-1, 3)  # canonical frame -> structure axes (mirror)
     ell = float(ops.length_scale)
     centroid = structure.centroid
     polys = {int(j): structure.polygon(int(j)) for j in ops.free_blocks}
