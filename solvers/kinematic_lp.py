@@ -7,6 +7,7 @@ value ``-f_d^T u``.
 
 from __future__ import annotations
 
+import time
 from dataclasses import dataclass, field
 
 from blockmpec import options as check
@@ -20,7 +21,9 @@ class KinematicLPOptions:
     """Options of ``kinematic-lp`` (HiGHS only: the block IPM needs the static LP's shape)."""
 
     algorithm: str = field(default="auto", metadata={"help": "auto | simplex | dual-simplex | primal-simplex | ipm"})
-    time_limit: float = field(default=float("inf"), metadata={"help": "seconds"})
+    time_limit: float = field(default=check.DEFAULT_TIME_LIMIT_S, metadata={
+        "help": "seconds (HiGHS time_limit, shared with the static LP that tells infeasible from unbounded); default 600 "
+                "(blockmpec.options.DEFAULT_TIME_LIMIT_S: finite, ~13x the 10,046-block wall's LP), inf for none"})
 
     def __post_init__(self) -> None:
         from blockmpec.solvers.engines.lp_engine import BASIS_ALGORITHMS
@@ -51,6 +54,7 @@ class KinematicLP(SolverBase):
                              column_scale=column_scale)
 
     def run(self) -> RunOutput:
+        started = time.perf_counter()
         out = self.highs.solve()
         lp = self.lp
         sol = Solution()
@@ -64,23 +68,28 @@ class KinematicLP(SolverBase):
                 z_f=lp.values("z_f", out.v),
             )
         elif out.status in (Status.INFEASIBLE, Status.INFEASIBLE_OR_UNBOUNDED):
-            out.status, message = self._no_mechanism(out.status)
+            remaining = self.options.time_limit - (time.perf_counter() - started)
+            out.status, message = self._no_mechanism(out.status, remaining)
         elif out.status is Status.UNBOUNDED:
             message = "the kinematic LP is unbounded: no equilibrium exists (e.g. unstable under dead load)"
             out.status = Status.INFEASIBLE  # a dual with an unbounded objective proves the static LP infeasible
         return RunOutput(out.status, sol, out.iterations, message=message, raw_status=out.raw_status)
 
-    def _no_mechanism(self, status: Status) -> tuple[Status, str]:
+    def _no_mechanism(self, status: Status, time_limit: float) -> tuple[Status, str]:
         """Status and message when the kinematic LP has no feasible mechanism.
 
         By LP duality its dual, the static LP (1), is then infeasible *or* unbounded, and both
         happen (a frictionless block between two walls has neither an equilibrium nor a
-        mechanism).  One static LP solve (HiGHS's dual simplex, load units) says which.
+        mechanism).  One static LP solve (HiGHS's dual simplex, load units) says which, within
+        ``time_limit`` (the time left of the run).
         """
+        if time_limit <= 0:
+            return status, (f"the kinematic LP is {status.value}: no feasible mechanism; the time limit left no "
+                            "time to tell an infeasible static LP from an unbounded one")
         from blockmpec.formulations import compile_linear, static_lp
         from blockmpec.solvers.engines.lp_engine import cold_lp_engine
 
-        static = cold_lp_engine(compile_linear(static_lp(self.ops)), "dual-simplex", self.options.time_limit,
+        static = cold_lp_engine(compile_linear(static_lp(self.ops)), "dual-simplex", time_limit,
                                 ops=self.ops).solve()
         if static.status is Status.UNBOUNDED:
             return Status.UNBOUNDED, ("the kinematic LP is infeasible and the static LP unbounded: no collapse "

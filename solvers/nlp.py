@@ -14,8 +14,22 @@ pair rows ``G w <= 0``, multipliers ``z = w[pair_column]``), with the pair slack
          z_i s_i / P <= eps                     (relaxed complementarity, 4c rows)
          z >= 0, s >= 0
 
-(Scholtes relaxation).  ``P = max(z0) * max(s0)`` is the product of the typical
-magnitudes of ``z`` and ``s`` at the starting point, so ``eps`` is scale-free.
+(Scholtes relaxation).  ``P = max(z^0) * max(s^0)`` is the product of the typical
+magnitudes of ``z`` and ``s`` at the starting point, each in its pair's units, so
+``eps`` is scale-free.
+
+Units.  Ipopt solves the NLP in the units of :func:`nlp_scaling`, built from the one
+units object ``ops.units`` (:mod:`blockmpec.units`) as the LPs are
+(:mod:`blockmpec.solvers.engines.scaling`): block ``i``'s equilibrium rows over its load
+``l_i``, interface ``k``'s forces in ``(l_k, l_k, l_k L_k)``, the mechanism and multipliers
+in the reciprocal (kinematic) units, each slack in the reciprocal unit of its multiplier.
+So ``z^_i s^_i = z_i s_i`` (a work in ``lam`` units) and a 1e-5 block on a unit block, or
+dead point loads 1e10 times the weights, keep every block's rows and pairs O(1) for
+Ipopt's absolute tolerances.  Before (``P`` from the largest ``z`` and ``s`` of the whole
+structure) a tiny block's products were relaxed by its big neighbour's ``P`` (``lam < 0``,
+unverified, at size ratio 1e3).  An interface with ``tan(phi) = 0`` has ``t_k`` fixed at 0
+(its pair rows ``+-t_k <= 0`` force it), so ``mu = 0`` gives an exact ``t = 0`` and
+``lam = 0``.
 ``eps`` is driven from ``eps_initial`` down to ``eps_final`` by the factor
 ``eps_factor``; each stage is warm-started from the previous one (primal point and,
 with ``warm_start``, Ipopt's multipliers); a
@@ -102,7 +116,9 @@ class NLPOptions:
     eps_final: float = field(default=1e-9, metadata={"help": "relaxation of the last stage"})
     eps_factor: float = field(default=0.1, metadata={"help": "eps of the next stage = factor * eps, in (0, 1)"})
     max_iter: int = field(default=3000, metadata={"help": "Ipopt iterations per stage"})
-    time_limit: float = field(default=float("inf"), metadata={"help": "total seconds over all stages"})
+    time_limit: float = field(default=check.DEFAULT_TIME_LIMIT_S, metadata={
+        "help": "total seconds: start LP, every stage (Ipopt max_wall_time = the time left) and the polish; "
+                "default 600 (blockmpec.options.DEFAULT_TIME_LIMIT_S: finite, 20-50x the 50-block wall), inf for none"})
     start: str = field(default="associative",
                        metadata={"help": "associative (static LP solution) | cold (Ipopt's default push from 0)"})
     warm_start: bool = field(default=True,
@@ -138,9 +154,18 @@ class NLPOptions:
 
 
 class _RelaxedMPEC:
-    """cyipopt callbacks of the relaxed NLP; variables ``v = (w, s)`` (``w`` of the compiled (3))."""
+    """cyipopt callbacks of the relaxed NLP in units; variables ``v^ = (w^, s^)`` with ``w = D w^``, ``s = S s^``.
 
-    def __init__(self, form, scale: float) -> None:
+    ``D`` (``column_scale``, one entry per column of ``w``) and ``S`` (``slack_scale``, one per
+    pair) come from :func:`nlp_scaling`; the equality rows are multiplied by ``row_scale``
+    and each slack row ``G_i w + s_i = 0`` by ``1 / S_i`` (its ``s^_i`` coefficient stays 1).
+    The product rows are ``z^_i s^_i / P``: since ``S_i`` is the reciprocal of the unit of
+    ``z_i``, ``z^_i s^_i = z_i s_i`` (a work in ``lam`` units), and ``P`` is measured on the
+    scaled start.
+    """
+
+    def __init__(self, form, scale: float, column_scale: np.ndarray, row_scale: np.ndarray,
+                 slack_scale: np.ndarray) -> None:
         import scipy.sparse as sp
 
         self.form = form
@@ -150,7 +175,11 @@ class _RelaxedMPEC:
         self.i_w = slice(0, n_w)
         self.i_s = slice(n_w, n_w + p)
         self.n = n_w + p
-        A = sp.bmat([[form.A, None], [form.G, sp.eye_array(p)]], format="csr")  # A w = rhs; G w + s = 0
+        self.column_scale = np.concatenate([column_scale, slack_scale])
+        D = sp.diags_array(column_scale)
+        A_eq = sp.diags_array(row_scale) @ form.A @ D  # R A D w^ = R rhs
+        G = sp.diags_array(1.0 / slack_scale) @ form.G @ D  # G w + s = 0 divided by S
+        A = sp.bmat([[A_eq, None], [G, sp.eye_array(p)]], format="csr")
         self.m_lin = A.shape[0]
         self.m = self.m_lin + p
         A.sum_duplicates()
@@ -167,10 +196,18 @@ class _RelaxedMPEC:
         # Lagrangian Hessian: d2(z_i s_i)/dz_i ds_i; lower triangle (s columns after z columns).
         self._hess_rows = s_cols.astype(np.int32)
         self._hess_cols = z_cols.astype(np.int32)
-        self.rhs = np.concatenate([form.rhs, np.zeros(p)])
+        self.rhs = np.concatenate([row_scale * form.rhs, np.zeros(p)])
         self.grad = np.zeros(self.n)
         self.grad[form.lam] = 1.0
         self.iterations = 0
+
+    def to_units(self, v: np.ndarray) -> np.ndarray:
+        """``(w, s)`` -> ``(w^, s^)``."""
+        return np.asarray(v, float) / self.column_scale
+
+    def from_units(self, v: np.ndarray) -> np.ndarray:
+        """``(w^, s^)`` -> ``(w, s)``."""
+        return np.asarray(v, float) * self.column_scale
 
     # ---- cyipopt interface
     def objective(self, v):
@@ -207,12 +244,60 @@ class _RelaxedMPEC:
         ub = np.full(self.n, _INF)
         lb[self.z_cols] = 0.0
         lb[self.i_s] = 0.0
+        # friction tan(phi_k) = 0: the pair rows +-t_k <= 0 force t_k = 0; fixed (Ipopt drops the
+        # column), so that t_k is an exact zero rather than round-off of either sign
+        frictionless = self.form.x.start + self.form.t[self.form.friction == 0]
+        lb[frictionless] = ub[frictionless] = 0.0
         cl = np.concatenate([self.rhs, np.full(self.n_pairs, -_INF)])
         cu = np.concatenate([self.rhs, np.full(self.n_pairs, float(eps))])
         return lb, ub, cl, cu
 
     def split(self, v) -> Solution:
-        return self.form.unpack(v[self.i_w])
+        """The solution at the scaled point ``v^``."""
+        return self.form.unpack(self.from_units(v)[self.i_w])
+
+
+def _typical_work(z: np.ndarray, s: np.ndarray) -> float:
+    """``max(z) max(s)`` (a factor taken as 1 where it is 0 or there are no pairs)."""
+    zs = float(np.max(z)) if z.size else 0.0
+    ss = float(np.max(s)) if s.size else 0.0
+    return (zs if zs > 0 else 1.0) * (ss if ss > 0 else 1.0)
+
+
+def nlp_scaling(form, ops) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Column, equality-row and slack scales of the relaxed NLP from the units ``ops.units``.
+
+    The static and kinematic scalings of the LPs (:mod:`blockmpec.solvers.engines.scaling`)
+    together: ``lam`` in :func:`~blockmpec.solvers.engines.scaling.multiplier_scale` units,
+    ``x`` in ``(l_k, l_k, l_k L_k)`` per interface, ``u`` in ``1 / l_i`` per block, ``z_u`` in
+    ``1 / (l_k L_k)`` and ``z_f`` in ``1 / (l_k max(1, mu_k))``; block ``i``'s equilibrium rows
+    divided by ``l_i``, interface ``k``'s compatibility rows multiplied by its force units,
+    the normalisation row by the ``lam`` unit; each pair slack in the reciprocal unit of its
+    multiplier (``l_k L_k`` or ``l_k max(1, mu_k)``).  Every block and interface is then O(1)
+    whatever its size, so Ipopt's absolute tolerances hold block by block.
+
+    Returns
+    -------
+    column_scale : ndarray, shape (n_columns,)
+    row_scale : ndarray, shape (rows of ``form.A``,)
+    slack_scale : ndarray, shape (n_pairs,)
+    """
+    from blockmpec.solvers.engines.scaling import multiplier_scale
+
+    units = ops.units
+    lam_unit = multiplier_scale(ops)
+    z_u_unit, z_f_unit = units.multiplier_column_scale(form.friction)
+    column_scale = np.ones(form.n_columns)
+    column_scale[form.lam] = lam_unit
+    column_scale[form.x] = units.force_column_scale()
+    column_scale[form.u] = units.equilibrium_row_scale()
+    column_scale[form.z_u] = z_u_unit
+    column_scale[form.z_f] = z_f_unit
+    row_scale = np.ones(form.A.shape[0])
+    row_scale[form.equilibrium] = units.equilibrium_row_scale()
+    row_scale[form.compatibility] = units.force_column_scale()
+    row_scale[form.normalisation] = lam_unit
+    return column_scale, row_scale, 1.0 / column_scale[form.pair_column]
 
 
 @register_solver
@@ -235,19 +320,22 @@ class RelaxedNLP(SolverBase):
         if self.options.start == "associative":  # the associative start is the static-lp adapter itself
             self.start_lp = StaticLP(time_limit=self.options.time_limit)
             self.start_lp.setup(ops)
+        self.scaling = nlp_scaling(self.form, ops)
         self.nlp = None  # built in run(): its scale depends on the starting point
 
     def _start_point(self):
         """``(v0, P, failure status or None, message, associative multiplier or None)``.
 
         ``v0 = (w0, s0)`` is the associative solution with ``s0 = -G w0`` (negative parts
-        of ``z0`` and ``s0`` cut to 0), or None for a cold start.  ``P = max(z0) max(s0)``;
-        cold: ``max|f_d| / sum|f_l|`` (a force times the size of ``z`` implied by
-        ``f_l^T u = 1``).
+        of ``z0`` and ``s0`` cut to 0), or None for a cold start.  ``P = max(z^0) max(s^0)``
+        in the units of :func:`nlp_scaling`; cold: ``max|f^_d| / sum|f^_l|`` (a force times the
+        size of ``z`` implied by ``f_l^T u = 1``, in units).
         """
         form = self.form
+        column_scale, row_scale, slack_scale = self.scaling
         if self.start_lp is None:
-            f_d, f_l = form.f_d, form.f_l
+            rows = row_scale[form.equilibrium]
+            f_d, f_l = rows * form.f_d, rows * form.f_l * column_scale[form.lam]
             force = float(np.max(np.abs(f_d))) if f_d.size else 1.0
             scale = force / max(float(np.sum(np.abs(f_l))), 1e-300)
             return None, (scale if scale > 0 else 1.0), None, "cold start", None
@@ -260,9 +348,7 @@ class RelaxedNLP(SolverBase):
         s0 = np.maximum(form.slack(w0), 0.0)
         z0 = np.maximum(form.multipliers(w0), 0.0)
         w0[form.pair_column] = z0
-        zs = float(np.max(z0)) if z0.size else 0.0
-        ss = float(np.max(s0)) if s0.size else 0.0
-        scale = (zs if zs > 0 else 1.0) * (ss if ss > 0 else 1.0)
+        scale = _typical_work(z0 / column_scale[form.pair_column], s0 / slack_scale)
         return (np.concatenate([w0, s0]), scale, None, f"associative start lam = {sol.multiplier:.9g}",
                 sol.multiplier)
 
@@ -281,11 +367,9 @@ class RelaxedNLP(SolverBase):
         if fail is not None:
             passed_on = (Status.UNBOUNDED, Status.INFEASIBLE, Status.INFEASIBLE_OR_UNBOUNDED, Status.TIME_LIMIT)
             return RunOutput(fail if fail in passed_on else Status.ERROR, message=start_msg, raw_status="static LP")
-        nlp = _RelaxedMPEC(self.form, scale)
+        nlp = _RelaxedMPEC(self.form, scale, *self.scaling)
         self.nlp = nlp
-        if v0 is None:
-            v0 = np.zeros(nlp.n)
-        v = v0
+        v = np.zeros(nlp.n) if v0 is None else nlp.to_units(v0)
         mult = None
         total_iter = 0
         final = Status.LOCALLY_OPTIMAL
@@ -305,7 +389,8 @@ class RelaxedNLP(SolverBase):
                 code = int(info["status"])
                 status, name = _IPOPT_STATUS.get(code, (Status.ERROR, f"ipopt_status_{code}"))
                 total_iter += nlp.iterations
-                stop.check(eps, stage=k + 1, multiplier=float(v_new[self.form.lam]), ipopt_status=name,
+                lam_k = float(v_new[self.form.lam] * nlp.column_scale[self.form.lam])
+                stop.check(eps, stage=k + 1, multiplier=lam_k, ipopt_status=name,
                            ipopt_iterations=nlp.iterations, warm_multipliers=use_mult, stage_time_s=dt)
                 raw = name
                 # a failed warm-started stage is tried once more from the same primal point, cold
@@ -393,6 +478,8 @@ class RelaxedNLP(SolverBase):
         stop.check(0.0, stage="polish", multiplier=float(lam_new), ipopt_status="", ipopt_iterations=0,
                    newton_iterations=out.iterations, newton_status=out.status.value, accepted=ok, stage_time_s=dt)
         if ok:
+            # tan(phi_k) = 0 forces t_k = 0 (pair rows +-t_k <= 0): Newton's round-off there is set to the exact zero
+            out.solution.x[self.form.t[self.form.friction == 0]] = 0.0
             note = f"polished by {out.iterations} Newton steps (lam {lam:.10g} -> {lam_new:.10g})"
             return out.solution, note
         return solution, f"polish rejected ({out.status.value}, lam {lam:.10g} -> {lam_new:.10g}); raw NLP point kept"

@@ -21,7 +21,9 @@ class LPOptions:
 
     algorithm: str = field(default="auto", metadata={
         "help": "auto | simplex | dual-simplex | primal-simplex | ipm (HiGHS) | block-ipm (blockmpec.solvers.engines.block_ipm)"})
-    time_limit: float = field(default=float("inf"), metadata={"help": "seconds"})
+    time_limit: float = field(default=check.DEFAULT_TIME_LIMIT_S, metadata={
+        "help": "seconds (HiGHS time_limit; the block IPM checks its clock every iteration); default 600 "
+                "(blockmpec.options.DEFAULT_TIME_LIMIT_S: finite, ~13x the 10,046-block wall's LP), inf for none"})
 
     def __post_init__(self) -> None:
         from blockmpec.solvers.engines.lp_engine import ALGORITHMS

@@ -17,7 +17,12 @@ pytest.importorskip("pyomo")
 
 import blockmpec as bm  # noqa: E402
 from blockmpec.result import Status  # noqa: E402
-from helpers import assert_residuals_within, two_block_associative, two_block_nonassociative_min  # noqa: E402
+from helpers import (  # noqa: E402
+    assert_residuals_within,
+    block_on_block,
+    two_block_associative,
+    two_block_nonassociative_min,
+)
 
 TOL = 1e-6
 
@@ -88,10 +93,11 @@ def test_bad_options(bad):
 def test_callbacks_have_exact_derivatives():
     """Jacobian and Lagrangian Hessian of the relaxed NLP against finite differences."""
     from blockmpec.formulations import compile_mcp
-    from blockmpec.solvers.nlp import _RelaxedMPEC
+    from blockmpec.solvers.nlp import _RelaxedMPEC, nlp_scaling
 
     ops = bm.assemble(bm.cases.two_blocks(eta=3, mu=0.65, dilatancy=0.2))
-    nlp = _RelaxedMPEC(compile_mcp(ops), scale=2.5)
+    form = compile_mcp(ops)
+    nlp = _RelaxedMPEC(form, 2.5, *nlp_scaling(form, ops))
     rng = np.random.default_rng(0)
     v = rng.normal(size=nlp.n)
     rows, cols = nlp.jacobianstructure()
@@ -116,3 +122,27 @@ def test_callbacks_have_exact_derivatives():
     H_fd = np.column_stack([(grad_lagrangian(v + h * e) - grad_lagrangian(v - h * e)) / (2 * h)
                             for e in np.eye(nlp.n)])
     np.testing.assert_allclose(H, H_fd, atol=1e-6)
+
+
+def test_rows_in_units_are_the_rows_of_4_scaled_and_products_unchanged():
+    """A 1e-3 block on a unit block (loads 1e-6 apart): the NLP in units (solvers/nlp.py, nlp_scaling) has
+    rows ``R (A w - rhs)`` and ``(G w + s) / S`` at ``v^ = v / D``, the same products ``z_i s_i / P``,
+    and every block's equilibrium rows and load within O(1) (the unscaled rows are 1e-6 apart)."""
+    from blockmpec.formulations import compile_mcp
+    from blockmpec.solvers.nlp import _RelaxedMPEC, nlp_scaling
+
+    ops = bm.assemble(block_on_block(1.0, 1e-3))
+    form = compile_mcp(ops)
+    column_scale, row_scale, slack_scale = nlp_scaling(form, ops)
+    nlp = _RelaxedMPEC(form, 2.5, column_scale, row_scale, slack_scale)
+    rng = np.random.default_rng(1)
+    w, s = rng.normal(size=form.n_columns), rng.random(form.n_pairs)
+    g = nlp.constraints(nlp.to_units(np.concatenate([w, s]))) - np.concatenate([nlp.rhs, np.zeros(form.n_pairs)])
+    m_eq = form.A.shape[0]
+    np.testing.assert_allclose(g[:m_eq], row_scale * (form.A @ w - form.rhs), rtol=1e-12, atol=1e-12)
+    np.testing.assert_allclose(g[m_eq:nlp.m_lin], (form.G @ w + s) / slack_scale, rtol=1e-10, atol=1e-12)
+    np.testing.assert_allclose(g[nlp.m_lin:], w[form.pair_column] * s / 2.5, rtol=1e-12)
+    raw = np.abs(form.f_d).reshape(-1, 3).max(axis=1)
+    assert raw.max() / raw.min() > 1e5  # the two blocks' loads, unscaled
+    scaled = (np.abs(row_scale[form.equilibrium] * form.f_d)).reshape(-1, 3).max(axis=1)
+    assert scaled.max() / scaled.min() < 10
