@@ -169,6 +169,55 @@ def _widen(lower: np.ndarray, upper: np.ndarray) -> tuple[np.ndarray, np.ndarray
             upper + LP_MARGIN * np.maximum(1.0, np.abs(upper)) + BOUND_MARGIN_REL * width)
 
 
+def per_block_units(form, ops):
+    """Problem (3) of ``form`` in per-block units (``ops.units``), and the units of its vector.
+
+    With ``r`` the equilibrium row scale (``1/l_i``), ``C`` the force column scale (interface
+    units of ``(t, n, m)``), ``S`` the multiplier column scale (``z_u``, ``z_f``) and ``s`` the
+    multiplier unit (:func:`blockmpec.solvers.engines.scaling.multiplier_scale`, a power of two),
+    the scaled system is (3) of the structure with ``E^ = r E C``, ``f_l^ = s r f_l``,
+    ``f_d^ = r f_d``, ``F^ = C F S``, pair rows ``S G C``: rows equilibrium ``* r``, compatibility
+    ``* C``, normalisation ``* s`` (right-hand side still 1), pairs ``* S``; columns
+    ``lam = s lam^``, ``x = C x^``, ``u = r u^``, ``z = S z^``.  Its solutions are those of (3)
+    with ``f_l^T u = 1/s``, so ``w = unit * w^`` with ``unit`` = ``(s, C, s r, s S)`` maps a solution
+    of the scaled (3) to one of (3) (with ``f_l^T u = 1``), pair by pair with the same active set;
+    ``lam`` bounds map by the exact factor ``s``.  Every block's rows and every interface's
+    forces are then O(1), so the engines' absolute tolerances hold block by block (a 1e-5 block on
+    a unit block, dead point loads 1e10 times the weights).
+
+    Returns
+    -------
+    CompiledMCP, ndarray, float
+        The scaled system, ``unit`` (shape (n,)), and ``s``.
+    """
+    import dataclasses
+
+    from blockmpec.solvers.engines.scaling import multiplier_scale
+
+    units = ops.units
+    s = multiplier_scale(ops)
+    r = units.equilibrium_row_scale()
+    z_u_scale, z_f_scale = units.multiplier_column_scale(ops.friction)
+    column = np.ones(form.n_columns)
+    column[form.lam] = s
+    column[form.x] = units.force_column_scale()
+    column[form.u] = r
+    column[form.z_u], column[form.z_f] = z_u_scale, z_f_scale
+    row = np.ones(form.A.shape[0])
+    row[form.equilibrium] = r
+    row[form.compatibility] = units.force_column_scale()
+    row[form.normalisation] = s
+    A = sp.csr_array(sp.diags_array(row) @ form.A @ sp.diags_array(column))
+    G = sp.csr_array(sp.diags_array(column[form.pair_column]) @ form.G @ sp.diags_array(column))
+    rhs = form.rhs.copy()
+    rhs[form.equilibrium] = form.rhs[form.equilibrium] * r
+    scaled = dataclasses.replace(form, A=A, G=G, rhs=rhs, _dilatancy_rows=None)
+    unit = column.copy()
+    unit[form.u] *= s
+    unit[form.z] *= s
+    return scaled, unit, s
+
+
 class _BoundFailure(Exception):
     def __init__(self, status: Status, message: str) -> None:
         super().__init__(message)
@@ -205,7 +254,8 @@ class MILPSolver(SolverBase):
         from blockmpec.solvers.engines.highs import HighsLP
 
         self.ops = ops
-        form = compile_mcp(ops)
+        # the MILP, its bounds and its polish all work on (3) in per-block units (ops.units)
+        form, self._w_unit, self._lam_unit = per_block_units(compile_mcp(ops), ops)
         self.form = form
         eq, cp, nm = form.equilibrium, form.compatibility, form.normalisation
         # static LP over (lam, x): A[equilibrium] (lam, x) = rhs, G x <= 0
@@ -631,7 +681,7 @@ class MILPSolver(SolverBase):
             limit = max(min(0.25 * (deadline - time.perf_counter()), 30.0), 1e-3)
             res = bm.solve(self.ops, opt.heuristic, time_limit=limit)
             if res.verified and res.status.is_success:
-                w = self.form.pack(res.solution)
+                w = self.form.pack(self.scaled(res.solution))
                 s, z = self.form.slack(w), self.form.multipliers(w)
                 sol, _ = self._polish(z > s)
                 lower = sol is not None and best is not None and sol.multiplier < best.multiplier
@@ -666,6 +716,32 @@ class MILPSolver(SolverBase):
 
     # ------------------------------------------------------------------ run
     def run(self) -> RunOutput:
+        """Stages 1-5 on the scaled (3), then the point, the bounds and the gaps back in the problem's units."""
+        out = self._run_scaled()
+        unit = self._lam_unit
+        if out.solution is not None and out.solution.multiplier is not None:
+            out.solution = self.form.unpack(self.form.pack(out.solution) * self._w_unit)
+        if out.extra.get("bigm"):  # slack bounds of the scaled pair rows S G C: slack = slack^ / S
+            out.extra["bigm"] = (np.asarray(out.extra["bigm"]) * unit
+                                 / self._w_unit[self.form.pair_column]).tolist()
+        if unit != 1.0:
+            for key in (facts.ASSOCIATIVE_MULTIPLIER, facts.BOUND, facts.GAP_ABS, "lam_static_min", "lam_kinematic",
+                        "lam_dissipation", "engine_multiplier", "incumbent_associative", "polished_minus_engine"):
+                if isinstance(out.extra.get(key), float):
+                    out.extra[key] *= unit
+            for row in out.trace:
+                for key in ("bound", "incumbent", "gap_abs"):
+                    if isinstance(row.get(key), float):
+                        row[key] *= unit
+            out.extra["lam_unit"] = unit
+            out.message += f" (lam values in this message in units of {unit:g})"
+        return out
+
+    def scaled(self, sol: Solution) -> Solution:
+        """A point of (3) in the problem's units -> the same point in the MILP's units (:func:`per_block_units`)."""
+        return self.form.unpack(self.form.pack(sol) / self._w_unit)
+
+    def _run_scaled(self) -> RunOutput:
         opt = self.options
         maximise = opt.sense == "max"
         bound_word = "upper" if maximise else "lower"

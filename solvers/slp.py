@@ -80,7 +80,9 @@ class SLPOptions:
     tie_break: str = field(default="none", metadata={
         "help": "none (as published) | closest | least-compressed | min-lambda | on-oscillation (see fixed-point)"})
     algorithm: str = field(default="auto", metadata={"help": "HiGHS: auto | simplex | dual-simplex | primal-simplex | ipm"})
-    time_limit: float = field(default=float("inf"), metadata={"help": "seconds for the whole iteration"})
+    time_limit: float = field(default=600.0, metadata={
+        "help": "seconds for the whole iteration (each LP gets the time left; the loop checks the clock); "
+                "default 600: finite, the fixed point's default (same LP loop), inf for none"})
 
     def __post_init__(self) -> None:
         from blockmpec.solvers.engines.lp_engine import BASIS_ALGORITHMS

@@ -304,7 +304,7 @@ def test_every_model_row_holds_at_a_solution(engine, case_id):
     solver.setup(bm.operators.assemble(structure))
     bd = solver._bounds(time.perf_counter() + 60)
     mip = solver._build(bd)
-    v = solver._start(mip, res.solution)
+    v = solver._start(mip, solver.scaled(res.solution))  # the model is in per-block units
     r = mip.A @ v
     scale = max(1.0, float(np.abs(v).max()))
     tol = 1e-7 * scale
