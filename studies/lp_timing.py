@@ -14,7 +14,7 @@ HiGHS's ``dual-simplex``, ``primal-simplex``, ``ipm`` (with crossover), the
 ``block-ipm``, or ``auto``.  Usage::
 
     python studies/lp_timing.py [--sizes 100,1000,10000] [--algorithms auto] [--time-limit 600]
-                                [--walls 100x100,316x316] [--orderings auto,mmd]
+                                [--walls 100x100,316x316] [--orderings auto,mmd] [--ipm-settings previous,default]
 
 ``--walls CxB`` gives walls of ``courses=C, blocks_per_course=B`` instead of sizes.
 
@@ -47,7 +47,7 @@ def wall_for(n_blocks: int) -> bm.Structure:
 
 
 def time_one(wall: str, algorithm: str, time_limit: float = float("inf"), ordering: str = "auto",
-             max_iterations: int | None = None) -> dict:
+             max_iterations: int | None = None, ipm_settings: str = "default") -> dict:
     """One cold solve of the static LP of ``wall`` (a size ``"1000"`` or ``"CxB"`` courses x blocks per course)."""
     from blockmpec.solvers.engines.block_ipm import BlockIPM
     from blockmpec.solvers.engines.highs import static_lp_solution
@@ -68,6 +68,9 @@ def time_one(wall: str, algorithm: str, time_limit: float = float("inf"), orderi
     engine = cold_lp_engine(lp, algorithm, time_limit, ops=ops)  # as static-lp runs it: in load units
     if isinstance(engine, BlockIPM):
         engine.ordering = ordering
+        from blockmpec.solvers.engines import block_ipm
+
+        engine.settings(**getattr(block_ipm, f"{ipm_settings.upper()}_SETTINGS"))
         if max_iterations is not None:  # a per-iteration cost measurement (status: iteration limit)
             engine.max_iterations = max_iterations
     t5, c5 = time.perf_counter(), time.process_time()
@@ -83,11 +86,13 @@ def time_one(wall: str, algorithm: str, time_limit: float = float("inf"), orderi
         "load_s": t5 - t4, "solve_s": t6 - t5, "build_over_solve": (t4 - t2) / (t6 - t5),
         "pyomo_build_cpu_s": c3 - c2, "compile_cpu_s": c4 - c3, "solve_cpu_s": c6 - c5,
         "build_over_solve_cpu": (c4 - c2) / (c6 - c5),
-        "algorithm": algorithm, "engine": type(engine).__name__, "status": out.status.value,
+        "algorithm": algorithm, "engine": type(engine).__name__,
+        "ipm_settings": ipm_settings if isinstance(engine, BlockIPM) else "", "status": out.status.value,
         "multiplier": lam, "lp_iterations": out.iterations, "max_residual": residual,
         "solve_cpu_s_per_iteration": (c6 - c5) / max(out.iterations, 1),
         "verified_1e-8": bool(residual <= 1e-8),
         "ordering": factoriser.ordering if factoriser else "", "factorisations": factoriser.factorisations if factoriser else 0,
+        "k_solves": factoriser.solves if factoriser else 0,
         "factorise_s": factoriser.factorise_s if factoriser else 0.0, "factor_nnz": factoriser.factor_nnz if factoriser else 0,
         "peak_memory_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0,
     }
@@ -103,19 +108,23 @@ def main(argv: list[str] | None = None) -> list[dict]:
     parser.add_argument("--algorithms", default="auto", help="comma-separated static-lp algorithms")
     parser.add_argument("--walls", default="", help="comma-separated CxB walls (courses x blocks per course)")
     parser.add_argument("--orderings", default="auto", help="block IPM orderings of K: auto, metis, mmd")
+    parser.add_argument("--ipm-settings", default="default",
+                        help="comma-separated block IPM settings: default, previous (block_ipm.*_SETTINGS)")
     parser.add_argument("--time-limit", type=float, default=float("inf"), help="seconds per solve")
     parser.add_argument("--max-iterations", type=int, default=None,
                         help="block IPM iteration cap: measures the cost per iteration of a size too slow to finish")
     args = parser.parse_args(argv)
     walls = args.walls.split(",") if args.walls else args.sizes.split(",")
-    cases = [(w, a, args.time_limit, o, args.max_iterations) for w in walls for a in args.algorithms.split(",")
-             for o in (args.orderings.split(",") if a in ("auto", "block-ipm") else ["auto"])]
+    block = ("auto", "block-ipm")
+    cases = [(w, a, args.time_limit, o, args.max_iterations, st) for w in walls for a in args.algorithms.split(",")
+             for o in (args.orderings.split(",") if a in block else ["auto"])
+             for st in (args.ipm_settings.split(",") if a in block else ["default"])]
     context = multiprocessing.get_context("spawn")  # a fresh process per case: its own peak memory
     rows = []
     for case in cases:
         with context.Pool(1, maxtasksperchild=1) as pool:
             rows.append(pool.apply(_run_in_child, (case,)))
-    keys = ["blocks", "algorithm", "ordering", "pyomo_build_cpu_s", "compile_cpu_s", "solve_cpu_s", "solve_s",
+    keys = ["blocks", "algorithm", "ordering", "ipm_settings", "k_solves", "pyomo_build_cpu_s", "compile_cpu_s", "solve_cpu_s", "solve_s",
             "build_over_solve_cpu", "lp_iterations", "factorise_s", "peak_memory_mb", "status", "max_residual",
             "multiplier"]
     print(" ".join(f"{k:>13s}" for k in keys), flush=True)
@@ -123,13 +132,13 @@ def main(argv: list[str] | None = None) -> list[dict]:
         print(" ".join(f"{r[k]:>13.4g}" if isinstance(r[k], float) else f"{r[k]!s:>13s}" for k in keys))
     print()
     print("CPU times of the process (wall-clock solve in brackets):")
-    print("| free blocks | engine | ordering | Pyomo build | compile | solve | iterations | build + compile / solve "
+    print("| free blocks | engine | ordering | IPM settings | Pyomo build | compile | solve | iterations | build + compile / solve "
           "| peak memory | verified 1e-8 | λ |")
-    print("| ---: | --- | --- | ---: | ---: | ---: | ---: | ---: | ---: | --- | ---: |")
+    print("| ---: | --- | --- | --- | ---: | ---: | ---: | ---: | ---: | ---: | --- | ---: |")
     for r in rows:
         engine = "block IPM" if r["engine"] == "BlockIPM" else f"HiGHS {r['algorithm']}"
-        print(f"| {r['blocks']:,} | {engine} | {r['ordering'] or '–'} | {r['pyomo_build_cpu_s']:.2g} s "
-              f"| {r['compile_cpu_s']:.2g} s | **{r['solve_cpu_s']:.3g} s** ({r['solve_s']:.3g} s) | {r['lp_iterations']} "
+        print(f"| {r['blocks']:,} | {engine} | {r['ordering'] or '–'} | {r['ipm_settings'] or '–'} | {r['pyomo_build_cpu_s']:.2g} s "
+              f"| {r['compile_cpu_s']:.2g} s | **{r['solve_cpu_s']:.3g} s** ({r['solve_s']:.3g} s) | {r['lp_iterations']} ({r['k_solves']} K solves) "
               f"| {r['build_over_solve_cpu']:.2f} "
               f"| {r['peak_memory_mb']:,.0f} MB | {'yes' if r['verified_1e-8'] else 'no'} ({r['max_residual']:.1e}) "
               f"| {r['multiplier']:.4f} |")

@@ -67,6 +67,22 @@ from blockmpec.result import Status
 from blockmpec.solvers.engines.cholesky import SymmetricFactoriser, structural_pattern
 from blockmpec.solvers.engines.highs import LPOutcome
 
+#: iteration parameters (:meth:`BlockIPM.settings`):
+#: ``refinements`` reduced-system refinements of a refined direction; ``lazy_refinement``: predictor,
+#: corrector and Gondzio correctors with ``inner_refinements`` reduced refinements and no whole-system
+#: refinement, then ``final_sweeps`` whole-system refinements of their sum only; ``correctors``: most
+#: Gondzio correctors per iteration, each accepted if the shorter of the two steps becomes at
+#: least ``gondzio_accept`` times longer, its trial step ``min(1, gondzio_factor * step + gondzio_delta)``;
+#: ``step_fraction`` of the step to the boundary; ``sigma = max(sigma_min, (mu_aff / mu)^sigma_power)``.
+DEFAULT_SETTINGS = {"refinements": 3, "lazy_refinement": True, "inner_refinements": 1, "final_sweeps": 2,
+                    "correctors": 2, "gondzio_accept": 1.01, "gondzio_factor": 1.5,
+                    "gondzio_delta": 0.1, "step_fraction": 0.995, "sigma_power": 3.0, "sigma_min": 0.0}
+#: the settings before the lazy refinement (commit c831a25): every direction refined on the whole system
+PREVIOUS_SETTINGS = {**DEFAULT_SETTINGS, "lazy_refinement": False}
+
+#: seconds per solve when none is given: a 100,000-block wall needs about 10 minutes (studies/lp_timing.py)
+DEFAULT_TIME_LIMIT = 3600.0
+
 #: smallest s/y in the block systems (a primal regularisation of fully active blocks)
 SLACK_RATIO_FLOOR = 1e-14
 
@@ -98,7 +114,9 @@ class BlockIPM:
         Relative primal, dual and gap tolerance (see the module docstring).
     max_iterations : int
     time_limit : float
-        Seconds per :meth:`solve`.
+        Seconds per :meth:`solve`; a non-finite value means :data:`DEFAULT_TIME_LIMIT`.  The
+        clock is read before and after each factorisation and before each corrector, so a
+        solve overshoots its limit by at most one factorisation and one direction.
     row_scale, column_scale : ndarray, optional
         Positive diagonal scalings ``R`` of the rows and ``C`` of the columns, as for
         :class:`blockmpec.solvers.engines.highs.HighsLP`: the method works on ``R A C``, ``R b``, ``C c``
@@ -112,16 +130,15 @@ class BlockIPM:
     """
 
     def __init__(self, lp: LinearProgram, block_columns: np.ndarray, tol: float = 1e-9,
-                 max_iterations: int = 200, time_limit: float = float("inf"),
+                 max_iterations: int = 200, time_limit: float = DEFAULT_TIME_LIMIT,
                  row_scale: np.ndarray | None = None, column_scale: np.ndarray | None = None,
                  ordering: str = "auto") -> None:
         self.lp = lp
         self.ordering = ordering
         self.tol = float(tol)
         self.max_iterations = int(max_iterations)
-        self.time_limit = float(time_limit)
-        self.refinements = 3
-        self.correctors = 2
+        self.time_limit = float(time_limit) if np.isfinite(time_limit) else DEFAULT_TIME_LIMIT
+        self.settings(**DEFAULT_SETTINGS)
         # a stalled run whose best iterate is this good is ACCEPTABLE (a success that the
         # shared verifier still checks at its own tolerance, 1e-6 by default)
         self.acceptable_tol = max(1e3 * self.tol, 1e-6)
@@ -186,6 +203,14 @@ class BlockIPM:
         k, nb = self.k, self.n_blocks
         self._hinv_indptr = np.arange(0, nb * k * k + 1, k)
         self._hinv_indices = (np.arange(nb)[:, None, None] * k + np.arange(k)[None, None, :]).repeat(k, axis=1).ravel()
+
+    def settings(self, **values) -> None:
+        """Set iteration parameters (names of :data:`DEFAULT_SETTINGS`; :data:`PREVIOUS_SETTINGS` for comparisons)."""
+        unknown = set(values) - set(DEFAULT_SETTINGS)
+        if unknown:
+            raise ValueError(f"block IPM: unknown setting(s) {', '.join(sorted(unknown))}")
+        for name, value in values.items():
+            setattr(self, name, type(DEFAULT_SETTINGS[name])(value))
 
     def set_row_upper(self, rows: np.ndarray, upper: np.ndarray) -> None:
         """Change the upper bounds of ``<=`` rows ``rows`` of the compiled LP (as :class:`HighsLP` does)."""
@@ -258,7 +283,7 @@ class BlockIPM:
         dy[self.block_rows] = sqrt_d * sol[:, self.k:]
         return sol[:, :self.k].ravel(), dy
 
-    def _direction(self, it: IPMIterate, factors, r_b, r_h, r_c, r_mu):
+    def _direction(self, it: IPMIterate, factors, r_b, r_h, r_c, r_mu, refinements: int | None = None):
         r"""Newton direction for residuals ``r_*`` and complementarity target ``r_mu``.
 
         Equations: ``A dv = -r_b``; ``G dv + ds = -r_h``; ``-A^T dw + G^T dy = -r_c``;
@@ -279,7 +304,7 @@ class BlockIPM:
         dv0, _ = self._block_solve(blocks, -r_c[bc], rhs_primal)  # the block step for dw = 0
         dw, dv_F = reduced_solve(-r_b - self.A_B @ dv0, r_c[self.border])
         target = 1e-1 * self.tol * (1 + _inf(self.b))
-        for _ in range(self.refinements + 1):
+        for _ in range((self.refinements if refinements is None else refinements) + 1):
             dv_B, dy = self._block_solve(blocks, -r_c[bc] + self.A_B.T @ dw, rhs_primal)
             # iterative refinement: K was assembled from inverted blocks, the block
             # solves are exact; correct dw until A dv = -r_b holds to round-off
@@ -296,16 +321,17 @@ class BlockIPM:
         ds = -r_h - self.G @ dv
         return dv, ds, dw, dy
 
-    def _refined_direction(self, it: IPMIterate, factors, r_b, r_h, r_c, r_mu):
-        """:meth:`_direction`, then refinement on the whole (unreduced) Newton system.
+    def _refined_direction(self, it: IPMIterate, factors, r_b, r_h, r_c, r_mu, direction=None,
+                           sweeps: int = 2):
+        """:meth:`_direction` (or a given ``direction``), then refinement on the whole (unreduced) Newton system.
 
         The reduced solve loses accuracy when ``y/s`` spans many decades (thin
         voussoirs carrying thrusts 1e3 times their weight); one or two corrections
         with the same factors restore the linear equations to round-off.
         """
-        dv, ds, dw, dy = self._direction(it, factors, r_b, r_h, r_c, r_mu)
+        dv, ds, dw, dy = self._direction(it, factors, r_b, r_h, r_c, r_mu) if direction is None else direction
         scale = 1e-2 * self.tol
-        for _ in range(2):
+        for _ in range(sweeps):
             e_b = -r_b - self.A @ dv
             e_h = -r_h - self.G @ dv - ds
             e_c = -r_c + self.A.T @ dw - self.G.T @ dy
@@ -360,11 +386,14 @@ class BlockIPM:
     def solve(self) -> LPOutcome:
         """Run Mehrotra's method from :meth:`initial_point`; the outcome in HiGHS's conventions."""
         t0 = time.perf_counter()
+        deadline = t0 + self.time_limit
         it = self.initial_point()
         p = self.h.size
         status, message = Status.ITERATION_LIMIT, f"no convergence in {self.max_iterations} iterations"
         best, best_error, best_k = it.copy(), np.inf, 0
         best_measures = (np.inf, np.inf, np.inf)
+        #: one row per iteration: residuals, mu, step lengths, sigma, correctors and K solves used
+        self.trace = []
         k = 0
         for k in range(self.max_iterations + 1):
             r_b, r_h, r_c = self.residuals(it)
@@ -393,36 +422,65 @@ class BlockIPM:
                 break
             if k == self.max_iterations:
                 break
-            if time.perf_counter() - t0 > self.time_limit:
+            solves0 = self.factoriser.solves
+            factors = None if time.perf_counter() > deadline else self._factorise(it)
+            if factors is None or time.perf_counter() > deadline:
+                # checked before and after the factorisation (the costliest step): the run
+                # overshoots its limit by at most one factorisation
                 status, message = Status.TIME_LIMIT, f"time limit {self.time_limit:g} s reached"
                 break
-            factors = self._factorise(it)
+            lazy = self.lazy_refinement
+            inner = self.inner_refinements if lazy else None
+            eta = self.step_fraction
             # predictor (affine scaling)
-            dv, ds, dw, dy = self._direction(it, factors, r_b, r_h, r_c, -it.s * it.y)
+            dv, ds, dw, dy = self._direction(it, factors, r_b, r_h, r_c, -it.s * it.y, inner)
             ap = self._max_step(it.s, ds)
             ad = self._max_step(it.y, dy)
             mu_aff = float((it.s + ap * ds) @ (it.y + ad * dy)) / p
-            sigma = min(1.0, (mu_aff / mu) ** 3)
+            sigma = min(1.0, max((mu_aff / mu) ** self.sigma_power, self.sigma_min))
             # corrector
             r_mu = sigma * mu - it.s * it.y - ds * dy
-            dv, ds, dw, dy = self._refined_direction(it, factors, r_b, r_h, r_c, r_mu)
-            ap = 0.995 * self._max_step(it.s, ds)
-            ad = 0.995 * self._max_step(it.y, dy)
+            if lazy:
+                dv, ds, dw, dy = self._direction(it, factors, r_b, r_h, r_c, r_mu, inner)
+            else:
+                dv, ds, dw, dy = self._refined_direction(it, factors, r_b, r_h, r_c, r_mu)
+            ap = eta * self._max_step(it.s, ds)
+            ad = eta * self._max_step(it.y, dy)
             # Gondzio's centrality correctors: aim at a longer step whose
             # complementarity products lie in [0.1, 10] sigma mu
             zeros_b, zeros_h, zeros_c = np.zeros_like(r_b), np.zeros_like(r_h), np.zeros_like(r_c)
+            used = 0
             for _ in range(self.correctors):
-                tp, td = min(1.0, 1.5 * ap + 0.1), min(1.0, 1.5 * ad + 0.1)
+                if time.perf_counter() > deadline:
+                    break
+                tp, td = min(1.0, self.gondzio_factor * ap + self.gondzio_delta), min(1.0, self.gondzio_factor * ad + self.gondzio_delta)
                 products = (it.s + tp * ds) * (it.y + td * dy)
                 target = np.clip(products, 0.1 * sigma * mu, 10.0 * sigma * mu)
                 correction = np.maximum(target - products, -10.0 * sigma * mu)
-                cv, cs, cw, cy = self._refined_direction(it, factors, zeros_b, zeros_h, zeros_c, correction)
+                if lazy:
+                    cv, cs, cw, cy = self._direction(it, factors, zeros_b, zeros_h, zeros_c, correction, inner)
+                else:
+                    cv, cs, cw, cy = self._refined_direction(it, factors, zeros_b, zeros_h, zeros_c, correction)
                 nv, ns, nw, ny = dv + cv, ds + cs, dw + cw, dy + cy
-                nap = 0.995 * self._max_step(it.s, ns)
-                nad = 0.995 * self._max_step(it.y, ny)
-                if min(nap, nad) < 1.01 * min(ap, ad):
+                nap = eta * self._max_step(it.s, ns)
+                nad = eta * self._max_step(it.y, ny)
+                if min(nap, nad) < self.gondzio_accept * min(ap, ad):
                     break
                 dv, ds, dw, dy, ap, ad = nv, ns, nw, ny, nap, nad
+                r_mu = r_mu + correction
+                used += 1
+            if lazy:
+                dv, ds, dw, dy = self._refined_direction(it, factors, r_b, r_h, r_c, r_mu, (dv, ds, dw, dy),
+                                                         sweeps=self.final_sweeps)
+                ap = eta * self._max_step(it.s, ds)
+                ad = eta * self._max_step(it.y, dy)
+            self.trace.append({"k": k, "mu": mu, "primal": primal, "dual": dual, "gap": gap, "sigma": sigma,
+                               "step_primal": ap, "step_dual": ad, "correctors": used,
+                               "centrality": float(np.min(it.s * it.y)) / mu,
+                               "solves": self.factoriser.solves - solves0,
+                               "fact_over_solve": (self.factoriser.factorise_s / self.factoriser.factorisations)
+                               / max(self.factoriser.solve_s / max(self.factoriser.solves, 1), 1e-9),
+                               "time_s": time.perf_counter() - t0})
             it.v += ap * dv
             it.s += ap * ds
             it.w += ad * dw

@@ -115,6 +115,9 @@ class SymmetricFactoriser:
         #: factorisations done and their total time (s)
         self.factorisations = 0
         self.factorise_s = 0.0
+        #: solves with the factors (each a pair of triangular solves per right-hand side column)
+        self.solves = 0
+        self.solve_s = 0.0
 
     def factorise(self, K: sp.sparray):
         """``solve(rhs)`` for ``K x = rhs`` (``rhs`` a vector or a matrix of columns)."""
@@ -127,6 +130,10 @@ class SymmetricFactoriser:
         self.factorise_s += time.perf_counter() - t0
 
         def solve(rhs: np.ndarray) -> np.ndarray:
-            return lu.solve(rhs[p])[inv_p]
+            t = time.perf_counter()
+            x = lu.solve(rhs[p])[inv_p]
+            self.solves += 1
+            self.solve_s += time.perf_counter() - t
+            return x
 
         return solve
