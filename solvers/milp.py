@@ -61,6 +61,14 @@ its dual bound is an upper bound on the maximum; the associative-pattern incumbe
 attains ``lam_upper`` itself.  The certificate flips: the polished multiplier must
 not *exceed* the bound, and the gap is ``bound - lam >= 0``.
 
+Units: stages 1-5 run on (3) in per-block units (:func:`per_block_units`: each block's
+equilibrium rows divided by its load ``l_i``, interface forces in ``l_k``, multipliers in the
+reciprocal units, ``lam`` in the power of two :func:`~blockmpec.solvers.engines.scaling.multiplier_scale`),
+the system the LP methods solve (:mod:`blockmpec.solvers.engines.scaling`), so that the engines'
+absolute tolerances hold for a 1e-5 block on a unit block and under dead point loads 1e10 times the
+weights.  The point, the bounds, the gaps and the big-M bounds are returned in the problem's units,
+and the certificate is checked again there (:meth:`MILPSolver._recertify`).
+
 Facts in ``extra`` (names of :mod:`blockmpec.facts`): ``bound``, ``gap_abs``,
 ``gap_rel``, ``sense``, ``associative_multiplier``, ``lp_solves``; and ``trace``
 records ``(time_s, bound, incumbent, gap_abs)`` over the run.
@@ -735,7 +743,26 @@ class MILPSolver(SolverBase):
                         row[key] *= unit
             out.extra["lam_unit"] = unit
             out.message += f" (lam values in this message in units of {unit:g})"
+        if out.status is Status.OPTIMAL:
+            self._recertify(out)
         return out
+
+    def _recertify(self, out: RunOutput) -> None:
+        """The certificate checked again in the problem's own units: the returned ``lam`` (a point of
+        (3), verified by the runner's residuals) against the bound (the scaled bound times the exact
+        power of two ``s``), with the tolerances of :meth:`_certify`; a miss voids it (LOCALLY_OPTIMAL)."""
+        opt = self.options
+        sign = -1.0 if opt.sense == "max" else 1.0
+        lam, bound = out.solution.multiplier, float(out.extra[facts.BOUND])
+        tol = CERTIFICATE_TOL * max(1.0, abs(lam))
+        gap = sign * (lam - bound)
+        out.extra[facts.GAP_ABS] = max(0.0, gap)
+        out.extra[facts.GAP_REL] = max(0.0, gap) / max(abs(lam), 1e-12)
+        if -tol <= gap <= max(opt.mip_abs_gap, opt.mip_rel_gap * abs(lam)) + tol:
+            return
+        out.status = Status.LOCALLY_OPTIMAL
+        out.message = (f"in the problem's units lam {lam:.10g} and the bound {bound:.10g} differ by {gap:.2e} "
+                       f"(tolerance {tol:.2e}): certificate void. {out.message}")
 
     def scaled(self, sol: Solution) -> Solution:
         """A point of (3) in the problem's units -> the same point in the MILP's units (:func:`per_block_units`)."""

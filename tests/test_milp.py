@@ -391,3 +391,45 @@ def test_dissipation_bound_is_below_every_certified_minimum():
     stack = bm.solve(bm.cases.wall(6, 2, bond="stack"), "milp")
     assert_certified(stack)
     assert stack.extra["nodes"] == 0 and "root" in stack.message
+
+
+# ----------------------------------------------------------------------------- issue 16: per-block units
+
+
+@pytest.mark.parametrize("engine", ["highs", "bnb"])
+@pytest.mark.parametrize("small", [1e-3, 1e-5])
+def test_tiny_block_on_big_block_is_certified_in_per_block_units(engine, small):
+    """A small x 2 small block on a unit block: its loads are 1e-6 / 1e-10 of the big block's, below
+    the engines' absolute tolerances unless each block's rows are in its own units.  The minimum is
+    the toppling of the small block, lam = 0.5 (before the units: -0.65 / 0.65 'numerical')."""
+    from helpers import block_on_block
+
+    res = bm.solve(block_on_block(1.0, small), "milp", engine=engine, heuristic="")
+    assert_certified(res)
+    assert res.multiplier == pytest.approx(0.5, rel=1e-9)
+
+
+def test_huge_dead_point_loads_are_certified_in_the_problems_units():
+    """Dead point loads 1e10 times the weights: lam ~3.3e9 is certified; the MILP runs with lam in
+    a power-of-two unit, and the bound, the gap and the big-M bounds come back in the problem's
+    units: the bound meets the returned lam, and every returned slack lies under its big-M."""
+    import json
+    from pathlib import Path
+
+    from blockmpec.structure_file import structure_from_dict
+
+    d = json.loads((Path(bm.__file__).parent / "data" / "leaning-pier.json").read_text())
+    d["point_loads"] = [{"block": b, "point": p, "force": [0, -1e10], "kind": "dead"}
+                        for b, p in [(1, [0.5, 0.25]), (2, [0.4, 1.0]), (3, [1.5, 0.25])]]
+    structure = structure_from_dict(d)
+    assoc = bm.solve(structure, "static-lp")
+    res = bm.solve(structure, "milp", heuristic="", incumbent=False)
+    assert_certified(res)
+    unit = res.extra["lam_unit"]
+    assert unit > 1e9 and np.log2(unit) == round(np.log2(unit))
+    assert res.multiplier == pytest.approx(assoc.multiplier, rel=1e-9)
+    assert abs(res.extra["bound"] - res.multiplier) <= 1e-7 * res.multiplier
+    ops = bm.operators.assemble(structure)
+    slack = -np.concatenate([ops.N_u.T @ res.solution.x, ops.N_f.T @ res.solution.x])
+    M = np.array(res.extra["bigm"])
+    assert M.shape == slack.shape and np.all(slack <= M)
