@@ -22,8 +22,9 @@ class KinematicLPOptions:
 
     algorithm: str = field(default="auto", metadata={"help": "auto | simplex | dual-simplex | primal-simplex | ipm"})
     time_limit: float = field(default=check.DEFAULT_TIME_LIMIT_S, metadata={
-        "help": "seconds (HiGHS time_limit, shared with the static LP that tells infeasible from unbounded); default 600 "
-                "(blockmpec.options.DEFAULT_TIME_LIMIT_S: finite, ~13x the 10,046-block wall's LP), inf for none"})
+        "help": "seconds (HiGHS time_limit, shared with the static LP that tells infeasible from unbounded); "
+                "default 600 (blockmpec.options.DEFAULT_TIME_LIMIT_S: finite, ~13x the 10,046-block wall's LP), "
+                "inf for none"})
 
     def __post_init__(self) -> None:
         from blockmpec.solvers.engines.lp_engine import BASIS_ALGORITHMS

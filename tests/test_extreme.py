@@ -140,19 +140,21 @@ def test_two_blocks_extreme_certified_minimum_and_maximum(eta, mu):
 
 
 @pytest.mark.parametrize(("method", "eta", "mu"),
-                         [pytest.param(m, eta, mu, id=f"{m}-{eta}-{mu}") for m in HEURISTICS for eta, mu in EXTREME_GRID])
+                         [pytest.param(m, eta, mu, id=f"{m}-{eta}-{mu}")
+                          for m in HEURISTICS for eta, mu in EXTREME_GRID])
 def test_two_blocks_extreme_heuristics_between_minimum_and_associative(method, eta, mu):
-    """Documented outcomes: fixed-point and mcp-newton return a verified solution of (3) everywhere;
+    """Documented outcomes: fixed-point, mcp-newton and nlp return a verified solution of (3) everywhere;
     slp mostly NUMERICAL (by design: its LPs use the dilatancy tan(psi) + alpha (tan(phi) - tan(psi)),
-    see solvers/slp.py); nlp fails at eta = 5, mu = 1e-4 with ERROR (Ipopt restoration failed) and
-    at eta = 0.05, mu = 100 with NUMERICAL (Ipopt's local infeasibility, which is no proof: milp
-    certifies lam = 20 and 40 there).  Whatever verifies lies between the
+    see solvers/slp.py).  Earlier nlp failed at eta = 5, mu = 1e-4 (ERROR) and eta = 0.05, mu = 100
+    (NUMERICAL); in per-block units at eta = 50, mu = 1 and 10 (an unloaded interface's free sliding
+    multipliers z_f+- = 1e5 with slacks -8e-11) until solvers/nlp.py removed their common part.
+    Whatever verifies lies between the
     certified minimum and the associative multiplier; a failure never claims infeasibility, since
     (3) has solutions here."""
     res = _two_blocks_result(eta, mu, method)
     lower = bm.cases.closed_form("two-blocks", "non-associative", eta=eta, mu=mu)
     upper = _two_blocks_result(eta, mu, "static-lp").multiplier
-    if method in ROBUST:
+    if method in (*ROBUST, "nlp"):
         assert_success(res)
     if res.success:
         assert lower - margin(HEURISTIC_TOL, lower) <= res.multiplier <= upper + margin(HEURISTIC_TOL, upper)
@@ -212,13 +214,12 @@ def test_nlp_is_not_verified_below_the_certified_minimum_at_size_ratio_1e2():
 
 @pytest.mark.parametrize("method", ["milp", *HEURISTICS])
 def test_mixing_huge_and_tiny_blocks_non_associative(method):
-    """Size ratio 1e6 (1e12 in weight).  Documented outcome (measured): the LP-based methods in load
-    units (fixed-point, slp, and mcp-newton, which starts from static-lp) get the right 0.5; milp and nlp,
-    whose models are not scaled per block, lose the tiny block in their tolerances and say so with
-    status NUMERICAL (verifier disagreement, or milp's 'not a proof of infeasibility').  A success must
-    carry the right value; INFEASIBLE would be wrong ((3) has solutions)."""
+    """Size ratio 1e6 (1e12 in weight).  Documented outcome (measured): every method gets the right 0.5;
+    milp and nlp since their models are in per-block units (ops.units; before, they lost the tiny block
+    in their tolerances and said so with status NUMERICAL).  A success must carry the right value;
+    INFEASIBLE would be wrong ((3) has solutions)."""
     res = bm.solve(block_on_block(1e3, 1e-3), method)
-    if method in ("fixed-point", "slp", "mcp-newton"):
+    if method in ("fixed-point", "slp", "mcp-newton", "nlp", "milp"):
         assert_success(res)
     if res.success:
         assert res.multiplier == pytest.approx(0.5, rel=HEURISTIC_TOL)
