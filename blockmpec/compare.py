@@ -430,9 +430,9 @@ def _wall_limits(wall_limit, method_runs, default) -> dict[str, float]:
     out = {}
     for m in method_runs:
         if wall_limit is None:
-            value = default(m.options)
+            value = default(m.options, m.name)
         elif isinstance(wall_limit, Mapping):
-            value = wall_limit.get(m.label, wall_limit.get(m.name, default(m.options)))
+            value = wall_limit.get(m.label, wall_limit.get(m.name, default(m.options, m.name)))
         else:
             value = wall_limit
         if isinstance(value, bool) or not isinstance(value, (int, float)) or not (0 < value < math.inf):

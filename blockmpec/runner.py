@@ -56,13 +56,30 @@ from typing import Any
 DEFAULT_WALL_LIMIT_S = 600.0
 
 
-def default_wall_limit(options: dict[str, Any]) -> float:
-    """The outside wall-clock limit of one solve: ``max(1.5 t, t + 30 s)`` for a method given
-    ``time_limit = t`` (room for set-up and the method's own overshoot), else :data:`DEFAULT_WALL_LIMIT_S`."""
+def default_wall_limit(options: dict[str, Any], method: str | None = None) -> float:
+    """The outside wall-clock limit of one solve: ``max(1.5 t, t + 30 s)`` for a method run with
+    ``time_limit = t``, given in ``options`` or else the method's own default (room for set-up and the
+    method's own overshoot, so that the method reports its ``time_limit`` before it is killed), else
+    :data:`DEFAULT_WALL_LIMIT_S`."""
     t = options.get("time_limit")
+    if t is None and method is not None:
+        t = _default_time_limit(method)
     if isinstance(t, (int, float)) and not isinstance(t, bool) and 0 < t < float("inf"):
         return max(1.5 * float(t), float(t) + 30.0)
     return DEFAULT_WALL_LIMIT_S
+
+
+def _default_time_limit(method: str) -> float | None:
+    """The default of the method's ``time_limit`` option (None without one or for an unknown method)."""
+    from blockmpec.errors import BlockmpecError
+    from blockmpec.registry import get_solver
+
+    try:
+        fields = {f.name: f for f in dataclasses.fields(get_solver(method).Options)}
+    except BlockmpecError:
+        return None
+    f = fields.get("time_limit")
+    return None if f is None or f.default is dataclasses.MISSING else f.default
 
 
 @dataclasses.dataclass

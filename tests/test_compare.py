@@ -325,3 +325,20 @@ def test_progress_shows_the_running_solve_its_elapsed_time_and_failures(tmp_path
     bar.finished({"status": "optimal"})
     assert bar.failed == 1 and bar.bar.n == 2 and "failed 1" in bar._postfix()
     bar.close()
+
+
+def test_outside_wall_limit_leaves_room_for_the_methods_own_time_limit():
+    """A method run with its default time_limit must report time_limit itself before the runner kills it."""
+    import dataclasses
+
+    from blockmpec.runner import DEFAULT_WALL_LIMIT_S, default_wall_limit
+
+    for method in bm.list_solvers():
+        fields = {f.name: f.default for f in dataclasses.fields(registry.get_solver(method).Options)}
+        t = fields.get("time_limit")
+        limit = default_wall_limit({}, method)
+        if t is not None and 0 < t < float("inf"):
+            assert limit >= t + 30.0, (method, t, limit)
+        else:
+            assert limit == DEFAULT_WALL_LIMIT_S
+    assert default_wall_limit({"time_limit": 10.0}, "milp") == 40.0  # a given limit wins over the default
