@@ -343,9 +343,8 @@ def test_unstable_under_any_live_load_is_infeasible(method):
 # scales, the load ``l_i`` of each block (``units.block_load``, rows scale ``units.equilibrium_row_scale()``)
 # and the force unit of each interface (``units.interface_force``, columns ``units.force_column_scale()``,
 # multipliers ``units.multiplier_column_scale(friction)``).  The LP methods use it through
-# solvers/engines/scaling.py.  Where a method does not yet, the test below is an xfail(strict=True) naming
-# what its owner must change; it turns into a failure (XPASS) the day the method is fixed, so that the
-# marker is removed.
+# solvers/engines/scaling.py, milp and nlp in their own models (solvers/milp.py, nlp_scaling in
+# solvers/nlp.py).  Every test below once was an xfail(strict=True) naming what a method had to change.
 
 import json as _json  # noqa: E402
 from pathlib import Path as _Path  # noqa: E402
@@ -362,10 +361,6 @@ def _pier(**changes) -> bm.Structure:
 
 
 _FREE_POINTS = [(1, [0.5, 0.25]), (2, [0.4, 1.0]), (3, [1.5, 0.25])]
-
-
-def _xfail(reason):
-    return pytest.mark.xfail(strict=True, reason=reason)
 
 
 @pytest.mark.parametrize("method", [
