@@ -23,7 +23,6 @@ from blockmpec.formulations import CompiledMCP
 from blockmpec.result import Solution, Status
 from blockmpec.solvers.engines.stopping import StoppingCriterion
 
-
 # --------------------------------------------------------------------------- semismooth Newton
 
 
