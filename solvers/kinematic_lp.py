@@ -53,6 +53,11 @@ class KinematicLP(SolverBase):
         row_scale, column_scale = kinematic_scaling(self.lp, ops)
         self.highs = HighsLP(self.lp, self.options.algorithm, self.options.time_limit, row_scale=row_scale,
                              column_scale=column_scale)
+        # z >= 0 are column bounds, held by HiGHS only to its primal feasibility tolerance (1e-7 in load
+        # units); on a 600-block wall that left z at -8e-6 of its size, which the verifier rejects
+        # (multiplier_sign).  1e-9, as the LP sequence uses, keeps the bounds at round-off.
+        for tol in ("primal_feasibility_tolerance", "dual_feasibility_tolerance"):
+            self.highs.highs.setOptionValue(tol, 1e-9)
 
     def run(self) -> RunOutput:
         started = time.perf_counter()
