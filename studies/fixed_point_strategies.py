@@ -175,17 +175,20 @@ def markdown(table: list[dict]) -> str:
     return "\n".join(lines)
 
 
-def main(argv: list[str] | None = None) -> list[dict]:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+def run_study(argv: list[str] | None, strategies_all: list, out: Path, default_time_limit: float,
+              description: str) -> list[dict]:
+    """The command line of a strategy study: run (or re-tabulate) ``strategies_all`` on the suite,
+    print the summary table and write ``runs.csv`` and ``table.md`` into ``out``."""
+    parser = argparse.ArgumentParser(description=description)
     parser.add_argument("--only", default="", help="comma-separated substrings of strategy labels")
     parser.add_argument("--no-large", action="store_true", help="leave out the large walls")
-    parser.add_argument("--time-limit", type=float, default=120.0, help="seconds per run")
+    parser.add_argument("--time-limit", type=float, default=default_time_limit, help="seconds per run")
     parser.add_argument("--from-csv", action="store_true", help="re-tabulate the last runs.csv without running")
     args = parser.parse_args(argv)
-    strategies = [s for s in STRATEGIES if not args.only or any(o in s[0] for o in args.only.split(","))]
+    strategies = [s for s in strategies_all if not args.only or any(o in s[0] for o in args.only.split(","))]
     t0 = time.perf_counter()
     if args.from_csv:
-        rows = _read_rows(OUT / "runs.csv")
+        rows = _read_rows(out / "runs.csv")
         strategies = [s for s in strategies if any(r["strategy"] == s[0] for r in rows)]
     else:
         rows = run_all(strategies, suite(include_large=not args.no_large), args.time_limit)
@@ -196,15 +199,19 @@ def main(argv: list[str] | None = None) -> list[dict]:
             f"{len({r['structure'] for r in rows}) - n_cert} judged against the best verified value; "
             f"{time.perf_counter() - t0:.0f} s\n\n" + markdown(table))
     print(text)
-    OUT.mkdir(parents=True, exist_ok=True)
+    out.mkdir(parents=True, exist_ok=True)
     if not args.from_csv:
-        with (OUT / "runs.csv").open("w", newline="") as fh:
+        with (out / "runs.csv").open("w", newline="") as fh:
             writer = csv.DictWriter(fh, fieldnames=list(rows[0]))
             writer.writeheader()
             writer.writerows(rows)
-    (OUT / "table.md").write_text(text + "\n")
-    print(f"wrote {OUT / 'runs.csv'} and {OUT / 'table.md'}")
+    (out / "table.md").write_text(text + "\n")
+    print(f"wrote {out / 'runs.csv'} and {out / 'table.md'}")
     return table
+
+
+def main(argv: list[str] | None = None) -> list[dict]:
+    return run_study(argv, STRATEGIES, OUT, 120.0, __doc__.splitlines()[0])
 
 
 if __name__ == "__main__":

@@ -22,15 +22,11 @@ from the cache of ``heuristic_suite.py`` (run it first).
 
 from __future__ import annotations
 
-import argparse
-import csv
 import sys
-import time
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).parent))
-from fixed_point_strategies import _read_rows, markdown, run_all, summary  # noqa: E402
-from heuristic_suite import suite  # noqa: E402
+from fixed_point_strategies import run_study  # noqa: E402
 
 OUT = Path(__file__).resolve().parent / "output" / "mcp_newton_strategies"
 
@@ -50,35 +46,7 @@ STRATEGIES: list[tuple[str, str, dict]] = [
 
 
 def main(argv: list[str] | None = None) -> list[dict]:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--only", default="", help="comma-separated substrings of strategy labels")
-    parser.add_argument("--no-large", action="store_true", help="leave out the large walls")
-    parser.add_argument("--time-limit", type=float, default=60.0, help="seconds per run")
-    parser.add_argument("--from-csv", action="store_true", help="re-tabulate the last runs.csv without running")
-    args = parser.parse_args(argv)
-    strategies = [s for s in STRATEGIES if not args.only or any(o in s[0] for o in args.only.split(","))]
-    t0 = time.perf_counter()
-    if args.from_csv:
-        rows = _read_rows(OUT / "runs.csv")
-        strategies = [s for s in strategies if any(r["strategy"] == s[0] for r in rows)]
-    else:
-        rows = run_all(strategies, suite(include_large=not args.no_large), args.time_limit)
-    table = summary(rows, strategies)
-    n_cert = len({r["structure"] for r in rows if r["certified"]})
-    n_below = len({r["structure"] for r in rows if r["certified"] and r["reference"] < r["associative"] * (1 - 1e-6)})
-    text = (f"{n_cert} structures with a certified minimum ({n_below} of them below the associative multiplier), "
-            f"{len({r['structure'] for r in rows}) - n_cert} judged against the best verified value; "
-            f"{time.perf_counter() - t0:.0f} s\n\n" + markdown(table))
-    print(text)
-    OUT.mkdir(parents=True, exist_ok=True)
-    if not args.from_csv:
-        with (OUT / "runs.csv").open("w", newline="") as fh:
-            writer = csv.DictWriter(fh, fieldnames=list(rows[0]))
-            writer.writeheader()
-            writer.writerows(rows)
-    (OUT / "table.md").write_text(text + "\n")
-    print(f"wrote {OUT / 'runs.csv'} and {OUT / 'table.md'}")
-    return table
+    return run_study(argv, STRATEGIES, OUT, 60.0, __doc__.splitlines()[0])
 
 
 if __name__ == "__main__":
