@@ -116,6 +116,26 @@ def block_extent(vertices: np.ndarray) -> np.ndarray:
         return np.hypot(span[:, 0], span[:, 1])
 
 
+def _bounding_boxes(vertices: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """``(lo, hi, centre, span)``: the structure's bounding box, its centre and each block's box sides
+    (n, 2), of padded polygons ``vertices`` (n, k, 2).
+
+    Raises
+    ------
+    StructureError
+        Naming the first block whose extent overflows the floating-point range.
+    """
+    with np.errstate(over="ignore", invalid="ignore"):
+        lo, hi = vertices.min(axis=(0, 1)), vertices.max(axis=(0, 1))
+        centre = 0.5 * lo + 0.5 * hi
+        span = vertices.max(axis=1) - vertices.min(axis=1)
+    if not (np.all(np.isfinite(span)) and np.all(np.isfinite(hi - lo))):
+        bad = np.flatnonzero(~np.isfinite(span).all(axis=1))
+        i = int(bad[0]) if bad.size else 0
+        raise StructureError(f"block {i}: its extent overflows the floating-point range (coordinates too large)")
+    return lo, hi, centre, span
+
+
 @dataclass(frozen=True)
 class Frame:
     """Origin and length unit: ``p^ = (p - origin) / length_scale``."""
@@ -140,15 +160,9 @@ class Frame:
         StructureError
             When the coordinates span more than the floating-point range.
         """
-        with np.errstate(over="ignore", invalid="ignore"):
-            lo, hi = vertices.min(axis=(0, 1)), vertices.max(axis=(0, 1))
-            centre = 0.5 * lo + 0.5 * hi
-            extent = float(np.max(hi - lo))
-            size = block_extent(vertices)
-        bad = np.flatnonzero(~np.isfinite(size))
-        if bad.size or not np.isfinite(extent):
-            i = int(bad[0]) if bad.size else 0
-            raise StructureError(f"block {i}: its extent overflows the floating-point range (coordinates too large)")
+        lo, hi, centre, _ = _bounding_boxes(vertices)
+        extent = float(np.max(hi - lo))
+        size = block_extent(vertices)
         chosen = size if blocks is None or len(blocks) == 0 else size[blocks]
         scale = float(np.median(chosen))
         if not scale > 0:
@@ -203,14 +217,7 @@ class CanonicalFrame:
         StructureError
             When the coordinates span more than the floating-point range.
         """
-        with np.errstate(over="ignore", invalid="ignore"):
-            lo, hi = vertices.min(axis=(0, 1)), vertices.max(axis=(0, 1))
-            centre = 0.5 * lo + 0.5 * hi
-            span = vertices.max(axis=1) - vertices.min(axis=1)
-        if not (np.all(np.isfinite(span)) and np.all(np.isfinite(hi - lo))):
-            bad = np.flatnonzero(~np.isfinite(span).all(axis=1))
-            i = int(bad[0]) if bad.size else 0
-            raise StructureError(f"block {i}: its extent overflows the floating-point range (coordinates too large)")
+        _, _, centre, span = _bounding_boxes(vertices)
         shorter = span.min(axis=1)
         chosen = shorter if blocks is None or len(blocks) == 0 else shorter[blocks]
         scale = float(np.median(chosen))

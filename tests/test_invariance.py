@@ -173,7 +173,11 @@ def test_lam_independent_of_position_up_to_1e15(spec, dx, dy, method):
         # was too small to move lam
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always")
-            spec_to_structure(moved)
+            bm.make_structure(
+                moved["polys"], moved["fixed"], friction=moved["mu"], density=moved["density"],
+                live_direction=moved["direction"], live_factor=moved["factor"],
+                point_loads=[bm.PointLoad(b, tuple(p), tuple(f), k) for b, p, f, k in moved["loads"]],
+            )
         if not any(issubclass(w.category, bm.PrecisionWarning) for w in caught):
             assert_same(outcome(spec, method), outcome(moved, method))
 
