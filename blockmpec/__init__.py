@@ -1,8 +1,9 @@
 """blockmpec: limit analysis of rigid-block masonry with non-associative Coulomb friction.
 
 Core package: structures, operators, the result type, the verifier, the solver
-registry and the CLI.  Pyomo models live in the top-level ``formulations``
-package and solver adapters in ``solvers``; the core never imports them at
+registry and the CLI.  Pyomo models live in ``blockmpec.formulations`` and solver
+adapters in ``blockmpec.solvers`` (the repository's top-level ``formulations/`` and
+``solvers/`` folders, installed under ``blockmpec``); the core never imports them at
 import time.
 
 >>> import blockmpec as bm
@@ -11,7 +12,20 @@ import time.
 >>> res.success, round(res.multiplier, 5)  # doctest: +SKIP
 """
 
-from blockmpec import cases
+from pathlib import Path as _Path
+
+# In a source checkout that is imported directly (``python -m blockmpec.cli`` from the repository
+# root, where the working directory shadows the installed package), the sub-packages
+# ``formulations`` and ``solvers`` sit beside this folder instead of inside it: look there too.
+# An installed package has them inside and is left alone.
+_here = _Path(__file__).resolve().parent
+if not (_here / "solvers").is_dir() and all(
+        (_here.parent / d / "__init__.py").is_file() for d in ("formulations", "solvers")) and (
+        _here.parent / "pyproject.toml").is_file():
+    __path__.append(str(_here.parent))  # noqa: F821 - the package's own search path
+del _Path, _here
+
+from blockmpec import cases  # noqa: E402
 from blockmpec.cases import build_case
 from blockmpec.errors import (
     BlockmpecError,

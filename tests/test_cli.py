@@ -163,7 +163,10 @@ def test_compare_reads_a_study_file(tmp_path):
 
     df = pd.read_csv(tmp_path / "out" / "results.csv")
     assert list(df["method_label"]) == ["static-lp", "static-lp", "fp-relaxed", "fp-relaxed"]
-    assert list(df["wall_limit_s"]) == [600.0, 600.0, 100.0, 100.0]
+    # static-lp: the default outside limit, room for its own default time_limit; fixed-point: the study's
+    from blockmpec.runner import default_wall_limit
+
+    assert list(df["wall_limit_s"]) == [default_wall_limit({}, "static-lp")] * 2 + [100.0, 100.0]
     assert (df["p_method_relaxation"].dropna() == 0.5).all() and len(df["p_method_relaxation"].dropna()) == 2
     assert df["multiplier"].tolist() == pytest.approx([0.25] * 4, rel=1e-9)
     study.write_text('[[cases]]\ncase = "single-block"\nparms = { height = 4.0 }\n[[methods]]\nname = "static-lp"\n')
