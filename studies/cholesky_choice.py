@@ -29,7 +29,7 @@ Writes ``studies/output/cholesky_choice/cholesky_choice.csv``.
 from __future__ import annotations
 
 import argparse
-import csv
+import sys
 import time
 from pathlib import Path
 
@@ -43,6 +43,9 @@ from blockmpec.formulations._pyomo import pause_gc
 from blockmpec.solvers.engines.block_ipm import IPMIterate
 from blockmpec.solvers.engines.cholesky import SymmetricFactoriser, metis_available, structural_pattern
 from blockmpec.solvers.engines.lp_engine import cold_lp_engine
+
+sys.path.insert(0, str(Path(__file__).parent))
+from benchmark_scaling import write_csv  # noqa: E402
 
 OUT = Path(__file__).parent / "output" / "cholesky_choice"
 METHODS = ("superlu-mmd", "superlu-metis", "superlu-colamd", "qdldl", "cholmod", "pardiso")
@@ -157,10 +160,7 @@ def main(argv: list[str] | None = None) -> list[dict]:
               f"| {r['factor_s']:.2f} s | {r['solve_s']:.3f} s | {nnz} | {r['residual']:.0e} |")
     if rows:
         OUT.mkdir(parents=True, exist_ok=True)
-        with (OUT / "cholesky_choice.csv").open("w", newline="") as fh:
-            w = csv.DictWriter(fh, fieldnames=list(rows[0]))
-            w.writeheader()
-            w.writerows(rows)
+        write_csv(OUT / "cholesky_choice.csv", rows)
         print(f"wrote {OUT / 'cholesky_choice.csv'}")
     return rows
 

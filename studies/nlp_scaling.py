@@ -19,11 +19,15 @@ from __future__ import annotations
 import argparse
 import ast
 import csv
+import sys
 import time
 from pathlib import Path
 
 import blockmpec as bm
 from blockmpec import facts
+
+sys.path.insert(0, str(Path(__file__).parent))
+from certificate_study import _fmt  # noqa: E402
 
 OUT = Path(__file__).parent / "output" / "nlp"
 COLUMNS = ["config", "wall", "blocks", "status", "verified", "multiplier", "associative", "wall_s", "cpu_s",
@@ -55,14 +59,6 @@ def run_wall(config: str, courses: int, per_course: int, time_limit: float, opti
             "associative": res.extra.get(facts.ASSOCIATIVE_MULTIPLIER), "wall_s": wall_s, "cpu_s": cpu_s,
             "setup_s": res.build_time_s, "ipopt_iterations": res.iterations, "stages": stages,
             "message": res.message[:100]}
-
-
-def _fmt(v) -> str:
-    if v is None:
-        return "-"
-    if isinstance(v, float):
-        return f"{v:.6g}"
-    return str(v)
 
 
 def main(argv: list[str] | None = None) -> list[dict]:
