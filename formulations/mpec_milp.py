@@ -94,6 +94,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import scipy.sparse as sp
 
+from blockmpec.formulations._pyomo import LinearProgram
 from blockmpec.formulations.compiled import FRICTION, CompiledMCP
 
 
@@ -155,26 +156,17 @@ class MPECBounds:
     time_s: float = 0.0
 
 
-@dataclass
-class MixedIntegerMPEC:
-    r"""``min c^T v`` s.t. ``row_lower <= A v <= row_upper``, ``col_lower <= v <= col_upper``,
-    ``v[integer] in Z`` and, for ``complementarity="sos1"``, one SOS1 set per row of ``sos1``.
+@dataclass(kw_only=True)
+class MixedIntegerMPEC(LinearProgram):
+    r"""A :class:`~blockmpec.formulations._pyomo.LinearProgram` with ``v[integer] in Z`` and, for
+    ``complementarity="sos1"``, one SOS1 set per row of ``sos1``.
 
     ``v = (w, extra columns)`` where ``w`` is the compiled MCP's vector (so ``v[form.lam]``
     is ``lam``); ``columns`` names the extra ones (``y``, ``s``, ``tau``, ``p``, ``q``),
     ``rows`` the row groups.  ``objective_sign`` is -1 for ``sense="max"`` (``c = -e_lam``).
     """
 
-    c: np.ndarray
-    A: sp.csr_array
-    row_lower: np.ndarray
-    row_upper: np.ndarray
-    col_lower: np.ndarray
-    col_upper: np.ndarray
     integer: np.ndarray
-    columns: dict[str, np.ndarray]
-    rows: dict[str, np.ndarray]
-    objective_sign: float
     bigm: np.ndarray
     sos1: list[tuple[int, int]] = field(default_factory=list)
     work_products: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
