@@ -200,21 +200,11 @@ def per_block_units(form, ops):
     """
     import dataclasses
 
-    from blockmpec.solvers.engines.scaling import multiplier_scale
+    from blockmpec.solvers.engines.scaling import mcp_scaling
 
-    units = ops.units
-    s = multiplier_scale(ops)
-    r = units.equilibrium_row_scale()
-    z_u_scale, z_f_scale = units.multiplier_column_scale(ops.friction)
-    column = np.ones(form.n_columns)
-    column[form.lam] = s
-    column[form.x] = units.force_column_scale()
-    column[form.u] = r
-    column[form.z_u], column[form.z_f] = z_u_scale, z_f_scale
-    row = np.ones(form.A.shape[0])
-    row[form.equilibrium] = r
-    row[form.compatibility] = units.force_column_scale()
-    row[form.normalisation] = s
+    column, row = mcp_scaling(form, ops)
+    s = float(column[form.lam])
+    r = column[form.u]
     A = sp.csr_array(sp.diags_array(row) @ form.A @ sp.diags_array(column))
     G = sp.csr_array(sp.diags_array(column[form.pair_column]) @ form.G @ sp.diags_array(column))
     rhs = form.rhs.copy()

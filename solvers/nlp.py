@@ -285,16 +285,10 @@ def _without_free_sliding(form, solution: Solution) -> Solution:
 
 
 def nlp_scaling(form, ops) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Column, equality-row and slack scales of the relaxed NLP from the units ``ops.units``.
-
-    The static and kinematic scalings of the LPs (:mod:`blockmpec.solvers.engines.scaling`)
-    together: ``lam`` in :func:`~blockmpec.solvers.engines.scaling.multiplier_scale` units,
-    ``x`` in ``(l_k, l_k, l_k L_k)`` per interface, ``u`` in ``1 / l_i`` per block, ``z_u`` in
-    ``1 / (l_k L_k)`` and ``z_f`` in ``1 / (l_k max(1, mu_k))``; block ``i``'s equilibrium rows
-    divided by ``l_i``, interface ``k``'s compatibility rows multiplied by its force units,
-    the normalisation row by the ``lam`` unit; each pair slack in the reciprocal unit of its
-    multiplier (``l_k L_k`` or ``l_k max(1, mu_k)``).  Every block and interface is then O(1)
-    whatever its size, so Ipopt's absolute tolerances hold block by block.
+    """Column, equality-row and slack scales of the relaxed NLP: the per-block units of
+    :func:`~blockmpec.solvers.engines.scaling.mcp_scaling` (shared with ``milp``), each pair slack
+    in the reciprocal unit of its multiplier, so that the products ``z^ s^`` equal ``z s`` (works
+    in ``lam`` units) and Ipopt's absolute tolerances hold block by block.
 
     Returns
     -------
@@ -302,21 +296,9 @@ def nlp_scaling(form, ops) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     row_scale : ndarray, shape (rows of ``form.A``,)
     slack_scale : ndarray, shape (n_pairs,)
     """
-    from blockmpec.solvers.engines.scaling import multiplier_scale
+    from blockmpec.solvers.engines.scaling import mcp_scaling
 
-    units = ops.units
-    lam_unit = multiplier_scale(ops)
-    z_u_unit, z_f_unit = units.multiplier_column_scale(form.friction)
-    column_scale = np.ones(form.n_columns)
-    column_scale[form.lam] = lam_unit
-    column_scale[form.x] = units.force_column_scale()
-    column_scale[form.u] = units.equilibrium_row_scale()
-    column_scale[form.z_u] = z_u_unit
-    column_scale[form.z_f] = z_f_unit
-    row_scale = np.ones(form.A.shape[0])
-    row_scale[form.equilibrium] = units.equilibrium_row_scale()
-    row_scale[form.compatibility] = units.force_column_scale()
-    row_scale[form.normalisation] = lam_unit
+    column_scale, row_scale = mcp_scaling(form, ops)
     return column_scale, row_scale, 1.0 / column_scale[form.pair_column]
 
 

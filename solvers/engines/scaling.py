@@ -71,6 +71,38 @@ def multiplier_scale(ops: Operators) -> float:
     return float(2.0 ** np.round(np.log2(1.0 / live)))
 
 
+def mcp_scaling(form, ops: Operators) -> tuple[np.ndarray, np.ndarray]:
+    """Column and equality-row scales of a compiled MCP (3) in per-block units (``ops.units``).
+
+    The static and kinematic scalings of the LPs together: ``lam`` in :func:`multiplier_scale`
+    units ``s``, ``x`` in the interface force units ``C`` (``(l_k, l_k, l_k L_k)``), ``u`` in
+    ``r = 1 / l_i`` per block, ``z_u``, ``z_f`` in the multiplier units ``S``
+    (``1 / (l_k L_k)``, ``1 / (l_k max(1, mu_k))``); block ``i``'s equilibrium rows times ``r``,
+    the compatibility rows times ``C``, the normalisation row times ``s``.  A pair row scales
+    with its multiplier's column: ``column_scale[form.pair_column]``.  ``nlp`` and ``milp`` both
+    solve (3) in these units.
+
+    Returns
+    -------
+    column_scale : ndarray, shape (form.n_columns,)
+    row_scale : ndarray, shape (rows of ``form.A``,)
+    """
+    units = ops.units
+    lam_unit = multiplier_scale(ops)
+    z_u_unit, z_f_unit = units.multiplier_column_scale(form.friction)
+    column_scale = np.ones(form.n_columns)
+    column_scale[form.lam] = lam_unit
+    column_scale[form.x] = units.force_column_scale()
+    column_scale[form.u] = units.equilibrium_row_scale()
+    column_scale[form.z_u] = z_u_unit
+    column_scale[form.z_f] = z_f_unit
+    row_scale = np.ones(form.A.shape[0])
+    row_scale[form.equilibrium] = units.equilibrium_row_scale()
+    row_scale[form.compatibility] = units.force_column_scale()
+    row_scale[form.normalisation] = lam_unit
+    return column_scale, row_scale
+
+
 def load_scaling(lp: LinearProgram, ops: Operators, normal_like: tuple[str, ...] = ()) -> tuple[np.ndarray, np.ndarray]:
     """Row and column scales ``(R, C)`` of a static-type LP (see the module docstring).
 
