@@ -19,5 +19,3 @@ LP_SOLVES = "lp_solves"
 LP_TIME_S = "lp_time_s"
 #: seconds spent before the timed solve by the adapter's set-up, and in assembly
 ASSEMBLY_TIME_S = "assembly_time_s"
-#: the LP engine a method ran (``"highs-dual-simplex"``, ``"block-ipm"`` ...)
-LP_ENGINE = "lp_engine"

@@ -24,6 +24,7 @@ import traceback
 from dataclasses import dataclass, field
 from typing import Any, ClassVar, get_type_hints
 
+from blockmpec import facts
 from blockmpec.errors import BlockmpecError, OptionError
 from blockmpec.geometry import Structure
 from blockmpec.operators import Operators, assemble
@@ -181,7 +182,7 @@ def solve(
         message = (f"lam = {out.solution.multiplier:.6g} < 0: the structure is not in equilibrium under the dead "
                    f"load alone; only the live load reversed and scaled by |lam| holds it. {message}").strip()
     extra = dict(out.extra)
-    extra["assembly_time_s"] = t_assembly
+    extra[facts.ASSEMBLY_TIME_S] = t_assembly
     return Result(
         status=status,
         multiplier=out.solution.multiplier,

@@ -63,6 +63,7 @@ from typing import Any
 
 import numpy as np
 
+from blockmpec import facts as fact_names
 from blockmpec.operators import Operators, normal
 from blockmpec.result import Solution, Status
 from blockmpec.solver import RunOutput
@@ -221,7 +222,7 @@ class LPSequence:
 
     def facts(self) -> dict[str, Any]:
         """LP solves so far and seconds spent per LP kind (associative start, step, tie-break)."""
-        return {"lp_solves": self.lp_solves, "lp_time_s": {k: round(v, 6) for k, v in self.lp_time_s.items()}}
+        return {fact_names.LP_SOLVES: self.lp_solves, fact_names.LP_TIME_S: {k: round(v, 6) for k, v in self.lp_time_s.items()}}
 
     def _set_time_limit(self, highs, deadline: float) -> bool:
         remaining = deadline - time.perf_counter()
