@@ -368,6 +368,11 @@ class BlockIPM:
         dobj = self.b @ it.w - self.h @ it.y
         return primal, dual, abs(pobj - dobj) / (1 + abs(pobj))
 
+    def before_iteration(self, it: IPMIterate) -> None:
+        """Called at the start of every iteration with the current iterate; the LP's data
+        (e.g. ``self.h``) may be changed here.  Does nothing: subclasses that move the LP
+        along with its iterate (an interior-point fixed point) override it."""
+
     def initial_point(self) -> IPMIterate:
         """Mehrotra's starting point.
 
@@ -400,6 +405,7 @@ class BlockIPM:
         self.trace = []
         k = 0
         for k in range(self.max_iterations + 1):
+            self.before_iteration(it)
             r_b, r_h, r_c = self.residuals(it)
             primal, dual, gap = self.measures(it, (r_b, r_h, r_c))
             error = max(primal, dual, gap)
