@@ -89,6 +89,18 @@ from blockmpec.solver import RunOutput, SolverBase
 
 #: residual tolerance under which a multistart run counts as a solution of (3) (the verifier's default)
 MULTISTART_VERIFY_TOL = 1e-6
+#: engines of the fixed point; "auto" takes the interior engine from this many free blocks up
+ENGINES = ("auto", "simplex", "interior")
+AUTO_INTERIOR_BLOCKS = 500
+#: default weight of the interior engine's aim term (studies/fixed_point_strategies.py)
+INTERIOR_AIM_WEIGHT = 0.1
+
+
+def select_engine(engine: str, n_free_blocks: int) -> str:
+    """The engine ``"auto"`` stands for: ``"interior"`` from :data:`AUTO_INTERIOR_BLOCKS` free blocks up."""
+    if engine != "auto":
+        return engine
+    return "interior" if n_free_blocks >= AUTO_INTERIOR_BLOCKS else "simplex"
 
 
 @dataclass
@@ -111,6 +123,12 @@ class FixedPointOptions:
     multistart: int = field(default=1, metadata={
         "help": "runs: the start above, then random starts; returns the lowest verified (residuals <= 1e-6)"})
     algorithm: str = field(default="auto", metadata={"help": "HiGHS: auto | simplex | dual-simplex | primal-simplex | ipm"})
+    engine: str = field(default="auto", metadata={
+        "help": "simplex (warm HiGHS LP steps) | interior (one interior-point run on (3), "
+                "blockmpec.solvers.engines.interior_fixed_point) | auto: interior from "
+                "AUTO_INTERIOR_BLOCKS free blocks up"})
+    interior_weight: float = field(default=INTERIOR_AIM_WEIGHT, metadata={
+        "help": "interior engine: weight of the least-compressed aim term (0: none)"})
     time_limit: float = field(default=600.0, metadata={
         "help": "seconds for the whole iteration, every start of a multistart included (each LP gets the time "
                 "left; the loop checks the clock); default 600: finite, ~1.8x the 1,000-block wall's 337 s, "
@@ -132,6 +150,8 @@ class FixedPointOptions:
         check.integer(self, "multistart", minimum=1)
         check.choice(self, "algorithm", BASIS_ALGORITHMS)
         check.positive(self, "time_limit", finite=False)
+        check.choice(self, "engine", ENGINES)
+        check.interval(self, "interior_weight", 0, 10, closed="both")
 
 
 @register_solver
@@ -149,6 +169,15 @@ class FixedPoint(SolverBase):
 
         self.ops = ops
         o = self.options
+        self.engine = select_engine(o.engine, ops.n_free_blocks)
+        if self.engine == "interior":
+            import numpy as np
+
+            from blockmpec.formulations import modified_lp
+            from blockmpec.formulations._pyomo import compiled_linear
+
+            self.step_lp = compiled_linear(modified_lp, ops, np.zeros(ops.n_interfaces), slope=ops.dilatancy)
+            return
         needs_lp1 = o.start in ("associative", "dead-load", "random") or o.multistart > 1
         self.sequence = LPSequence(ops, alpha=0.0, tie_break=o.tie_break, algorithm=o.algorithm,
                                    need_associative=needs_lp1, fold_weight=o.fold_weight)
@@ -161,12 +190,23 @@ class FixedPoint(SolverBase):
                             max_iterations=o.max_iterations, time_limit=time_limit,
                             acceleration=o.acceleration, memory=o.memory, seed=seed)
 
+    def _run_interior(self) -> RunOutput:
+        from blockmpec.solvers.engines.interior_fixed_point import run_interior
+
+        o = self.options
+        out, _ = run_interior(self.ops, self.step_lp, tol=o.tol, max_iterations=o.max_iterations,
+                              time_limit=o.time_limit, fold_weight=o.interior_weight)
+        out.extra["engine"] = "interior"
+        return out
+
     def run(self) -> RunOutput:
         import time
 
         from blockmpec.verify import residuals
 
         o = self.options
+        if self.engine == "interior":
+            return self._run_interior()
         t0 = time.perf_counter()
         out, facts = self._run_once(o.start, o.seed, o.time_limit)
         runs = [(out.solution.multiplier, o.start, o.seed, out.status.value)]
@@ -190,6 +230,7 @@ class FixedPoint(SolverBase):
                 out, facts = best, best_facts
             out.extra = self.sequence.facts()
             out.extra["multistart_runs"] = runs
+        out.extra["engine"] = "simplex"
         out.extra["tie_break_failures"] = facts["tie_break_failures"]
         out.extra["start"] = facts["start_used"]
         if facts["lam_start"] is not None:

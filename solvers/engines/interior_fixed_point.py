@@ -1,0 +1,271 @@
+r"""An interior-point fixed point: one block-IPM run whose friction cohesion is the iterate's own.
+
+The fixed point's step LP (5) at normal forces ``n*`` (:func:`blockmpec.formulations.modified_lp`)::
+
+    min  -lam   s.t.  E x + f_d + lam f_l = 0,   N_u^T x <= 0,
+                      +-t_k + tan(psi_k) n_k <= -(tan(phi_k) - tan(psi_k)) n*_k
+
+differs between steps only in the right-hand side of its friction rows.  Its KKT
+conditions at ``n* = n`` are exactly the MCP (3): the primal friction rows read
+``+-t_k + tan(phi_k) n_k <= 0`` (Coulomb: ``N_f``), the dual rows
+``E^T u + N_u z_u + V_f z_f = 0`` (flow with ``tan(psi)``), and complementarity holds
+row by row.  In the block IPM's form (``v`` free, slacks ``s``, multipliers ``y``)::
+
+    A v = b,   G_phi v + s = h,   c - A^T w + G_psi^T y = 0,   s o y = 0,   s, y >= 0,
+
+where ``G_phi`` and ``G_psi`` differ only in the ``n`` entries of the friction rows.
+
+**Lagging ``n*`` does not work.**  The lead's first proposal reset ``n* := n`` at the
+start of each iteration of the LP's interior-point method (Newton directions of the
+LP with ``G_psi`` on both sides).  Each step then moves the friction rows by
+``(tan(phi) - tan(psi)) dn``, which the next residual carries: on the two-block case
+and on 4x2 and 10x5 walls the residuals stalled at 1e-3..1e-5 (``NUMERICAL``) with
+``||n - n*||/||n||`` between 1e-6 and 0.3 (kept in :class:`InteriorFixedPoint` as
+``coupling="lagged"`` for that measurement, ``studies/fixed_point_ratio.py``).
+
+**Newton on (3) itself** (the default, ``coupling="exact"``): the same Mehrotra
+predictor-corrector iteration, with ``G_phi`` in the primal rows and ``G_psi`` in the
+dual rows.  The per-block matrix becomes ``[[0, B_psi^T], [B_phi, -I]]``
+(``B = D^{1/2} G``), ``H^{-1}`` its top-left block of the inverse (no longer
+symmetric), and ``K = A_B H^{-1} A_B^T`` has the same sparsity but is not symmetric;
+it is factorised by the same ordering and SuperLU with diagonal pivots (an ``LU``
+without pivoting, as for the LP).  The "gap" of the stopping test is the
+complementarity ``s^T y / (1 + |c^T v|)`` (the LP's duality gap identity needs
+``G_phi = G_psi``).  At convergence the point solves (3) up to ``tol``; the shared
+verifier checks it.
+
+Aim (which solution of (3)): ``fold_weight > 0`` adds ``-fold_weight * sum_k w_k n_k``
+to the objective (``w_k = (tan(phi_k) - tan(psi_k)) / max``: less compression, as the
+fixed point's ``"least-compressed"`` rule), decreasing with the barrier parameter
+(``fold_weight * min(1, mu / mu_0)``) and exactly zero once ``mu <= fold_off * mu_0``,
+so the point returned solves (3) with the plain objective.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import scipy.sparse as sp
+
+from blockmpec.solvers.engines.block_ipm import SLACK_RATIO_FLOOR, BlockIPM, IPMIterate, _inf, interface_blocks
+
+COUPLINGS = ("exact", "lagged")
+#: the aim term is switched off once mu <= FOLD_OFF * mu_0 (module docstring)
+FOLD_OFF = 1e-4
+
+
+class InteriorFixedPoint(BlockIPM):
+    """:class:`BlockIPM` for the MCP (3) written as the step LP (5) with ``n* = n``.
+
+    Parameters
+    ----------
+    lp : LinearProgram
+        The compiled step LP (5) (:func:`blockmpec.formulations.modified_lp` with slope
+        ``tan(psi)``, any ``n*``: its cohesion is overwritten).
+    ops : Operators
+    coupling : ``"exact"`` (Newton on (3)) or ``"lagged"`` (``n* := n`` before each LP iteration)
+    fold_weight, fold_off : float
+        The least-compressed objective term and where it is switched off (module docstring).
+    **ipm : options of :class:`BlockIPM` (``tol``, ``max_iterations``, ``time_limit``, ``ordering``).
+    """
+
+    def __init__(self, lp, ops, coupling: str = "exact", fold_weight: float = 0.0, fold_off: float = FOLD_OFF,
+                 **ipm) -> None:
+        from blockmpec.solvers.engines.scaling import load_scaling
+
+        if coupling not in COUPLINGS:
+            raise ValueError(f"interior fixed point: unknown coupling {coupling!r}; use one of {', '.join(COUPLINGS)}")
+        row_scale, column_scale = load_scaling(lp, ops)
+        super().__init__(lp, interface_blocks(lp), row_scale=row_scale, column_scale=column_scale, **ipm)
+        self.ops = ops
+        self.coupling = coupling
+        factor = np.broadcast_to(ops.friction - ops.dilatancy, (ops.n_interfaces,)).astype(float)
+        self.cohesion_factor = factor
+        self.friction_position = self._in_position[lp.rows["friction"]]
+        self.normal_columns = lp.columns["x"][1::3]
+        self.fold_weight = float(fold_weight)
+        self.fold_off = float(fold_off)
+        top = float(np.max(factor, initial=0.0))
+        self.fold_costs = factor / top if top > 0 else np.zeros_like(factor)
+        self.base_c = self.c.copy()
+        self.current_fold = 0.0
+        self.mu0: float | None = None
+        self.n_star = np.zeros(ops.n_interfaces)
+        self.set_n_star(self.n_star)  # exact coupling: h = 0 on the friction rows, for good
+        #: the dual rows' inequality matrix (tan(psi)); self.G becomes the primal one (tan(phi))
+        self.G_dual = self.G
+        self.g_dual_blocks = self.g_blocks
+        if coupling == "exact":
+            rows = self.friction_position
+            cols = np.repeat(self.normal_columns, 2)
+            extra = sp.csr_array((self.in_scale[rows] * np.repeat(factor, 2) * self.column_scale[cols], (rows, cols)),
+                                 shape=self.G.shape)
+            self.G = (self.G + extra).tocsr()
+            local_of = np.full(self.c.size, -1)
+            local_of[self.block_columns.ravel()] = np.tile(np.arange(self.k), self.n_blocks)
+            coo = self.G.tocoo()
+            g = np.zeros((self.G.shape[0], self.k))
+            np.add.at(g, (coo.row, local_of[coo.col]), coo.data)
+            self.g_blocks = g[self.block_rows]
+        self.set_fold(self.fold_weight)
+        self.lam_column = int(lp.columns["lam"][0])
+        #: a StoppingCriterion that records every iteration (set by :func:`run_interior`), or None
+        self.criterion = None
+        #: max relative residual of (3) at the last iterate seen, and the best so far
+        self.last_error = self.best_error = np.inf
+
+    # ------------------------------------------------------------------ the moving data
+    def set_n_star(self, n_star: np.ndarray) -> None:
+        """Friction rows' right-hand side ``-(tan(phi) - tan(psi)) n*`` (both rows of each interface)."""
+        self.n_star = n_star
+        upper = np.repeat(-self.cohesion_factor * n_star, 2)
+        self.h[self.friction_position] = self.in_scale[self.friction_position] * upper
+
+    def set_fold(self, weight: float) -> None:
+        """Objective ``-lam - weight * sum_k w_k n_k`` (internal scaling)."""
+        self.c = self.base_c.copy()
+        self.c[self.normal_columns] -= weight * self.fold_costs * self.column_scale[self.normal_columns]
+        self.current_fold = weight
+
+    def normal_forces(self, it: IPMIterate) -> np.ndarray:
+        """Interface normal forces ``n`` of an iterate (the compiled LP's units)."""
+        return self.column_scale[self.normal_columns] * it.v[self.normal_columns]
+
+    def before_iteration(self, it: IPMIterate) -> None:
+        """Reset ``n* := min(n, 0)`` (lagged coupling), set the aim term's weight, record the iterate."""
+        mu = float(it.s @ it.y) / it.s.size
+        if self.mu0 is None:
+            self.mu0 = mu
+        n = self.normal_forces(it)
+        norm = float(np.linalg.norm(n))
+        change = float(np.linalg.norm(n - self.n_star)) / (norm if norm > 0 else 1.0)
+        if self.coupling == "lagged":
+            self.set_n_star(np.minimum(n, 0.0))
+        if self.fold_weight > 0:
+            self.set_fold(self.fold_weight if mu > self.fold_off * self.mu0 else 0.0)
+        primal, dual, complementarity = self.measures(it)
+        self.last_error = max(primal, dual, complementarity)
+        self.best_error = min(self.best_error, self.last_error)
+        if self.criterion is not None:
+            lam = float(self.column_scale[self.lam_column] * it.v[self.lam_column])
+            self.criterion.iterations += 1
+            self.criterion.record(kkt_residual=max(primal, dual, complementarity), primal=primal, dual=dual,
+                                  complementarity=complementarity, mu=mu, multiplier=lam,
+                                  fold_weight=self.current_fold, n_change=change if self.coupling == "lagged" else 0.0)
+
+    # ------------------------------------------------------------------ Newton on (3)
+    def _block_systems(self, it: IPMIterate):
+        """Per block ``[[0, B_psi^T], [B_phi, -I]]`` and ``sqrt(d)`` (see :meth:`BlockIPM._block_systems`)."""
+        k, r = self.k, self.rows_per_block
+        d = it.y / np.maximum(it.s, SLACK_RATIO_FLOOR * it.y)
+        sqrt_d = np.sqrt(d)[self.block_rows]
+        M = np.zeros((self.n_blocks, k + r, k + r))
+        M[:, :k, k:] = np.swapaxes(self.g_dual_blocks * sqrt_d[:, :, None], 1, 2)
+        M[:, k:, :k] = self.g_blocks * sqrt_d[:, :, None]
+        idx = np.arange(r)
+        M[:, k + idx, k + idx] = -1.0
+        return M, sqrt_d
+
+    def reduced_matrix(self, it: IPMIterate):
+        """``K = A_B H^{-1} A_B^T + 1e-12 diag(K)`` (not symmetric under the exact coupling)."""
+        k, nb = self.k, self.n_blocks
+        M, sqrt_d = self._block_systems(it)
+        M_inv = np.linalg.inv(M)
+        Hinv = M_inv[:, :k, :k]
+        if self.coupling != "exact":
+            Hinv = 0.5 * (Hinv + np.swapaxes(Hinv, 1, 2))
+        Hinv_mat = sp.csr_array((Hinv.ravel(), self._hinv_indices, self._hinv_indptr), shape=(nb * k, nb * k))
+        K = (self.A_B @ Hinv_mat @ self.A_B.T).tocsc()
+        K = K + sp.diags(1e-12 * np.abs(K.diagonal()) + 1e-300, format="csc")
+        return K, (M_inv, sqrt_d)
+
+    def residuals(self, it: IPMIterate):
+        r_b = self.A @ it.v - self.b
+        r_h = self.G @ it.v + it.s - self.h
+        r_c = self.c - self.A.T @ it.w + self.G_dual.T @ it.y
+        return r_b, r_h, r_c
+
+    def measures(self, it: IPMIterate, residuals=None) -> tuple[float, float, float]:
+        """Relative (primal, dual, complementarity) of an iterate."""
+        r_b, r_h, r_c = self.residuals(it) if residuals is None else residuals
+        primal = max(_inf(r_b) / (1 + _inf(self.b)), _inf(r_h) / (1 + _inf(self.h)))
+        dual = _inf(r_c) / (1 + _inf(self.c))
+        return primal, dual, float(it.s @ it.y) / (1 + abs(float(self.c @ it.v)))
+
+    def _refined_direction(self, it: IPMIterate, factors, r_b, r_h, r_c, r_mu, direction=None, sweeps: int = 2):
+        """:meth:`BlockIPM._refined_direction` with ``G_psi^T`` in the dual rows."""
+        dv, ds, dw, dy = self._direction(it, factors, r_b, r_h, r_c, r_mu) if direction is None else direction
+        scale = 1e-2 * self.tol
+        for _ in range(sweeps):
+            e_b = -r_b - self.A @ dv
+            e_h = -r_h - self.G @ dv - ds
+            e_c = -r_c + self.A.T @ dw - self.G_dual.T @ dy
+            e_mu = r_mu - (it.y * ds + it.s * dy)
+            if (_inf(e_b) <= scale * (1 + _inf(self.b)) and _inf(e_c) <= scale * (1 + _inf(self.c))
+                    and _inf(e_h) <= scale * (1 + _inf(self.h)) and _inf(e_mu) <= scale * max(_inf(r_mu), 1e-300)):
+                break
+            cv, cs, cw, cy = self._direction(it, factors, -e_b, -e_h, -e_c, e_mu)
+            dv, ds, dw, dy = dv + cv, ds + cs, dw + cw, dy + cy
+        return dv, ds, dw, dy
+
+
+def run_interior(ops, lp, *, tol: float, max_iterations: int, time_limit: float, fold_weight: float,
+                 fold_off: float = FOLD_OFF, ordering: str = "auto"):
+    r"""The interior-point fixed point on the compiled step LP ``lp``: ``(RunOutput, facts)``.
+
+    One :class:`InteriorFixedPoint` run with the aim term ``fold_weight``; if it does not
+    end with a success (``OPTIMAL`` or ``ACCEPTABLE``) and ``fold_weight > 0``, a second
+    run without the aim term in the time left.  A
+    :class:`~blockmpec.solvers.engines.stopping.StoppingCriterion` records every
+    iteration (``kkt_residual`` = max of the relative primal, dual and complementarity
+    residuals of (3)) and the final test ``kkt_residual <= tol``.
+
+    Returns
+    -------
+    RunOutput, dict
+        Status ``CONVERGED`` (residuals of (3) at most ``tol``), ``ACCEPTABLE`` (at most
+        1e-6 after the residuals stalled; the verifier decides), or the IPM's failure
+        status; facts: ``lp_solves`` (interior runs), ``lp_time_s`` (``{"interior": s}``),
+        ``fold_weight_used``.
+    """
+    import time
+
+    from blockmpec import facts as fact_names
+    from blockmpec.result import Solution, Status
+    from blockmpec.solver import RunOutput
+    from blockmpec.solvers.engines.highs import static_lp_solution
+    from blockmpec.solvers.engines.stopping import StoppingCriterion
+
+    crit = StoppingCriterion(tol, max_iterations, time_limit, measure_name="kkt_residual").start()
+    runs, seconds = 0, 0.0
+    weights = [fold_weight, 0.0] if fold_weight > 0 else [0.0]
+    out = engine = None
+    for weight in weights:
+        left = crit.remaining()
+        if left <= 0:
+            break
+        t0 = time.perf_counter()
+        engine = InteriorFixedPoint(lp, ops, fold_weight=weight, fold_off=fold_off, tol=tol,
+                                    max_iterations=max_iterations, time_limit=left, ordering=ordering)
+        engine.criterion = crit
+        out = engine.solve()
+        seconds += time.perf_counter() - t0
+        runs += 1
+        if out.status.is_success or out.status is Status.TIME_LIMIT:
+            break
+    facts = {fact_names.LP_SOLVES: runs, fact_names.LP_TIME_S: {"interior": round(seconds, 6)},
+             "fold_weight_used": engine.fold_weight if engine is not None else None}
+    if out is None:
+        return RunOutput(Status.TIME_LIMIT, Solution(), crit.iterations, crit.trace,
+                         f"time limit {time_limit:g} s reached before the interior run", extra=facts), facts
+    sol = static_lp_solution(lp, out) if out.status.is_success else Solution()
+    # the last iterate recorded is the one that met the tolerance (OPTIMAL); a stalled run returns its best
+    error = {Status.OPTIMAL: engine.last_error, Status.ACCEPTABLE: engine.best_error}.get(out.status, np.inf)
+    status = out.status
+    if status is Status.OPTIMAL:
+        status = Status.CONVERGED
+    crit.check(error, multiplier=sol.multiplier, fold_weight=0.0)
+    message = out.message if status is not Status.CONVERGED else (
+        f"interior-point fixed point: residuals of (3) {error:.1e} <= {tol:g} after {out.iterations} iterations")
+    if runs > 1:
+        message += " (second run, without the aim term: the first one failed)"
+    return RunOutput(status, sol, crit.iterations, crit.trace, message, out.raw_status, extra=facts), facts

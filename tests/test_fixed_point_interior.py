@@ -1,0 +1,139 @@
+"""The interior-point fixed point (``fixed-point`` with ``engine="interior"``).
+
+One interior-point run of Newton's method on (3), written as the step LP (5) with
+``n* = n`` (:mod:`blockmpec.solvers.engines.interior_fixed_point`).  Checked here: its
+answers are solutions of (3) by the shared verifier at 1e-8; they never exceed the
+associative multiplier nor fall below a closed-form minimum; the aim term brings them
+to the minimum on two blocks; where (3) has one multiplier they match the simplex
+fixed point; the trace is the StoppingCriterion's; the ``auto`` rule and bad options.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import blockmpec as bm
+from blockmpec.cases import closed_form
+from blockmpec.solvers.engines.interior_fixed_point import InteriorFixedPoint, run_interior
+
+VERIFY_TOL = 1e-8
+TWO_BLOCK_GRID = [(3.0, 0.65), (5.0, 1.2), (2.0, 0.3), (4.0, 0.5), (1.5, 0.9)]
+
+
+@pytest.mark.parametrize(("eta", "mu"), TWO_BLOCK_GRID)
+def test_two_blocks_verified_between_minimum_and_associative(eta, mu):
+    ops = bm.assemble(bm.cases.two_blocks(eta=eta, mu=mu))
+    res = bm.solve(ops, "fixed-point", engine="interior", verify_tol=VERIFY_TOL)
+    assert res.success, res.message
+    assert res.status is bm.Status.CONVERGED
+    assoc = bm.solve(ops, "static-lp").multiplier
+    minimum = closed_form("two-blocks", "non-associative", eta=eta, mu=mu)
+    assert res.multiplier <= assoc + 1e-9 * max(1.0, assoc)
+    assert res.multiplier >= minimum - 1e-9
+
+
+@pytest.mark.parametrize(("eta", "mu"), [(3.0, 0.65), (5.0, 1.2)])
+def test_aim_term_reaches_the_two_block_minimum(eta, mu):
+    """Issue 13's cases: the associative 0.41973 / 0.353, the minimum 1/3 / 0.2.
+
+    Without the aim term the run stops inside the continuum of solutions (0.396 / 0.330)."""
+    ops = bm.assemble(bm.cases.two_blocks(eta=eta, mu=mu))
+    minimum = closed_form("two-blocks", "non-associative", eta=eta, mu=mu)
+    aimed = bm.solve(ops, "fixed-point", engine="interior", verify_tol=VERIFY_TOL)
+    plain = bm.solve(ops, "fixed-point", engine="interior", interior_weight=0.0, verify_tol=VERIFY_TOL)
+    assert aimed.success and plain.success
+    assert abs(aimed.multiplier - minimum) <= 1e-3 * minimum
+    assert plain.multiplier > aimed.multiplier + 1e-2
+
+
+@pytest.mark.parametrize("structure", [
+    bm.cases.single_block(),
+    bm.cases.two_blocks(eta=1.0, mu=0.65, dilatancy=0.65),  # associative flow: (3) is the LP's KKT system
+    bm.cases.wall(courses=3, blocks_per_course=2, mu=0.8, dilatancy=0.8),
+])
+def test_matches_simplex_fixed_point_where_the_multiplier_is_unique(structure):
+    ops = bm.assemble(structure)
+    interior = bm.solve(ops, "fixed-point", engine="interior", verify_tol=VERIFY_TOL)
+    simplex = bm.solve(ops, "fixed-point", engine="simplex", verify_tol=VERIFY_TOL)
+    assert interior.success and simplex.success
+    assert interior.multiplier == pytest.approx(simplex.multiplier, rel=1e-7, abs=1e-9)
+
+
+def test_wall_verified_and_not_above_associative():
+    ops = bm.assemble(bm.cases.wall(courses=6, blocks_per_course=3))
+    res = bm.solve(ops, "fixed-point", engine="interior", verify_tol=VERIFY_TOL)
+    assert res.success, res.message
+    assert res.multiplier <= bm.solve(ops, "static-lp").multiplier + 1e-9
+
+
+def test_trace_is_the_stopping_criterion_s_and_facts_are_named():
+    ops = bm.assemble(bm.cases.two_blocks(eta=3.0, mu=0.65))
+    res = bm.solve(ops, "fixed-point", engine="interior")
+    assert res.trace and all("kkt_residual" in rec and "time_s" in rec for rec in res.trace)
+    assert [rec["iteration"] for rec in res.trace] == list(range(1, len(res.trace) + 1))
+    assert res.trace[-1]["kkt_residual"] <= 1e-9
+    # the aim term is on at the start and exactly off at the end
+    assert res.trace[0]["fold_weight"] > 0 and res.trace[-2]["fold_weight"] == 0.0
+    assert res.extra["lp_solves"] == 1 and res.extra["lp_time_s"]["interior"] > 0
+    assert res.extra["engine"] == "interior"
+
+
+def test_exact_coupling_reads_coulomb_rows_and_dilatant_flow():
+    """G (primal rows) carries tan(phi), G_dual tan(psi): they differ only in the friction rows' n entries."""
+    from blockmpec.formulations import modified_lp
+    from blockmpec.formulations._pyomo import compiled_linear
+
+    ops = bm.assemble(bm.cases.two_blocks(eta=3.0, mu=0.65, dilatancy=0.2))
+    lp = compiled_linear(modified_lp, ops, np.zeros(ops.n_interfaces), slope=ops.dilatancy)
+    eng = InteriorFixedPoint(lp, ops)
+    diff = (eng.G - eng.G_dual).tocoo()
+    diff.eliminate_zeros()
+    assert set(diff.row.tolist()) == set(eng.friction_position.tolist())
+    assert set(diff.col.tolist()) == set(eng.normal_columns.tolist())
+    # in the LP's own units the added entry is tan(phi) - tan(psi)
+    rows, cols = diff.row, diff.col
+    unscaled = diff.data / (eng.in_scale[rows] * eng.column_scale[cols])
+    assert np.allclose(unscaled, 0.65 - 0.2)
+
+
+def test_lagged_coupling_is_kept_for_the_measurement_and_does_not_converge_here():
+    """The lead's first proposal (n* := n before each LP iteration) stalls on two blocks (docstring)."""
+    from blockmpec.formulations import modified_lp
+    from blockmpec.formulations._pyomo import compiled_linear
+
+    ops = bm.assemble(bm.cases.two_blocks(eta=3.0, mu=0.65))
+    lp = compiled_linear(modified_lp, ops, np.zeros(ops.n_interfaces), slope=ops.dilatancy)
+    lagged = InteriorFixedPoint(lp, ops, coupling="lagged").solve()
+    exact = InteriorFixedPoint(lp, ops).solve()
+    assert exact.status is bm.Status.OPTIMAL
+    assert lagged.status is not bm.Status.OPTIMAL
+
+
+def test_auto_engine_rule():
+    from blockmpec.solvers.fixed_point import AUTO_INTERIOR_BLOCKS, select_engine
+
+    assert select_engine("auto", AUTO_INTERIOR_BLOCKS - 1) == "simplex"
+    assert select_engine("auto", AUTO_INTERIOR_BLOCKS) == "interior"
+    assert select_engine("simplex", 10 ** 6) == "simplex"
+    ops = bm.assemble(bm.cases.two_blocks())
+    assert bm.solve(ops, "fixed-point").extra.get("engine") == "simplex"
+
+
+def test_time_limit_before_the_run_says_so():
+    from blockmpec.formulations import modified_lp
+    from blockmpec.formulations._pyomo import compiled_linear
+
+    ops = bm.assemble(bm.cases.two_blocks())
+    lp = compiled_linear(modified_lp, ops, np.zeros(ops.n_interfaces), slope=ops.dilatancy)
+    out, facts = run_interior(ops, lp, tol=1e-9, max_iterations=50, time_limit=0.0, fold_weight=0.1)
+    assert out.status is bm.Status.TIME_LIMIT and facts["lp_solves"] == 0
+
+
+@pytest.mark.parametrize(("options", "fragment"), [({"engine": "barrier"}, "engine"),
+                                                    ({"interior_weight": -1.0}, "interior_weight")])
+def test_bad_engine_options_are_one_line(options, fragment):
+    ops = bm.assemble(bm.cases.two_blocks())
+    with pytest.raises(bm.OptionError) as err:
+        bm.solve(ops, "fixed-point", **options)
+    assert fragment in str(err.value) and "\n" not in str(err.value)
