@@ -75,12 +75,28 @@ primal/dual feasibility tolerances 1e-9 (light interfaces would otherwise show
 Performance: both LPs are built and compiled once in ``setup`` and kept in HiGHS;
 an iteration changes only row upper bounds (friction rows' cohesion, deviation
 rows, the ``lam`` floor), so each re-solve is warm (dual simplex from the last basis).
+
+Engines (``engine``).  Everything above is the ``"simplex"`` engine.  ``"interior"``
+(:mod:`blockmpec.solvers.engines.interior_fixed_point`) replaces the sequence of LPs by one
+interior-point run of Newton's method on (3), written as the step LP (5) with ``n* = n``
+(Coulomb rows in the primal, ``tan(psi)`` flow in the dual); its aim term
+``interior_weight`` plays the part of the least-compressed tie-break, and it stops when
+the residuals of (3) are at most ``tol``; ``start``, ``tie_break``, ``fold_weight``,
+``relaxation``, ``acceleration`` and ``multistart`` do not apply to it.  ``"auto"`` (the
+default) takes the simplex engine below :data:`AUTO_INTERIOR_BLOCKS` free blocks (so the
+small structures' answers are those of the simplex engine), the interior one from there
+up, and falls back to the simplex engine in the time left when the interior run does not
+reach a solution of (3) (residuals above 1e-6).  On the 1,010-block wall the interior
+engine costs about one cold block-IPM LP against the simplex engine's 46x
+(``studies/fixed_point_ratio.py``); it does not converge on every large wall (the
+module's docstring), hence the fallback.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass, field
 
+from blockmpec import facts as fact_names
 from blockmpec import options as check
 from blockmpec.facts import ASSOCIATIVE_MULTIPLIER
 from blockmpec.registry import register_solver
@@ -165,22 +181,35 @@ class FixedPoint(SolverBase):
     Options = FixedPointOptions
 
     def setup(self, ops):
-        from blockmpec.solvers.engines.lp_sequence import LPSequence
-
         self.ops = ops
         o = self.options
         self.engine = select_engine(o.engine, ops.n_free_blocks)
+        self.sequence = None
         if self.engine == "interior":
             import numpy as np
 
             from blockmpec.formulations import modified_lp
             from blockmpec.formulations._pyomo import compiled_linear
 
+            # the HiGHS sequence of a fallback ("auto") is built only when it is needed
             self.step_lp = compiled_linear(modified_lp, ops, np.zeros(ops.n_interfaces), slope=ops.dilatancy)
             return
+        self._build_sequence()
+
+    def _build_sequence(self) -> None:
+        from blockmpec.solvers.engines.lp_sequence import LPSequence
+
+        o = self.options
         needs_lp1 = o.start in ("associative", "dead-load", "random") or o.multistart > 1
-        self.sequence = LPSequence(ops, alpha=0.0, tie_break=o.tie_break, algorithm=o.algorithm,
+        self.sequence = LPSequence(self.ops, alpha=0.0, tie_break=o.tie_break, algorithm=o.algorithm,
                                    need_associative=needs_lp1, fold_weight=o.fold_weight)
+
+    def _verified(self, out: RunOutput) -> bool:
+        """A success whose residuals of (3) are at most :data:`MULTISTART_VERIFY_TOL`."""
+        from blockmpec.verify import residuals
+
+        return (out.status.is_success and out.solution.multiplier is not None
+                and all(v <= MULTISTART_VERIFY_TOL for v in residuals(self.ops, out.solution, associative=False).values()))
 
     def _run_once(self, start: str, seed: int, time_limit: float):
         from blockmpec.solvers.engines.lp_sequence import run_sequence
@@ -191,35 +220,50 @@ class FixedPoint(SolverBase):
                             acceleration=o.acceleration, memory=o.memory, seed=seed)
 
     def _run_interior(self) -> RunOutput:
+        """The interior engine; under ``engine="auto"`` an unverified run falls back to the simplex engine."""
+        import time
+
         from blockmpec.solvers.engines.interior_fixed_point import run_interior
 
         o = self.options
-        out, _ = run_interior(self.ops, self.step_lp, tol=o.tol, max_iterations=o.max_iterations,
-                              time_limit=o.time_limit, fold_weight=o.interior_weight)
+        t0 = time.perf_counter()
+        out, facts = run_interior(self.ops, self.step_lp, tol=o.tol, max_iterations=o.max_iterations,
+                                  time_limit=o.time_limit, fold_weight=o.interior_weight)
         out.extra["engine"] = "interior"
-        return out
+        left = o.time_limit - (time.perf_counter() - t0)
+        if o.engine != "auto" or self._verified(out) or left <= 0:
+            return out
+        # the interior run did not reach a solution of (3): the simplex engine, in the time left
+        self._build_sequence()
+        simplex = self._run_simplex(o.time_limit - (time.perf_counter() - t0))
+        simplex.extra[fact_names.LP_SOLVES] = simplex.extra.get(fact_names.LP_SOLVES, 0) + facts[fact_names.LP_SOLVES]
+        simplex.extra[fact_names.LP_TIME_S] = {**simplex.extra.get(fact_names.LP_TIME_S, {}), **facts[fact_names.LP_TIME_S]}
+        simplex.extra["engine"] = "interior, then simplex"
+        simplex.extra["interior_status"] = out.status.value
+        simplex.trace = [{**rec, "engine": "interior"} for rec in out.trace] + simplex.trace
+        simplex.message = f"{simplex.message} (after an interior run that ended {out.status.value}: {out.message})"
+        return simplex
 
     def run(self) -> RunOutput:
-        import time
-
-        from blockmpec.verify import residuals
-
-        o = self.options
         if self.engine == "interior":
             return self._run_interior()
+        return self._run_simplex(self.options.time_limit)
+
+    def _run_simplex(self, time_limit: float) -> RunOutput:
+        import time
+
+        o = self.options
         t0 = time.perf_counter()
-        out, facts = self._run_once(o.start, o.seed, o.time_limit)
+        out, facts = self._run_once(o.start, o.seed, time_limit)
         runs = [(out.solution.multiplier, o.start, o.seed, out.status.value)]
         if o.multistart > 1:
             # further runs from seeded random starts; keep the lowest verified solution of (3)
             def verified(run_out):
-                return (run_out.status is Status.CONVERGED and run_out.solution.multiplier is not None
-                        and all(v <= MULTISTART_VERIFY_TOL
-                                for v in residuals(self.ops, run_out.solution, associative=False).values()))
+                return run_out.status is Status.CONVERGED and self._verified(run_out)
 
             best, best_facts = (out, facts) if verified(out) else (None, None)
             for i in range(1, o.multistart):
-                left = o.time_limit - (time.perf_counter() - t0)
+                left = time_limit - (time.perf_counter() - t0)
                 if left <= 0:
                     break
                 other, other_facts = self._run_once("random", o.seed + i, left)

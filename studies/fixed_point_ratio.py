@@ -1,14 +1,23 @@
-"""The fixed point's total time against one cold associative LP solve (issue 6's ratio).
+"""The fixed point's total time against one cold associative LP solve (issue 6's ratio; issue 14's target).
 
 For each running-bond wall size, in one process and one run:
 
 * ``cold LP``: ``static-lp`` with each algorithm of ``--lp-algorithms`` (solve time only;
-  set-up, i.e. Pyomo build + compile + load, is reported apart);
+  set-up, i.e. Pyomo build + compile + load, is reported apart; ``--lp-algorithms block-ipm``
+  is the cold LP of issue 14's target);
 * ``fixed point``: ``fixed-point`` with each option set of ``--fixed-point`` (default: its
   defaults, and the old default ``start=associative, tie_break=closest``): solve time,
   iterations, status, lam, and the seconds its LPs took per kind (the start LP, the step
   LPs (5), the tie-break LPs; ``Result.extra["lp_time_s"]``);
-* the ratios ``fixed point / cold LP`` for each LP algorithm.
+* the ratios ``fixed point / cold LP`` for each LP algorithm, in wall-clock seconds of the
+  solve (``ratio_vs_*``) and in CPU seconds of the solve (``cpu_ratio_vs_*``: the method's
+  ``run`` under ``time.process_time``, set-up and verification excluded; the machine is
+  shared, so CPU time is the fairer clock).
+
+Example (issue 14: the interior engine against one cold block-IPM LP)::
+
+    python studies/fixed_point_ratio.py --walls 20x50,100x100 --lp-algorithms block-ipm \
+        --fixed-point "engine=interior;engine=interior,interior_weight=0"
 
 Usage::
 
@@ -32,6 +41,31 @@ from benchmark_scaling import markdown, write_csv  # noqa: E402
 from lp_timing import wall_for  # noqa: E402
 
 OUT = Path(__file__).parent / "output" / "fixed_point_ratio"
+
+
+def timed_solve(ops, method: str, **options):
+    """``bm.solve`` plus the CPU seconds of the method's ``run`` alone (set-up and verification excluded)."""
+    import time
+
+    from blockmpec.registry import get_solver
+
+    cls = get_solver(method)
+    original = cls.run
+    clock: dict = {}
+
+    def run(self):
+        t0 = time.process_time()
+        try:
+            return original(self)
+        finally:
+            clock["cpu_s"] = time.process_time() - t0
+
+    cls.run = run
+    try:
+        res = bm.solve(ops, method, **options)
+    finally:
+        cls.run = original
+    return res, clock.get("cpu_s", math.nan)
 
 
 def parse_options(text: str) -> dict:
@@ -60,22 +94,27 @@ def measure(wall: str, lp_algorithms: list[str], fixed_points: list[str], time_l
     ops = bm.assemble(structure)
     base: dict = {"blocks": ops.n_free_blocks, "wall": wall}
     for algorithm in lp_algorithms:
-        res = bm.solve(ops, "static-lp", algorithm=algorithm, time_limit=time_limit)
+        res, cpu = timed_solve(ops, "static-lp", algorithm=algorithm, time_limit=time_limit)
         base[f"lp_{algorithm}_s"] = res.solve_time_s
+        base[f"lp_{algorithm}_cpu_s"] = cpu
         base[f"lp_{algorithm}_setup_s"] = res.build_time_s
         base[f"lp_{algorithm}_status"] = res.status.value
         base[f"lp_{algorithm}_multiplier"] = res.multiplier
-        print(f"{wall}: static-lp {algorithm} {res.status.value} {res.solve_time_s:.3g} s", flush=True)
+        print(f"{wall}: static-lp {algorithm} {res.status.value} {res.solve_time_s:.3g} s (CPU {cpu:.3g} s)", flush=True)
     rows = []
     for text in fixed_points:
-        fp = bm.solve(ops, "fixed-point", time_limit=time_limit, **parse_options(text))
-        row = {**base, "fixed_point": text, "fp_s": fp.solve_time_s, "fp_setup_s": fp.build_time_s,
-               "fp_status": fp.status.value, "fp_iterations": fp.iterations, "fp_multiplier": fp.multiplier,
+        fp, cpu = timed_solve(ops, "fixed-point", time_limit=time_limit, **parse_options(text))
+        row = {**base, "fixed_point": text, "fp_s": fp.solve_time_s, "fp_cpu_s": cpu, "fp_setup_s": fp.build_time_s,
+               "fp_status": fp.status.value, "fp_verified": bool(fp.success), "fp_engine": fp.extra.get("engine"),
+               "fp_iterations": fp.iterations, "fp_multiplier": fp.multiplier,
                **{f"fp_{k}_s": v for k, v in fp.extra.get("lp_time_s", {}).items()}}
         for algorithm in lp_algorithms:
             lp = base[f"lp_{algorithm}_s"]
             row[f"ratio_vs_{algorithm}"] = fp.solve_time_s / lp if lp else math.nan
-        print(f"{wall}: fixed-point {text}: {fp.status.value} lam={fp.multiplier} {fp.solve_time_s:.3g} s", flush=True)
+            lp_cpu = base[f"lp_{algorithm}_cpu_s"]
+            row[f"cpu_ratio_vs_{algorithm}"] = cpu / lp_cpu if lp_cpu else math.nan
+        print(f"{wall}: fixed-point {text}: {fp.status.value} (verified {bool(fp.success)}) lam={fp.multiplier} "
+              f"{fp.solve_time_s:.3g} s (CPU {cpu:.3g} s)", flush=True)
         rows.append(row)
     return rows
 
@@ -92,9 +131,12 @@ def main(argv: list[str] | None = None) -> list[dict]:
     algorithms = args.lp_algorithms.split(",")
     walls = args.walls.split(",") if args.walls else args.sizes.split(",")
     rows = [r for w in walls for r in measure(w, algorithms, args.fixed_point.split(";"), args.time_limit)]
-    keys = ["blocks", *[f"lp_{a}_s" for a in algorithms], "fixed_point", "fp_s", "fp_iterations", "fp_status",
-            "fp_multiplier", "fp_associative_s", "fp_step_s", "fp_tie_break_s", *[f"ratio_vs_{a}" for a in algorithms]]
-    print(markdown(rows, [(k, k, "{}" if k in ("fp_status", "fixed_point") else "{:.3g}") for k in keys]))
+    keys = ["blocks", *[f"lp_{a}_cpu_s" for a in algorithms], "fixed_point", "fp_engine", "fp_cpu_s", "fp_iterations",
+            "fp_status", "fp_verified", "fp_multiplier", *[f"ratio_vs_{a}" for a in algorithms],
+            *[f"cpu_ratio_vs_{a}" for a in algorithms]]
+    text_keys = ("fp_status", "fixed_point", "fp_engine", "fp_verified")
+    print(markdown(rows, [(k, k, "{}" if k in text_keys else "{:.5g}" if k == "fp_multiplier" else "{:.3g}")
+                          for k in keys]))
     OUT.mkdir(parents=True, exist_ok=True)
     path = OUT / f"ratio_{'_'.join(walls)}.csv"
     write_csv(path, rows)

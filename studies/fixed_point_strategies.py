@@ -73,6 +73,9 @@ STRATEGIES: list[tuple[str, str, dict]] = [
      {"start": "associative", "tie_break": "min-lambda", "multistart": 3}),
     ("fp dead-load/least-compressed, multistart 3", FP,
      {"start": "dead-load", "tie_break": "least-compressed", "multistart": 3}),
+    ("fp interior, aim 0.1 (engine=interior)", FP, {"engine": "interior"}),
+    ("fp interior, aim 0.03", FP, {"engine": "interior", "interior_weight": 0.03}),
+    ("fp interior, no aim", FP, {"engine": "interior", "interior_weight": 0.0}),
     ("mcp-newton (continuation)", "mcp-newton", {}),
     ("mcp-newton (no continuation)", "mcp-newton", {"continuation": False}),
     ("slp alpha=0.01 beta=0.6 (Gilbert)", "slp", {"alpha": 0.01, "beta": 0.6}),
@@ -184,7 +187,9 @@ def run_study(argv: list[str] | None, strategies_all: list, out: Path, default_t
     parser.add_argument("--no-large", action="store_true", help="leave out the large walls")
     parser.add_argument("--time-limit", type=float, default=default_time_limit, help="seconds per run")
     parser.add_argument("--from-csv", action="store_true", help="re-tabulate the last runs.csv without running")
+    parser.add_argument("--out", default=str(out), help="output folder (default: the study's own)")
     args = parser.parse_args(argv)
+    out = Path(args.out)
     strategies = [s for s in strategies_all if not args.only or any(o in s[0] for o in args.only.split(","))]
     t0 = time.perf_counter()
     if args.from_csv:

@@ -137,3 +137,19 @@ def test_bad_engine_options_are_one_line(options, fragment):
     with pytest.raises(bm.OptionError) as err:
         bm.solve(ops, "fixed-point", **options)
     assert fragment in str(err.value) and "\n" not in str(err.value)
+
+
+def test_auto_falls_back_to_the_simplex_engine_when_the_interior_run_fails(monkeypatch):
+    """Under ``engine="auto"`` an interior run that ends without a solution of (3) hands over to the simplex
+    engine: here the interior run gets 3 iterations (it needs about 8), the simplex engine 2 steps suffice."""
+    from blockmpec.solvers import fixed_point
+
+    monkeypatch.setattr(fixed_point, "AUTO_INTERIOR_BLOCKS", 1)
+    ops = bm.assemble(bm.cases.two_blocks(eta=3.0, mu=0.65))
+    res = bm.solve(ops, "fixed-point", max_iterations=3, verify_tol=VERIFY_TOL)
+    assert res.extra["engine"] == "interior, then simplex"
+    assert res.extra["interior_status"] != "converged"
+    assert res.success and res.multiplier == pytest.approx(1.0 / 3.0, rel=1e-9)
+    assert set(res.extra["lp_time_s"]) >= {"interior", "step"}
+    explicit = bm.solve(ops, "fixed-point", engine="interior", max_iterations=3)
+    assert not explicit.success and explicit.extra["engine"] == "interior"
