@@ -6,12 +6,16 @@ set's sweep stops at its first wall without a verified answer.  Per run: status,
 verified, lam (and the associative lam it started from), wall-clock and process CPU
 seconds (the CPU column is the fair one on a shared machine: Ipopt and MUMPS are
 single-threaded here, so CPU seconds are what the run would take alone), Ipopt
-iterations and the iterations per eps stage.  Usage::
+iterations and the iterations per eps stage.  With ``--fixed-point`` each wall is also solved
+once by the registered ``fixed-point`` method (its lam and CPU seconds: the reference a
+heuristic for the minimum of (4) should not exceed, and the cost of ``start="fixed-point"``).
+``--keep-going`` runs every wall of a set even after a failure.  Usage::
 
-    python studies/nlp_scaling.py [--walls 5x4,10x5,10x10,20x10] [--time-limit 60]
+    python studies/nlp_scaling.py [--walls 5x4,10x5,10x10,20x10] [--time-limit 60] [--fixed-point]
                                   [--configs "default={};factor-0.01={'eps_factor': 0.01}"] [--tag T]
 
-Writes ``studies/output/nlp/nlp_scaling[_TAG].csv`` and prints a table.
+Writes ``studies/output/nlp/nlp_scaling[_TAG].csv`` and prints a table, then a markdown table
+(one row per wall: each set's CPU seconds, status and lam, the fixed point's lam).
 """
 
 from __future__ import annotations
@@ -31,8 +35,9 @@ from certificate_study import _fmt  # noqa: E402
 
 OUT = Path(__file__).parent / "output" / "nlp"
 COLUMNS = ["config", "wall", "blocks", "status", "verified", "multiplier", "associative", "wall_s", "cpu_s",
-           "setup_s", "ipopt_iterations", "stages", "message"]
-DEFAULT_CONFIGS = "default={};factor-0.01={'eps_factor': 0.01}"
+           "solve_s", "setup_s", "ipopt_iterations", "stages", "message"]
+DEFAULT_CONFIGS = ("default={};factor-0.01={'eps_factor': 0.01};"
+                   "penalty-fp={'start': 'fixed-point', 'complementarity': 'penalty'}")
 
 
 def parse_configs(text: str) -> dict[str, dict]:
@@ -47,17 +52,18 @@ def parse_configs(text: str) -> dict[str, dict]:
     return out
 
 
-def run_wall(config: str, courses: int, per_course: int, time_limit: float, options: dict) -> dict:
-    """Solve one running-bond wall with ``nlp`` and ``options``; one table row."""
+def run_wall(config: str, courses: int, per_course: int, time_limit: float, options: dict,
+             method: str = "nlp") -> dict:
+    """Solve one running-bond wall with ``method`` (``nlp``) and ``options``; one table row."""
     structure = bm.cases.wall(courses=courses, blocks_per_course=per_course)
     c0, t0 = time.process_time(), time.perf_counter()
-    res = bm.solve(structure, "nlp", time_limit=time_limit, **options)
+    res = bm.solve(structure, method, time_limit=time_limit, **options)
     wall_s, cpu_s = time.perf_counter() - t0, time.process_time() - c0
-    stages = " ".join(f"{rec['stage']}:{rec.get('ipopt_iterations', 0)}" for rec in res.trace)
+    stages = " ".join(f"{rec['stage']}:{rec.get('ipopt_iterations', 0)}" for rec in res.trace if "stage" in rec)
     return {"config": config, "wall": f"{courses}x{per_course}", "blocks": structure.n_free,
             "status": res.status.value, "verified": res.success, "multiplier": res.multiplier,
             "associative": res.extra.get(facts.ASSOCIATIVE_MULTIPLIER), "wall_s": wall_s, "cpu_s": cpu_s,
-            "setup_s": res.build_time_s, "ipopt_iterations": res.iterations, "stages": stages,
+            "solve_s": res.solve_time_s, "setup_s": res.build_time_s, "ipopt_iterations": res.iterations, "stages": stages,
             "message": res.message[:100]}
 
 
@@ -67,6 +73,8 @@ def main(argv: list[str] | None = None) -> list[dict]:
     ap.add_argument("--time-limit", type=float, default=60.0)
     ap.add_argument("--configs", default=DEFAULT_CONFIGS)
     ap.add_argument("--tag", default="")
+    ap.add_argument("--fixed-point", action="store_true", help="also solve each wall once with fixed-point")
+    ap.add_argument("--keep-going", action="store_true", help="do not stop a set at its first unverified wall")
     args = ap.parse_args(argv)
     walls = [tuple(int(v) for v in w.split("x")) for w in args.walls.split(",") if w.strip()]
     OUT.mkdir(parents=True, exist_ok=True)
@@ -75,14 +83,17 @@ def main(argv: list[str] | None = None) -> list[dict]:
     with path.open("w", newline="") as fh:
         writer = csv.DictWriter(fh, COLUMNS)
         writer.writeheader()
-        for config, options in parse_configs(args.configs).items():
+        runs = [(config, options, "nlp") for config, options in parse_configs(args.configs).items()]
+        if args.fixed_point:
+            runs.insert(0, ("fixed-point", {}, "fixed-point"))
+        for config, options, method in runs:
             for courses, per_course in walls:
-                row = run_wall(config, courses, per_course, args.time_limit, options)
+                row = run_wall(config, courses, per_course, args.time_limit, options, method)
                 rows.append(row)
                 writer.writerow(row)
                 fh.flush()
                 print("  ".join(f"{k}={_fmt(row[k])}" for k in COLUMNS[:11]), flush=True)
-                if not row["verified"]:
+                if not row["verified"] and not args.keep_going:
                     break
     print("\n| config | largest verified wall (blocks) | its wall s | its CPU s |\n|---|---|---|---|")
     for config in parse_configs(args.configs):
@@ -90,8 +101,28 @@ def main(argv: list[str] | None = None) -> list[dict]:
         best = max(ok, key=lambda r: r["blocks"]) if ok else None
         print(f"| {config} | {best['wall'] + ' (' + str(best['blocks']) + ')' if best else 'none'} | "
               f"{_fmt(best['wall_s']) if best else '-'} | {_fmt(best['cpu_s']) if best else '-'} |")
+    print_markdown(rows, [r[0] for r in runs])
     print(f"\nwritten: {path}")
     return rows
+
+
+def print_markdown(rows: list[dict], configs: list[str]) -> None:
+    """One row per wall: per set, ``CPU s, status (* = not verified), lam``."""
+    walls = sorted({(r["blocks"], r["wall"]) for r in rows})
+    print("\n| wall (blocks) | " + " | ".join(configs) + " |")
+    print("|---|" + "---|" * len(configs))
+    for blocks, wall in walls:
+        cells = []
+        for config in configs:
+            r = next((r for r in rows if r["config"] == config and r["wall"] == wall), None)
+            if r is None:
+                cells.append("–")
+                continue
+            lam = "–" if r["multiplier"] is None else f"{r['multiplier']:.5f}"
+            mark = "" if r["verified"] else "*"
+            cells.append(f"{r['cpu_s']:.1f} s, {r['status']}{mark}, λ {lam}")
+        print(f"| {wall} ({blocks}) | " + " | ".join(cells) + " |")
+    print("(CPU seconds of the whole solve, set-up included; * = not verified)")
 
 
 if __name__ == "__main__":

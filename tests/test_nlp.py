@@ -146,3 +146,75 @@ def test_rows_in_units_are_the_rows_of_4_scaled_and_products_unchanged():
     assert raw.max() / raw.min() > 1e5  # the two blocks' loads, unscaled
     scaled = (np.abs(row_scale[form.equilibrium] * form.f_d)).reshape(-1, 3).max(axis=1)
     assert scaled.max() / scaled.min() < 10
+
+
+# ---- the penalty NLP and the fixed-point start (options complementarity="penalty", start="fixed-point")
+
+
+@pytest.mark.parametrize("start", ["associative", "fixed-point"])
+@pytest.mark.parametrize(("eta", "mu"), [(3, 0.65), (2, 1.0), (5, 0.3)])
+def test_penalty_two_blocks_between_bounds(start, eta, mu):
+    res = bm.solve(bm.cases.two_blocks(eta=eta, mu=mu), "nlp", complementarity="penalty", start=start)
+    assert_verified(res)
+    assert two_block_nonassociative_min(eta, mu) - TOL <= res.multiplier <= two_block_associative(eta, mu) + TOL
+
+
+@pytest.mark.parametrize("options", [dict(complementarity="penalty"),
+                                     dict(complementarity="penalty", start="fixed-point"),
+                                     dict(start="fixed-point")], ids=["penalty", "penalty-fp", "relaxed-fp"])
+@pytest.mark.parametrize("case", [bm.cases.wall(4, 2, bond="stack"), bm.cases.wall(3, 2),
+                                  bm.cases.round_arch(n_voussoirs=8)], ids=["wall-4x2-stack", "wall-3x2", "arch-8"])
+def test_variants_verified_and_below_the_associative_multiplier(options, case):
+    res = bm.solve(case, "nlp", **options)
+    assert_verified(res)
+    lam_associative = bm.solve(case, "static-lp").multiplier
+    if options.get("start", "associative") == "associative":
+        assert res.extra["associative_multiplier"] == pytest.approx(lam_associative, abs=TOL)
+    assert res.multiplier <= lam_associative + TOL
+    assert res.extra["start"] == options.get("start", "associative")
+
+
+def test_penalty_stack_wall_reaches_its_certified_minimum():
+    """The 4x2 stack wall: certified minimum 0.5 (milp; README), associative 0.55402."""
+    res = bm.solve(bm.cases.wall(4, 2, bond="stack"), "nlp", complementarity="penalty", start="fixed-point")
+    assert_verified(res)
+    assert res.multiplier == pytest.approx(0.5, abs=TOL)
+
+
+def test_penalty_trace_has_one_stage_per_rho_until_complementarity():
+    res = bm.solve(bm.cases.two_blocks(eta=3, mu=0.65), "nlp", complementarity="penalty", penalty=10.0,
+                   penalty_factor=100.0, polish=False)
+    stages = [t for t in res.trace if t["stage"] != "polish"]
+    np.testing.assert_allclose([t["eps"] for t in stages], [10.0 * 100.0**k for k in range(len(stages))])
+    assert stages[-1]["max_work"] <= 1e-9 or len(stages) == 4  # stops once every z_i s_i <= eps_final P
+
+
+@pytest.mark.parametrize("bad", [dict(complementarity="smooth"), dict(penalty=0.0), dict(penalty_factor=1.0),
+                                 dict(penalty_stages=0), dict(start="dead-load")])
+def test_bad_penalty_options(bad):
+    with pytest.raises(bm.OptionError, match=next(iter(bad))):
+        bm.solve(bm.cases.single_block(), "nlp", **bad)
+
+
+def test_penalty_callbacks_have_exact_derivatives():
+    """Gradient and Lagrangian Hessian of the penalty NLP against finite differences."""
+    from blockmpec.formulations import compile_mcp
+    from blockmpec.solvers.nlp import _PenaltyMPEC, nlp_scaling
+
+    ops = bm.assemble(bm.cases.two_blocks(eta=3, mu=0.65, dilatancy=0.2))
+    form = compile_mcp(ops)
+    nlp = _PenaltyMPEC(form, 2.5, *nlp_scaling(form, ops))
+    nlp.rho = 7.0
+    rng = np.random.default_rng(2)
+    v = rng.normal(size=nlp.n)
+    h = 1e-6
+    g_fd = np.array([(nlp.objective(v + h * e) - nlp.objective(v - h * e)) / (2 * h) for e in np.eye(nlp.n)])
+    np.testing.assert_allclose(nlp.gradient(v), g_fd, atol=1e-7)
+    rows, cols = nlp.jacobianstructure()
+    assert nlp.m == nlp.A.shape[0] and len(nlp.jacobian(v)) == len(rows) == nlp.A.nnz
+    hr, hc = nlp.hessianstructure()
+    H = np.zeros((nlp.n, nlp.n))
+    np.add.at(H, (hr, hc), nlp.hessian(v, np.zeros(nlp.m), 0.5))
+    H = H + np.tril(H, -1).T
+    H_fd = np.column_stack([(nlp.gradient(v + h * e) - nlp.gradient(v - h * e)) / (2 * h) for e in np.eye(nlp.n)])
+    np.testing.assert_allclose(H, 0.5 * H_fd, atol=1e-6)
