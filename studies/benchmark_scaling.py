@@ -50,7 +50,6 @@ Prints markdown tables on stdout (progress on stderr) and writes
 from __future__ import annotations
 
 import argparse
-import csv
 import json
 import math
 import subprocess
@@ -64,6 +63,9 @@ import blockmpec as bm
 
 # sibling studies (this script's folder is sys.path[0] when run as a script)
 sys.path.insert(0, str(Path(__file__).resolve().parent))
+# markdown and write_csv are re-exported for the studies that import them from here
+from _tables import fmt as _fmt  # noqa: E402
+from _tables import markdown, write_csv  # noqa: E402,F401
 from lp_timing import wall_for  # noqa: E402
 from milp_scaling import run_case  # noqa: E402
 
@@ -331,24 +333,6 @@ def largest_search(method: str, limit: float, start: int, cap: int, timeout: flo
     return runs, summary
 
 
-def _fmt(v, fmt: str) -> str:
-    if v is None or (isinstance(v, float) and math.isnan(v)):
-        return "-"
-    try:
-        return fmt.format(v)
-    except (ValueError, TypeError):
-        return str(v)
-
-
-def markdown(rows: list[dict], columns: list[tuple[str, str, str]]) -> str:
-    """A markdown table of ``rows`` with ``(key, header, format)`` columns."""
-    lines = ["| " + " | ".join(h for _, h, _ in columns) + " |",
-             "| " + " | ".join("---" if f == "{}" else "---:" for _, _, f in columns) + " |"]
-    for r in rows:
-        lines.append("| " + " | ".join(_fmt(r.get(k), f) for k, _, f in columns) + " |")
-    return "\n".join(lines)
-
-
 def parse_options(text: str) -> dict:
     """``"a=1,b=x,c=true"`` -> ``{"a": 1, "b": "x", "c": True}``."""
     out: dict = {}
@@ -369,14 +353,6 @@ def parse_options(text: str) -> dict:
         else:
             out[key.strip()] = value.strip()
     return out
-
-
-def write_csv(path: Path, rows: list[dict]) -> None:
-    keys = list(dict.fromkeys(k for r in rows for k in r))
-    with path.open("w", newline="") as fh:
-        writer = csv.DictWriter(fh, fieldnames=keys)
-        writer.writeheader()
-        writer.writerows(rows)
 
 
 def main(argv: list[str] | None = None) -> dict:

@@ -23,7 +23,6 @@ Usage::
 from __future__ import annotations
 
 import argparse
-import csv
 import importlib.util
 import sys
 import time
@@ -31,6 +30,9 @@ import types
 from pathlib import Path
 
 import blockmpec as bm
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from _tables import write_csv  # noqa: E402
 
 OUT = Path(__file__).parent / "output" / "certificate"
 
@@ -109,13 +111,7 @@ def table(rows: list[dict], columns: list[str]) -> str:
 
 
 def write(rows: list[dict], name: str, columns: list[str]) -> Path:
-    OUT.mkdir(parents=True, exist_ok=True)
-    path = OUT / f"{name}.csv"
-    with path.open("w", newline="") as f:
-        w = csv.DictWriter(f, fieldnames=columns, extrasaction="ignore")
-        w.writeheader()
-        w.writerows(rows)
-    return path
+    return write_csv(OUT / f"{name}.csv", rows, columns)
 
 
 #: growing sizes of each family for ``largest``

@@ -16,11 +16,14 @@ LP for comparison.  Usage::
 from __future__ import annotations
 
 import argparse
-import csv
+import sys
 import time
 from pathlib import Path
 
 import blockmpec as bm
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from _tables import write_csv  # noqa: E402
 
 OUT = Path(__file__).parent / "output" / "milp"
 
@@ -87,12 +90,7 @@ def main(argv: list[str] | None = None) -> list[dict]:
         row = run_case(label, size, structure, args.time_limit, **options)
         rows.append(row)
         print(" ".join(_fmt(row[h], 18 if h in ("case", "status") else 10) for h in head), flush=True)
-    OUT.mkdir(parents=True, exist_ok=True)
-    path = OUT / f"milp_scaling{'_' + args.tag if args.tag else ''}.csv"
-    with path.open("w", newline="") as fh:
-        writer = csv.DictWriter(fh, fieldnames=COLUMNS, extrasaction="ignore")
-        writer.writeheader()
-        writer.writerows(rows)
+    path = write_csv(OUT / f"milp_scaling{'_' + args.tag if args.tag else ''}.csv", rows, COLUMNS)
     for label in dict.fromkeys(r["case"] for r in rows):
         ok = [r["blocks"] for r in rows if r["case"] == label and r["certified"]]
         print(f"largest {label} certified within {args.time_limit:g} s: {max(ok) if ok else 'none'} blocks")

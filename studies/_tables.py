@@ -1,0 +1,44 @@
+"""Table helpers shared by the study scripts: one CSV writer and one markdown formatter.
+
+Imported by path (``sys.path`` holds ``studies/`` when a script runs), with no
+dependency on any study, so every study can use it without import cycles.
+"""
+
+from __future__ import annotations
+
+import csv
+import math
+from pathlib import Path
+
+
+def write_csv(path: Path, rows: list[dict], columns: list[str] | None = None) -> Path:
+    """Write ``rows`` to ``path`` (parent folders created); ``columns`` defaults to every key in order of
+    appearance, and keys outside ``columns`` are left out."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    keys = list(columns) if columns is not None else list(dict.fromkeys(k for r in rows for k in r))
+    with path.open("w", newline="") as fh:
+        writer = csv.DictWriter(fh, fieldnames=keys, extrasaction="ignore")
+        writer.writeheader()
+        writer.writerows(rows)
+    return path
+
+
+def fmt(value, spec: str = "{:.6g}") -> str:
+    """``value`` formatted by ``spec``; ``-`` for None and NaN; ``str`` when ``spec`` does not apply."""
+    if value is None or (isinstance(value, float) and math.isnan(value)):
+        return "-"
+    if isinstance(value, bool):
+        return str(value)
+    try:
+        return spec.format(value)
+    except (ValueError, TypeError):
+        return str(value)
+
+
+def markdown(rows: list[dict], columns: list[tuple[str, str, str]]) -> str:
+    """A markdown table of ``rows`` with ``(key, header, format)`` columns (format ``"{}"``: left-aligned text)."""
+    lines = ["| " + " | ".join(h for _, h, _ in columns) + " |",
+             "| " + " | ".join("---" if f == "{}" else "---:" for _, _, f in columns) + " |"]
+    for r in rows:
+        lines.append("| " + " | ".join(fmt(r.get(k), f) for k, _, f in columns) + " |")
+    return "\n".join(lines)
