@@ -25,12 +25,13 @@ Mehrotra's predictor-corrector method reduces to
   ``|F| x |F|`` system ``(A_F^T W_F) dv_F = A_F^T W_r + q_F``;
 * the block unknowns ``(dv_i, dy_i)`` by exact per-block solves, and iterative
   refinement, first of the reduced system, then of the whole Newton system.  The
-  predictor, corrector and Gondzio correctors are solved with one reduced refinement
-  each; only their sum (the step taken, a Newton direction for the summed
-  complementarity target) is refined on the whole system: the same iterates to
-  1e-9 with 10-20 % fewer solves with ``K`` (``studies/lp_timing.py --ipm-settings``).
+  predictor, corrector and Gondzio correctors only choose sigma and the step lengths:
+  each is one solve with ``K``, unrefined; only their sum (the step taken, a Newton
+  direction for the summed complementarity target) is refined on the whole system.
+  Every direction returned satisfies the block equations exactly (a last correction
+  of ``dw`` alone, which would leave ``dv`` and ``dy`` behind, is not made).
 
-Each iteration takes Mehrotra's predictor and corrector plus up to two of
+Each iteration takes Mehrotra's predictor and corrector plus up to four of
 Gondzio's centrality correctors.  The problem is scaled first (``row_scale``,
 ``column_scale``; :mod:`blockmpec.solvers.engines.scaling` gives load units) and the inequality rows
 to unit largest entry.  When the residuals stop improving (accuracy lost in ``K``)
@@ -72,16 +73,24 @@ from blockmpec.solvers.engines.cholesky import SymmetricFactoriser, structural_p
 from blockmpec.solvers.engines.highs import LPOutcome
 
 #: iteration parameters (:meth:`BlockIPM.settings`):
-#: ``refinements`` reduced-system refinements of a refined direction; ``lazy_refinement``: predictor,
-#: corrector and Gondzio correctors with ``inner_refinements`` reduced refinements and no whole-system
-#: refinement, then ``final_sweeps`` whole-system refinements of their sum only; ``correctors``: most
-#: Gondzio correctors per iteration, each accepted if the shorter of the two steps becomes at
-#: least ``gondzio_accept`` times longer, its trial step ``min(1, gondzio_factor * step + gondzio_delta)``;
-#: ``step_fraction`` of the step to the boundary; ``sigma = max(sigma_min, (mu_aff / mu)^sigma_power)``.
-DEFAULT_SETTINGS = {"refinements": 3, "lazy_refinement": True, "inner_refinements": 1, "final_sweeps": 2,
-                    "correctors": 2, "gondzio_accept": 1.01, "gondzio_factor": 1.5,
+#: ``refinements`` most reduced-system corrections (one solve with ``K`` each) of a refined direction;
+#: ``lazy_refinement``: predictor, corrector and Gondzio correctors with at most ``inner_refinements``
+#: reduced corrections, made only while the equality rows' error exceeds ``inner_tolerance`` relative
+#: to ``|A| |dv|``, and no whole-system refinement, then ``final_sweeps`` whole-system refinements of
+#: their sum only; ``correctors``: most Gondzio correctors per iteration, each accepted if the shorter of the
+#: two steps becomes at least ``gondzio_accept`` times longer (1: not shorter), its trial step
+#: ``min(1, gondzio_factor * step + gondzio_delta)``; ``step_fraction`` of the step to the boundary;
+#: ``sigma = max(sigma_min, (mu_aff / mu)^sigma_power)``.
+#: Every inner direction is corrected to the absolute target by default: with ``inner_tolerance`` 1e-6,
+#: four correctors and ``gondzio_accept`` 1 (:data:`FEWER_SOLVES_SETTINGS`) walls need fewer solves
+#: with ``K`` (most inner directions are accurate to ~1e-8 after one solve), but a thin-voussoir arch,
+#: where some are off by up to 0.16, then stalls at a residual of 1e-8..1e-6 instead of reaching 1e-9.
+DEFAULT_SETTINGS = {"refinements": 3, "lazy_refinement": True, "inner_refinements": 1, "inner_tolerance": 0.0,
+                    "final_sweeps": 2, "correctors": 2, "gondzio_accept": 1.01, "gondzio_factor": 1.5,
                     "gondzio_delta": 0.1, "step_fraction": 0.995, "sigma_power": 3.0, "sigma_min": 0.0}
-#: the settings before the lazy refinement (commit c831a25): every direction refined on the whole system
+#: fewer solves per iteration on walls, not robust (see above); for measurements only
+FEWER_SOLVES_SETTINGS = {**DEFAULT_SETTINGS, "inner_tolerance": 1e-6, "correctors": 4, "gondzio_accept": 1.0}
+#: the settings before the lazy refinement: every direction refined on the whole system
 PREVIOUS_SETTINGS = {**DEFAULT_SETTINGS, "lazy_refinement": False}
 
 #: seconds per solve when none is given: a 100,000-block wall needs about 10 minutes (studies/lp_timing.py)
@@ -202,6 +211,7 @@ class BlockIPM:
         self.g_blocks = g[self.block_rows]  # (n_blocks, r, k)
         self.A_B = self.A[:, block_columns.ravel()].tocsr()  # columns in block order
         self.A_F = self.A[:, self.border].toarray() if self.border.size else np.zeros((self.A.shape[0], 0))
+        self._abs_A_B, self._abs_A_F = abs(self.A_B), np.abs(self.A_F)
         self._factoriser: SymmetricFactoriser | None = None
         # CSR pattern of the block-diagonal H^{-1} (fixed; values change per iteration)
         k, nb = self.k, self.n_blocks
@@ -274,26 +284,32 @@ class BlockIPM:
         K, blocks = self.reduced_matrix(it)
         solve_K = self.factoriser.factorise(K)
         W_F = solve_K(self.A_F) if self.A_F.shape[1] else self.A_F
-        S_F = self.A_F.T @ W_F
-        return blocks, solve_K, W_F, S_F
+        # the small dense Schur complement A_F^T K^{-1} A_F, inverted once (np.linalg.solve
+        # on a 1-by-1 matrix costs milliseconds per call)
+        S_F_inverse = np.linalg.inv(self.A_F.T @ W_F)
+        return blocks, solve_K, W_F, S_F_inverse
 
     def _block_solve(self, blocks, rhs_dual: np.ndarray, rhs_primal: np.ndarray):
         """Solve ``G_i^T dy_i = rhs_dual_i``, ``G_i dv_i - (s/y)_i dy_i = rhs_primal_i`` for every block."""
         M_inv, sqrt_d = blocks
         rhs = np.concatenate([rhs_dual.reshape(self.n_blocks, self.k),
                               sqrt_d * rhs_primal[self.block_rows]], axis=1)
-        sol = np.einsum("bij,bj->bi", M_inv, rhs)
+        sol = np.matmul(M_inv, rhs[:, :, None])[:, :, 0]
         dy = np.empty(self.h.size)
         dy[self.block_rows] = sqrt_d * sol[:, self.k:]
         return sol[:, :self.k].ravel(), dy
 
-    def _direction(self, it: IPMIterate, factors, r_b, r_h, r_c, r_mu, refinements: int | None = None):
+    def _direction(self, it: IPMIterate, factors, r_b, r_h, r_c, r_mu, refinements: int | None = None,
+                   tolerance: float = 0.0):
         r"""Newton direction for residuals ``r_*`` and complementarity target ``r_mu``.
 
         Equations: ``A dv = -r_b``; ``G dv + ds = -r_h``; ``-A^T dw + G^T dy = -r_c``;
-        ``Y ds + S dy = r_mu``.  Per block, ``G dv - (s/y) dy = -r_h - r_mu/y``.
+        ``Y ds + S dy = r_mu``.  Per block, ``G dv - (s/y) dy = -r_h - r_mu/y``.  The block
+        equations hold exactly; ``dw`` is corrected (at most ``refinements`` times) until the
+        equality rows' error ``e = -r_b - A dv`` is at most ``max(0.1 tol (1 + ||b||),
+        tolerance || |A| |dv| ||)`` (infinity norms).
         """
-        blocks, solve_K, W_F, S_F = factors
+        blocks, solve_K, W_F, S_F_inverse = factors
         bc = self.block_columns.ravel()
         rhs_primal = -r_h - r_mu / it.y
 
@@ -302,19 +318,26 @@ class BlockIPM:
             W_r = solve_K(e_eq)
             if not self.border.size:
                 return W_r, np.zeros(0)
-            dv_F = np.linalg.solve(S_F, self.A_F.T @ W_r - e_border)
+            dv_F = S_F_inverse @ (self.A_F.T @ W_r - e_border)
             return W_r - W_F @ dv_F, dv_F
 
         dv0, _ = self._block_solve(blocks, -r_c[bc], rhs_primal)  # the block step for dw = 0
         dw, dv_F = reduced_solve(-r_b - self.A_B @ dv0, r_c[self.border])
         target = 1e-1 * self.tol * (1 + _inf(self.b))
-        for _ in range((self.refinements if refinements is None else refinements) + 1):
+        corrections = self.refinements if refinements is None else refinements
+        for done in range(corrections + 1):
             dv_B, dy = self._block_solve(blocks, -r_c[bc] + self.A_B.T @ dw, rhs_primal)
+            if done == corrections:
+                # a further correction of dw alone would leave dv_B and dy behind (one solve wasted)
+                break
             # iterative refinement: K was assembled from inverted blocks, the block
             # solves are exact; correct dw until A dv = -r_b holds to round-off
             e_eq = -r_b - self.A_B @ dv_B - self.A_F @ dv_F
             e_border = r_c[self.border] - self.A_F.T @ dw
-            if _inf(e_eq) <= target and _inf(e_border) <= target:
+            limit = target
+            if tolerance > 0:
+                limit = max(target, tolerance * _inf(self._abs_A_B @ np.abs(dv_B) + self._abs_A_F @ np.abs(dv_F)))
+            if _inf(e_eq) <= limit and _inf(e_border) <= limit:
                 break
             ddw, ddv_F = reduced_solve(e_eq, e_border)
             dw = dw + ddw
@@ -441,9 +464,10 @@ class BlockIPM:
                 break
             lazy = self.lazy_refinement
             inner = self.inner_refinements if lazy else None
+            loose = self.inner_tolerance if lazy else 0.0
             eta = self.step_fraction
             # predictor (affine scaling)
-            dv, ds, dw, dy = self._direction(it, factors, r_b, r_h, r_c, -it.s * it.y, inner)
+            dv, ds, dw, dy = self._direction(it, factors, r_b, r_h, r_c, -it.s * it.y, inner, loose)
             ap = self._max_step(it.s, ds)
             ad = self._max_step(it.y, dy)
             mu_aff = float((it.s + ap * ds) @ (it.y + ad * dy)) / p
@@ -451,7 +475,7 @@ class BlockIPM:
             # corrector
             r_mu = sigma * mu - it.s * it.y - ds * dy
             if lazy:
-                dv, ds, dw, dy = self._direction(it, factors, r_b, r_h, r_c, r_mu, inner)
+                dv, ds, dw, dy = self._direction(it, factors, r_b, r_h, r_c, r_mu, inner, loose)
             else:
                 dv, ds, dw, dy = self._refined_direction(it, factors, r_b, r_h, r_c, r_mu)
             ap = eta * self._max_step(it.s, ds)
@@ -468,7 +492,7 @@ class BlockIPM:
                 target = np.clip(products, 0.1 * sigma * mu, 10.0 * sigma * mu)
                 correction = np.maximum(target - products, -10.0 * sigma * mu)
                 if lazy:
-                    cv, cs, cw, cy = self._direction(it, factors, zeros_b, zeros_h, zeros_c, correction, inner)
+                    cv, cs, cw, cy = self._direction(it, factors, zeros_b, zeros_h, zeros_c, correction, inner, loose)
                 else:
                     cv, cs, cw, cy = self._refined_direction(it, factors, zeros_b, zeros_h, zeros_c, correction)
                 nv, ns, nw, ny = dv + cv, ds + cs, dw + cw, dy + cy

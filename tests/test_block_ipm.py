@@ -1,0 +1,107 @@
+"""The block interior-point method's linear algebra: Newton directions and their solves with ``K``.
+
+The reduced solve (``K dw = ...``, then exact per-block solves) is refined iteratively; a
+direction it returns must satisfy every block equation of the Newton system exactly (to
+round-off), so that only the equality rows ``A dv = -r_b`` carry the remaining error of the
+reduced solve, and it must not spend a solve with ``K`` whose result it does not use.
+"""
+
+import numpy as np
+import pytest
+
+import blockmpec as bm
+from blockmpec.formulations import compile_linear, static_lp
+from blockmpec.solvers.engines.block_ipm import DEFAULT_SETTINGS, BlockIPM
+from blockmpec.solvers.engines.lp_engine import cold_lp_engine
+
+
+@pytest.fixture(scope="module")
+def wall_ipm():
+    """The block IPM on the static LP of a 10x20 wall in load units, with an iterate off the central path."""
+    ops = bm.assemble(bm.cases.wall(10, 20))
+    lp = compile_linear(static_lp(ops))
+    ipm = cold_lp_engine(lp, "block-ipm", ops=ops)
+    assert isinstance(ipm, BlockIPM)
+    it = ipm.initial_point()
+    rng = np.random.default_rng(7)
+    # products s y spread over ~8 decades, as near the optimum
+    it.s *= np.exp(rng.normal(0.0, 3.0, it.s.size))
+    it.y *= np.exp(rng.normal(0.0, 3.0, it.y.size))
+    return ipm, it
+
+
+def _newton_residuals(ipm, it, direction, r_b, r_h, r_c, r_mu):
+    """Residuals of the four Newton equations (module docstring of block_ipm) at ``direction``."""
+    dv, ds, dw, dy = direction
+    return {"equality": -r_b - ipm.A @ dv,
+            "inequality": -r_h - ipm.G @ dv - ds,
+            "dual": -r_c + ipm.A.T @ dw - ipm.G.T @ dy,
+            "complementarity": r_mu - (it.y * ds + it.s * dy)}
+
+
+@pytest.mark.parametrize("refinements", [0, 1, 3])
+def test_direction_satisfies_every_block_equation_and_wastes_no_solve(wall_ipm, refinements):
+    ipm, it = wall_ipm
+    factors = ipm._factorise(it)
+    r_b, r_h, r_c = ipm.residuals(it)
+    r_mu = 0.1 * float(it.s @ it.y) / it.s.size - it.s * it.y
+    solves = ipm.factoriser.solves
+    direction = ipm._direction(it, factors, r_b, r_h, r_c, r_mu, refinements)
+    used = ipm.factoriser.solves - solves
+    # one reduced solve, then at most `refinements` corrections, each of them used
+    assert 1 <= used <= 1 + refinements
+    res = _newton_residuals(ipm, it, direction, r_b, r_h, r_c, r_mu)
+    size = max(np.max(np.abs(d)) for d in direction)
+    # the block equations (dual rows, inequality rows, complementarity) hold to round-off
+    assert np.max(np.abs(res["dual"])) <= 1e-10 * max(size, 1.0)
+    assert np.max(np.abs(res["inequality"])) <= 1e-10 * max(size, 1.0)
+    assert np.max(np.abs(res["complementarity"])) <= 1e-10 * max(np.max(np.abs(r_mu)), size)
+
+
+def test_inner_tolerance_skips_corrections_of_accurate_directions(wall_ipm):
+    """With a relative ``tolerance`` the reduced solve is corrected only while the equality rows'
+    error exceeds it: a loose one leaves one solve, the absolute target (0) asks for a correction."""
+    ipm, it = wall_ipm
+    factors = ipm._factorise(it)
+    r_b, r_h, r_c = ipm.residuals(it)
+    r_mu = -it.s * it.y
+    used = {}
+    for tolerance in (0.0, 1e6):
+        solves = ipm.factoriser.solves
+        direction = ipm._direction(it, factors, r_b, r_h, r_c, r_mu, 1, tolerance)
+        used[tolerance] = ipm.factoriser.solves - solves
+        res = _newton_residuals(ipm, it, direction, r_b, r_h, r_c, r_mu)
+        assert np.max(np.abs(res["dual"])) <= 1e-10 * max(max(np.max(np.abs(d)) for d in direction), 1.0)
+    assert used == {0.0: 2, 1e6: 1}
+
+
+def test_refined_direction_solves_the_whole_newton_system(wall_ipm):
+    """Whole-system refinement of an unrefined direction brings the equality rows to round-off too."""
+    ipm, it = wall_ipm
+    factors = ipm._factorise(it)
+    r_b, r_h, r_c = ipm.residuals(it)
+    r_mu = -it.s * it.y
+    rough = ipm._direction(it, factors, r_b, r_h, r_c, r_mu, 0)
+    refined = ipm._refined_direction(it, factors, r_b, r_h, r_c, r_mu, rough, sweeps=ipm.final_sweeps)
+    res = _newton_residuals(ipm, it, refined, r_b, r_h, r_c, r_mu)
+    assert np.max(np.abs(res["equality"])) <= 1e-2 * ipm.tol * (1 + np.max(np.abs(ipm.b)))
+    # refinement can only have helped: the rough direction's equality error is not smaller
+    rough_res = _newton_residuals(ipm, it, rough, r_b, r_h, r_c, r_mu)
+    assert np.max(np.abs(res["equality"])) <= np.max(np.abs(rough_res["equality"]))
+
+
+def test_defaults_solve_a_wall_to_the_verifier_tolerance():
+    """The default settings give a point the shared verifier accepts at 1e-8, and HiGHS's lambda."""
+    from blockmpec.solvers.engines.highs import HighsLP, static_lp_solution
+
+    ops = bm.assemble(bm.cases.wall(10, 20))
+    lp = compile_linear(static_lp(ops))
+    ipm = cold_lp_engine(lp, "block-ipm", ops=ops)
+    assert ipm.inner_tolerance == DEFAULT_SETTINGS["inner_tolerance"]
+    out = ipm.solve()
+    assert out.status is bm.Status.OPTIMAL
+    residuals = bm.verify.residuals(ops, static_lp_solution(lp, out), associative=True)
+    assert max(residuals.values()) <= 1e-8
+    simplex = HighsLP(compile_linear(static_lp(ops)), "dual-simplex").solve()
+    assert -out.objective == pytest.approx(-simplex.objective, rel=1e-8)
+
