@@ -84,8 +84,10 @@ class InteriorFixedPoint(BlockIPM):
         ``tan(psi)``, any ``n*``: its cohesion is overwritten).
     ops : Operators
     coupling : ``"exact"`` (Newton on (3)) or ``"lagged"`` (``n* := n`` before each LP iteration)
-    fold_weight, fold_off : float
-        The least-compressed objective term and where it is switched off (module docstring).
+    fold_weight, fold_knee, fold_off : float
+        The least-compressed objective term, where its weight starts to fall with ``mu`` and
+        where it is switched off (module docstring); it is also switched off once the
+        residuals are within ``1e3 tol``, so a run never stops on the aimed problem.
     **ipm : options of :class:`BlockIPM` (``tol``, ``max_iterations``, ``time_limit``, ``ordering``).
     """
 
@@ -166,6 +168,10 @@ class InteriorFixedPoint(BlockIPM):
             ratio = mu / self.mu0
             self.set_fold(0.0 if ratio <= self.fold_off else self.fold_weight * min(1.0, ratio / self.fold_knee))
         primal, dual, complementarity = self.measures(it)
+        if self.current_fold > 0 and max(primal, dual, complementarity) <= 1e3 * self.tol:
+            # never stop on the aimed problem: the point returned must solve (3) itself
+            self.set_fold(0.0)
+            primal, dual, complementarity = self.measures(it)
         self.last_error = max(primal, dual, complementarity)
         self.best_error = min(self.best_error, self.last_error)
         if self.criterion is not None:
