@@ -11,7 +11,7 @@ import pytest
 
 import blockmpec as bm
 from blockmpec.formulations import compile_linear, static_lp
-from blockmpec.solvers.engines.block_ipm import DEFAULT_SETTINGS, BlockIPM
+from blockmpec.solvers.engines.block_ipm import DEFAULT_SETTINGS, BlockIPM, interface_blocks
 from blockmpec.solvers.engines.lp_engine import cold_lp_engine
 
 
@@ -105,3 +105,25 @@ def test_defaults_solve_a_wall_to_the_verifier_tolerance():
     simplex = HighsLP(compile_linear(static_lp(ops)), "dual-simplex").solve()
     assert -out.objective == pytest.approx(-simplex.objective, rel=1e-8)
 
+
+
+def test_solve_runs_blas_on_one_thread_and_restores_it():
+    """Multithreaded OpenBLAS spends milliseconds per tiny call (block_ipm.single_blas_thread):
+    every iteration runs with one BLAS thread, and the caller's setting comes back afterwards."""
+    threadpoolctl = pytest.importorskip("threadpoolctl")
+
+    def blas_threads():
+        return [info["num_threads"] for info in threadpoolctl.threadpool_info() if info["user_api"] == "blas"]
+
+    seen = []
+
+    class Recording(BlockIPM):
+        def before_iteration(self, it):
+            seen.append(blas_threads())
+
+    before = blas_threads()
+    lp = compile_linear(static_lp(bm.assemble(bm.cases.wall())))
+    out = Recording(lp, interface_blocks(lp)).solve()
+    assert out.status is bm.Status.OPTIMAL
+    assert seen and all(threads and set(threads) == {1} for threads in seen)
+    assert blas_threads() == before
