@@ -63,7 +63,8 @@ the objective (the penalty formulation of Leyffer, López-Calva & Nocedal 2006):
 linear, so the degenerate product rows (no constraint qualification at ``z_i = s_i = 0``)
 are gone; the Hessian is the constant ``rho`` on each ``(z^_i, s^_i)``.  ``rho`` runs from
 ``penalty`` up by ``penalty_factor`` (at most ``penalty_stages`` stages, each warm-started)
-until every ``z^_i s^_i <= eps_final P``; the polish then makes the products exact.  Ipopt
+until every ``z^_i s^_i <= eps_final P``; the polish then makes the products exact.  (In the
+trace, ``eps`` holds the stage's ``rho``, and ``max_work`` the largest ``z^_i s^_i / P``.)  Ipopt
 runs with ``mu_strategy = monotone`` and ``mu_init = bound_push = bound_frac = 1e-6``: the
 start already satisfies the linear rows and a barrier of Ipopt's default size (0.1, push
 1e-2) first drives the iterate far from it (10x10 wall from the fixed point: 86 Ipopt
@@ -529,7 +530,10 @@ class RelaxedNLP(SolverBase):
         if lam_associative is not None:
             extra[facts.ASSOCIATIVE_MULTIPLIER] = lam_associative
         if not message:
-            message = f"{n_stages} stages ({len(trace)} Ipopt solves), final eps = {trace[-1]['eps']:.3g}; {start_msg}"
+            last = trace[-1]
+            final_value = (f"final rho = {last['eps']:.3g}, max z_i s_i / P = {last.get('max_work', math.nan):.3g}"
+                           if penalty else f"final eps = {last['eps']:.3g}")
+            message = f"{n_stages} stages ({len(trace)} Ipopt solves), {final_value}; {start_msg}"
             if opt.polish and opt.polish_iterations > 0:
                 solution, note = self._polish(solution, stop)
                 message += f"; {note}"

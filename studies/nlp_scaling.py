@@ -7,9 +7,12 @@ verified, lam (and the associative lam it started from), wall-clock and process 
 seconds (the CPU column is the fair one on a shared machine: Ipopt and MUMPS are
 single-threaded here, so CPU seconds are what the run would take alone), Ipopt
 iterations and the iterations per eps stage.  With ``--fixed-point`` each wall is also solved
-once by the registered ``fixed-point`` method (its lam and CPU seconds: the reference a
-heuristic for the minimum of (4) should not exceed, and the cost of ``start="fixed-point"``).
-``--keep-going`` runs every wall of a set even after a failure.  Usage::
+once by the registered ``fixed-point`` method (its lam, to compare with, and its CPU seconds,
+the cost of ``start="fixed-point"``).  ``--keep-going`` runs every wall of a set even after a
+failure.  The default sets are ``default``, ``factor-0.01`` and ``penalty-fp``
+(``start="fixed-point", complementarity="penalty"``).  ``time_limit`` is wall-clock (Ipopt's
+``max_wall_time``, as the runner times a solve), so on a loaded machine a run gets less CPU
+than its limit.  Usage::
 
     python studies/nlp_scaling.py [--walls 5x4,10x5,10x10,20x10] [--time-limit 60] [--fixed-point]
                                   [--configs "default={};factor-0.01={'eps_factor': 0.01}"] [--tag T]
