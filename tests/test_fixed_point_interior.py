@@ -153,3 +153,44 @@ def test_auto_falls_back_to_the_simplex_engine_when_the_interior_run_fails(monke
     assert set(res.extra["lp_time_s"]) >= {"interior", "step"}
     explicit = bm.solve(ops, "fixed-point", engine="interior", max_iterations=3)
     assert not explicit.success and explicit.extra["engine"] == "interior"
+
+
+def _step_lp(ops):
+    from blockmpec.formulations import modified_lp
+    from blockmpec.formulations._pyomo import compiled_linear
+
+    return compiled_linear(modified_lp, ops, np.zeros(ops.n_interfaces), slope=ops.dilatancy)
+
+
+def test_fixed_coupling_is_the_step_lp_at_the_given_normal_forces():
+    """``coupling="fixed"`` with ``n*`` set solves the LP (5) at ``n*``: the same lam as HiGHS on that LP."""
+    from blockmpec.formulations import modified_lp
+    from blockmpec.formulations._pyomo import compiled_linear
+    from blockmpec.solvers.engines.highs import HighsLP
+
+    ops = bm.assemble(bm.cases.wall(courses=3, blocks_per_course=2))
+    n_star = np.minimum(bm.solve(ops, "static-lp").solution.x[1::3], 0.0)
+    eng = InteriorFixedPoint(_step_lp(ops), ops, coupling="fixed")
+    eng.set_n_star(n_star)
+    out = eng.solve()
+    reference = HighsLP(compiled_linear(modified_lp, ops, n_star, slope=ops.dilatancy)).solve()
+    assert out.status is bm.Status.OPTIMAL and reference.status is bm.Status.OPTIMAL
+    assert out.objective == pytest.approx(reference.objective, rel=1e-8)
+
+
+def test_warm_start_from_a_solution_of_3_is_a_fixed_point_of_the_step_lp():
+    """A solution of (3) solves the LP (5) at its own normal forces: started there, the fixed-coupling
+    run stops before its first step with the same multiplier (the best iterate and the warm start hooks)."""
+    ops = bm.assemble(bm.cases.wall(courses=4, blocks_per_course=3))
+    lp = _step_lp(ops)
+    exact = InteriorFixedPoint(lp, ops)
+    assert exact.solve().status is bm.Status.OPTIMAL
+    best = exact.best_iterate
+    assert exact.best_error <= 1e-9
+    fixed = InteriorFixedPoint(lp, ops, coupling="fixed")
+    fixed.set_n_star(exact.normal_forces(best))
+    fixed.start_iterate = best
+    out = fixed.solve()
+    assert out.status is bm.Status.OPTIMAL and out.iterations == 0
+    lam = exact.column_scale[exact.lam_column] * best.v[exact.lam_column]
+    assert -out.objective == pytest.approx(lam, rel=1e-12)

@@ -58,6 +58,31 @@ Measured (``studies/fixed_point_strategies.py``, ``studies/fixed_point_ratio.py`
   ``sigma_min`` 0.1/0.3, no correctors, a shorter ``step_fraction`` and a continuation
   of the dual slope from ``tan(phi)`` to ``tan(psi)`` over 3-9 decades of ``mu`` all
   stalled at the same complementarity.
+
+**The stall is a fold of the central path, and no closing stage repairs it**
+(``studies/fixed_point_polish.py``).  On the 10,000-block wall (no aim term) ``mu`` falls
+from 552 to 5.8e-6 in 17 iterations and stays there for 34 more: ``sigma`` near 1, the
+complementarity products evenly spread (none above 100 ``mu``; the relative complementarity
+is 0.5 only because there are 119,400 pairs), steps of 1e-6..1e-2.  The path from
+Mehrotra's start turns back before ``mu = 0``; its last point is not near a solution of
+(3): the verifier's complementarity is 0.33 at 10k blocks (1.4e-2 at 2,400).  Measured
+from the stalled point (``best_iterate``):
+
+* the semismooth Fischer-Burmeister Newton of ``mcp-newton``: out of memory at 10k blocks
+  (SuperLU on ``J^T J``); at 2,400 blocks 10 iterations in 63 s raise the residual of (3)
+  from 1.4e-2 to 0.44;
+* exact fixed-point steps with the LP (5) at ``n* = n`` by the block IPM
+  (``coupling="fixed"``): cold, ``||n - n*||/||n||`` is 0.49, 0.11, 0.09, 0.07 over 4 LPs at
+  2,400 blocks (the analytic centre moves between steps; on the 1,010-block wall, from the
+  converged interior answer, 8 cold steps wander between 1e-3 and 4e-2); warm
+  (``start_iterate``), the first step takes 12-27 iterations and moves ``n`` by 30-53 %,
+  the next one stalls or runs past 100 s (a warm start at an optimal point);
+* restarting Newton on (3) from the stalled iterate with ``s, y`` raised by
+  ``sqrt(f mu)`` (``f`` = 10..1e7): residuals 1.1e-3..2.5e-3 at 2,400 blocks, stalled again;
+* the lagged coupling from the stalled iterate: stalled (4e-3) within 10 iterations.
+
+So at 10,000 blocks the interior engine ends ``NUMERICAL`` after 2.3x one cold block-IPM
+LP (CPU, both runs: with and without the aim term) and issue 14's 3x target is not met.
 """
 
 from __future__ import annotations
@@ -67,7 +92,7 @@ import scipy.sparse as sp
 
 from blockmpec.solvers.engines.block_ipm import SLACK_RATIO_FLOOR, BlockIPM, IPMIterate, _inf, interface_blocks
 
-COUPLINGS = ("exact", "lagged")
+COUPLINGS = ("exact", "lagged", "fixed")
 #: the aim term's weight is constant down to mu = FOLD_KNEE * mu_0, then falls with mu, and is
 #: exactly zero once mu <= FOLD_OFF * mu_0 (module docstring)
 FOLD_KNEE = 1e-3
@@ -83,7 +108,8 @@ class InteriorFixedPoint(BlockIPM):
         The compiled step LP (5) (:func:`blockmpec.formulations.modified_lp` with slope
         ``tan(psi)``, any ``n*``: its cohesion is overwritten).
     ops : Operators
-    coupling : ``"exact"`` (Newton on (3)) or ``"lagged"`` (``n* := n`` before each LP iteration)
+    coupling : ``"exact"`` (Newton on (3)), ``"lagged"`` (``n* := n`` before each LP iteration) or
+        ``"fixed"`` (the LP (5) at the ``n*`` of :meth:`set_n_star`: one fixed-point step)
     fold_weight, fold_knee, fold_off : float
         The least-compressed objective term, where its weight starts to fall with ``mu`` and
         where it is switched off (module docstring); it is also switched off once the
@@ -136,6 +162,15 @@ class InteriorFixedPoint(BlockIPM):
         self.criterion = None
         #: max relative residual of (3) at the last iterate seen, and the best so far
         self.last_error = self.best_error = np.inf
+        #: the iterate with the smallest residuals so far (internal units), and a start iterate (None: Mehrotra's)
+        self.best_iterate: IPMIterate | None = None
+        self.start_iterate: IPMIterate | None = None
+
+    def initial_point(self) -> IPMIterate:
+        """:attr:`start_iterate` when set (a warm start), else Mehrotra's starting point."""
+        if self.start_iterate is not None:
+            return self.start_iterate.copy()
+        return super().initial_point()
 
     # ------------------------------------------------------------------ the moving data
     def set_n_star(self, n_star: np.ndarray) -> None:
@@ -155,7 +190,8 @@ class InteriorFixedPoint(BlockIPM):
         return self.column_scale[self.normal_columns] * it.v[self.normal_columns]
 
     def before_iteration(self, it: IPMIterate) -> None:
-        """Reset ``n* := min(n, 0)`` (lagged coupling), set the aim term's weight, record the iterate."""
+        """Reset ``n* := min(n, 0)`` (lagged coupling), set the aim term's weight, record the iterate
+        (and keep it in :attr:`best_iterate` when its residuals are the smallest so far)."""
         mu = float(it.s @ it.y) / it.s.size
         if self.mu0 is None:
             self.mu0 = mu
@@ -173,7 +209,9 @@ class InteriorFixedPoint(BlockIPM):
             self.set_fold(0.0)
             primal, dual, complementarity = self.measures(it)
         self.last_error = max(primal, dual, complementarity)
-        self.best_error = min(self.best_error, self.last_error)
+        if self.last_error < self.best_error:
+            self.best_error = self.last_error
+            self.best_iterate = it.copy()
         if self.criterion is not None:
             lam = float(self.column_scale[self.lam_column] * it.v[self.lam_column])
             self.criterion.iterations += 1

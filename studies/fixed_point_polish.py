@@ -1,0 +1,161 @@
+"""Closing stages for a stalled interior-point fixed point (issue 14), measured side by side.
+
+The interior engine (:mod:`blockmpec.solvers.engines.interior_fixed_point`) stalls on large
+walls.  For one wall this study runs it once (``--weight``: its aim term) and then, from
+its best iterate, each closing stage of ``--stages``:
+
+* ``newton``: the semismooth Fischer-Burmeister Newton method of ``mcp-newton``
+  (:func:`blockmpec.solvers.engines.newton_system.semismooth_newton`) on (3) from the
+  stalled point (``--newton-iterations``, time capped);
+* ``cold-steps``: exact fixed-point steps, each the step LP (5) at ``n* = n`` solved cold
+  by the block IPM (its analytic-centre answer as the tie-break), until the paper's test
+  ``||n - n*|| <= 1e-9 ||n||`` or ``--steps`` LPs;
+* ``warm-steps``: the same steps, each started from the previous step's best iterate
+  (the first from the stalled iterate, which is an interior point of the LP (5) at its own
+  ``n``);
+* ``restart``: the exact (Newton on (3)) run again from the stalled iterate with
+  ``s, y`` raised by ``sqrt(f mu)`` for each ``f`` of ``--restart-factors``.
+
+Each row: the stage, its CPU seconds, iterations or LPs, the final max relative residual
+of (3) by the shared verifier, lam, and whether it verified at 1e-8.
+
+Usage::
+
+    python studies/fixed_point_polish.py --wall 40x60 [--weight 0.1]
+        [--stages newton,cold-steps,warm-steps,restart] [--steps 4] [--time-limit 120]
+
+Prints a markdown table and writes ``studies/output/fixed_point_polish/polish_<wall>.csv``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+import blockmpec as bm
+
+sys.path.insert(0, str(Path(__file__).parent))
+from _tables import markdown, write_csv  # noqa: E402
+
+OUT = Path(__file__).parent / "output" / "fixed_point_polish"
+VERIFY_TOL = 1e-8
+
+
+def worst_residual(ops, sol) -> float:
+    from blockmpec.verify import residuals
+
+    return max(residuals(ops, sol, associative=False).values())
+
+
+def row(stage, ops, sol, cpu, count, status) -> dict:
+    worst = worst_residual(ops, sol) if sol.multiplier is not None else float("nan")
+    return {"stage": stage, "cpu_s": cpu, "count": count, "status": status, "max_residual": worst,
+            "multiplier": sol.multiplier, "verified": bool(worst <= VERIFY_TOL)}
+
+
+def lp_steps(ops, lp, first_iterate, n_first, steps: int, warm: bool, time_limit: float):
+    """Fixed-point steps n* <- n, each LP (5) by the block IPM; returns (solution, LPs, status)."""
+    from blockmpec.solvers.engines.highs import static_lp_solution
+    from blockmpec.solvers.engines.interior_fixed_point import InteriorFixedPoint
+
+    t0 = time.perf_counter()
+    engine = InteriorFixedPoint(lp, ops, coupling="fixed", tol=1e-9, time_limit=time_limit)
+    n_star, iterate, sol, status = np.minimum(n_first, 0.0), first_iterate, None, "step limit"
+    for k in range(1, steps + 1):
+        engine.set_n_star(n_star)
+        engine.start_iterate = iterate if warm else None
+        engine.best_error, engine.best_iterate = np.inf, None
+        engine.time_limit = max(time_limit - (time.perf_counter() - t0), 1e-3)
+        out = engine.solve()
+        sol = static_lp_solution(lp, out)
+        n = sol.x[1::3]
+        change = float(np.linalg.norm(n - n_star)) / max(float(np.linalg.norm(n)), 1e-300)
+        print(f"  step {k}: {out.status.value} in {out.iterations} iterations, lam {sol.multiplier:.6g}, "
+              f"||n - n*||/||n|| = {change:.2e}", flush=True)
+        if not out.status.is_success:
+            return sol, k, out.status.value
+        if change <= 1e-9:
+            return sol, k, "converged"
+        n_star, iterate = np.minimum(n, 0.0), engine.best_iterate
+    return sol, steps, status
+
+
+def main(argv: list[str] | None = None) -> list[dict]:
+    from blockmpec.formulations import compile_mcp, modified_lp
+    from blockmpec.formulations._pyomo import compiled_linear
+    from blockmpec.solvers.engines.highs import static_lp_solution
+    from blockmpec.solvers.engines.interior_fixed_point import InteriorFixedPoint
+    from blockmpec.solvers.engines.newton_system import MCPSystem, semismooth_newton
+
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--wall", default="40x60", help="CxB: courses x blocks per course")
+    parser.add_argument("--weight", type=float, default=0.1, help="aim term of the interior run")
+    parser.add_argument("--stages", default="newton,cold-steps,warm-steps,restart")
+    parser.add_argument("--steps", type=int, default=4, help="most LPs of the step stages")
+    parser.add_argument("--newton-iterations", type=int, default=20)
+    parser.add_argument("--restart-factors", default="10,1e3,1e7")
+    parser.add_argument("--time-limit", type=float, default=120.0, help="seconds per stage")
+    args = parser.parse_args(argv)
+    courses, per = (int(v) for v in args.wall.split("x"))
+    ops = bm.assemble(bm.cases.wall(courses=courses, blocks_per_course=per))
+    lp = compiled_linear(modified_lp, ops, np.zeros(ops.n_interfaces), slope=ops.dilatancy)
+    rows = []
+    t0 = time.process_time()
+    stalled = InteriorFixedPoint(lp, ops, fold_weight=args.weight, tol=1e-9, max_iterations=500,
+                                 time_limit=args.time_limit)
+    out = stalled.solve()
+    base = static_lp_solution(lp, out)
+    rows.append(row(f"interior (weight {args.weight:g})", ops, base, time.process_time() - t0, out.iterations,
+                    out.status.value))
+    print(rows[-1], flush=True)
+    best = stalled.best_iterate
+    for stage in args.stages.split(","):
+        t0 = time.process_time()
+        if stage == "newton":
+            form = compile_mcp(ops)
+            t0 = time.process_time()  # compilation is set-up
+            try:
+                system = MCPSystem(form, base)
+                res = semismooth_newton(system, system.pack(base), tol=1e-12, max_iterations=args.newton_iterations,
+                                        time_limit=args.time_limit)
+                rows.append(row(stage, ops, res.solution, time.process_time() - t0, res.iterations, res.status.value))
+            except MemoryError:
+                rows.append({"stage": stage, "cpu_s": time.process_time() - t0, "status": "out of memory (J^T J)"})
+        elif stage in ("cold-steps", "warm-steps"):
+            sol, count, status = lp_steps(ops, lp, best, stalled.normal_forces(best), args.steps,
+                                          stage == "warm-steps", args.time_limit)
+            rows.append(row(stage, ops, sol, time.process_time() - t0, count, status))
+        elif stage == "restart":
+            for factor in (float(f) for f in args.restart_factors.split(",")):
+                t0 = time.process_time()
+                start = best.copy()
+                shift = np.sqrt(factor * float(start.s @ start.y) / start.s.size)
+                start.s += shift
+                start.y += shift
+                engine = InteriorFixedPoint(lp, ops, tol=1e-9, max_iterations=500, time_limit=args.time_limit)
+                engine.start_iterate = start
+                again = engine.solve()
+                rows.append(row(f"restart x{factor:g}", ops, static_lp_solution(lp, again),
+                                time.process_time() - t0, again.iterations, again.status.value))
+                print(rows[-1], flush=True)
+            continue
+        else:
+            raise SystemExit(f"unknown stage {stage!r}")
+        print(rows[-1], flush=True)
+    columns = [("stage", "stage", "{}"), ("cpu_s", "CPU s", "{:.3g}"), ("count", "iterations / LPs", "{}"),
+               ("status", "status", "{}"), ("max_residual", "max residual of (3)", "{:.1e}"),
+               ("multiplier", "lam", "{:.5g}"), ("verified", "verified 1e-8", "{}")]
+    print(markdown(rows, columns))
+    OUT.mkdir(parents=True, exist_ok=True)
+    path = OUT / f"polish_{args.wall}.csv"
+    write_csv(path, rows)
+    print(f"wrote {path}")
+    return rows
+
+
+if __name__ == "__main__":
+    main()
