@@ -21,7 +21,8 @@ alternative, HiGHS's new interior-point solver HiPO (``hipo``: without crossover
 
 ``--walls CxB`` gives walls of ``courses=C, blocks_per_course=B`` instead of sizes.
 
-Writes ``studies/output/lp_timing/lp_timing.csv``.
+Writes ``studies/output/lp_timing/lp_timing.csv`` and, per block IPM run, its iteration trace
+``trace_<wall>_<settings>.csv``.
 """
 
 from __future__ import annotations
@@ -106,6 +107,12 @@ def time_one(wall: str, algorithm: str, time_limit: float = float("inf"), orderi
     residual = (max(bm.verify.residuals(ops, static_lp_solution(lp, out), associative=True).values())
                 if has_point else math.nan)
     factoriser = engine.factoriser if isinstance(engine, BlockIPM) else None
+    if isinstance(engine, BlockIPM) and engine.trace:  # mu, steps, centrality, solves per iteration
+        OUT.mkdir(parents=True, exist_ok=True)
+        with (OUT / f"trace_{wall}_{ipm_settings}.csv").open("w", newline="") as fh:
+            w = csv.DictWriter(fh, fieldnames=list(engine.trace[0]))
+            w.writeheader()
+            w.writerows(engine.trace)
     return {
         "blocks": s.n_free, "interfaces": len(s.interfaces), "rows": lp.A.shape[0], "columns": lp.A.shape[1],
         "generate_s": t1 - t0, "assemble_s": t2 - t1, "pyomo_build_s": t3 - t2, "compile_s": t4 - t3,
@@ -114,7 +121,7 @@ def time_one(wall: str, algorithm: str, time_limit: float = float("inf"), orderi
         "build_over_solve_cpu": (c4 - c2) / (c6 - c5),
         "algorithm": algorithm, "engine": type(engine).__name__,
         "ipm_settings": ipm_settings if isinstance(engine, BlockIPM) else "", "status": out.status.value,
-        "multiplier": lam, "lp_iterations": out.iterations, "max_residual": residual,
+        "multiplier": lam, "lp_iterations": out.iterations, "max_residual": residual, "message": out.message,
         "solve_cpu_s_per_iteration": (c6 - c5) / max(out.iterations, 1),
         "verified_1e-8": bool(out.status.is_success and residual <= 1e-8),
         "ordering": factoriser.ordering if factoriser else "", "factorisations": factoriser.factorisations if factoriser else 0,
