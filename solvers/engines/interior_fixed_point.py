@@ -74,12 +74,17 @@ from the stalled point (``best_iterate``):
 * exact fixed-point steps with the LP (5) at ``n* = n`` by the block IPM
   (``coupling="fixed"``): cold, ``||n - n*||/||n||`` is 0.49, 0.11, 0.09, 0.07 over 4 LPs at
   2,400 blocks (the analytic centre moves between steps; on the 1,010-block wall, from the
-  converged interior answer, 8 cold steps wander between 1e-3 and 4e-2); warm
-  (``start_iterate``), the first step takes 12-27 iterations and moves ``n`` by 30-53 %,
-  the next one stalls or runs past 100 s (a warm start at an optimal point);
+  converged interior answer, 8 cold steps wander between 1e-3 and 4e-2; at 10k blocks
+  0.53 then 0.36, lam 0.420 then 0.196, 59 s CPU for the 2 LPs); warm (``start_iterate``),
+  the first step takes 12-27 iterations and moves ``n`` by 30-53 %, the next one (started
+  at an optimal point) stalls at 2,400 blocks and at 10k moves ``n`` by 1.3e-3 but hits its
+  60 s limit after 71 iterations;
 * restarting Newton on (3) from the stalled iterate with ``s, y`` raised by
   ``sqrt(f mu)`` (``f`` = 10..1e7): residuals 1.1e-3..2.5e-3 at 2,400 blocks, stalled again;
-* the lagged coupling from the stalled iterate: stalled (4e-3) within 10 iterations.
+* the lagged coupling from the stalled iterate: stalled (4e-3) within 10 iterations;
+* a different path: Newton on (3) started from the associative LP's interior iterate
+  (``tan(phi)`` on both sides, stopped at 1e-1..1e-6, recentred or not): stalled at
+  residuals of (3) between 9e-4 and 0.28 at 2,400 blocks.
 
 So at 10,000 blocks the interior engine ends ``NUMERICAL`` after 2.3x one cold block-IPM
 LP (CPU, both runs: with and without the aim term) and issue 14's 3x target is not met.
