@@ -78,7 +78,9 @@ from the stalled point (``best_iterate``):
   0.53 then 0.36, lam 0.420 then 0.196, 59 s CPU for the 2 LPs); warm (``start_iterate``),
   the first step takes 12-27 iterations and moves ``n`` by 30-53 %, the next one (started
   at an optimal point) stalls at 2,400 blocks and at 10k moves ``n`` by 1.3e-3 but hits its
-  60 s limit after 71 iterations;
+  60 s limit after 71 iterations; warm and recentred (``s, y`` raised by ``sqrt(f mu)``,
+  ``f`` = 1e8), 18-22 iterations per LP but ``||n - n*||/||n||`` stays at 2.5e-2..4.1e-2
+  over 8 LPs at 2,400 blocks (the interior answer to each LP is not a consistent tie-break);
 * restarting Newton on (3) from the stalled iterate with ``s, y`` raised by
   ``sqrt(f mu)`` (``f`` = 10..1e7): residuals 1.1e-3..2.5e-3 at 2,400 blocks, stalled again;
 * the lagged coupling from the stalled iterate: stalled (4e-3) within 10 iterations;
