@@ -86,9 +86,17 @@ from blockmpec.solvers.engines.highs import LPOutcome
 #: four correctors and ``gondzio_accept`` 1 (:data:`FEWER_SOLVES_SETTINGS`) walls need fewer solves
 #: with ``K`` (most inner directions are accurate to ~1e-8 after one solve), but a thin-voussoir arch,
 #: where some are off by up to 0.16, then stalls at a residual of 1e-8..1e-6 instead of reaching 1e-9.
-DEFAULT_SETTINGS = {"refinements": 3, "lazy_refinement": True, "inner_refinements": 1, "inner_tolerance": 0.0,
-                    "final_sweeps": 2, "correctors": 2, "gondzio_accept": 1.01, "gondzio_factor": 1.5,
+DEFAULT_SETTINGS = {"refinements": 8, "lazy_refinement": True, "inner_refinements": 1, "inner_tolerance": 0.0,
+                    "final_sweeps": 4, "correctors": 2, "gondzio_accept": 1.01, "gondzio_factor": 1.5,
                     "gondzio_delta": 0.1, "step_fraction": 0.995, "sigma_power": 3.0, "sigma_min": 0.0}
+#: Near the optimum of large walls the reduced refinement converges slowly (``K`` very ill-conditioned):
+#: with 3 corrections and 2 sweeps (:data:`SHORT_REFINEMENT_SETTINGS`) the step's equality-row error
+#: reached the primal residual (1e-12 -> 4e-7) on a 32,580-block wall, which stalled ``ACCEPTABLE`` after
+#: 70 iterations (165 s CPU) and failed at 100,014 blocks (``NUMERICAL`` after 82); with 8 and 4 it
+#: stays <= 4e-9 and the 32k wall is ``OPTIMAL`` in 62 (134 s).  The early exits keep walls at ~10 solves
+#: per iteration until the last few (up to ~45).
+#: the refinement before that measurement
+SHORT_REFINEMENT_SETTINGS = {**DEFAULT_SETTINGS, "refinements": 3, "final_sweeps": 2}
 #: fewer solves per iteration on walls, not robust (see above); for measurements only
 FEWER_SOLVES_SETTINGS = {**DEFAULT_SETTINGS, "inner_tolerance": 1e-6, "correctors": 4, "gondzio_accept": 1.0}
 #: the settings before the lazy refinement: every direction refined on the whole system
