@@ -94,7 +94,8 @@ DEFAULT_SETTINGS = {"refinements": 8, "lazy_refinement": True, "inner_refinement
 #: reached the primal residual (1e-12 -> 4e-7) on a 32,580-block wall, which stalled ``ACCEPTABLE`` after
 #: 70 iterations (165 s CPU) and failed at 100,014 blocks (``NUMERICAL`` after 82); with 8 and 4 it
 #: stays <= 4e-9 and the 32k wall is ``OPTIMAL`` in 62 (134 s).  The early exits keep walls at ~10 solves
-#: per iteration until the last few (up to ~45).
+#: per iteration until the last few (up to ~45).  At 100,014 blocks even 8 and 4 do not converge in the
+#: last ~10 iterations (primal residual 2e-7..1e-5): ``ACCEPTABLE`` after 87, verifier 8e-8 (> 1e-8).
 #: the refinement before that measurement
 SHORT_REFINEMENT_SETTINGS = {**DEFAULT_SETTINGS, "refinements": 3, "final_sweeps": 2}
 #: fewer solves per iteration on walls, not robust (see above); for measurements only
@@ -102,7 +103,7 @@ FEWER_SOLVES_SETTINGS = {**DEFAULT_SETTINGS, "inner_tolerance": 1e-6, "corrector
 #: the settings before the lazy refinement: every direction refined on the whole system
 PREVIOUS_SETTINGS = {**DEFAULT_SETTINGS, "lazy_refinement": False}
 
-#: seconds per solve when none is given: a 100,000-block wall needs about 10 minutes (studies/lp_timing.py)
+#: seconds per solve when none is given: a 100,000-block wall takes about 15 minutes (studies/lp_timing.py)
 DEFAULT_TIME_LIMIT = 3600.0
 
 #: smallest s/y in the block systems (a primal regularisation of fully active blocks)
