@@ -126,6 +126,7 @@ def time_one(wall: str, algorithm: str, time_limit: float = float("inf"), orderi
         "verified_1e-8": bool(out.status.is_success and residual <= 1e-8),
         "ordering": factoriser.ordering if factoriser else "", "factorisations": factoriser.factorisations if factoriser else 0,
         "k_solves": factoriser.solves if factoriser else 0,
+        "krylov_steps": engine.krylov_steps if isinstance(engine, BlockIPM) else 0,
         "factorise_s": factoriser.factorise_s if factoriser else 0.0, "factor_nnz": factoriser.factor_nnz if factoriser else 0,
         "peak_memory_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0,
     }
@@ -142,7 +143,7 @@ def main(argv: list[str] | None = None) -> list[dict]:
     parser.add_argument("--walls", default="", help="comma-separated CxB walls (courses x blocks per course)")
     parser.add_argument("--orderings", default="auto", help="block IPM orderings of K: auto, metis, mmd")
     parser.add_argument("--ipm-settings", default="default",
-                        help="comma-separated block IPM settings: default, previous, fewer_solves (block_ipm.*_SETTINGS)")
+                        help="comma-separated block IPM settings: default, stationary, short_refinement, previous, ... (block_ipm.*_SETTINGS)")
     parser.add_argument("--time-limit", type=float, default=float("inf"), help="seconds per solve")
     parser.add_argument("--max-iterations", type=int, default=None,
                         help="block IPM iteration cap: measures the cost per iteration of a size too slow to finish")
@@ -157,7 +158,7 @@ def main(argv: list[str] | None = None) -> list[dict]:
     for case in cases:
         with context.Pool(1, maxtasksperchild=1) as pool:
             rows.append(pool.apply(_run_in_child, (case,)))
-    keys = ["blocks", "algorithm", "ordering", "ipm_settings", "k_solves", "pyomo_build_cpu_s", "compile_cpu_s", "solve_cpu_s", "solve_s",
+    keys = ["blocks", "algorithm", "ordering", "ipm_settings", "k_solves", "krylov_steps", "pyomo_build_cpu_s", "compile_cpu_s", "solve_cpu_s", "solve_s",
             "build_over_solve_cpu", "lp_iterations", "factorise_s", "peak_memory_mb", "status", "max_residual",
             "multiplier"]
     print(" ".join(f"{k:>13s}" for k in keys), flush=True)

@@ -8,6 +8,7 @@ reduced solve, and it must not spend a solve with ``K`` whose result it does not
 
 import numpy as np
 import pytest
+import scipy.sparse as sp
 
 import blockmpec as bm
 from blockmpec.formulations import compile_linear, static_lp
@@ -88,6 +89,68 @@ def test_refined_direction_solves_the_whole_newton_system(wall_ipm):
     # refinement can only have helped: the rough direction's equality error is not smaller
     rough_res = _newton_residuals(ipm, it, rough, r_b, r_h, r_c, r_mu)
     assert np.max(np.abs(res["equality"])) <= np.max(np.abs(rough_res["equality"]))
+
+
+@pytest.fixture(scope="module")
+def mild_wall_ipm():
+    """The 10x20 wall's IPM at an iterate whose products ``s y`` spread over ~2 decades:
+    its Newton directions are attainable to ~1e-13 (the target is 1e-10)."""
+    ops = bm.assemble(bm.cases.wall(10, 20))
+    lp = compile_linear(static_lp(ops))
+    ipm = cold_lp_engine(lp, "block-ipm", ops=ops)
+    it = ipm.initial_point()
+    rng = np.random.default_rng(7)
+    it.s *= np.exp(rng.normal(0.0, 1.0, it.s.size))
+    it.y *= np.exp(rng.normal(0.0, 1.0, it.y.size))
+    return ipm, it
+
+
+def _factors_with_shift(ipm, it, shift):
+    """The factors of ``_factorise(it)``, but of ``K + shift diag(K)``: an inaccurate ``K``, as the
+    factors of the very ill-conditioned ``K`` near the optimum of a 100,000-block wall are."""
+    K, blocks = ipm.reduced_matrix(it)
+    solve_K = ipm.factoriser.factorise(K + shift * sp.diags(K.diagonal(), format="csc"))
+    W_F = solve_K(ipm.A_F)
+    return blocks, solve_K, W_F, np.linalg.inv(ipm.A_F.T @ W_F)
+
+
+def test_krylov_refinement_converges_where_the_stationary_one_does_not(mild_wall_ipm):
+    """With factors of ``K + 1e-2 diag(K)`` the stationary refinement ``dw += P e`` diverges
+    (``||I - T P|| > 1``); GMRES preconditioned by the same factors meets the target."""
+    ipm, it = mild_wall_ipm
+    factors = _factors_with_shift(ipm, it, 1e-2)
+    r_b, r_h, r_c = ipm.residuals(it)
+    r_mu = 0.1 * float(it.s @ it.y) / it.s.size - it.s * it.y
+    target = 1e-1 * ipm.tol * (1 + np.max(np.abs(ipm.b)))
+    errors = {}
+    for krylov in (0, DEFAULT_SETTINGS["krylov_iterations"]):
+        ipm.settings(krylov_iterations=krylov)
+        direction = ipm._direction(it, factors, r_b, r_h, r_c, r_mu)
+        res = _newton_residuals(ipm, it, direction, r_b, r_h, r_c, r_mu)
+        errors[krylov] = np.max(np.abs(res["equality"]))
+        # the block equations hold exactly either way
+        assert np.max(np.abs(res["dual"])) <= 1e-10 * max(max(np.max(np.abs(d)) for d in direction), 1.0)
+    ipm.settings(**DEFAULT_SETTINGS)
+    assert errors[0] > 1e3 * target
+    assert errors[DEFAULT_SETTINGS["krylov_iterations"]] <= target
+
+
+def test_krylov_fallback_leaves_converging_directions_unchanged(mild_wall_ipm):
+    """With accurate factors the stationary refinement converges: no GMRES, the same direction."""
+    ipm, it = mild_wall_ipm
+    factors = ipm._factorise(it)
+    r_b, r_h, r_c = ipm.residuals(it)
+    r_mu = -it.s * it.y
+    directions, steps = {}, {}
+    for krylov in (0, DEFAULT_SETTINGS["krylov_iterations"]):
+        ipm.settings(krylov_iterations=krylov)
+        before = ipm.krylov_steps
+        directions[krylov] = ipm._direction(it, factors, r_b, r_h, r_c, r_mu)
+        steps[krylov] = ipm.krylov_steps - before
+    ipm.settings(**DEFAULT_SETTINGS)
+    assert steps == {0: 0, DEFAULT_SETTINGS["krylov_iterations"]: 0}
+    for a, b in zip(directions[0], directions[DEFAULT_SETTINGS["krylov_iterations"]], strict=True):
+        np.testing.assert_array_equal(a, b)
 
 
 def test_defaults_solve_a_wall_to_the_verifier_tolerance():

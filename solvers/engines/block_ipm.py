@@ -86,9 +86,13 @@ from blockmpec.solvers.engines.highs import LPOutcome
 #: four correctors and ``gondzio_accept`` 1 (:data:`FEWER_SOLVES_SETTINGS`) walls need fewer solves
 #: with ``K`` (most inner directions are accurate to ~1e-8 after one solve), but a thin-voussoir arch,
 #: where some are off by up to 0.16, then stalls at a residual of 1e-8..1e-6 instead of reaching 1e-9.
+#: ``krylov_iterations``: when the ``refinements`` stationary corrections of a refined direction do not
+#: reach their target, at most this many GMRES iterations on the reduced (bordered) system, preconditioned
+#: by the factors of ``K`` (0: none; directions whose stationary refinement converges are unchanged).
 DEFAULT_SETTINGS = {"refinements": 8, "lazy_refinement": True, "inner_refinements": 1, "inner_tolerance": 0.0,
                     "final_sweeps": 4, "correctors": 2, "gondzio_accept": 1.01, "gondzio_factor": 1.5,
-                    "gondzio_delta": 0.1, "step_fraction": 0.995, "sigma_power": 3.0, "sigma_min": 0.0}
+                    "gondzio_delta": 0.1, "step_fraction": 0.995, "sigma_power": 3.0, "sigma_min": 0.0,
+                    "krylov_iterations": 40}
 #: Near the optimum of large walls the reduced refinement converges slowly (``K`` very ill-conditioned):
 #: with 3 corrections and 2 sweeps (:data:`SHORT_REFINEMENT_SETTINGS`) the step's equality-row error
 #: reached the primal residual (1e-12 -> 4e-7) on a 32,580-block wall, which stalled ``ACCEPTABLE`` after
@@ -98,6 +102,9 @@ DEFAULT_SETTINGS = {"refinements": 8, "lazy_refinement": True, "inner_refinement
 #: last ~10 iterations (primal residual 2e-7..1e-5): ``ACCEPTABLE`` after 87, verifier 8e-8 (> 1e-8).
 #: the refinement before that measurement
 SHORT_REFINEMENT_SETTINGS = {**DEFAULT_SETTINGS, "refinements": 3, "final_sweeps": 2}
+#: stationary refinement only (the default before the Krylov fallback), with 8 and 4 or 3 and 2 corrections
+STATIONARY_SETTINGS = {**DEFAULT_SETTINGS, "krylov_iterations": 0}
+SHORT_STATIONARY_SETTINGS = {**SHORT_REFINEMENT_SETTINGS, "krylov_iterations": 0}
 #: fewer solves per iteration on walls, not robust (see above); for measurements only
 FEWER_SOLVES_SETTINGS = {**DEFAULT_SETTINGS, "inner_tolerance": 1e-6, "correctors": 4, "gondzio_accept": 1.0}
 #: the settings before the lazy refinement: every direction refined on the whole system
@@ -162,6 +169,8 @@ class BlockIPM:
         self.max_iterations = int(max_iterations)
         self.time_limit = float(time_limit) if np.isfinite(time_limit) else DEFAULT_TIME_LIMIT
         self.settings(**DEFAULT_SETTINGS)
+        #: directions refined by GMRES after the stationary refinement stalled (all solves)
+        self.krylov_steps = 0
         # a stalled run whose best iterate is this good is ACCEPTABLE (a success that the
         # shared verifier still checks at its own tolerance, 1e-6 by default)
         self.acceptable_tol = max(1e3 * self.tol, 1e-6)
@@ -335,9 +344,11 @@ class BlockIPM:
         dw, dv_F = reduced_solve(-r_b - self.A_B @ dv0, r_c[self.border])
         target = 1e-1 * self.tol * (1 + _inf(self.b))
         corrections = self.refinements if refinements is None else refinements
+        krylov = refinements is None and self.krylov_iterations > 0
+        best = None
         for done in range(corrections + 1):
             dv_B, dy = self._block_solve(blocks, -r_c[bc] + self.A_B.T @ dw, rhs_primal)
-            if done == corrections:
+            if done == corrections and not krylov:
                 # a further correction of dw alone would leave dv_B and dy behind (one solve wasted)
                 break
             # iterative refinement: K was assembled from inverted blocks, the block
@@ -347,7 +358,16 @@ class BlockIPM:
             limit = target
             if tolerance > 0:
                 limit = max(target, tolerance * _inf(self._abs_A_B @ np.abs(dv_B) + self._abs_A_F @ np.abs(dv_F)))
-            if _inf(e_eq) <= limit and _inf(e_border) <= limit:
+            error = max(_inf(e_eq), _inf(e_border))
+            if error <= limit:
+                break
+            if krylov and (best is None or error < best[0]):
+                best = (error, dw, dv_F, dv_B, dy, e_eq, e_border)
+            if done == corrections:
+                # the stationary refinement did not converge (K's factors too inaccurate):
+                # GMRES from its best correction, preconditioned by the same factors
+                dw, dv_F, dv_B, dy = self._krylov_refinement(blocks, reduced_solve, rhs_primal, r_b, r_c, limit,
+                                                                  *best)
                 break
             ddw, ddv_F = reduced_solve(e_eq, e_border)
             dw = dw + ddw
@@ -357,6 +377,54 @@ class BlockIPM:
         dv[self.border] = dv_F
         ds = -r_h - self.G @ dv
         return dv, ds, dw, dy
+
+    def _krylov_refinement(self, blocks, reduced_solve, rhs_primal, r_b, r_c, limit, error, dw, dv_F, dv_B, dy,
+                           e_eq, e_border):
+        r"""Correct ``(dw, dv_F)`` by right-preconditioned GMRES on the bordered reduced system.
+
+        The exact reduced operator is ``T (x_w, x_F) = (A_B H^{-1} A_B^T x_w + A_F x_F, A_F^T x_w)``,
+        with ``H^{-1} A_B^T x_w`` taken from the exact block solves (``dv_B`` is affine in ``dw``).
+        The stationary refinement ``x += P e`` (``P``: the bordered solve with the factors of
+        ``K``) converges only while ``||I - T P|| < 1``; near the optimum of large walls ``K``
+        is so ill-conditioned that its factors violate this.  GMRES on ``T P z = e``,
+        ``x = P z`` (at most ``krylov_iterations`` steps, one solve with ``K`` each) only needs
+        ``T P`` to have clustered eigenvalues, and its residual is the true one.  The result
+        replaces the stationary one only if its equality-row error is smaller.
+        """
+        from scipy.sparse.linalg import LinearOperator, gmres
+
+        m, f = e_eq.size, e_border.size
+        bc = self.block_columns.ravel()
+        zero = np.zeros(self.h.size)
+
+        def preconditioned(z: np.ndarray) -> np.ndarray:
+            x_w, x_F = reduced_solve(z[:m], z[m:])
+            x_B, _ = self._block_solve(blocks, self.A_B.T @ x_w, zero)
+            return np.concatenate([self.A_B @ x_B + self.A_F @ x_F, self.A_F.T @ x_w])
+
+        operator = LinearOperator((m + f, m + f), matvec=preconditioned, dtype=float)
+        self.krylov_steps += 1
+        budget = self.krylov_iterations
+        while budget > 0:
+            # restarted from the true residual: one cycle cannot reduce it by much more than
+            # 1e-10 in floating point; the 2-norm bound implies the infinity-norm target
+            steps = [0]
+            z, _ = gmres(operator, np.concatenate([e_eq, e_border]), rtol=0.0, atol=limit,
+                         restart=min(budget, 20), maxiter=1, callback=lambda _: steps.__setitem__(0, steps[0] + 1),
+                         callback_type="pr_norm")
+            budget -= max(steps[0], 1)
+            x_w, x_F = reduced_solve(z[:m], z[m:])
+            new_dw, new_dv_F = dw + x_w, dv_F + x_F
+            new_dv_B, new_dy = self._block_solve(blocks, -r_c[bc] + self.A_B.T @ new_dw, rhs_primal)
+            new_e_eq = -r_b - self.A_B @ new_dv_B - self.A_F @ new_dv_F
+            new_e_border = r_c[self.border] - self.A_F.T @ new_dw
+            new_error = max(_inf(new_e_eq), _inf(new_e_border))
+            if not new_error < error:
+                break
+            dw, dv_F, dv_B, dy, e_eq, e_border, error = new_dw, new_dv_F, new_dv_B, new_dy, new_e_eq, new_e_border, new_error
+            if error <= limit:
+                break
+        return dw, dv_F, dv_B, dy
 
     def _refined_direction(self, it: IPMIterate, factors, r_b, r_h, r_c, r_mu, direction=None,
                            sweeps: int = 2):
@@ -472,7 +540,7 @@ class BlockIPM:
                 break
             if k == self.max_iterations:
                 break
-            solves0 = self.factoriser.solves
+            solves0, krylov0 = self.factoriser.solves, self.krylov_steps
             factors = None if time.perf_counter() > deadline else self._factorise(it)
             if factors is None or time.perf_counter() > deadline:
                 # checked before and after the factorisation (the costliest step): the run
@@ -528,7 +596,7 @@ class BlockIPM:
             self.trace.append({"k": k, "mu": mu, "primal": primal, "dual": dual, "gap": gap, "sigma": sigma,
                                "step_primal": ap, "step_dual": ad, "correctors": used,
                                "centrality": float(np.min(it.s * it.y)) / mu,
-                               "solves": self.factoriser.solves - solves0,
+                               "solves": self.factoriser.solves - solves0, "krylov": self.krylov_steps - krylov0,
                                "fact_over_solve": (self.factoriser.factorise_s / self.factoriser.factorisations)
                                / max(self.factoriser.solve_s / max(self.factoriser.solves, 1), 1e-9),
                                "time_s": time.perf_counter() - t0})
