@@ -232,6 +232,9 @@ class BlockIPM:
         g = np.zeros((G.shape[0], self.k))
         np.add.at(g, (G.row, local_of[G.col]), G.data)
         self.G = G.tocsr()
+        #: the inequality matrix of the dual rows ``c - A^T w + G_dual^T y = 0``: ``G`` for an LP
+        #: (a subclass for the MCP (3) has ``G_phi`` in the primal rows and ``G_psi`` here)
+        self.G_dual = self.G
         counts = np.bincount(row_block, minlength=self.n_blocks)
         if counts.min() != counts.max() or counts[0] == 0:
             raise ValueError("block IPM: every block needs the same number of inequality rows")
@@ -449,7 +452,7 @@ class BlockIPM:
         for _ in range(sweeps):
             e_b = -r_b - self.A @ dv
             e_h = -r_h - self.G @ dv - ds
-            e_c = -r_c + self.A.T @ dw - self.G.T @ dy
+            e_c = -r_c + self.A.T @ dw - self.G_dual.T @ dy
             e_mu = r_mu - (it.y * ds + it.s * dy)
             if (_inf(e_b) <= scale * (1 + _inf(self.b)) and _inf(e_c) <= scale * (1 + _inf(self.c))
                     and _inf(e_h) <= scale * (1 + _inf(self.h)) and _inf(e_mu) <= scale * max(_inf(r_mu), 1e-300)):
@@ -467,7 +470,7 @@ class BlockIPM:
     def residuals(self, it: IPMIterate):
         r_b = self.A @ it.v - self.b
         r_h = self.G @ it.v + it.s - self.h
-        r_c = self.c - self.A.T @ it.w + self.G.T @ it.y
+        r_c = self.c - self.A.T @ it.w + self.G_dual.T @ it.y
         return r_b, r_h, r_c
 
     def measures(self, it: IPMIterate, residuals=None) -> tuple[float, float, float]:

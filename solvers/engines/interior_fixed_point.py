@@ -252,12 +252,6 @@ class InteriorFixedPoint(BlockIPM):
         K = K + sp.diags(1e-12 * np.abs(K.diagonal()) + 1e-300, format="csc")
         return K, (M_inv, sqrt_d)
 
-    def residuals(self, it: IPMIterate):
-        r_b = self.A @ it.v - self.b
-        r_h = self.G @ it.v + it.s - self.h
-        r_c = self.c - self.A.T @ it.w + self.G_dual.T @ it.y
-        return r_b, r_h, r_c
-
     def measures(self, it: IPMIterate, residuals=None) -> tuple[float, float, float]:
         """Relative (primal, dual, complementarity) of an iterate."""
         r_b, r_h, r_c = self.residuals(it) if residuals is None else residuals
@@ -265,21 +259,6 @@ class InteriorFixedPoint(BlockIPM):
         dual = _inf(r_c) / (1 + _inf(self.c))
         return primal, dual, float(it.s @ it.y) / (1 + abs(float(self.c @ it.v)))
 
-    def _refined_direction(self, it: IPMIterate, factors, r_b, r_h, r_c, r_mu, direction=None, sweeps: int = 2):
-        """:meth:`BlockIPM._refined_direction` with ``G_psi^T`` in the dual rows."""
-        dv, ds, dw, dy = self._direction(it, factors, r_b, r_h, r_c, r_mu) if direction is None else direction
-        scale = 1e-2 * self.tol
-        for _ in range(sweeps):
-            e_b = -r_b - self.A @ dv
-            e_h = -r_h - self.G @ dv - ds
-            e_c = -r_c + self.A.T @ dw - self.G_dual.T @ dy
-            e_mu = r_mu - (it.y * ds + it.s * dy)
-            if (_inf(e_b) <= scale * (1 + _inf(self.b)) and _inf(e_c) <= scale * (1 + _inf(self.c))
-                    and _inf(e_h) <= scale * (1 + _inf(self.h)) and _inf(e_mu) <= scale * max(_inf(r_mu), 1e-300)):
-                break
-            cv, cs, cw, cy = self._direction(it, factors, -e_b, -e_h, -e_c, e_mu)
-            dv, ds, dw, dy = dv + cv, ds + cs, dw + cw, dy + cy
-        return dv, ds, dw, dy
 
 
 def run_interior(ops, lp, *, tol: float, max_iterations: int, time_limit: float, fold_weight: float,
