@@ -241,6 +241,7 @@ class BlockIPM:
         self.rows_per_block = int(counts[0])
         self.block_rows = np.argsort(row_block, kind="stable").reshape(self.n_blocks, self.rows_per_block)
         self.g_blocks = g[self.block_rows]  # (n_blocks, r, k)
+        self.g_dual_blocks = self.g_blocks  # the dual rows' blocks (G_dual's; the same for an LP)
         self.A_B = self.A[:, block_columns.ravel()].tocsr()  # columns in block order
         self.A_F = self.A[:, self.border].toarray() if self.border.size else np.zeros((self.A.shape[0], 0))
         self._abs_A_B, self._abs_A_F = abs(self.A_B), np.abs(self.A_F)
@@ -282,9 +283,8 @@ class BlockIPM:
         d = it.y / np.maximum(it.s, SLACK_RATIO_FLOOR * it.y)
         sqrt_d = np.sqrt(d)[self.block_rows]  # (n_blocks, r)
         M = np.zeros((self.n_blocks, k + r, k + r))
-        B = self.g_blocks * sqrt_d[:, :, None]
-        M[:, :k, k:] = np.swapaxes(B, 1, 2)
-        M[:, k:, :k] = B
+        M[:, :k, k:] = np.swapaxes(self.g_dual_blocks * sqrt_d[:, :, None], 1, 2)  # B_dual^T (B^T for an LP)
+        M[:, k:, :k] = self.g_blocks * sqrt_d[:, :, None]  # B
         idx = np.arange(r)
         M[:, k + idx, k + idx] = -1.0
         return M, sqrt_d

@@ -97,7 +97,7 @@ from __future__ import annotations
 import numpy as np
 import scipy.sparse as sp
 
-from blockmpec.solvers.engines.block_ipm import SLACK_RATIO_FLOOR, BlockIPM, IPMIterate, _inf, interface_blocks
+from blockmpec.solvers.engines.block_ipm import BlockIPM, IPMIterate, _inf, interface_blocks
 
 COUPLINGS = ("exact", "lagged", "fixed")
 #: the aim term's weight is constant down to mu = FOLD_KNEE * mu_0, then falls with mu, and is
@@ -227,18 +227,6 @@ class InteriorFixedPoint(BlockIPM):
                                   fold_weight=self.current_fold, n_change=change if self.coupling == "lagged" else 0.0)
 
     # ------------------------------------------------------------------ Newton on (3)
-    def _block_systems(self, it: IPMIterate):
-        """Per block ``[[0, B_psi^T], [B_phi, -I]]`` and ``sqrt(d)`` (see :meth:`BlockIPM._block_systems`)."""
-        k, r = self.k, self.rows_per_block
-        d = it.y / np.maximum(it.s, SLACK_RATIO_FLOOR * it.y)
-        sqrt_d = np.sqrt(d)[self.block_rows]
-        M = np.zeros((self.n_blocks, k + r, k + r))
-        M[:, :k, k:] = np.swapaxes(self.g_dual_blocks * sqrt_d[:, :, None], 1, 2)
-        M[:, k:, :k] = self.g_blocks * sqrt_d[:, :, None]
-        idx = np.arange(r)
-        M[:, k + idx, k + idx] = -1.0
-        return M, sqrt_d
-
     def reduced_matrix(self, it: IPMIterate):
         """``K = A_B H^{-1} A_B^T + 1e-12 diag(K)`` (not symmetric under the exact coupling)."""
         k, nb = self.k, self.n_blocks
