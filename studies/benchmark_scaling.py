@@ -63,9 +63,8 @@ import blockmpec as bm
 
 # sibling studies (this script's folder is sys.path[0] when run as a script)
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-# markdown and write_csv are re-exported for the studies that import them from here
 from _tables import fmt as _fmt  # noqa: E402
-from _tables import markdown, write_csv  # noqa: E402,F401
+from _tables import markdown, write_csv  # noqa: E402
 from lp_timing import wall_for  # noqa: E402
 from milp_scaling import run_case  # noqa: E402
 

@@ -45,7 +45,7 @@ from blockmpec.solvers.engines.cholesky import SymmetricFactoriser, metis_availa
 from blockmpec.solvers.engines.lp_engine import cold_lp_engine
 
 sys.path.insert(0, str(Path(__file__).parent))
-from benchmark_scaling import write_csv  # noqa: E402
+from _tables import write_csv  # noqa: E402
 
 OUT = Path(__file__).parent / "output" / "cholesky_choice"
 METHODS = ("superlu-mmd", "superlu-metis", "superlu-colamd", "qdldl", "cholmod", "pardiso")

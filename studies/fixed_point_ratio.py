@@ -37,7 +37,7 @@ from pathlib import Path
 import blockmpec as bm
 
 sys.path.insert(0, str(Path(__file__).parent))
-from benchmark_scaling import markdown, write_csv  # noqa: E402
+from _tables import markdown, write_csv  # noqa: E402
 from lp_timing import wall_for  # noqa: E402
 
 OUT = Path(__file__).parent / "output" / "fixed_point_ratio"

@@ -28,10 +28,10 @@ Writes ``studies/output/lp_timing/lp_timing.csv`` and, per block IPM run, its it
 from __future__ import annotations
 
 import argparse
-import csv
 import math
 import multiprocessing
 import resource
+import sys
 import time
 from pathlib import Path
 
@@ -41,6 +41,9 @@ import blockmpec as bm
 from blockmpec.formulations import compile_linear, static_lp
 from blockmpec.formulations._pyomo import pause_gc
 from blockmpec.solvers.engines.lp_engine import cold_lp_engine
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from _tables import write_csv  # noqa: E402
 
 OUT = Path(__file__).parent / "output" / "lp_timing"
 
@@ -108,11 +111,7 @@ def time_one(wall: str, algorithm: str, time_limit: float = float("inf"), orderi
                 if has_point else math.nan)
     factoriser = engine.factoriser if isinstance(engine, BlockIPM) else None
     if isinstance(engine, BlockIPM) and engine.trace:  # mu, steps, centrality, solves per iteration
-        OUT.mkdir(parents=True, exist_ok=True)
-        with (OUT / f"trace_{wall}_{ipm_settings}.csv").open("w", newline="") as fh:
-            w = csv.DictWriter(fh, fieldnames=list(engine.trace[0]))
-            w.writeheader()
-            w.writerows(engine.trace)
+        write_csv(OUT / f"trace_{wall}_{ipm_settings}.csv", engine.trace)
     return {
         "blocks": s.n_free, "interfaces": len(s.interfaces), "rows": lp.A.shape[0], "columns": lp.A.shape[1],
         "generate_s": t1 - t0, "assemble_s": t2 - t1, "pyomo_build_s": t3 - t2, "compile_s": t4 - t3,
@@ -176,12 +175,7 @@ def main(argv: list[str] | None = None) -> list[dict]:
               f"| {r['build_over_solve_cpu']:.2f} "
               f"| {r['peak_memory_mb']:,.0f} MB | {'yes' if r['verified_1e-8'] else 'no'} ({r['max_residual']:.1e}) "
               f"| {r['multiplier']:.4f} |")
-    OUT.mkdir(parents=True, exist_ok=True)
-    with (OUT / "lp_timing.csv").open("w", newline="") as fh:
-        w = csv.DictWriter(fh, fieldnames=list(rows[0]))
-        w.writeheader()
-        w.writerows(rows)
-    print(f"wrote {OUT / 'lp_timing.csv'}")
+    print(f"wrote {write_csv(OUT / 'lp_timing.csv', rows)}")
     return rows
 
 
