@@ -66,7 +66,6 @@ so it cannot start HiGHS's warm simplex re-solves (the fixed point needs them).
 
 from __future__ import annotations
 
-import contextlib
 import time
 from dataclasses import dataclass
 
@@ -214,8 +213,8 @@ class BlockIPM:
         self.n_blocks, self.k = block_columns.shape
         block_of = np.full(n, -1)
         block_of[block_columns.ravel()] = np.repeat(np.arange(self.n_blocks), self.k)
-        local_of = np.full(n, -1)
-        local_of[block_columns.ravel()] = np.tile(np.arange(self.k), self.n_blocks)
+        self._local_of = np.full(n, -1)  # each block column's place within its block
+        self._local_of[block_columns.ravel()] = np.tile(np.arange(self.k), self.n_blocks)
         self.block_columns = block_columns
         self.border = np.flatnonzero(block_of < 0)
         # each inequality row: its block and its dense local row g_r (length k)
@@ -229,8 +228,6 @@ class BlockIPM:
         check[G.row] = blocks_of_entries != row_block[G.row]
         if np.any(check) or np.any(row_block < 0):
             raise ValueError("block IPM: an inequality row spans two blocks or is empty")
-        g = np.zeros((G.shape[0], self.k))
-        np.add.at(g, (G.row, local_of[G.col]), G.data)
         self.G = G.tocsr()
         #: the inequality matrix of the dual rows ``c - A^T w + G_dual^T y = 0``: ``G`` for an LP
         #: (a subclass for the MCP (3) has ``G_phi`` in the primal rows and ``G_psi`` here)
@@ -240,8 +237,10 @@ class BlockIPM:
             raise ValueError("block IPM: every block needs the same number of inequality rows")
         self.rows_per_block = int(counts[0])
         self.block_rows = np.argsort(row_block, kind="stable").reshape(self.n_blocks, self.rows_per_block)
-        self.g_blocks = g[self.block_rows]  # (n_blocks, r, k)
+        self.g_blocks = self.dense_blocks(self.G)
         self.g_dual_blocks = self.g_blocks  # the dual rows' blocks (G_dual's; the same for an LP)
+        #: K is symmetric (an LP): H^{-1} is symmetrised against round-off; False when G_dual != G
+        self.symmetric = True
         self.A_B = self.A[:, block_columns.ravel()].tocsr()  # columns in block order
         self.A_F = self.A[:, self.border].toarray() if self.border.size else np.zeros((self.A.shape[0], 0))
         self._abs_A_B, self._abs_A_F = abs(self.A_B), np.abs(self.A_F)
@@ -250,6 +249,14 @@ class BlockIPM:
         k, nb = self.k, self.n_blocks
         self._hinv_indptr = np.arange(0, nb * k * k + 1, k)
         self._hinv_indices = (np.arange(nb)[:, None, None] * k + np.arange(k)[None, None, :]).repeat(k, axis=1).ravel()
+
+    def dense_blocks(self, G: sp.sparray) -> np.ndarray:
+        """The rows of an inequality matrix ``G`` (this LP's pattern) as dense per-block arrays,
+        shape ``(n_blocks, rows_per_block, k)``."""
+        G = sp.coo_array(G)
+        g = np.zeros((G.shape[0], self.k))
+        np.add.at(g, (G.row, self._local_of[G.col]), G.data)
+        return g[self.block_rows]
 
     def settings(self, **values) -> None:
         """Set iteration parameters (names of :data:`DEFAULT_SETTINGS`; :data:`PREVIOUS_SETTINGS` for comparisons)."""
@@ -295,13 +302,14 @@ class BlockIPM:
         M, sqrt_d = self._block_systems(it)
         M_inv = np.linalg.inv(M)  # LU with partial pivoting, per block
         Hinv = M_inv[:, :k, :k]
-        Hinv = 0.5 * (Hinv + np.swapaxes(Hinv, 1, 2))
+        if self.symmetric:
+            Hinv = 0.5 * (Hinv + np.swapaxes(Hinv, 1, 2))
         Hinv_mat = sp.csr_array((Hinv.ravel(), self._hinv_indices, self._hinv_indptr), shape=(nb * k, nb * k))
         K = (self.A_B @ Hinv_mat @ self.A_B.T).tocsc()
         # a relative diagonal shift (1e-12 K_ii) keeps the pivots nonzero where a
         # block's forces are all fixed by active rows; iterative refinement against the
         # exact block solves removes its effect on the direction
-        K = K + sp.diags(1e-12 * K.diagonal() + 1e-300, format="csc")
+        K = K + sp.diags(1e-12 * np.abs(K.diagonal()) + 1e-300, format="csc")
         return K, (M_inv, sqrt_d)
 
     @property
@@ -366,8 +374,7 @@ class BlockIPM:
                 break
             # iterative refinement: K was assembled from inverted blocks, the block
             # solves are exact; correct dw until A dv = -r_b holds to round-off
-            e_eq = -r_b - self.A_B @ dv_B - self.A_F @ dv_F
-            e_border = r_c[self.border] - self.A_F.T @ dw
+            e_eq, e_border = self._equality_errors(r_b, r_c, dw, dv_F, dv_B)
             limit = target
             if tolerance > 0:
                 limit = max(target, tolerance * _inf(self._abs_A_B @ np.abs(dv_B) + self._abs_A_F @ np.abs(dv_F)))
@@ -390,6 +397,11 @@ class BlockIPM:
         dv[self.border] = dv_F
         ds = -r_h - self.G @ dv
         return dv, ds, dw, dy
+
+    def _equality_errors(self, r_b, r_c, dw, dv_F, dv_B) -> tuple[np.ndarray, np.ndarray]:
+        """Errors of a direction in the equality rows, ``-r_b - A dv``, and in the border's dual
+        rows, ``r_c[F] - A_F^T dw`` (the rows the reduced solve answers for)."""
+        return -r_b - self.A_B @ dv_B - self.A_F @ dv_F, r_c[self.border] - self.A_F.T @ dw
 
     def _krylov_refinement(self, blocks, reduced_solve, rhs_primal, r_b, r_c, limit, error, dw, dv_F, dv_B, dy,
                            e_eq, e_border):
@@ -429,8 +441,7 @@ class BlockIPM:
             x_w, x_F = reduced_solve(z[:m], z[m:])
             new_dw, new_dv_F = dw + x_w, dv_F + x_F
             new_dv_B, new_dy = self._block_solve(blocks, -r_c[bc] + self.A_B.T @ new_dw, rhs_primal)
-            new_e_eq = -r_b - self.A_B @ new_dv_B - self.A_F @ new_dv_F
-            new_e_border = r_c[self.border] - self.A_F.T @ new_dw
+            new_e_eq, new_e_border = self._equality_errors(r_b, r_c, new_dw, new_dv_F, new_dv_B)
             new_error = max(_inf(new_e_eq), _inf(new_e_border))
             if not new_error < error:
                 break
@@ -478,9 +489,13 @@ class BlockIPM:
         r_b, r_h, r_c = self.residuals(it) if residuals is None else residuals
         primal = max(_inf(r_b) / (1 + _inf(self.b)), _inf(r_h) / (1 + _inf(self.h)))
         dual = _inf(r_c) / (1 + _inf(self.c))
+        return primal, dual, self.gap(it)
+
+    def gap(self, it: IPMIterate) -> float:
+        """The relative duality gap ``|c^T v - (b^T w - h^T y)| / (1 + |c^T v|)``."""
         pobj = self.c @ it.v
         dobj = self.b @ it.w - self.h @ it.y
-        return primal, dual, abs(pobj - dobj) / (1 + abs(pobj))
+        return abs(pobj - dobj) / (1 + abs(pobj))
 
     def before_iteration(self, it: IPMIterate) -> None:
         """Called at the start of every iteration with the current iterate; the LP's data
@@ -631,17 +646,15 @@ class BlockIPM:
 
 
 def single_blas_thread():
-    """A context in which numpy's and scipy's BLAS use one thread (``threadpoolctl``; no-op without it).
+    """A context in which numpy's and scipy's BLAS use one thread (``threadpoolctl``).
 
     The method's dense BLAS calls are tiny (a length-``m`` dot product, a batch of 7-by-7
     inverses): multithreaded OpenBLAS spends milliseconds of CPU per call starting and spinning
     its threads.  One thread: the 10,050-block wall in 0.61x the CPU time (28.7 s against
     46.7 s, same 53 iterations; ``studies/lp_timing.py``).
     """
-    try:
-        from threadpoolctl import threadpool_limits
-    except ImportError:  # pragma: no cover - a declared dependency
-        return contextlib.nullcontext()
+    from threadpoolctl import threadpool_limits
+
     return threadpool_limits(limits=1, user_api="blas")
 
 

@@ -97,7 +97,7 @@ from __future__ import annotations
 import numpy as np
 import scipy.sparse as sp
 
-from blockmpec.solvers.engines.block_ipm import BlockIPM, IPMIterate, _inf, interface_blocks
+from blockmpec.solvers.engines.block_ipm import BlockIPM, IPMIterate, interface_blocks
 
 COUPLINGS = ("exact", "lagged", "fixed")
 #: the aim term's weight is constant down to mu = FOLD_KNEE * mu_0, then falls with mu, and is
@@ -157,12 +157,8 @@ class InteriorFixedPoint(BlockIPM):
             extra = sp.csr_array((self.in_scale[rows] * np.repeat(factor, 2) * self.column_scale[cols], (rows, cols)),
                                  shape=self.G.shape)
             self.G = (self.G + extra).tocsr()
-            local_of = np.full(self.c.size, -1)
-            local_of[self.block_columns.ravel()] = np.tile(np.arange(self.k), self.n_blocks)
-            coo = self.G.tocoo()
-            g = np.zeros((self.G.shape[0], self.k))
-            np.add.at(g, (coo.row, local_of[coo.col]), coo.data)
-            self.g_blocks = g[self.block_rows]
+            self.g_blocks = self.dense_blocks(self.G)
+            self.symmetric = False
         self.set_fold(self.fold_weight)
         self.lam_column = int(lp.columns["lam"][0])
         #: a StoppingCriterion that records every iteration (set by :func:`run_interior`), or None
@@ -227,26 +223,10 @@ class InteriorFixedPoint(BlockIPM):
                                   fold_weight=self.current_fold, n_change=change if self.coupling == "lagged" else 0.0)
 
     # ------------------------------------------------------------------ Newton on (3)
-    def reduced_matrix(self, it: IPMIterate):
-        """``K = A_B H^{-1} A_B^T + 1e-12 diag(K)`` (not symmetric under the exact coupling)."""
-        k, nb = self.k, self.n_blocks
-        M, sqrt_d = self._block_systems(it)
-        M_inv = np.linalg.inv(M)
-        Hinv = M_inv[:, :k, :k]
-        if self.coupling != "exact":
-            Hinv = 0.5 * (Hinv + np.swapaxes(Hinv, 1, 2))
-        Hinv_mat = sp.csr_array((Hinv.ravel(), self._hinv_indices, self._hinv_indptr), shape=(nb * k, nb * k))
-        K = (self.A_B @ Hinv_mat @ self.A_B.T).tocsc()
-        K = K + sp.diags(1e-12 * np.abs(K.diagonal()) + 1e-300, format="csc")
-        return K, (M_inv, sqrt_d)
-
-    def measures(self, it: IPMIterate, residuals=None) -> tuple[float, float, float]:
-        """Relative (primal, dual, complementarity) of an iterate."""
-        r_b, r_h, r_c = self.residuals(it) if residuals is None else residuals
-        primal = max(_inf(r_b) / (1 + _inf(self.b)), _inf(r_h) / (1 + _inf(self.h)))
-        dual = _inf(r_c) / (1 + _inf(self.c))
-        return primal, dual, float(it.s @ it.y) / (1 + abs(float(self.c @ it.v)))
-
+    def gap(self, it: IPMIterate) -> float:
+        """The relative complementarity ``s^T y / (1 + |c^T v|)`` (the LP's duality-gap identity
+        needs ``G_phi = G_psi``)."""
+        return float(it.s @ it.y) / (1 + abs(float(self.c @ it.v)))
 
 
 def run_interior(ops, lp, *, tol: float, max_iterations: int, time_limit: float, fold_weight: float,
