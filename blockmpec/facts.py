@@ -14,6 +14,9 @@ GAP_ABS = "gap_abs"
 GAP_REL = "gap_rel"
 #: ``"min"`` or ``"max"``: which extremum of the multiplier over the solutions of (3) a run seeks
 SENSE = "sense"
+#: which of a method's engines produced the result (``fixed-point``: ``"simplex"``, ``"interior"``, ...;
+#: ``milp``: ``"root"``, ``"highs"``, ``"scip"``, ``"bnb"``)
+ENGINE = "engine"
 #: number of LP solves, and LP time per kind (dict kind -> seconds)
 LP_SOLVES = "lp_solves"
 LP_TIME_S = "lp_time_s"

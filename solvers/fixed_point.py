@@ -235,7 +235,7 @@ class FixedPoint(SolverBase):
         t0 = time.perf_counter()
         out, facts = run_interior(self.ops, self.step_lp, tol=o.tol, max_iterations=o.max_iterations,
                                   time_limit=o.time_limit, fold_weight=o.interior_weight)
-        out.extra["engine"] = "interior"
+        out.extra[fact_names.ENGINE] = "interior"
         left = o.time_limit - (time.perf_counter() - t0)
         if o.engine != "auto" or self._verified(out) or left <= 0:
             return out
@@ -244,9 +244,9 @@ class FixedPoint(SolverBase):
         simplex = self._run_simplex(o.time_limit - (time.perf_counter() - t0))
         simplex.extra[fact_names.LP_SOLVES] = simplex.extra.get(fact_names.LP_SOLVES, 0) + facts[fact_names.LP_SOLVES]
         simplex.extra[fact_names.LP_TIME_S] = {**simplex.extra.get(fact_names.LP_TIME_S, {}), **facts[fact_names.LP_TIME_S]}
-        simplex.extra["engine"] = "interior, then simplex"
+        simplex.extra[fact_names.ENGINE] = "interior, then simplex"
         simplex.extra["interior_status"] = out.status.value
-        simplex.trace = [{**rec, "engine": "interior"} for rec in out.trace] + simplex.trace
+        simplex.trace = [{**rec, fact_names.ENGINE: "interior"} for rec in out.trace] + simplex.trace
         simplex.message = f"{simplex.message} (after an interior run that ended {out.status.value}: {out.message})"
         return simplex
 
@@ -280,7 +280,7 @@ class FixedPoint(SolverBase):
                 out, facts = best, best_facts
             out.extra = self.sequence.facts()
             out.extra["multistart_runs"] = runs
-        out.extra["engine"] = "simplex"
+        out.extra[fact_names.ENGINE] = "simplex"
         out.extra["tie_break_failures"] = facts["tie_break_failures"]
         out.extra["start"] = facts["start_used"]
         if facts["lam_start"] is not None:

@@ -697,7 +697,7 @@ class MILPSolver(SolverBase):
             return None
         extra = {facts.SENSE: self.options.sense, facts.ASSOCIATIVE_MULTIPLIER: bd.lam_associative,
                  facts.BOUND: bound, facts.GAP_ABS: gap, facts.GAP_REL: gap / max(abs(lam), 1e-12),
-                 facts.LP_SOLVES: bd.n_lps, "engine": "root", "lam_kinematic": bd.lam_kinematic,
+                 facts.LP_SOLVES: bd.n_lps, facts.ENGINE: "root", "lam_kinematic": bd.lam_kinematic,
                  "lam_dissipation": bd.lam_dissipation, "bound_time_s": bd.time_s, "build_time_s": t_build,
                  "search_time_s": 0.0, "nodes": 0, "bigm_active": [], "bigm": []}
         word = "maximum" if maximise else "minimum"
@@ -809,7 +809,7 @@ class MILPSolver(SolverBase):
             facts.ASSOCIATIVE_MULTIPLIER: bd.lam_associative,
             facts.BOUND: bound,
             facts.LP_SOLVES: bd.n_lps,
-            "engine": opt.engine,
+            facts.ENGINE: opt.engine,
             "lam_static_min": bd.lam_static_min,
             "lam_kinematic": bd.lam_kinematic,
             "lam_dissipation": bd.lam_dissipation,
@@ -865,7 +865,7 @@ class MILPSolver(SolverBase):
         trace += [dict(r, iteration=len(trace) + k, stage="search") for k, r in enumerate(run.trace)]
         bound = float(run.dual_bound)
         extra = {facts.SENSE: "min", facts.ASSOCIATIVE_MULTIPLIER: bd.lam_associative, facts.BOUND: bound,
-                 facts.LP_SOLVES: bd.n_lps + self._bnb_lps, "engine": "bnb", "lam_static_min": bd.lam_static_min,
+                 facts.LP_SOLVES: bd.n_lps + self._bnb_lps, facts.ENGINE: "bnb", "lam_static_min": bd.lam_static_min,
                  "lam_kinematic": bd.lam_kinematic, "lam_dissipation": bd.lam_dissipation, "bound_time_s": bd.time_s,
                  "build_time_s": t_build, "search_time_s": run.time_s, "nodes": run.nodes, "bigm_active": [],
                  "bigm": [], "engine_multiplier": None if best is None else best.multiplier}
