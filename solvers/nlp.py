@@ -133,8 +133,9 @@ _PENALTY_MU_INIT = 1e-6
 STARTS = ("associative", "cold", "fixed-point")
 COMPLEMENTARITY = ("relaxed", "penalty")
 
-#: starts taken from a registered method's solution of (3): (method, its options)
-_START_METHODS = {"fixed-point": ("fixed-point", {})}
+#: starts taken from a registered method's solution: (method, its options); the associative start is
+#: the static LP's solution, the fixed-point start a solution of (3)
+_START_METHODS = {"associative": ("static-lp", {}), "fixed-point": ("fixed-point", {})}
 
 #: statuses of a start method whose solution the NLP may start from
 _USABLE_START = (Status.OPTIMAL, Status.CONVERGED, Status.LOCALLY_OPTIMAL, Status.ACCEPTABLE)
@@ -400,15 +401,11 @@ class RelaxedNLP(SolverBase):
 
     def setup(self, ops):
         from blockmpec.formulations import compile_mcp
-        from blockmpec.solvers.static_lp import StaticLP
 
         self.ops = ops
         self.form = compile_mcp(ops)  # (3), compiled once
         self.start_solver = None
-        if self.options.start == "associative":  # the associative start is the static-lp adapter itself
-            self.start_solver = StaticLP(time_limit=self.options.time_limit)
-            self.start_solver.setup(ops)
-        elif self.options.start in _START_METHODS:
+        if self.options.start in _START_METHODS:  # the start is the registered method's adapter itself
             from blockmpec.registry import get_solver
 
             method, start_options = _START_METHODS[self.options.start]
