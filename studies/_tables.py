@@ -6,6 +6,7 @@ dependency on any study, so every study can use it without import cycles.
 
 from __future__ import annotations
 
+import contextlib
 import csv
 import math
 from pathlib import Path
@@ -21,6 +22,22 @@ def write_csv(path: Path, rows: list[dict], columns: list[str] | None = None) ->
         writer.writeheader()
         writer.writerows(rows)
     return path
+
+
+@contextlib.contextmanager
+def csv_rows(path: Path, columns: list[str]):
+    """Write a CSV row by row: yields ``append(row)``, which writes and flushes one row, so an
+    interrupted study keeps what it measured (parent folders created, header first)."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    with path.open("w", newline="") as fh:
+        writer = csv.DictWriter(fh, fieldnames=list(columns))
+        writer.writeheader()
+
+        def append(row: dict) -> None:
+            writer.writerow(row)
+            fh.flush()
+
+        yield append
 
 
 def fmt(value, spec: str = "{:.6g}") -> str:

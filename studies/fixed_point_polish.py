@@ -160,10 +160,7 @@ def main(argv: list[str] | None = None) -> list[dict]:
                ("status", "status", "{}"), ("max_residual", "max residual of (3)", "{:.1e}"),
                ("multiplier", "lam", "{:.5g}"), ("verified", "verified 1e-8", "{}")]
     print(markdown(rows, columns))
-    OUT.mkdir(parents=True, exist_ok=True)
-    path = OUT / f"polish_{args.wall}.csv"
-    write_csv(path, rows)
-    print(f"wrote {path}")
+    print(f"wrote {write_csv(OUT / f'polish_{args.wall}.csv', rows)}")
     return rows
 
 

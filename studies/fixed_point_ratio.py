@@ -137,9 +137,7 @@ def main(argv: list[str] | None = None) -> list[dict]:
     text_keys = ("fp_status", "fixed_point", "fp_engine", "fp_verified")
     print(markdown(rows, [(k, k, "{}" if k in text_keys else "{:.5g}" if k == "fp_multiplier" else "{:.3g}")
                           for k in keys]))
-    OUT.mkdir(parents=True, exist_ok=True)
-    path = OUT / f"ratio_{'_'.join(walls)}.csv"
-    write_csv(path, rows)
+    path = write_csv(OUT / f"ratio_{'_'.join(walls)}.csv", rows)
     print(f"wrote {path}")
     return rows
 

@@ -25,7 +25,6 @@ from __future__ import annotations
 
 import argparse
 import ast
-import csv
 import sys
 import time
 from pathlib import Path
@@ -34,6 +33,7 @@ import blockmpec as bm
 from blockmpec import facts
 
 sys.path.insert(0, str(Path(__file__).parent))
+from _tables import csv_rows  # noqa: E402
 from certificate_study import _fmt  # noqa: E402
 
 OUT = Path(__file__).parent / "output" / "nlp"
@@ -80,12 +80,9 @@ def main(argv: list[str] | None = None) -> list[dict]:
     ap.add_argument("--keep-going", action="store_true", help="do not stop a set at its first unverified wall")
     args = ap.parse_args(argv)
     walls = [tuple(int(v) for v in w.split("x")) for w in args.walls.split(",") if w.strip()]
-    OUT.mkdir(parents=True, exist_ok=True)
     path = OUT / f"nlp_scaling{'_' + args.tag if args.tag else ''}.csv"
     rows = []
-    with path.open("w", newline="") as fh:
-        writer = csv.DictWriter(fh, COLUMNS)
-        writer.writeheader()
+    with csv_rows(path, COLUMNS) as append:
         runs = [(config, options, "nlp") for config, options in parse_configs(args.configs).items()]
         if args.fixed_point:
             runs.insert(0, ("fixed-point", {}, "fixed-point"))
@@ -93,8 +90,7 @@ def main(argv: list[str] | None = None) -> list[dict]:
             for courses, per_course in walls:
                 row = run_wall(config, courses, per_course, args.time_limit, options, method)
                 rows.append(row)
-                writer.writerow(row)
-                fh.flush()
+                append(row)
                 print("  ".join(f"{k}={_fmt(row[k])}" for k in COLUMNS[:11]), flush=True)
                 if not row["verified"] and not args.keep_going:
                     break

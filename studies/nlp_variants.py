@@ -19,7 +19,6 @@ Writes ``studies/output/nlp/nlp_variants[_TAG].csv``.
 from __future__ import annotations
 
 import argparse
-import csv
 import statistics
 import sys
 import time
@@ -30,6 +29,7 @@ from blockmpec.cli import BENCHMARK_SUITE
 
 sys.path.insert(0, str(Path(__file__).parent))
 import heuristic_suite  # noqa: E402
+from _tables import csv_rows  # noqa: E402
 from nlp_scaling import DEFAULT_CONFIGS, OUT, parse_configs  # noqa: E402
 
 COLUMNS = ["config", "case", "suite", "reference", "status", "verified", "multiplier", "cpu_s", "solve_s"]
@@ -60,12 +60,9 @@ def main(argv: list[str] | None = None) -> list[dict]:
     ap.add_argument("--tag", default="")
     args = ap.parse_args(argv)
     runs = [("fixed-point", "fixed-point", {})] + [(c, "nlp", o) for c, o in parse_configs(args.configs).items()]
-    OUT.mkdir(parents=True, exist_ok=True)
     path = OUT / f"nlp_variants{'_' + args.tag if args.tag else ''}.csv"
     rows = []
-    with path.open("w", newline="") as fh:
-        writer = csv.DictWriter(fh, COLUMNS)
-        writer.writeheader()
+    with csv_rows(path, COLUMNS) as append:
         for label, suite, structure, reference in cases():
             for config, method, options in runs:
                 res, cpu = solve(structure, method, options, args.time_limit)
@@ -73,8 +70,7 @@ def main(argv: list[str] | None = None) -> list[dict]:
                        "status": res.status.value, "verified": res.success, "multiplier": res.multiplier,
                        "cpu_s": cpu, "solve_s": res.solve_time_s}
                 rows.append(row)
-                writer.writerow(row)
-                fh.flush()
+                append(row)
             print(label, " ".join(f"{r['config']}={r['multiplier']}" for r in rows if r["case"] == label), flush=True)
     configs = [r[0] for r in runs]
     print("\n| case | " + " | ".join(configs) + " |\n|---|" + "---|" * len(configs))
