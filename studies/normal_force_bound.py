@@ -37,44 +37,30 @@ import argparse
 import heapq
 import time
 
-import highspy
 import numpy as np
 
 import blockmpec as bm
 from blockmpec.formulations import compile_linear, static_lp
 from blockmpec.formulations.static_lp import modified_lp
+from blockmpec.solvers.engines.highs import HighsLP
 
 TOL = 1e-9
 
 
-class _LP:
-    """One HiGHS instance on a compiled LP; ``solve`` runs cold (warm re-solves after cost and
-    bound changes were seen to report a feasible LP infeasible)."""
+def _cold_highs(lp) -> HighsLP:
+    """The project's HiGHS wrapper on ``lp`` at feasibility tolerances 1e-9; :func:`_solve_cold` runs it
+    cold (warm re-solves after cost and bound changes were seen to report a feasible LP infeasible)."""
+    engine = HighsLP(lp, "dual-simplex")
+    engine.highs.setOptionValue("primal_feasibility_tolerance", TOL)
+    engine.highs.setOptionValue("dual_feasibility_tolerance", TOL)
+    return engine
 
-    def __init__(self, lp) -> None:
-        self.lp = lp
-        h = highspy.Highs()
-        h.setOptionValue("output_flag", False)
-        h.setOptionValue("primal_feasibility_tolerance", TOL)
-        h.setOptionValue("dual_feasibility_tolerance", TOL)
-        A = lp.A.tocsc()
-        model = highspy.HighsLp()
-        model.num_col_, model.num_row_ = A.shape[1], A.shape[0]
-        model.col_cost_, model.col_lower_, model.col_upper_ = lp.c, lp.col_lower, lp.col_upper
-        model.row_lower_, model.row_upper_ = lp.row_lower, lp.row_upper
-        model.a_matrix_.format_ = highspy.MatrixFormat.kColwise
-        model.a_matrix_.start_, model.a_matrix_.index_, model.a_matrix_.value_ = A.indptr, A.indices, A.data
-        h.passModel(model)
-        self.h = h
-        self.all = np.arange(A.shape[1], dtype=np.int32)
 
-    def solve(self):
-        self.h.clearSolver()
-        self.h.run()
-        if self.h.getModelStatus() != highspy.HighsModelStatus.kOptimal:
-            return None
-        sol = self.h.getSolution()
-        return np.asarray(sol.col_value), np.asarray(sol.row_dual)
+def _solve_cold(engine: HighsLP):
+    """``(column values, row duals)``, or None unless optimal."""
+    engine.highs.clearSolver()
+    out = engine.solve()
+    return (out.v, out.row_dual) if out.status is bm.Status.OPTIMAL else None
 
 
 class NormalForceBound:
@@ -84,37 +70,34 @@ class NormalForceBound:
         ops = bm.assemble(structure)
         self.c = ops.n_interfaces
         self.tan_phi, self.cohesion_slope = ops.friction, ops.friction - ops.dilatancy
-        self.static = _LP(compile_linear(static_lp(ops)))
+        self.static = _cold_highs(compile_linear(static_lp(ops)))
+        self.all_static = np.arange(self.static.lp.c.size, dtype=np.int32)
         lp = self.static.lp
         self.n_col = lp.columns["x"][3 * np.arange(self.c) + 1]
         self.lam_col = int(lp.columns["lam"][0])
-        self.step = _LP(compile_linear(modified_lp(ops, np.zeros(self.c))))
+        self.step = _cold_highs(compile_linear(modified_lp(ops, np.zeros(self.c))))
         self.friction_rows = self.step.lp.rows["friction"].astype(np.int32)
         self.lp_solves = 0
 
     def L(self, n_star: np.ndarray):
         """``(L(n*), n, |t| + n tan(phi), friction multipliers per interface)`` of the step LP at ``n*``."""
         step, rows = self.step, self.friction_rows
-        step.h.changeRowsBounds(rows.size, rows, step.lp.row_lower[rows], np.repeat(-n_star * self.cohesion_slope, 2))
+        step.set_row_upper(rows, np.repeat(-n_star * self.cohesion_slope, 2))
         self.lp_solves += 1
-        v, y = step.solve()
+        v, y = _solve_cold(step)
         x = step.lp.values("x", v)
         n, t = x[1::3], x[0::3]
         return float(step.lp.values("lam", v)[0]), n, np.abs(t) + n * self.tan_phi, -y[rows].reshape(-1, 2).sum(1)
 
     def _static_optimum(self, cost: np.ndarray, lo, up, lam_lo: float, lam_hi: float):
-        lp, h = self.static.lp, self.static.h
+        lp, h = self.static.lp, self.static.highs
         lower, upper = lp.col_lower.copy(), lp.col_upper.copy()
         lower[self.n_col], upper[self.n_col] = lo, up
         lower[self.lam_col], upper[self.lam_col] = lam_lo, lam_hi
         h.changeColsBounds(self.all_static.size, self.all_static, lower, upper)
         h.changeColsCost(self.all_static.size, self.all_static, cost)
         self.lp_solves += 1
-        return self.static.solve()
-
-    @property
-    def all_static(self) -> np.ndarray:
-        return self.static.all
+        return _solve_cold(self.static)
 
     def tighten(self, lo, up, lam_lo: float, lam_hi: float):
         """OBBT of every ``n_k`` over ``S`` with ``lam`` in ``[lam_lo, lam_hi]``; None if empty."""
