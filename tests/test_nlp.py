@@ -83,6 +83,43 @@ def test_time_limit_is_a_status():
     assert not res.success
 
 
+def test_time_limit_inside_ipopt_is_a_status_and_kept():
+    """A limit that ends inside an Ipopt stage (the 10x10 wall needs ~800 iterations, tens of seconds):
+    the status is the time limit, the trace's last Ipopt solve says why, and the solve ends within the
+    limit plus one of its iterations (the callback stops Ipopt when the time left is shorter than its
+    longest iteration; Ipopt's own max_wall_time is tested only after an iteration)."""
+    limit = 2.0
+    res = bm.solve(bm.cases.wall(10, 10), "nlp", time_limit=limit)
+    assert res.status is Status.TIME_LIMIT
+    assert not res.success
+    last = [t for t in res.trace if t["stage"] != "polish"][-1]
+    assert last["ipopt_status"] in ("time_limit_callback", "Maximum_WallTime_Exceeded")
+    assert last["ipopt_iterations"] > 0
+    assert res.solve_time_s <= limit + last["longest_iteration_s"] + 1.0
+
+
+def test_iteration_callback_stops_ipopt_at_the_deadline():
+    """The callback returns False (Ipopt's user stop) once the deadline minus the longest iteration has
+    passed, and records that the deadline, not the user, stopped it."""
+    import time
+
+    from blockmpec.formulations import compile_mcp
+    from blockmpec.solvers.nlp import _RelaxedMPEC, nlp_scaling
+
+    ops = bm.assemble(bm.cases.two_blocks(eta=3, mu=0.65))
+    form = compile_mcp(ops)
+    nlp = _RelaxedMPEC(form, 1.0, *nlp_scaling(form, ops))
+    args = (0.0,) * 9
+    nlp.start_clock(float("inf"))
+    assert nlp.intermediate(0, 0, *args) and nlp.intermediate(0, 1, *args)
+    assert not nlp.deadline_hit and nlp.iterations == 1
+    nlp.start_clock(time.perf_counter() + 0.05)
+    time.sleep(0.03)  # the first iteration took 0.03 s; 0.02 s are left: the next one would overrun
+    assert not nlp.intermediate(0, 0, *args)
+    assert nlp.deadline_hit
+    assert nlp.longest_iteration_s >= 0.03
+
+
 @pytest.mark.parametrize("bad", [dict(eps_factor=1.5), dict(eps_final=1.0, eps_initial=1e-3), dict(start="hot"),
                                  dict(max_iter=2.5), dict(ipopt_options={"tol": None})])
 def test_bad_options(bad):
