@@ -28,8 +28,6 @@ from typing import Literal
 
 import numpy as np
 from scipy.sparse import coo_array
-from scipy.sparse.csgraph import connected_components
-from scipy.spatial import cKDTree
 
 from blockmpec.errors import GeometryError, PrecisionWarning, StructureError
 from blockmpec.units import Frame, block_extent, power_of_two
@@ -413,6 +411,8 @@ def candidate_pairs(vertices: np.ndarray, tol: float) -> tuple[np.ndarray, np.nd
     cls = np.floor(np.log2(radius)).astype(int)
     classes = np.unique(cls)
     groups = [np.flatnonzero(cls == k) for k in classes]
+    from scipy.spatial import cKDTree  # imported here: scipy.spatial costs a third of `blockmpec --help`
+
     trees = [cKDTree(centre[g]) for g in groups]
     found_a, found_b = [], []
     for x, (ga, ta) in enumerate(zip(groups, trees)):
@@ -598,6 +598,8 @@ def _check_connectivity(s: Structure) -> None:
             "move it into contact or remove it"
         )
     graph = coo_array((np.ones(len(itf)), (itf.minus, itf.plus)), shape=(s.n_blocks, s.n_blocks))
+    from scipy.sparse.csgraph import connected_components  # imported here, as cKDTree above
+
     _, label = connected_components(graph, directed=False)
     supported = np.zeros(label.max() + 1, bool)
     supported[label[s.fixed]] = True
