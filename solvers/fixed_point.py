@@ -91,11 +91,13 @@ engine costs 1.4x one cold block-IPM LP (CPU) against the simplex engine's 46x, 
 lam 0.44948 against 0.44946 (``studies/fixed_point_ratio.py``); on the heuristic suite it
 is within 2 % of the certified minimum on 54/56 structures against the simplex engine's
 56/56 and takes 7x its median time on these small structures (hence the threshold).
-It does not converge on every large wall: on 2,400- and 10,000-block walls its central
-path folds before ``mu = 0`` (at 10k it ends ``NUMERICAL`` after 2.3x one cold block-IPM LP,
-CPU), and no closing stage measured so far (semismooth Newton, exact block-IPM fixed-point
-steps, restarts) reaches a solution of (3) from the stalled point (the engine module's
-docstring, ``studies/fixed_point_polish.py``), hence the fallback.
+It does not converge on every large wall: on 2,400- and 10,000-block walls Mehrotra's
+iterates leave the strongly curved central path of (3) (at 10k it ends ``NUMERICAL`` after
+2.3x one cold block-IPM LP, CPU), and no closing stage measured so far (semismooth Newton,
+exact block-IPM fixed-point steps, restarts, proximal regularisation, aimed forces with LP
+duals) reaches a solution of (3) from the stalled point; arclength continuation follows the
+path below the stall but at ~40 steps per decade of ``mu`` (the engine module's docstring,
+``studies/fixed_point_polish.py``, ``studies/fixed_point_continuation.py``), hence the fallback.
 """
 
 from __future__ import annotations

@@ -27,7 +27,8 @@ at a residual of (3) of 1.4e-2 in 4.0 s; cold steps 4 LPs, 25 s, ``||n - n*||/||
 --restart-factors 1e7 --newton-iterations 5 --time-limit 60``; one cold block-IPM LP:
 26.6 s CPU) the run stalls at 0.34 in 23.7 s; the restart 0.27 (33 s); warm steps: 2nd LP
 at its 60 s limit (``n`` moved 1.3e-3); cold steps: 2 LPs, 59 s, lam 0.420 then 0.196;
-Newton: out of memory in SuperLU on ``J^T J``.
+Newton: out of memory in SuperLU on ``J^T J``.  Proximal regularisation, aimed forces paired
+with LP duals and arclength continuation: ``studies/fixed_point_continuation.py``.
 
 Usage::
 

@@ -194,3 +194,28 @@ def test_warm_start_from_a_solution_of_3_is_a_fixed_point_of_the_step_lp():
     assert out.status is bm.Status.OPTIMAL and out.iterations == 0
     lam = exact.column_scale[exact.lam_column] * best.v[exact.lam_column]
     assert -out.objective == pytest.approx(lam, rel=1e-12)
+
+
+def test_kept_aim_forces_paired_with_their_step_lp_duals_solve_3():
+    """``keep_aim``: the run solves the aimed problem, whose duals are no mechanism of (3); where the aimed
+    forces are optimal for their own LP (5), that LP's duals complete them to a solution of (3)
+    (any optimal primal and dual of one LP are complementary; ``studies/fixed_point_continuation.py``)."""
+    from blockmpec.result import Solution
+    from blockmpec.solvers.engines.highs import static_lp_solution
+    from blockmpec.verify import residuals
+
+    ops = bm.assemble(bm.cases.wall(courses=8, blocks_per_course=10))
+    lp = _step_lp(ops)
+    aimed = InteriorFixedPoint(lp, ops, fold_weight=0.1, fold_off=0.0, fold_knee=1e-300)
+    aimed.keep_aim = True
+    out = aimed.solve()
+    assert out.status is bm.Status.OPTIMAL and aimed.current_fold == 0.1
+    forces = static_lp_solution(lp, out)
+    assert max(residuals(ops, forces, associative=False).values()) > 1e-3
+    step = InteriorFixedPoint(lp, ops, coupling="fixed")
+    step.set_n_star(np.minimum(forces.x[1::3], 0.0))
+    duals = static_lp_solution(lp, step.solve())
+    assert duals.multiplier == pytest.approx(forces.multiplier, rel=1e-8)
+    paired = Solution(multiplier=forces.multiplier, x=forces.x, u=duals.u, z_u=duals.z_u, z_f=duals.z_f)
+    assert max(residuals(ops, paired, associative=False).values()) <= VERIFY_TOL
+    assert paired.multiplier <= bm.solve(ops, "static-lp").multiplier + 1e-9

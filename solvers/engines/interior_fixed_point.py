@@ -59,8 +59,8 @@ Measured (``studies/fixed_point_strategies.py``, ``studies/fixed_point_ratio.py`
   of the dual slope from ``tan(phi)`` to ``tan(psi)`` over 3-9 decades of ``mu`` all
   stalled at the same complementarity.
 
-**The stall is a fold of the central path, and no closing stage repairs it**
-(``studies/fixed_point_polish.py``).  On the 10,000-block wall (no aim term) ``mu`` falls
+**The stall: Mehrotra's iterates leave a strongly curved central path, and no closing stage
+repairs it** (``studies/fixed_point_polish.py``, ``studies/fixed_point_continuation.py``).  On the 10,000-block wall (no aim term) ``mu`` falls
 from 552 to 5.8e-6 in 17 iterations and stays there for 34 more: ``sigma`` near 1, the
 complementarity products evenly spread (none above 100 ``mu``; the relative complementarity
 is 0.5 only because there are 119,400 pairs), steps of 1e-6..1e-2.  The path from
@@ -87,6 +87,29 @@ from the stalled point (``best_iterate``):
 * a different path: Newton on (3) started from the associative LP's interior iterate
   (``tan(phi)`` on both sides, stopped at 1e-1..1e-6, recentred or not): stalled at
   residuals of (3) between 9e-4 and 0.28 at 2,400 blocks.
+
+**Not a fold** (``studies/fixed_point_continuation.py``, 2,420-block wall ``40x60``, where the
+run stalls at ``mu`` ~ 8.6e-8, worst residual of (3) 1.3e-3).  At the stalled point even pure
+centring (``sigma = 1``, damped) drives the smallest product ``s_i y_i`` from 0.13 ``mu`` to 3e-7
+``mu`` in 60 steps: the iterate is off the path.  Pseudo-arclength continuation of the
+weighted central path through the run's 5th iterate (``mu`` = 2.4e-4, before its steps
+shorten) follows that path well below the stall, with no turning point: ``mu`` 2.4e-4 ->
+5.0e-8 in 150 steps (170 factorisations, 64 s CPU) and 2.0e-8 in 230 steps (tighter
+corrector).  The steps are limited by the path's curvature (groups of friction rows switching
+between stick and slip one after another): about 40 steps per decade of ``mu`` and slowing,
+against 4 decades in Mehrotra's first 5 iterations.  On small walls the continuation converges
+(8x10: verified at 7e-14 in 30 steps); at 2,400 blocks it costs ~20x one cold LP per decade.
+Also measured there, and failed:
+
+* proximal terms that make each Newton step monotone (``rho_k delta_k >= |a_k|^2 / 4`` on the
+  normal force and friction multipliers of each interface, ``a_k`` the entries of
+  ``G_phi - G_psi``), centred at every iterate or at each solved proximal subproblem: lam
+  drifts to ~0 (worst residual of (3) 0.97..5e5), at 2,420 blocks and on an 8x10 wall alike;
+* the aim term kept to the end (:attr:`InteriorFixedPoint.keep_aim`) and the aimed forces paired
+  with the duals of the LP (5) at those forces: a verified solution of (3) where the aimed
+  forces are optimal for their own LP (8x10 wall: lam 0.54245, below the plain run's 0.55122),
+  but not on the 1,010-block wall (aimed lam 0.449329 for weights 0.1..0.001, the LP at its
+  forces 0.449799), and at 2,420 blocks the aimed run itself stalls (4e-6..3.5e-4).
 
 So at 10,000 blocks the interior engine ends ``NUMERICAL`` after 2.3x one cold block-IPM
 LP (CPU, both runs: with and without the aim term) and issue 14's 3x target is not met.
@@ -145,6 +168,9 @@ class InteriorFixedPoint(BlockIPM):
         self.fold_costs = factor / top if top > 0 else np.zeros_like(factor)
         self.base_c = self.c.copy()
         self.current_fold = 0.0
+        #: keep the aim term to the end: the run then solves the aimed problem, not (3)
+        #: (a measurement of ``studies/fixed_point_continuation.py``)
+        self.keep_aim = False
         self.mu0: float | None = None
         self.n_star = np.zeros(ops.n_interfaces)
         self.set_n_star(self.n_star)  # exact coupling: h = 0 on the friction rows, for good
@@ -207,7 +233,7 @@ class InteriorFixedPoint(BlockIPM):
             ratio = mu / self.mu0
             self.set_fold(0.0 if ratio <= self.fold_off else self.fold_weight * min(1.0, ratio / self.fold_knee))
         primal, dual, complementarity = self.measures(it)
-        if self.current_fold > 0 and max(primal, dual, complementarity) <= 1e3 * self.tol:
+        if self.current_fold > 0 and not self.keep_aim and max(primal, dual, complementarity) <= 1e3 * self.tol:
             # never stop on the aimed problem: the point returned must solve (3) itself
             self.set_fold(0.0)
             primal, dual, complementarity = self.measures(it)

@@ -1,0 +1,356 @@
+r"""Why the interior-point fixed point stalls on large walls, and three remedies measured (issue 14).
+
+The interior engine (:mod:`blockmpec.solvers.engines.interior_fixed_point`) runs Mehrotra's
+method on the MCP (3) written as the step LP (5) with ``n* = n``; on walls of 2,400 and
+10,000 blocks it stalls (``NUMERICAL``).  For one wall this study runs, side by side:
+
+* ``interior``: the engine's run as shipped (aim weight ``--weight``), its CPU seconds and the
+  shared verifier's worst residual of (3);
+* ``proximal``: the same run with primal-dual proximal terms that make every Newton step
+  monotone (:class:`ProximalInteriorFixedPoint`): ``rho_k (n_k - n_k^c)`` in the dual row of
+  each normal force and ``-delta_k (y_r - y_r^c)`` in its two friction rows, with
+  ``rho_k delta_k = (p |a_k| / 2)^2`` (``a_k``: the two entries of ``G_phi - G_psi`` of interface
+  ``k``, ``p >= 1`` monotone), the centre moved to the iterate at every iteration (``every``:
+  a regularised Newton method) or when the proximal subproblem's residuals fall below a tenth
+  of those of (3) (``converged``: an inexact proximal-point method); ``--proximal`` lists
+  ``p:balance:recentre`` triples (``balance = rho_k / delta_k`` up to the common size);
+* ``aimed``: the aim term kept to the end (``keep_aim``), then the step LP (5) at the aimed
+  run's own normal forces solved cold by the block IPM, and the aimed forces paired with that
+  LP's duals (any optimal primal and dual of one LP are complementary: a solution of (3) if
+  the aimed forces are optimal for their own LP);
+* ``arclength``: the interior run stopped after ``--start-iteration`` iterations (before its
+  steps shorten), then :func:`track_central_path`: pseudo-arclength continuation of the
+  weighted central path through that point (``s o y = mu w``, the residuals of the linear
+  rows scaled by ``mu / mu_0``) with a tangent predictor and a bordered Newton corrector
+  (two solves with the same factors), for ``--arc-steps`` steps or ``--time-limit`` seconds.
+
+Measured (2 shared cores; one run of the defaults, ``--wall 40x60``: 2,420 free blocks, one
+cold block-IPM LP ~3 s CPU; verified = worst residual of (3) at most 1e-8):
+
+| stage | CPU s | iterations / steps | status | worst residual | value | lam |
+|---|---:|---:|---|---|---:|---:|
+| interior (aim 0) | 5.78 | 51 | numerical | friction_complementarity | 1.3e-03 | 0.41858 |
+| proximal p=1 balance=1 every | 8.18 | 79 | numerical | friction_complementarity | 1.5e+03 | 0.00027 |
+| proximal p=1 balance=30 every | 2.62 | 23 | numerical | compatibility | 9.7e-01 | 0.0256 |
+| proximal p=1 balance=0.03 every | 4.62 | 44 | numerical | friction_complementarity | 5.3e+05 | -0.0001 |
+| proximal p=1 balance=1 converged | 1.77 | 14 | numerical | friction_complementarity | 2.9e+05 | 7e-07 |
+| aimed 0.1 (aimed problem) | 4.13 | 36 | numerical | compatibility | 7.2e-01 | 0.41696 |
+| aimed 0.1: forces + LP duals | 7.43 | 57 | paired | unilateral_complementarity | 7.4e-04 | 0.41696 |
+| aimed 0.001: forces + LP duals | 9.13 | 69 | paired | unilateral_complementarity | 5.7e-04 | 0.41693 |
+| arclength from iteration 5 (corrector 0.3) | 63.5 | 150 (170 factorisations) | mu 5.0e-08 | friction_complementarity | 7.3e-04 | 0.41868 |
+
+* ``interior``: its steps are short (0.2..0.6) from ``mu`` ~ 4e-4 on (iteration 4), and it
+  stalls at ``mu`` ~ 8.6e-8 with ``s o y`` between 0.035 and 2,160 ``mu``; from there even pure
+  centring (``sigma = 1``, 60 damped Newton steps) makes the smallest product fall from 0.13 to
+  3e-7 ``mu``: the iterate has left the path.
+* ``proximal``: none converges; lam drifts to ~0.  The proximal terms are exact (a full step
+  zeroes the regularised linear residuals to 1e-12), so the method, not the algebra, fails.
+  On an 8x10 wall (80 blocks, where the plain run converges) every variant fails as well.
+* ``aimed``: the aimed forces are not optimal for their own LP (5) here (the LP at them: lam
+  0.418 and 0.41782), so pairing gives no solution of (3); on the 1,010-block wall every aimed
+  run is ``OPTIMAL`` in 22 iterations with lam 0.449329 for weights 0.1, 0.01 and 0.001 but the
+  LP at its forces reaches 0.449799 (paired: friction complementarity 4.7e-4).  It works on the
+  8x10 wall: verified at 7e-10, lam 0.54245 against the plain run's 0.55122.
+* ``arclength``: the weighted path continues well below the stall with no turning point (the
+  relative ``dmu/ds`` stays between -6e-3 and -1e-3).  The steps are limited by the path's
+  curvature (friction rows switching between stick and slip one group after another): about
+  40 steps per decade of ``mu`` and slowing, against Mehrotra's 4 decades in its first 5
+  iterations.  With a corrector to 1e-3 of the weighted products (``--corrector-tol 1e-3``):
+  ``mu`` 2.0e-8 after 230 steps, 524 factorisations, 177 s CPU.  On the 8x10 wall it converges:
+  verified at 7e-14 in 30 steps (31 factorisations).  At 2,400 blocks it costs ~20x one cold LP
+  per decade of ``mu``, so it cannot meet issue 14's 3x target.
+
+Usage::
+
+    python studies/fixed_point_continuation.py --wall 40x60 [--stages interior,proximal,aimed,arclength]
+        [--proximal "1:1:every;1:30:every;1:1:converged"] [--aim-weights 0.1,0.001]
+        [--start-iteration 5] [--arc-steps 150] [--corrector-tol 0.3] [--time-limit 300]
+
+Prints a markdown table and writes ``studies/output/fixed_point_continuation/continuation_<wall>.csv``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+import blockmpec as bm
+from blockmpec.solvers.engines.block_ipm import BlockIPM, IPMIterate, single_blas_thread
+from blockmpec.solvers.engines.interior_fixed_point import InteriorFixedPoint
+
+sys.path.insert(0, str(Path(__file__).parent))
+from _tables import markdown, write_csv  # noqa: E402
+
+OUT = Path(__file__).parent / "output" / "fixed_point_continuation"
+RECENTRES = ("every", "converged")
+
+
+class ProximalInteriorFixedPoint(InteriorFixedPoint):
+    r"""Newton on (3) with proximal terms that make each linearised step monotone.
+
+    The linearisation of (3) in ``(v, w, y)`` has the symmetric part
+    ``-(G_phi - G_psi)^T / 2`` between ``v`` and ``y``: ``z^T J z = -y^T (G_phi - G_psi) v``,
+    which per interface is ``-n_k (a_k^+ y_k^+ + a_k^- y_k^-)``.  Adding ``rho_k`` to the
+    dual row of ``n_k`` and ``delta_k`` to the primal friction rows (``G v + s - delta (y - y^c)
+    = h``) gives ``rho_k n_k^2 + delta_k |y_k|^2 - n_k a_k . y_k >= 0`` when
+    ``rho_k delta_k >= |a_k|^2 / 4``.  In the block systems this is ``rho`` on the top-left
+    diagonal and ``-(I + delta D)`` on the bottom-right one (``[[rho, B_psi^T], [B_phi, -I]]``
+    scaled as in :meth:`BlockIPM._block_systems`); ``ds = -r_h - G dv + delta dy``.  The
+    whole-system refinement of :class:`BlockIPM` does not know these terms, so it is off
+    (``final_sweeps`` 0); the block equations hold exactly and the reduced refinement
+    corrects the equality rows.  The stopping test reads the residuals of (3) itself.
+    """
+
+    def __init__(self, lp, ops, proximal: float = 1.0, balance: float = 1.0, recentre: str = "every",
+                 recentre_ratio: float = 0.1, **options) -> None:
+        super().__init__(lp, ops, **options)
+        if recentre not in RECENTRES:
+            raise ValueError(f"proximal fixed point: unknown recentre {recentre!r}; use one of {', '.join(RECENTRES)}")
+        self.recentre, self.recentre_ratio, self.recentres = recentre, float(recentre_ratio), 0
+        rows = self.friction_position.reshape(-1, 2)
+        a = self.in_scale[rows] * self.cohesion_factor[:, None] * self.column_scale[self.normal_columns][:, None]
+        size = float(proximal) * np.sqrt((a ** 2).sum(axis=1)) / 2
+        self.prox_v = np.zeros(self.c.size)
+        self.prox_v[self.normal_columns] = size * balance
+        self.prox_y = np.zeros(self.h.size)
+        self.prox_y[rows] = (size / balance)[:, None]
+        self.centre: tuple[np.ndarray, np.ndarray] | None = None
+        self.settings(final_sweeps=0)
+
+    def _block_systems(self, it: IPMIterate):
+        M, sqrt_d = super()._block_systems(it)
+        k, r = self.k, np.arange(self.rows_per_block)
+        M[:, np.arange(k), np.arange(k)] += self.prox_v[self.block_columns]
+        M[:, k + r, k + r] -= self.prox_y[self.block_rows] * sqrt_d ** 2
+        return M, sqrt_d
+
+    def _direction(self, it, factors, r_b, r_h, r_c, r_mu, refinements=None, tolerance=0.0):
+        dv, ds, dw, dy = super()._direction(it, factors, r_b, r_h, r_c, r_mu, refinements, tolerance)
+        return dv, ds + self.prox_y * dy, dw, dy
+
+    def residuals(self, it: IPMIterate):
+        r_b, r_h, r_c = super().residuals(it)
+        if self.centre is not None:
+            v_c, y_c = self.centre
+            r_c = r_c + self.prox_v * (it.v - v_c)
+            r_h = r_h - self.prox_y * (it.y - y_c)
+        return r_b, r_h, r_c
+
+    def measures(self, it: IPMIterate, residuals=None):
+        """Relative (primal, dual, complementarity) of (3) itself, without the proximal terms."""
+        return super().measures(it, BlockIPM.residuals(self, it))
+
+    def before_iteration(self, it: IPMIterate) -> None:
+        if self.centre is None or self.recentre == "every":
+            self.centre = (it.v.copy(), it.y.copy())
+        else:
+            subproblem = max(BlockIPM.measures(self, it, self.residuals(it)))
+            if subproblem <= self.recentre_ratio * max(self.measures(it)):
+                self.centre = (it.v.copy(), it.y.copy())
+                self.recentres += 1
+        super().before_iteration(it)
+
+
+def iterate_solution(engine: InteriorFixedPoint, it: IPMIterate):
+    """``(lam, x, u, z_u, z_f)`` of an internal iterate (a run of 0 iterations started there)."""
+    from blockmpec.solvers.engines.highs import static_lp_solution
+
+    max_iterations, start = engine.max_iterations, engine.start_iterate
+    engine.max_iterations, engine.start_iterate = 0, it
+    try:
+        return static_lp_solution(engine.lp, engine.solve())
+    finally:
+        engine.max_iterations, engine.start_iterate = max_iterations, start
+
+
+def track_central_path(engine: InteriorFixedPoint, start: IPMIterate, steps: int, corrector_tol: float = 0.3,
+                       time_limit: float = 300.0, report=print) -> tuple[IPMIterate, dict]:
+    r"""Pseudo-arclength continuation of the weighted central path of (3) through ``start``.
+
+    The path: ``r(z) = (mu / mu_0) r(z_0)`` for the linear rows, ``s o y = mu w`` with
+    ``w = s_0 o y_0 / mu_0``; it passes through ``start`` at ``mu_0``.  Arclength is measured in
+    ``(ds / s, dy / y, dmu / mu)``.  Each step: a tangent predictor of length ``h`` (halved
+    until ``s, y, mu > 0`` and the corrector converges), then at most 4 Newton corrections of
+    the bordered system ``[J, -dF/dmu; t^T]`` by two solves with the same factors of ``K``,
+    accepted when a full step keeps ``s, y > 0`` and ``max |s o y - mu w| / (mu w)`` is at most
+    ``corrector_tol``; ``h`` doubles after a one-correction step.  The tangent is oriented to
+    continue the previous one, so a fold (``dmu/ds`` changing sign) would be followed.
+
+    Returns the last iterate and ``{"steps", "factorisations", "mu", "mu_history"}``.
+    """
+    zero_b, zero_h, zero_c = np.zeros(engine.b.size), np.zeros(engine.h.size), np.zeros(engine.c.size)
+    mu0 = float(start.s @ start.y) / start.s.size
+    weights = start.s * start.y / mu0
+    r0 = engine.residuals(start)
+    slope = (-r0[0] / mu0, -r0[1] / mu0, -r0[2] / mu0)  # the linear rows' right-hand side per unit mu
+
+    def metric(a, b, z, mu):
+        return float(np.sum(a[1] * b[1] / z.s ** 2) + np.sum(a[3] * b[3] / z.y ** 2) + a[4] * b[4] / mu ** 2)
+
+    def moved(z, d, step):
+        return IPMIterate(z.v + step * d[0], z.s + step * d[1], z.w + step * d[2], z.y + step * d[3])
+
+    def tangent(z, mu, factors, previous=None):
+        t = [*engine._refined_direction(z, factors, *slope, weights), 1.0]
+        norm = np.sqrt(metric(t, t, z, mu))
+        t = [x / norm for x in t]
+        if previous is None:
+            return [-x for x in t]  # towards smaller mu
+        return t if metric(t, previous, z, mu) > 0 else [-x for x in t]
+
+    t0 = time.process_time()
+    factorisations, history = 1, [mu0]
+    with single_blas_thread():
+        z, mu = start, mu0
+        t = tangent(z, mu, engine._factorise(z))
+        h = 0.1
+        for k in range(steps):
+            if time.process_time() - t0 > time_limit:
+                break
+            accepted = False
+            while h > 1e-8 and not accepted:
+                zp, mp = moved(z, t, h), mu + h * t[4]
+                if zp.s.min() <= 0 or zp.y.min() <= 0 or mp <= 0:
+                    h *= 0.5
+                    continue
+                zc, mc = zp, mp
+                for corrections in range(1, 5):
+                    factors = engine._factorise(zc)
+                    factorisations += 1
+                    r_b, r_h, r_c = engine.residuals(zc)
+                    theta = mc / mu0
+                    a = [*engine._refined_direction(zc, factors, r_b - theta * r0[0], r_h - theta * r0[1],
+                                                    r_c - theta * r0[2], mc * weights - zc.s * zc.y), 0.0]
+                    b = [*engine._refined_direction(zc, factors, *slope, weights), 1.0]
+                    offset = metric(t, [zc.v - zp.v, zc.s - zp.s, zc.w - zp.w, zc.y - zp.y, mc - mp], z, mu)
+                    dmu = (-offset - metric(t, a, z, mu)) / metric(t, b, z, mu)
+                    d = [a[i] + dmu * b[i] for i in range(4)] + [dmu]
+                    full = min(engine._max_step(zc.s, d[1]), engine._max_step(zc.y, d[3])) >= 1.0
+                    full = full and (zc.s + d[1]).min() > 0 and (zc.y + d[3]).min() > 0
+                    step = 1.0 if full else 0.9 * min(engine._max_step(zc.s, d[1]), engine._max_step(zc.y, d[3]))
+                    zc, mc = moved(zc, d, step), mc + step * dmu
+                    off_path = float(np.max(np.abs(zc.s * zc.y - mc * weights) / (mc * weights)))
+                    if full and off_path <= corrector_tol and mc > 0:
+                        accepted = True
+                        break
+                if not accepted:
+                    h *= 0.5
+            if not accepted:
+                report(f"  arclength: no step at h > 1e-8 after {k} steps")
+                break
+            t = tangent(zc, mc, factors, t)
+            z, mu = zc, mc
+            history.append(mu)
+            h *= 2.0 if corrections == 1 else 1.3 if corrections == 2 else 1.0
+            if k % 10 == 0:
+                primal, dual, gap = engine.measures(z)
+                report(f"  arclength step {k}: mu {mu:.3e}, dmu/ds {t[4] / mu:+.2e} (relative), h {h:.3g}, "
+                       f"gap {gap:.2e}, primal {primal:.1e}, dual {dual:.1e}, {factorisations} factorisations, "
+                       f"{time.process_time() - t0:.1f} s CPU")
+    return z, {"steps": len(history) - 1, "factorisations": factorisations, "mu": mu, "mu_history": history}
+
+
+def worst_residual(ops, sol) -> tuple[str, float]:
+    from blockmpec.verify import residuals
+
+    values = residuals(ops, sol, associative=False)
+    name = max(values, key=values.get)
+    return name, float(values[name])
+
+
+def result_row(stage, ops, sol, cpu, count, status, **extra) -> dict:
+    name, worst = worst_residual(ops, sol) if sol.multiplier is not None else ("", float("nan"))
+    return {"stage": stage, "cpu_s": cpu, "count": count, "status": status, "worst": name, "max_residual": worst,
+            "multiplier": sol.multiplier, "verified": bool(worst <= 1e-8), **extra}
+
+
+def main(argv: list[str] | None = None) -> list[dict]:
+    from blockmpec.formulations import modified_lp
+    from blockmpec.formulations._pyomo import compiled_linear
+    from blockmpec.result import Solution
+    from blockmpec.solvers.engines.highs import static_lp_solution
+
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--wall", default="40x60", help="CxB: courses x blocks per course")
+    parser.add_argument("--stages", default="interior,proximal,aimed,arclength")
+    parser.add_argument("--weight", type=float, default=0.0, help="aim weight of the interior stage")
+    parser.add_argument("--proximal", default="1:1:every;1:30:every;1:0.03:every;1:1:converged",
+                        help="';'-separated p:balance:recentre")
+    parser.add_argument("--aim-weights", default="0.1,0.001")
+    parser.add_argument("--start-iteration", type=int, default=5)
+    parser.add_argument("--arc-steps", type=int, default=150)
+    parser.add_argument("--corrector-tol", type=float, default=0.3)
+    parser.add_argument("--time-limit", type=float, default=300.0, help="CPU seconds per stage")
+    args = parser.parse_args(argv)
+    courses, per = (int(v) for v in args.wall.split("x"))
+    ops = bm.assemble(bm.cases.wall(courses=courses, blocks_per_course=per))
+    lp = compiled_linear(modified_lp, ops, np.zeros(ops.n_interfaces), slope=ops.dilatancy)
+    print(f"{args.wall}: {ops.n_free_blocks} free blocks", flush=True)
+    common = {"tol": 1e-9, "time_limit": args.time_limit}
+    rows = []
+
+    def add(row):
+        rows.append(row)
+        print({k: v for k, v in row.items()}, flush=True)
+
+    for stage in args.stages.split(","):
+        if stage == "interior":
+            t0 = time.process_time()
+            engine = InteriorFixedPoint(lp, ops, fold_weight=args.weight, **common)
+            out = engine.solve()
+            add(result_row(f"interior (aim {args.weight:g})", ops, static_lp_solution(lp, out),
+                           time.process_time() - t0, out.iterations, out.status.value))
+        elif stage == "proximal":
+            for spec in args.proximal.split(";"):
+                p, balance, recentre = spec.split(":")
+                t0 = time.process_time()
+                engine = ProximalInteriorFixedPoint(lp, ops, proximal=float(p), balance=float(balance),
+                                                    recentre=recentre, **common)
+                out = engine.solve()
+                add(result_row(f"proximal p={p} balance={balance} {recentre}", ops, static_lp_solution(lp, out),
+                               time.process_time() - t0, out.iterations, out.status.value,
+                               recentres=engine.recentres))
+        elif stage == "aimed":
+            for weight in (float(w) for w in args.aim_weights.split(",")):
+                t0 = time.process_time()
+                aimed = InteriorFixedPoint(lp, ops, fold_weight=weight, fold_off=0.0, fold_knee=1e-300, **common)
+                aimed.keep_aim = True
+                out = aimed.solve()
+                sol = static_lp_solution(lp, out)
+                add(result_row(f"aimed {weight:g} (aimed problem)", ops, sol, time.process_time() - t0,
+                               out.iterations, out.status.value))
+                step = InteriorFixedPoint(lp, ops, coupling="fixed", **common)
+                step.set_n_star(np.minimum(sol.x[1::3], 0.0))
+                lp_out = step.solve()
+                lp_sol = static_lp_solution(lp, lp_out)
+                add(result_row(f"aimed {weight:g}: LP (5) at its forces", ops, lp_sol, time.process_time() - t0,
+                               lp_out.iterations, lp_out.status.value))
+                paired = Solution(multiplier=sol.multiplier, x=sol.x, u=lp_sol.u, z_u=lp_sol.z_u, z_f=lp_sol.z_f)
+                add(result_row(f"aimed {weight:g}: forces + LP duals", ops, paired, time.process_time() - t0,
+                               out.iterations + lp_out.iterations, "paired"))
+        elif stage == "arclength":
+            t0 = time.process_time()
+            engine = InteriorFixedPoint(lp, ops, max_iterations=args.start_iteration, **common)
+            engine.solve()
+            start = engine.best_iterate
+            end, facts = track_central_path(engine, start, args.arc_steps, args.corrector_tol, args.time_limit)
+            add(result_row(f"arclength from iteration {args.start_iteration} (corrector {args.corrector_tol:g})",
+                           ops, iterate_solution(engine, end), time.process_time() - t0, facts["steps"],
+                           f"mu {facts['mu']:.2e}", factorisations=facts["factorisations"],
+                           gap=engine.measures(end)[2]))
+        else:
+            raise SystemExit(f"unknown stage {stage!r}")
+    columns = [("stage", "stage", "{}"), ("cpu_s", "CPU s", "{:.3g}"), ("count", "iterations / steps", "{}"),
+               ("status", "status", "{}"), ("worst", "worst residual", "{}"), ("max_residual", "value", "{:.1e}"),
+               ("multiplier", "lam", "{:.5g}"), ("verified", "verified 1e-8", "{}")]
+    print(markdown(rows, columns))
+    print(f"wrote {write_csv(OUT / f'continuation_{args.wall}.csv', rows)}")
+    return rows
+
+
+if __name__ == "__main__":
+    main()
