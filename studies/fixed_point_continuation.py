@@ -182,7 +182,6 @@ def track_central_path(engine: InteriorFixedPoint, start: IPMIterate, steps: int
 
     Returns the last iterate and ``{"steps", "factorisations", "mu", "mu_history"}``.
     """
-    zero_b, zero_h, zero_c = np.zeros(engine.b.size), np.zeros(engine.h.size), np.zeros(engine.c.size)
     mu0 = float(start.s @ start.y) / start.s.size
     weights = start.s * start.y / mu0
     r0 = engine.residuals(start)
