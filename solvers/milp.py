@@ -88,6 +88,7 @@ from blockmpec.result import Solution, Status
 from blockmpec.solver import RunOutput, SolverBase
 
 ENGINES = ("highs", "scip", "bnb")
+LIFTINGS = ("friction", "mechanism", "all", "rlt")
 
 
 @dataclass
@@ -98,6 +99,12 @@ class MILPOptions:
     engine: str = field(default="highs", metadata={
         "help": "highs: HiGHS branch and cut on the big-M model | scip: SCIP with SOS1 complementarity | "
                 "bnb: branch and bound over the pairs on the lifted work-identity LP (no big-M; sense=min)"})
+    lam_branching: bool = field(default=False, metadata={
+        "help": "engine=bnb: also branch on lam (bisect the node's lam-interval; every copy's live load in it)"})
+    lifting: str = field(default="friction", metadata={
+        "help": "engine=bnb: friction: static copies z_i x for the friction pairs | mechanism: and lam u, lam z "
+                "(compatibility times lam) | all: copies for every pair, and lam u | rlt: all, and the products of "
+                "compatibility and f_l^T u = 1 with each normal and tangential force (x u^T)"})
     mip_rel_gap: float = field(default=1e-9, metadata={"help": "relative gap |primal - dual| / |primal|"})
     mip_abs_gap: float = field(default=1e-9, metadata={"help": "absolute gap on lam"})
     feasibility_tol: float = field(default=1e-9, metadata={
@@ -140,7 +147,11 @@ class MILPOptions:
             raise ValueError(f"sense must be 'min' or 'max'; got {self.sense!r}")
         if self.slack_bounds not in ("row", "normal"):
             raise ValueError(f"slack_bounds must be 'row' or 'normal'; got {self.slack_bounds!r}")
-        for name in ("multiplier_bounds", "envelope", "dissipation_bound", "bilinear", "incumbent", "warm_bounds",
+        if self.lifting not in LIFTINGS:
+            raise ValueError(f"lifting must be one of {LIFTINGS}; got {self.lifting!r}")
+        if (self.lam_branching or self.lifting != "friction") and self.engine != "bnb":
+            raise ValueError("lam_branching and lifting are options of engine='bnb'")
+        for name in ("lam_branching", "multiplier_bounds", "envelope", "dissipation_bound", "bilinear", "incumbent", "warm_bounds",
                      "verbose"):
             if not isinstance(getattr(self, name), bool):
                 raise ValueError(f"{name} must be True or False; got {getattr(self, name)!r}")
@@ -595,9 +606,13 @@ class MILPSolver(SolverBase):
         def polish(active):
             return self._polish(active)[0]
 
+        lifting = self.options.lifting
         bnb = ComplementarityBnB(self.form, work_matrix(self.form), bd.lam_lower, bd.lam_upper, polish,
                                  fixed_active=bd.slack_max == 0.0, fixed_idle=bd.z_max == 0.0,
-                                 slack_max=bd.slack_max)
+                                 slack_max=None if lifting == "rlt" else bd.slack_max,
+                                 lam_branching=self.options.lam_branching, all_copies=lifting in ("all", "rlt"),
+                                 lam_mechanism=lifting != "friction",
+                                 force_mechanism=np.sort(np.r_[self.form.n, self.form.t]) if lifting == "rlt" else None)
         run, best = bnb.solve(deadline - time.perf_counter(), incumbent, t0=t0)
         self._bnb_lps = bnb.n_lps
         return run, best

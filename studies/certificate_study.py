@@ -44,11 +44,15 @@ CONFIGS = {
     "scip+env": ("milp", {"engine": "scip", "envelope": True}),
     "scip+bilinear": ("milp", {"engine": "scip", "envelope": True, "bilinear": True}),
     "bnb": ("milp", {"engine": "bnb"}),
+    "bnb+lam": ("milp", {"engine": "bnb", "lam_branching": True}),
+    "bnb-mechanism": ("milp", {"engine": "bnb", "lifting": "mechanism"}),
+    "bnb-rlt": ("milp", {"engine": "bnb", "lifting": "rlt"}),
+    "bnb-rlt+lam": ("milp", {"engine": "bnb", "lifting": "rlt", "lam_branching": True}),
     "highs-nodiss": ("milp", {"engine": "highs", "dissipation_bound": False, "heuristic": ""}),
     "before": ("milp-before", {}),
 }
 
-COLUMNS = ["case", "blocks", "config", "status", "certified", "multiplier", "bound", "gap_abs", "nodes",
+COLUMNS = ["case", "blocks", "config", "status", "certified", "multiplier", "root_bound", "bound", "gap_abs", "nodes",
            "bound_s", "solve_s", "message"]
 
 
@@ -90,8 +94,11 @@ def run(spec: str, config: str, time_limit: float, traces: list | None = None) -
     bound = ex.get("bound", ex.get("dual_bound"))
     if traces is not None:
         traces += [dict(r, case=spec, config=config) for r in (res.trace or [])]
+    search = [r for r in (res.trace or []) if r.get("stage") == "search" and r.get("bound") is not None]
+    root_bound = search[0]["bound"] if search else (bound if ex.get("nodes") == 0 else None)
     return {"case": spec, "blocks": structure.n_free, "config": config, "status": res.status.value,
             "certified": res.status is bm.Status.OPTIMAL and res.verified, "multiplier": res.multiplier,
+            "root_bound": root_bound,
             "bound": bound, "gap_abs": ex.get("gap_abs"), "nodes": ex.get("nodes"),
             "bound_s": ex.get("bound_time_s"), "solve_s": res.solve_time_s, "message": res.message[:100]}
 

@@ -433,3 +433,104 @@ def test_huge_dead_point_loads_are_certified_in_the_problems_units():
     slack = -np.concatenate([ops.N_u.T @ res.solution.x, ops.N_f.T @ res.solution.x])
     M = np.array(res.extra["bigm"])
     assert M.shape == slack.shape and np.all(slack <= M)
+
+
+# ----------------------------------------------------------------------------- issue 12: liftings of the bnb engine
+
+LIFTINGS = ["friction", "mechanism", "all", "rlt"]
+
+#: small structures and their certified minima; the opening wall and the two-block case have a minimum
+#: below the associative multiplier (a bound at the associative value there would be wrong)
+LIFTING_CASES = {
+    "wall-2x2": lambda: bm.cases.wall(2, 2),
+    "two-blocks": lambda: bm.cases.two_blocks(eta=3, mu=0.65),
+    "wall-3x2-opening": lambda: bm.cases.wall(3, 2, openings=[[0.5, 0.5, 1.5, 1.0]]),
+    "wall-4x2-stack-mu0.4": lambda: bm.cases.wall(4, 2, bond="stack", mu=0.4),
+    "arch-6": lambda: bm.cases.round_arch(n_voussoirs=6, thickness=0.15),
+}
+
+
+def _lifted(structure, lifting: str):
+    """(solver in per-block units, ComplementarityBnB with no incumbent) for ``lifting``."""
+    from blockmpec.formulations.mpec_milp import work_matrix
+    from blockmpec.solvers.engines.complementarity_bnb import ComplementarityBnB
+    from blockmpec.solvers.milp import MILPSolver
+
+    solver = MILPSolver(engine="bnb", lifting=lifting)
+    solver.setup(bm.operators.assemble(structure))
+    bd = solver._bounds(time.perf_counter() + 60)
+    form = solver.form
+    tied = np.sort(np.r_[form.n, form.t]) if lifting == "rlt" else None
+    bnb = ComplementarityBnB(form, work_matrix(form), bd.lam_lower, bd.lam_upper, lambda a: solver._polish(a)[0],
+                             fixed_active=bd.slack_max == 0.0, fixed_idle=bd.z_max == 0.0,
+                             slack_max=None if lifting == "rlt" else bd.slack_max, all_copies=lifting in ("all", "rlt"),
+                             lam_mechanism=lifting != "friction", force_mechanism=tied)
+    return solver, bnb
+
+
+@functools.cache
+def certified_minimum(case_id: str) -> bm.Result:
+    res = bm.solve(LIFTING_CASES[case_id](), "milp")
+    assert_certified(res)
+    return res
+
+
+@pytest.mark.parametrize("lifting", LIFTINGS)
+@pytest.mark.parametrize("case_id", list(LIFTING_CASES))
+def test_every_lifted_row_holds_at_a_certified_solution(lifting, case_id):
+    """The lifted LP is derived, not trusted: the certified minimiser (big-M MILP), lifted (``x^(i) = z_i x``,
+    ``zeta = lam z``, ``v = lam u``, ``W = x u^T``), satisfies every row and column bound of the root LP,
+    the copies' own pair rows ``G_i x^(i) = 0`` included; so the root bound cannot exceed the minimum,
+    and with ``lam`` fixed at the minimum the LP stays feasible."""
+    res = certified_minimum(case_id)
+    solver, bnb = _lifted(LIFTING_CASES[case_id](), lifting)
+    form = solver.form
+    w = form.pack(solver.scaled(res.solution))
+    v = bnb.layout.lift(w[form.lam], w[form.x], w[form.u], w[form.z])
+    bnb._apply(bnb.root, bnb.lam_lower, bnb.lam_cap)
+    lp = bnb.h.getLp()
+    A = bnb.h.getLp().a_matrix_
+    import scipy.sparse as sp
+
+    M = sp.csc_array((A.value_, A.index_, A.start_), shape=(lp.num_row_, lp.num_col_))
+    r = M @ v
+    tol = 1e-7 * max(1.0, float(np.abs(v).max()))
+    assert np.all(r >= np.asarray(lp.row_lower_) - tol) and np.all(r <= np.asarray(lp.row_upper_) + tol)
+    assert np.all(v >= np.asarray(lp.col_lower_) - tol) and np.all(v <= np.asarray(lp.col_upper_) + tol)
+    lam = w[form.lam]
+    assert bnb.root_bound() <= lam + 1e-7 * max(1.0, abs(lam))
+    assert np.isfinite(bnb.root_bound(lam - 1e-9, lam + 1e-9))
+
+
+def test_rlt_root_bound_is_the_running_bond_minimum():
+    """On the 2x2 running-bond wall (minimum 0.65 = mu) the products with the mechanism close the gap at the
+    root; the friction-pair copies alone give 0.16 (the branch and bound has to close the rest)."""
+    bounds = {lifting: _lifted(bm.cases.wall(2, 2), lifting)[1].root_bound() for lifting in ("friction", "rlt")}
+    assert bounds["friction"] < 0.2
+    assert bounds["rlt"] == pytest.approx(0.65, abs=1e-7)
+
+
+@pytest.mark.parametrize(("lifting", "lam_branching"), [("rlt", False), ("friction", True), ("rlt", True)])
+@pytest.mark.parametrize(("eta", "mu"), [(1, 0.3), (3, 0.65), (5, 1.5)])
+def test_liftings_and_lam_branching_certify_the_closed_form(lifting, lam_branching, eta, mu):
+    expected = bm.cases.closed_form("two-blocks", "non-associative", eta=eta, mu=mu)
+    res = bm.solve(bm.cases.two_blocks(eta=eta, mu=mu), "milp", engine="bnb", lifting=lifting,
+                   lam_branching=lam_branching, heuristic="")
+    assert_certified(res)
+    assert abs(res.multiplier - expected) <= 1e-7
+
+
+@pytest.mark.parametrize(("lifting", "lam_branching"), [("rlt", False), ("friction", True)])
+@pytest.mark.parametrize("case_id", ["wall-2x2", "wall-3x2-opening", "arch-6"])
+def test_liftings_certify_the_big_m_minimum(lifting, lam_branching, case_id):
+    ref = certified_minimum(case_id)
+    res = bm.solve(LIFTING_CASES[case_id](), "milp", engine="bnb", lifting=lifting, lam_branching=lam_branching)
+    assert_certified(res)
+    assert abs(res.multiplier - ref.multiplier) <= 1e-7
+
+
+def test_lifting_options_need_bnb():
+    with pytest.raises(bm.errors.OptionError, match="lifting"):
+        bm.solve(bm.cases.two_blocks(), "milp", engine="highs", lifting="rlt")
+    with pytest.raises(bm.errors.OptionError, match="lifting"):
+        bm.solve(bm.cases.two_blocks(), "milp", engine="bnb", lifting="square")

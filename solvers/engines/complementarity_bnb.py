@@ -13,7 +13,31 @@ Multiplying equilibrium and ``G x <= 0`` by ``z_i >= 0``, and using ``s_i z_i = 
     E x^(i) + zeta_i f_l + f_d z_i = 0,   G x^(i) <= 0,   G_i x^(i) = 0,
     lam_lower z_i <= zeta_i <= lam_upper z_i,
 
-so (W) becomes the *linear* ``lam = -f_d^T u + sum_e B_e x^(i_e)_{r_e}``.  Together with
+so (W) becomes the *linear* ``lam = -f_d^T u + sum_e B_e x^(i_e)_{r_e}``.  (The rows ``G_i x^(i) = 0``
+of each copy's own pair hold at every node; before issue 12's second round they were only set
+once pair ``i`` was branched active.)
+
+Products with the mechanism (``lifting`` of :class:`~blockmpec.solvers.milp.MILPOptions`):
+
+* (M) ``v := lam u`` and ``zeta_j := lam z_j`` for *every* pair: compatibility and ``f_l^T u = 1``
+  times ``lam`` give ``E^T v + F zeta = 0`` and ``f_l^T v = lam``.  When ``E^T`` is injective
+  (every block tied to the supports) ``u`` is a linear function of ``z`` and (M) says
+  ``lam = sum_i c_i zeta_i`` with ``c_i`` the live work of multiplier ``i``: the static field's
+  ``lam`` is tied to the copies' ``zeta_i / z_i``.
+* (X) ``W[r, :] := x_r u`` for the tied forces ``r`` (``lifting="rlt"``: every normal and
+  tangential force; needs a copy for every pair): compatibility and ``f_l^T u = 1`` times ``x_r``
+  give ``E^T W[r, :] + sum_i F[:, i] x^(i)_r = 0`` and ``f_l^T W[r, :] = x_r``.  So for each ``r`` the
+  vector ``(x^(i)_r)_i = x_r z`` is itself a compatible multiplier vector whose mechanism does live
+  work ``x_r``: with ``E^T`` injective, ``x_r = sum_i c_i x^(i)_r``, which ties the copies to *one*
+  static field (the coupling the normal-force bound of ``studies/normal_force_bound.py`` lacked).
+  The products of equilibrium with ``u_k`` and of the active pair rows with ``u_k`` are implied
+  when ``E^T`` is injective and are left out.  Measured root bounds (``studies/certificate_study.py``):
+  2x2 running bond 0.16 -> 0.65, 3x2 0 -> 0.65, 2x4 0.07 -> 0.65 (each the certified minimum); tying the
+  normal forces alone gave 0.40 on 2x4, all forces (moments too) the same 0.65 at twice the LP time.
+
+Branching on ``lam`` (``lam_branching``): a node carries ``[a, b]`` (``b`` capped by the incumbent)
+with ``a z_i <= zeta_i <= b z_i`` in every copy and ``a <= lam <= b``, valid since ``z_i >= 0``;
+bisection of ``[bound, b]`` competes with the pair candidates in strong branching.  Together with
 compatibility, ``f_l^T u = 1``, ``z >= 0`` and the static part ``E x + lam f_l + f_d = 0``,
 ``G x <= 0``, every solution of (3) gives a feasible point, so the LP minimum of ``lam``
 is a lower bound.  (At the root it equals the conditional-OBBT bound
@@ -52,6 +76,25 @@ from blockmpec.solvers.engines.mip import MIPRun, _Tracer
 PRUNE_TOL = 1e-9
 #: complementarity violation below which a pair of the LP point counts as satisfied
 VIOLATION_TOL = 1e-9
+#: feasibility tolerances of the lifted LPs: a first solve at the loose one, the answer at the tight one
+LOOSE_LP_TOL = 1e-7
+LP_TOL = 1e-9
+#: lam_branching: a node's interval [bound, min(b, incumbent)] is bisected only while wider than this (relative)
+LAM_SPLIT_TOL = 1e-6
+
+
+def highspy_status(name: str):
+    import highspy
+
+    return getattr(highspy.HighsModelStatus, name)
+
+
+def _checked(status) -> None:
+    """A HiGHS model change that was not applied (e.g. repeated indices) must not go unnoticed."""
+    import highspy
+
+    if status == highspy.HighsStatus.kError:
+        raise RuntimeError("HiGHS rejected a change of the lifted LP")
 
 
 @dataclass
@@ -61,14 +104,46 @@ class _Layout:
     x: slice
     u: slice
     z: slice
-    copies: list  # per copy: (pair i, x-slice, zeta column)
+    copies: list  # per copy: (pair i, x-slice or None, zeta column)
     static_pair_rows: np.ndarray  # row of G_j x in the static block, per pair j
     copy_pair_rows: dict  # pair j -> rows of G_j x^(i) over copies
-    zeta_upper_rows: np.ndarray  # rows zeta_i - lam_upper z_i <= 0, per copy
+    zeta_lower_rows: np.ndarray  # rows zeta_i - a z_i >= 0, per copy
+    zeta_upper_rows: np.ndarray  # rows zeta_i - b z_i <= 0, per copy
+    own_rows: np.ndarray  # row of G_i x^(i) in copy i (always active: s_i z_i = 0)
+    copy_x: dict  # pair i -> x-slice of its copy (friction pairs and, with all_copies, every pair)
+    v: slice | None = None  # lam u (lam_mechanism)
+    w: slice | None = None  # W[t, k] = x_{tied[t]} u_k (force_mechanism)
+    tied: np.ndarray | None = None
+
+    def lift(self, lam: float, x: np.ndarray, u: np.ndarray, z: np.ndarray) -> np.ndarray:
+        """The lifted point of ``(lam, x, u, z)``: every product column set to its product (a point of (3)
+        in the normalisation ``f_l^T u = 1`` satisfies every row of the lifted LP; the tests check it)."""
+        out = np.zeros(self.n)
+        out[self.lam], out[self.x], out[self.u], out[self.z] = lam, x, u, z
+        for i, xi, zeta in self.copies:
+            if xi is not None:
+                out[xi] = z[i] * x
+            out[zeta] = z[i] * lam
+        if self.v is not None:
+            out[self.v] = lam * u
+        if self.w is not None:
+            out[self.w] = np.outer(x[self.tied], u).ravel()
+        return out
 
 
-def lifted_lp(form, B: sp.coo_array, lam_lower: float, lam_upper: float, slack_max: np.ndarray | None = None):
-    """The lifted relaxation's matrices: (A, row_lower, row_upper, col_lower, col_upper, c, layout)."""
+def lifted_lp(form, B: sp.coo_array, lam_lower: float, lam_upper: float, slack_max: np.ndarray | None = None,
+              all_copies: bool = False, lam_mechanism: bool = False, force_mechanism: bool = False):
+    """The lifted relaxation's matrices: (A, row_lower, row_upper, col_lower, col_upper, c, layout).
+
+    ``all_copies``: a static copy ``x^(i)`` for every pair (not only the friction pairs of ``B``);
+    ``lam_mechanism``: the products ``v = lam u`` and ``zeta_j = lam z_j`` for every pair (a bare
+    ``zeta_j`` where pair ``j`` has no copy) with compatibility times ``lam`` and ``f_l^T u = 1``
+    times ``lam`` (rows (M) of the module docstring); ``force_mechanism`` (needs both): the products
+    ``W = x u^T`` with compatibility and ``f_l^T u = 1`` times each ``x_r`` (rows (X) of the module
+    docstring).
+    """
+    if force_mechanism is not False and force_mechanism is not None and not (all_copies and lam_mechanism):
+        raise ValueError("force_mechanism needs all_copies and lam_mechanism")
     nx = form.x.stop - form.x.start
     nu = form.u.stop - form.u.start
     npair = form.n_pairs
@@ -77,25 +152,41 @@ def lifted_lp(form, B: sp.coo_array, lam_lower: float, lam_upper: float, slack_m
     Gx = form.pair_matrix
     Ecomp = form.block(form.compatibility, form.u)
     F = form.block(form.compatibility, form.z)
-    pairs = np.unique(B.col)
-    # columns: lam | x | u | z | (x^(i), zeta_i) per copy
+    friction = set(int(i) for i in np.unique(B.col))
+    # columns: lam | x | u | z | (x^(i), zeta_i) per copy | zeta_j per bare pair | v
     lam, xs = 0, slice(1, 1 + nx)
     us = slice(xs.stop, xs.stop + nu)
     zs = slice(us.stop, us.stop + npair)
     col = zs.stop
     copies = []
-    for i in pairs:
-        copies.append((int(i), slice(col, col + nx), col + nx))
-        col += nx + 1
+    for i in range(npair):
+        if i in friction or all_copies:
+            copies.append((i, slice(col, col + nx), col + nx))
+            col += nx + 1
+    if lam_mechanism:
+        for i in range(npair):
+            if not (i in friction or all_copies):
+                copies.append((i, None, col))
+                col += 1
+        vs = slice(col, col + nu)
+        col += nu
+    tied = None
+    if force_mechanism is not False and force_mechanism is not None:
+        tied = np.arange(nx) if force_mechanism is True else np.asarray(force_mechanism, dtype=int)
+        nt = tied.size
+        ws = slice(col, col + nt * nu)  # W[t, k] = x_{tied[t]} u_k at ws.start + t * nu + k
+        col += nt * nu
     n = col
     blocks, lo, hi = [], [], []
+    count = [0]
 
     def add(M, lower, upper):
         M = sp.csr_array(M)
         blocks.append(M)
         lo.append(np.broadcast_to(np.asarray(lower, float), (M.shape[0],)))
         hi.append(np.broadcast_to(np.asarray(upper, float), (M.shape[0],)))
-        return np.arange(sum(b.shape[0] for b in blocks) - M.shape[0], sum(b.shape[0] for b in blocks))
+        count[0] += M.shape[0]
+        return np.arange(count[0] - M.shape[0], count[0])
 
     def place(M, start):
         M = sp.coo_array(M)
@@ -113,23 +204,45 @@ def lifted_lp(form, B: sp.coo_array, lam_lower: float, lam_upper: float, slack_m
     add(place(f_l.reshape(1, -1), us.start), 1.0, 1.0)
     # copies
     copy_pair_rows = {j: [] for j in range(npair)}
-    zeta_upper_rows = []
-    identity = column([1.0], lam) - place(-f_d.reshape(1, -1), us.start)  # lam + f_d^T u - sum B p = 0
+    zeta_lower_rows, zeta_upper_rows, own_rows = [], [], []
     for i, xi, zeta in copies:
-        add(place(E, xi.start) + column(f_l, zeta) + column(f_d, zs.start + i), 0.0, 0.0)
-        rows = add(place(Gx, xi.start), -np.inf, 0.0)
-        for j in range(npair):
-            copy_pair_rows[j].append(rows[j])
-        if slack_max is not None:
-            # s_j z_i <= slack_max_j z_i:  -G x^(i) - slack_max z_i <= 0
-            add(place(-Gx, xi.start) - column(slack_max, zs.start + i), -np.inf, 0.0)
+        if xi is not None:
+            add(place(E, xi.start) + column(f_l, zeta) + column(f_d, zs.start + i), 0.0, 0.0)
+            rows = add(place(Gx, xi.start), -np.inf, 0.0)
+            for j in range(npair):
+                copy_pair_rows[j].append(rows[j])
+            own_rows.append(rows[i])
+            if slack_max is not None:
+                # s_j z_i <= slack_max_j z_i:  -G x^(i) - slack_max z_i <= 0
+                add(place(-Gx, xi.start) - column(slack_max, zs.start + i), -np.inf, 0.0)
         # lam_lower z_i <= zeta_i <= lam_upper z_i
-        add(column([1.0], zeta) - column([lam_lower], zs.start + i), 0.0, np.inf)
+        zeta_lower_rows.append(add(column([1.0], zeta) - column([lam_lower], zs.start + i), 0.0, np.inf)[0])
         zeta_upper_rows.append(add(column([1.0], zeta) - column([lam_upper], zs.start + i), -np.inf, 0.0)[0])
+    copy_x = {i: xi for i, xi, _ in copies if xi is not None}
+    if lam_mechanism:
+        # lam (E^T u + F z) = 0:  E^T v + F zeta = 0 ;  lam f_l^T u = lam:  f_l^T v - lam = 0
+        zeta_of = np.array([next(c[2] for c in copies if c[0] == j) for j in range(npair)])
+        Fc = sp.coo_array(F)
+        add(place(Ecomp, vs.start) + sp.csr_array((Fc.data, (Fc.row, zeta_of[Fc.col])), shape=(Fc.shape[0], n)),
+            0.0, 0.0)
+        add(place(f_l.reshape(1, -1), vs.start) - column([1.0], lam), 0.0, 0.0)
+    if tied is not None:
+        I_t = sp.identity(nt, format="csr")
+        # x_r (E^T u + F z) = 0:  E^T W[r, :] + sum_i F[:, i] x^(i)_r = 0   (rows t * ncomp + q, r = tied[t])
+        Fc = sp.coo_array(F)
+        ncomp = Fc.shape[0]
+        rr = (np.arange(nt)[:, None] * ncomp + Fc.row[None, :]).ravel()
+        cc = (np.array([copy_x[int(i)].start for i in Fc.col])[None, :] + tied[:, None]).ravel()
+        vv = np.broadcast_to(Fc.data[None, :], (nt, Fc.nnz)).ravel()
+        add(place(sp.kron(I_t, Ecomp), ws.start) + sp.csr_array((vv, (rr, cc)), shape=(nt * ncomp, n)), 0.0, 0.0)
+        # x_r (f_l^T u - 1) = 0:  f_l^T W[r, :] - x_r = 0
+        pick = sp.csr_array((np.ones(nt), (np.arange(nt), tied)), shape=(nt, nx))
+        add(place(sp.kron(I_t, f_l.reshape(1, -1)), ws.start) - place(pick, xs.start), 0.0, 0.0)
+    # work identity: lam + f_d^T u - sum_e B_e x^(i_e)_{r_e} = 0
+    identity = column([1.0], lam) - place(-f_d.reshape(1, -1), us.start)
     for e in range(B.nnz):
         i, r = int(B.col[e]), int(B.row[e])
-        xi = next(c[1] for c in copies if c[0] == i)
-        identity = identity - sp.csr_array(([B.data[e]], ([0], [xi.start + r])), shape=(1, n))
+        identity = identity - sp.csr_array(([B.data[e]], ([0], [copy_x[i].start + r])), shape=(1, n))
     add(identity, 0.0, 0.0)
     A = sp.csr_array(sp.vstack(blocks, format="csr"))
     A.sum_duplicates()
@@ -140,28 +253,31 @@ def lifted_lp(form, B: sp.coo_array, lam_lower: float, lam_upper: float, slack_m
     c = np.zeros(n)
     c[lam] = 1.0
     layout = _Layout(n, lam, xs, us, zs, copies, static_pair_rows,
-                     {j: np.array(r, dtype=int) for j, r in copy_pair_rows.items()}, np.array(zeta_upper_rows))
-    # the equality rows of the pairs fixed active on S (slack_max = 0) are set by the caller
+                     {j: np.array(r, dtype=int) for j, r in copy_pair_rows.items()}, np.array(zeta_lower_rows),
+                     np.array(zeta_upper_rows), np.array(own_rows, dtype=int), copy_x,
+                     vs if lam_mechanism else None, ws if tied is not None else None, tied)
     return A, np.concatenate(lo), np.concatenate(hi), col_lower, col_upper, c, layout
 
 
 class ComplementarityBnB:
-    """Best-bound branch and bound over the pairs; see the module docstring.
+    """Best-bound branch and bound over the pairs (and, ``lam_branching``, over ``lam``); see the
+    module docstring.
 
     ``polish(active) -> Solution | None`` gives the exact point (and leaf value) of a pattern.
     """
 
     def __init__(self, form, B, lam_lower, lam_upper, polish, fixed_active=None, fixed_idle=None, strong=4,
-                 slack_max=None):
+                 slack_max=None, lam_branching=False, all_copies=False, lam_mechanism=False, force_mechanism=False,
+                 own_pair_active=True):
         import highspy
 
-        A, rl, ru, cl, cu, c, layout = lifted_lp(form, B, lam_lower, lam_upper, slack_max)
+        A, rl, ru, cl, cu, c, layout = lifted_lp(form, B, lam_lower, lam_upper, slack_max, all_copies=all_copies,
+                                                 lam_mechanism=lam_mechanism, force_mechanism=force_mechanism)
         self.form, self.B, self.layout, self.polish = form, B, layout, polish
         self.rl0, self.ru0, self.cl0, self.cu0 = rl, ru, cl, cu
         h = highspy.Highs()
         h.setOptionValue("output_flag", False)
-        h.setOptionValue("primal_feasibility_tolerance", 1e-10)
-        h.setOptionValue("dual_feasibility_tolerance", 1e-10)
+        self.deadline = np.inf
         lp = highspy.HighsLp()
         Ac = A.tocsc()
         lp.num_col_, lp.num_row_ = Ac.shape[1], Ac.shape[0]
@@ -180,33 +296,59 @@ class ComplementarityBnB:
         self.n_lps = 0
         self.last_basis = None
         self.strong = max(1, int(strong))
-        self.lam_cap = float(lam_upper)
+        self.lam_lower, self.lam_cap = float(lam_lower), float(lam_upper)
+        self.lam_branching = bool(lam_branching)
+        self.own_pair_active = bool(own_pair_active)
+        self._interval = (float(lam_lower), float(lam_upper))  # the (a, b) now in the LP's zeta rows
+        self.lam_splits = 0
+        # the x-slices of the copies, by pair (for the work defect of _candidates)
+        self._work_copy = np.array([layout.copy_x[int(i)].start + int(r) for i, r in zip(B.col, B.row)], dtype=int)
 
-    def _apply(self, state: np.ndarray) -> None:
+    def _set_interval(self, a: float, b: float) -> None:
+        """``a <= lam <= b`` and ``a z_i <= zeta_i <= b z_i`` in every copy (coefficients changed in place)."""
+        lay, h = self.layout, self.h
+        _checked(h.changeColBounds(lay.lam, a, b))
+        if (a, b) == self._interval:
+            return
+        pa, pb = self._interval
+        for (i, _, _), lo_row, hi_row in zip(lay.copies, lay.zeta_lower_rows, lay.zeta_upper_rows):
+            if a != pa:
+                _checked(h.changeCoeff(int(lo_row), int(lay.z.start + i), -a))
+            if b != pb:
+                _checked(h.changeCoeff(int(hi_row), int(lay.z.start + i), -b))
+        self._interval = (a, b)
+
+    def _apply(self, state: np.ndarray, a: float, b: float) -> None:
         lay, h = self.layout, self.h
         rows = np.concatenate([lay.static_pair_rows] + [lay.copy_pair_rows[j] for j in range(state.size)])
-        active_rows = np.concatenate([lay.static_pair_rows[state == 1]]
-                                     + [lay.copy_pair_rows[j] for j in np.flatnonzero(state == 1)])
+        active_rows = [lay.static_pair_rows[state == 1]] + [lay.copy_pair_rows[j] for j in np.flatnonzero(state == 1)]
+        if self.own_pair_active:
+            active_rows.append(lay.own_rows)
+        active_rows = np.unique(np.concatenate(active_rows))  # HiGHS ignores a set with repeated indices
         lower = np.full(rows.size, -np.inf)
-        h.changeRowsBounds(rows.size, rows.astype(np.int32), lower, np.zeros(rows.size))
+        _checked(h.changeRowsBounds(rows.size, rows.astype(np.int32), lower, np.zeros(rows.size)))
         if active_rows.size:
-            h.changeRowsBounds(active_rows.size, active_rows.astype(np.int32), np.zeros(active_rows.size),
-                               np.zeros(active_rows.size))
+            _checked(h.changeRowsBounds(active_rows.size, active_rows.astype(np.int32), np.zeros(active_rows.size),
+                                        np.zeros(active_rows.size)))
         zc = np.arange(lay.z.start, lay.z.stop, dtype=np.int32)
-        h.changeColsBounds(zc.size, zc, np.zeros(zc.size), np.where(state == -1, 0.0, np.inf))
+        _checked(h.changeColsBounds(zc.size, zc, np.zeros(zc.size), np.where(state == -1, 0.0, np.inf)))
+        self._set_interval(a, min(b, self.lam_cap))
 
-    def _node_lp(self, state: np.ndarray):
-        """(status, bound, point) of the node LP; infeasibility confirmed by a cold re-solve."""
+    def _node_lp(self, state: np.ndarray, a: float, b: float):
+        """(status, bound, point) of the node LP; any status but optimal (or the time limit) is confirmed by a
+        cold re-solve."""
         from blockmpec.solvers.engines.highs import highs_status
 
-        self._apply(state)
-        self.h.run()
-        self.n_lps += 1
+        if a > min(b, self.lam_cap):
+            return Status.INFEASIBLE, None, None
+        self._apply(state, a, b)
+        self._run()
         st, _ = highs_status(self.h)
-        if st is Status.INFEASIBLE:
+        if st is not Status.OPTIMAL and st is not Status.TIME_LIMIT:
+            # confirmed (or repaired) by a cold re-solve: warm re-solves after coefficient changes were
+            # seen to end without an optimal status on LPs that are optimal cold
             self.h.clearSolver()
-            self.h.run()
-            self.n_lps += 1
+            self._run()
             st, _ = highs_status(self.h)
         if st is not Status.OPTIMAL:
             return st, None, None
@@ -214,16 +356,35 @@ class ComplementarityBnB:
         self.last_basis = self.h.getBasis()
         return st, float(self.h.getInfo().objective_function_value), v
 
+    def _run(self) -> None:
+        """One LP solve: at ``LOOSE_LP_TOL`` first (the lifted LPs are degenerate: the dual simplex at 1e-10
+        from scratch was measured 20x slower or stalled), then from that basis at ``LP_TOL`` (a few
+        iterations), whose answer alone is used; both within the time left (``self.deadline``)."""
+        h = self.h
+        for tol in (LOOSE_LP_TOL, LP_TOL):
+            h.setOptionValue("primal_feasibility_tolerance", tol)
+            h.setOptionValue("dual_feasibility_tolerance", tol)
+            h.setOptionValue("time_limit", h.getRunTime() + max(self.deadline - time.perf_counter(), 1e-3))
+            h.run()
+            self.n_lps += 1
+            if h.getModelStatus() == highspy_status("kTimeLimit"):
+                return
+
+    def root_bound(self, a: float | None = None, b: float | None = None) -> float:
+        """The lifted LP's minimum of ``lam`` at the root pattern over ``lam in [a, b]`` (``inf``: infeasible,
+        ``nan``: the LP failed); a measurement, not used by :meth:`solve`."""
+        a = self.lam_lower if a is None else a
+        b = self.lam_cap if b is None else b
+        st, bound, _ = self._node_lp(self.root, a, b)
+        if st is Status.INFEASIBLE:
+            return np.inf
+        return bound if st is Status.OPTIMAL else np.nan
+
     def _restrict_to_improvements(self, best_val: float) -> None:
         """Only points with ``lam <= best_val`` can improve the incumbent: ``lam <= best_val`` and
         ``zeta_i <= best_val z_i`` (valid for every such point; the incumbent itself is kept apart)."""
-        if not np.isfinite(best_val) or best_val >= self.lam_cap:
-            return
-        self.lam_cap = best_val
-        lay = self.layout
-        self.h.changeColBounds(lay.lam, self.cl0[lay.lam], best_val)
-        for (i, _, _), row in zip(lay.copies, lay.zeta_upper_rows):
-            self.h.changeCoeff(int(row), int(lay.z.start + i), -best_val)
+        if np.isfinite(best_val) and best_val < self.lam_cap:
+            self.lam_cap = best_val
 
     def _candidates(self, state: np.ndarray, v: np.ndarray) -> list[int]:
         """Free pairs violated at the LP point, most violated first (complementarity + work defect)."""
@@ -232,23 +393,54 @@ class ComplementarityBnB:
         z = v[lay.z]
         s = -(form.pair_matrix @ x)
         score = np.maximum(z, 0.0) * np.maximum(s, 0.0)
-        for e in range(self.B.nnz):
-            i, r = int(self.B.col[e]), int(self.B.row[e])
-            xi = next(c[1] for c in lay.copies if c[0] == i)
-            score[i] += abs(self.B.data[e] * (v[xi.start + r] - z[i] * x[r]))
+        defect = np.abs(self.B.data * (v[self._work_copy] - z[self.B.col] * x[self.B.row]))
+        np.add.at(score, self.B.col, defect)
         score[state != 0] = -1.0
         order = np.argsort(-score)
         return [int(j) for j in order if score[j] > VIOLATION_TOL]
 
+    def _children(self, branch, state, a, b, nb, v, basis, best_val):
+        """The two children of ``branch`` (a pair index, or ``("lam", m)``): (bound, state, a, b, point, basis)
+        each; a leaf pattern is polished (its exact value returned as ``(inf, ...)`` with the solution)."""
+        kids, found = [], []
+        if isinstance(branch, tuple):
+            m = branch[1]
+            parts = [(state, a, m), (state, m, b)]
+        else:
+            parts = []
+            for val in (1, -1):
+                child = state.copy()
+                child[branch] = val
+                parts.append((child, a, b))
+        for child, ca, cb in parts:
+            if not (child == 0).any():
+                # a leaf is one pattern: its exact minimum (over every lam) is known, the child is closed
+                sol = self.polish(child == 1)
+                if sol is not None:
+                    found.append(sol)
+                kids.append((np.inf, child, ca, cb, None, None))
+                continue
+            if basis is not None:
+                self.h.setBasis(basis)  # warm start from the parent's optimal basis
+            cst, cbound, cv = self._node_lp(child, ca, cb)
+            if cst is Status.INFEASIBLE:
+                kids.append((np.inf, child, ca, cb, None, None))
+            elif cst is not Status.OPTIMAL:
+                kids.append((max(nb, ca), child, ca, cb, v, basis))  # keeps the parent's bound, never prunes
+            else:
+                kids.append((max(cbound, nb, ca), child, ca, cb, cv, self.last_basis))
+        return kids, found
+
     def solve(self, time_limit: float, incumbent=None, t0: float | None = None, sign: float = 1.0) -> tuple:
         """Returns (MIPRun in lam units, best Solution or None)."""
         t0 = time.perf_counter() if t0 is None else t0
-        deadline = time.perf_counter() + time_limit
+        deadline = self.deadline = time.perf_counter() + time_limit
         tracer = _Tracer(1.0, t0)
         best = incumbent
         best_val = incumbent.multiplier if incumbent is not None else np.inf
         self._restrict_to_improvements(best_val)
-        st, bound, v = self._node_lp(self.root)
+        a0, b0 = self.lam_lower, np.inf
+        st, bound, v = self._node_lp(self.root, a0, b0)
         if st is Status.INFEASIBLE:
             if best is not None:  # nothing has lam <= the incumbent's value but the incumbent: optimal
                 tracer.record(best_val, best_val, force=True)
@@ -256,26 +448,34 @@ class ComplementarityBnB:
                               best_val, 1, time.perf_counter() - t0, tracer.records), best
             return MIPRun(Status.INFEASIBLE, "infeasible", "root LP infeasible", None, np.inf, np.inf, 1,
                           time.perf_counter() - t0, tracer.records), best
+        if st is Status.TIME_LIMIT:  # the bound passed in (lam_lower) stands
+            tracer.record(self.lam_lower, best_val, force=True)
+            return MIPRun(Status.TIME_LIMIT, "time_limit", "time limit in the root LP", None, best_val,
+                          self.lam_lower, 0, time.perf_counter() - t0, tracer.records), best
         if st is not Status.OPTIMAL:
             return MIPRun(Status.ERROR, st.value, f"root LP {st.value}", None, best_val, -np.inf, 1,
                           time.perf_counter() - t0, tracer.records), best
-        heap = [(bound, 0, self.root.copy(), v, self.last_basis)]
+        heap = [(bound, 0, self.root.copy(), a0, b0, v, self.last_basis)]
         counter, nodes = 1, 0
         global_bound = bound
         status = Status.OPTIMAL
+
+        def tol():
+            return PRUNE_TOL * max(1.0, abs(best_val))
+
         while heap:
             global_bound = min(entry[0] for entry in heap)
             tracer.record(global_bound, best_val)
-            if best_val - global_bound <= PRUNE_TOL * max(1.0, abs(best_val)):
+            if best_val - global_bound <= tol():
                 global_bound = min(global_bound, best_val)
                 break
             if time.perf_counter() > deadline:
                 status = Status.TIME_LIMIT
                 break
             self._restrict_to_improvements(best_val)
-            nb, _, state, v, basis = heapq.heappop(heap)
+            nb, _, state, a, b, v, basis = heapq.heappop(heap)
             nodes += 1
-            if nb >= best_val - PRUNE_TOL * max(1.0, abs(best_val)):
+            if nb >= best_val - tol():
                 continue
             # an incumbent from the node's LP pattern
             z, s = v[self.layout.z], -(self.form.pair_matrix @ v[self.layout.x])
@@ -284,10 +484,10 @@ class ComplementarityBnB:
             if sol is not None and sol.multiplier < best_val:
                 best, best_val = sol, sol.multiplier
                 tracer.record(min(nb, best_val), best_val, force=True)
-            candidates = self._candidates(state, v)
+            candidates: list = self._candidates(state, v)
+            free = state == 0
             if not candidates:
                 # the LP point satisfies complementarity on the free pairs: its pattern's polish is exact
-                free = state == 0
                 leaf = state.copy()
                 leaf[free] = np.where(active[free], 1, -1)
                 sol = self.polish(leaf == 1)
@@ -299,34 +499,27 @@ class ComplementarityBnB:
                 if not free.any():
                     continue
                 candidates = [int(np.flatnonzero(free)[0])]
-            # strong branching: both children of each candidate, keep the pair whose weaker child is best
+            candidates = candidates[: self.strong]
+            top = min(b, best_val)
+            if self.lam_branching and top - nb > LAM_SPLIT_TOL * max(1.0, abs(top)):
+                # bisect [nb, top]: the upper child's bound is its lower end, the lower child's copies
+                # must carry live load <= the midpoint
+                candidates.append(("lam", 0.5 * (max(nb, a) + top)))
+            # strong branching: both children of each candidate, keep the one whose weaker child is best
             chosen, chosen_key = None, -np.inf
-            for j in candidates[: self.strong]:
-                kids = []
-                for val in (1, -1):
-                    child = state.copy()
-                    child[j] = val
-                    if not (child == 0).any():
-                        sol = self.polish(child == 1)
-                        if sol is not None and sol.multiplier < best_val:
-                            best, best_val = sol, sol.multiplier
-                        kids.append((np.inf, child, None, None))
-                        continue
-                    if basis is not None:
-                        self.h.setBasis(basis)  # warm start from the parent's optimal basis
-                    cst, cb, cv = self._node_lp(child)
-                    if cst is Status.INFEASIBLE:
-                        kids.append((np.inf, child, None, None))
-                    elif cst is not Status.OPTIMAL:
-                        kids.append((nb, child, v, basis))  # keeps the parent's bound, never prunes
-                    else:
-                        kids.append((max(cb, nb), child, cv, self.last_basis))
+            for branch in candidates:
+                kids, found = self._children(branch, state, a, b, nb, v, basis, best_val)
+                for sol in found:
+                    if sol.multiplier < best_val:
+                        best, best_val = sol, sol.multiplier
                 key = min(k[0] for k in kids) + 1e-3 * max(k[0] if np.isfinite(k[0]) else 0.0 for k in kids)
                 if key > chosen_key:
-                    chosen, chosen_key = kids, key
-            for cb, child, cv, cbasis in chosen:
-                if cv is not None and cb < best_val - PRUNE_TOL * max(1.0, abs(best_val)):
-                    heapq.heappush(heap, (cb, counter, child, cv, cbasis))
+                    chosen, chosen_key, chosen_branch = kids, key, branch
+            if isinstance(chosen_branch, tuple):
+                self.lam_splits += 1
+            for cb, child, ca, cbb, cv, cbasis in chosen:
+                if cv is not None and cb < best_val - tol():
+                    heapq.heappush(heap, (cb, counter, child, ca, cbb, cv, cbasis))
                     counter += 1
         else:
             global_bound = best_val
@@ -334,5 +527,6 @@ class ComplementarityBnB:
             global_bound = min(min(entry[0] for entry in heap), best_val)
         tracer.record(global_bound, best_val, force=True)
         point = None
-        return MIPRun(status, status.value, f"complementarity B&B: {nodes} nodes, {self.n_lps} LPs", point,
-                      best_val, global_bound, nodes, time.perf_counter() - t0, tracer.records), best
+        return MIPRun(status, status.value, f"complementarity B&B: {nodes} nodes, {self.n_lps} LPs, "
+                      f"{self.lam_splits} lam splits", point, best_val, global_bound, nodes,
+                      time.perf_counter() - t0, tracer.records), best
