@@ -10,7 +10,8 @@ iterations and the iterations per eps stage.  With ``--fixed-point`` each wall i
 once by the registered ``fixed-point`` method (its lam, to compare with, and its CPU seconds,
 the cost of ``start="fixed-point"``).  ``--keep-going`` runs every wall of a set even after a
 failure.  The default sets are ``default``, ``factor-0.01`` and ``penalty-fp``
-(``start="fixed-point", complementarity="penalty"``).  ``time_limit`` is wall-clock (Ipopt's
+(``start="fixed-point", complementarity="penalty"``); the piece-LP route is
+``fp-piece={'start': 'fixed-point', 'ipopt': False, 'piece_lp': True}``.  ``time_limit`` is wall-clock (Ipopt's
 ``max_wall_time``, as the runner times a solve), so on a loaded machine a run gets less CPU
 than its limit.  Usage::
 

@@ -255,3 +255,88 @@ def test_penalty_callbacks_have_exact_derivatives():
     H = H + np.tril(H, -1).T
     H_fd = np.column_stack([(nlp.gradient(v + h * e) - nlp.gradient(v - h * e)) / (2 * h) for e in np.eye(nlp.n)])
     np.testing.assert_allclose(H, 0.5 * H_fd, atol=1e-6)
+
+
+# ---- the piece-LP finish (options piece_lp, ipopt; solvers/engines/piece_lp.py)
+
+
+def _form_and_fixed_point(case):
+    from blockmpec.formulations import compile_mcp
+    from blockmpec.solvers.nlp import nlp_scaling
+
+    ops = bm.assemble(case)
+    form = compile_mcp(ops)
+    fp = bm.solve(case, "fixed-point")
+    assert fp.success
+    return ops, form, nlp_scaling(form, ops), fp
+
+
+def test_piece_descent_is_exact_below_its_start_and_its_certificate_holds():
+    """From the fixed point of the 10x5 wall (lam 0.51447): an exact solution of (3) (residuals <= 1e-12),
+    lam not above the start's, certified; the certificate re-checked by solving the relaxed LP (biactive pairs
+    free on both sides) explicitly: it does not go below lam."""
+    from blockmpec.solvers.engines.piece_lp import PieceLP, piece_descent
+    from blockmpec.verify import residuals
+
+    case = bm.cases.wall(10, 5)
+    ops, form, scaling, fp = _form_and_fixed_point(case)
+    out = piece_descent(form, scaling, form.pack(fp.solution))
+    assert out.status is Status.LOCALLY_OPTIMAL and out.certified
+    assert max(residuals(ops, form.unpack(out.w), associative=False).values()) <= 1e-12
+    assert out.multiplier <= fp.multiplier + 1e-12
+    assert out.multiplier < fp.multiplier - 1e-3  # the fixed point is not a local minimum here
+    plp = PieceLP(form, *scaling)
+    z, s = plp.sides(out.w)
+    both_zero = (z <= 1e-9) & (s <= 1e-9)
+    assert both_zero.any()
+    plp.set_piece(s <= 1e-9, free=both_zero)
+    relaxed = plp.solve(cold=True)
+    assert relaxed.status is Status.OPTIMAL
+    assert relaxed.objective >= out.multiplier - 1e-9
+
+
+@pytest.mark.parametrize("interior", [False, True], ids=["simplex", "interior"])
+@pytest.mark.parametrize(("eta", "mu"), [(3, 0.65), (5, 0.3)])
+def test_piece_descent_two_blocks_between_bounds(interior, eta, mu):
+    """Both LP algorithms: a certified local minimum of (4) between the closed-form minimum and the associative lam."""
+    from blockmpec.solvers.engines.piece_lp import piece_descent
+    from blockmpec.solvers.nlp import _without_free_sliding
+    from blockmpec.verify import residuals
+
+    case = bm.cases.two_blocks(eta=eta, mu=mu)
+    ops, form, scaling, fp = _form_and_fixed_point(case)
+    out = piece_descent(form, scaling, form.pack(fp.solution), interior=interior)
+    assert out.certified
+    solution = _without_free_sliding(form, form.unpack(out.w))  # as nlp does (interior: z_f+- both large)
+    assert max(residuals(ops, solution, associative=False).values()) <= 1e-7
+    assert two_block_nonassociative_min(eta, mu) - TOL <= out.multiplier <= two_block_associative(eta, mu) + TOL
+
+
+@pytest.mark.parametrize(("options", "wall", "at_most"),
+                         [(dict(start="fixed-point", ipopt=False, piece_lp=True), (10, 5), 0.51447),
+                          (dict(piece_lp=True), (5, 4), 0.6)], ids=["fixed-point-pieces", "ipopt-then-pieces"])
+def test_piece_lp_option_verified_certified_and_below_the_start(options, wall, at_most):
+    """Verified, certified (trace record of the pieces), at or below the start's lam (README: the 10x5 wall's
+    fixed point 0.51447; the 5x4 wall's default nlp 0.60000)."""
+    res = bm.solve(bm.cases.wall(*wall), "nlp", **options)
+    assert_verified(res)
+    assert res.status is Status.LOCALLY_OPTIMAL and res.extra["piece_certified"]
+    assert res.trace[-1]["stage"] == "piece-lp" and res.trace[-1]["certified"]
+    assert res.multiplier <= at_most + 1e-5
+    if not options.get("ipopt", True):
+        assert res.iterations == 0  # no Ipopt iteration
+        assert res.multiplier < at_most - 1e-3  # the fixed point is not a local minimum of (4) here
+
+
+def test_piece_lp_stack_wall_reaches_its_certified_minimum():
+    """The 4x2 stack wall: certified minimum 0.5 (milp; README) from the fixed point by piece LPs alone."""
+    res = bm.solve(bm.cases.wall(4, 2, bond="stack"), "nlp", start="fixed-point", ipopt=False, piece_lp=True)
+    assert_verified(res)
+    assert res.multiplier == pytest.approx(0.5, abs=TOL)
+
+
+@pytest.mark.parametrize("bad", [dict(ipopt=False), dict(ipopt=False, piece_lp=True, start="cold"),
+                                 dict(piece_lp="yes")])
+def test_bad_piece_options(bad):
+    with pytest.raises(bm.OptionError, match="piece_lp"):
+        bm.solve(bm.cases.single_block(), "nlp", **bad)
