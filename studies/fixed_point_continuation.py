@@ -19,10 +19,13 @@ method on the MCP (3) written as the step LP (5) with ``n* = n``; on walls of 2,
   LP's duals (any optimal primal and dual of one LP are complementary: a solution of (3) if
   the aimed forces are optimal for their own LP);
 * ``arclength``: the interior run stopped after ``--start-iteration`` iterations (before its
-  steps shorten), then :func:`track_central_path`: pseudo-arclength continuation of the
-  weighted central path through that point (``s o y = mu w``, the residuals of the linear
-  rows scaled by ``mu / mu_0``) with a tangent predictor and a bordered Newton corrector
-  (two solves with the same factors), for ``--arc-steps`` steps or ``--time-limit`` seconds.
+  steps shorten) or at its stalled best iterate (``best``), then
+  :func:`blockmpec.solvers.engines.interior_fixed_point.continue_central_path`: pseudo-arclength
+  continuation of the weighted central path through that point (``s o y = mu w``, the residuals
+  of the linear rows scaled by ``mu / mu_0``) with a tangent predictor and a bordered Newton
+  corrector (two solves with the same factors), for ``--arc-steps`` steps or ``--time-limit``
+  seconds, until the residuals of (3) are at most 1e-9.  ``fixed-point`` with
+  ``engine="interior"`` now runs it from the stalled iterate itself.
 
 Measured (2 shared cores; one run of the defaults, ``--wall 40x60``: 2,420 free blocks, one
 cold block-IPM LP ~3 s CPU; verified = worst residual of (3) at most 1e-8):
@@ -79,8 +82,8 @@ from pathlib import Path
 import numpy as np
 
 import blockmpec as bm
-from blockmpec.solvers.engines.block_ipm import BlockIPM, IPMIterate, single_blas_thread
-from blockmpec.solvers.engines.interior_fixed_point import InteriorFixedPoint
+from blockmpec.solvers.engines.block_ipm import BlockIPM, IPMIterate
+from blockmpec.solvers.engines.interior_fixed_point import InteriorFixedPoint, continue_central_path
 
 sys.path.insert(0, str(Path(__file__).parent))
 from _tables import markdown, write_csv  # noqa: E402
@@ -155,104 +158,6 @@ class ProximalInteriorFixedPoint(InteriorFixedPoint):
         super().before_iteration(it)
 
 
-def iterate_solution(engine: InteriorFixedPoint, it: IPMIterate):
-    """``(lam, x, u, z_u, z_f)`` of an internal iterate (a run of 0 iterations started there)."""
-    from blockmpec.solvers.engines.highs import static_lp_solution
-
-    max_iterations, start = engine.max_iterations, engine.start_iterate
-    engine.max_iterations, engine.start_iterate = 0, it
-    try:
-        return static_lp_solution(engine.lp, engine.solve())
-    finally:
-        engine.max_iterations, engine.start_iterate = max_iterations, start
-
-
-def track_central_path(engine: InteriorFixedPoint, start: IPMIterate, steps: int, corrector_tol: float = 0.3,
-                       time_limit: float = 300.0, report=print) -> tuple[IPMIterate, dict]:
-    r"""Pseudo-arclength continuation of the weighted central path of (3) through ``start``.
-
-    The path: ``r(z) = (mu / mu_0) r(z_0)`` for the linear rows, ``s o y = mu w`` with
-    ``w = s_0 o y_0 / mu_0``; it passes through ``start`` at ``mu_0``.  Arclength is measured in
-    ``(ds / s, dy / y, dmu / mu)``.  Each step: a tangent predictor of length ``h`` (halved
-    until ``s, y, mu > 0`` and the corrector converges), then at most 4 Newton corrections of
-    the bordered system ``[J, -dF/dmu; t^T]`` by two solves with the same factors of ``K``,
-    accepted when a full step keeps ``s, y > 0`` and ``max |s o y - mu w| / (mu w)`` is at most
-    ``corrector_tol``; ``h`` doubles after a one-correction step.  The tangent is oriented to
-    continue the previous one, so a fold (``dmu/ds`` changing sign) would be followed.
-
-    Returns the last iterate and ``{"steps", "factorisations", "mu", "mu_history"}``.
-    """
-    mu0 = float(start.s @ start.y) / start.s.size
-    weights = start.s * start.y / mu0
-    r0 = engine.residuals(start)
-    slope = (-r0[0] / mu0, -r0[1] / mu0, -r0[2] / mu0)  # the linear rows' right-hand side per unit mu
-
-    def metric(a, b, z, mu):
-        return float(np.sum(a[1] * b[1] / z.s ** 2) + np.sum(a[3] * b[3] / z.y ** 2) + a[4] * b[4] / mu ** 2)
-
-    def moved(z, d, step):
-        return IPMIterate(z.v + step * d[0], z.s + step * d[1], z.w + step * d[2], z.y + step * d[3])
-
-    def tangent(z, mu, factors, previous=None):
-        t = [*engine._refined_direction(z, factors, *slope, weights), 1.0]
-        norm = np.sqrt(metric(t, t, z, mu))
-        t = [x / norm for x in t]
-        if previous is None:
-            return [-x for x in t]  # towards smaller mu
-        return t if metric(t, previous, z, mu) > 0 else [-x for x in t]
-
-    t0 = time.process_time()
-    factorisations, history = 1, [mu0]
-    with single_blas_thread():
-        z, mu = start, mu0
-        t = tangent(z, mu, engine._factorise(z))
-        h = 0.1
-        for k in range(steps):
-            if time.process_time() - t0 > time_limit:
-                break
-            accepted = False
-            while h > 1e-8 and not accepted:
-                zp, mp = moved(z, t, h), mu + h * t[4]
-                if zp.s.min() <= 0 or zp.y.min() <= 0 or mp <= 0:
-                    h *= 0.5
-                    continue
-                zc, mc = zp, mp
-                for corrections in range(1, 5):
-                    factors = engine._factorise(zc)
-                    factorisations += 1
-                    r_b, r_h, r_c = engine.residuals(zc)
-                    theta = mc / mu0
-                    a = [*engine._refined_direction(zc, factors, r_b - theta * r0[0], r_h - theta * r0[1],
-                                                    r_c - theta * r0[2], mc * weights - zc.s * zc.y), 0.0]
-                    b = [*engine._refined_direction(zc, factors, *slope, weights), 1.0]
-                    offset = metric(t, [zc.v - zp.v, zc.s - zp.s, zc.w - zp.w, zc.y - zp.y, mc - mp], z, mu)
-                    dmu = (-offset - metric(t, a, z, mu)) / metric(t, b, z, mu)
-                    d = [a[i] + dmu * b[i] for i in range(4)] + [dmu]
-                    full = min(engine._max_step(zc.s, d[1]), engine._max_step(zc.y, d[3])) >= 1.0
-                    full = full and (zc.s + d[1]).min() > 0 and (zc.y + d[3]).min() > 0
-                    step = 1.0 if full else 0.9 * min(engine._max_step(zc.s, d[1]), engine._max_step(zc.y, d[3]))
-                    zc, mc = moved(zc, d, step), mc + step * dmu
-                    off_path = float(np.max(np.abs(zc.s * zc.y - mc * weights) / (mc * weights)))
-                    if full and off_path <= corrector_tol and mc > 0:
-                        accepted = True
-                        break
-                if not accepted:
-                    h *= 0.5
-            if not accepted:
-                report(f"  arclength: no step at h > 1e-8 after {k} steps")
-                break
-            t = tangent(zc, mc, factors, t)
-            z, mu = zc, mc
-            history.append(mu)
-            h *= 2.0 if corrections == 1 else 1.3 if corrections == 2 else 1.0
-            if k % 10 == 0:
-                primal, dual, gap = engine.measures(z)
-                report(f"  arclength step {k}: mu {mu:.3e}, dmu/ds {t[4] / mu:+.2e} (relative), h {h:.3g}, "
-                       f"gap {gap:.2e}, primal {primal:.1e}, dual {dual:.1e}, {factorisations} factorisations, "
-                       f"{time.process_time() - t0:.1f} s CPU")
-    return z, {"steps": len(history) - 1, "factorisations": factorisations, "mu": mu, "mu_history": history}
-
-
 def worst_residual(ops, sol) -> tuple[str, float]:
     from blockmpec.verify import residuals
 
@@ -280,10 +185,13 @@ def main(argv: list[str] | None = None) -> list[dict]:
     parser.add_argument("--proximal", default="1:1:every;1:30:every;1:0.03:every;1:1:converged",
                         help="';'-separated p:balance:recentre")
     parser.add_argument("--aim-weights", default="0.1,0.001")
-    parser.add_argument("--start-iteration", type=int, default=5)
+    parser.add_argument("--start-iteration", default="5",
+                        help="iterations of the interior run before the continuation; 'auto': up to its first "
+                             "step shorter than 0.5; 'best': its best (stalled) iterate")
     parser.add_argument("--arc-steps", type=int, default=150)
     parser.add_argument("--corrector-tol", type=float, default=0.3)
-    parser.add_argument("--time-limit", type=float, default=300.0, help="CPU seconds per stage")
+    parser.add_argument("--time-limit", type=float, default=300.0,
+                        help="seconds per stage (the continuation: wall clock)")
     args = parser.parse_args(argv)
     courses, per = (int(v) for v in args.wall.split("x"))
     ops = bm.assemble(bm.cases.wall(courses=courses, blocks_per_course=per))
@@ -333,12 +241,29 @@ def main(argv: list[str] | None = None) -> list[dict]:
                                out.iterations + lp_out.iterations, "paired"))
         elif stage == "arclength":
             t0 = time.process_time()
-            engine = InteriorFixedPoint(lp, ops, max_iterations=args.start_iteration, **common)
-            engine.solve()
+            first = args.start_iteration
+            if first in ("auto", "best"):
+                engine = InteriorFixedPoint(lp, ops, **common)
+                engine.solve()
+                short = [r["k"] for r in engine.trace if min(r["step_primal"], r["step_dual"]) < 0.5]
+                first = "best" if first == "best" or not short else short[0]
+            if first != "best":
+                engine = InteriorFixedPoint(lp, ops, max_iterations=int(first), **common)
+                engine.solve()
             start = engine.best_iterate
-            end, facts = track_central_path(engine, start, args.arc_steps, args.corrector_tol, args.time_limit)
-            add(result_row(f"arclength from iteration {args.start_iteration} (corrector {args.corrector_tol:g})",
-                           ops, iterate_solution(engine, end), time.process_time() - t0, facts["steps"],
+            t1 = time.perf_counter()
+
+            def report(step, mu, primal, dual, complementarity, multiplier, factorisations):
+                if step % 10 == 0:
+                    print(f"  arclength step {step}: mu {mu:.3e}, gap {complementarity:.2e}, primal {primal:.1e}, "
+                          f"dual {dual:.1e}, lam {multiplier:.6g}, {factorisations} factorisations, "
+                          f"{time.perf_counter() - t1:.1f} s", flush=True)
+
+            end, facts = continue_central_path(engine, start, tol=1e-9, time_limit=args.time_limit,
+                                               max_steps=args.arc_steps, corrector_tol=args.corrector_tol,
+                                               record=report)
+            add(result_row(f"arclength from iteration {first} (corrector {args.corrector_tol:g})",
+                           ops, static_lp_solution(lp, engine.outcome_at(end)), time.process_time() - t0, facts["steps"],
                            f"mu {facts['mu']:.2e}", factorisations=facts["factorisations"],
                            gap=engine.measures(end)[2]))
         else:

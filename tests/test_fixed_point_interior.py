@@ -219,3 +219,43 @@ def test_kept_aim_forces_paired_with_their_step_lp_duals_solve_3():
     paired = Solution(multiplier=forces.multiplier, x=forces.x, u=duals.u, z_u=duals.z_u, z_f=duals.z_f)
     assert max(residuals(ops, paired, associative=False).values()) <= VERIFY_TOL
     assert paired.multiplier <= bm.solve(ops, "static-lp").multiplier + 1e-9
+
+
+def test_central_path_continuation_from_an_early_iterate_reaches_a_solution_of_3():
+    """:func:`continue_central_path` from the 3rd iterate of the plain run on a 10x10 wall (105 blocks): the
+    weighted path through that point ends at a verified solution of (3), below the associative multiplier."""
+    from blockmpec.solvers.engines.highs import static_lp_solution
+    from blockmpec.solvers.engines.interior_fixed_point import continue_central_path
+    from blockmpec.verify import residuals
+
+    ops = bm.assemble(bm.cases.wall(courses=10, blocks_per_course=10))
+    early = InteriorFixedPoint(_step_lp(ops), ops, max_iterations=3)
+    early.solve()
+    steps = []
+    end, facts = continue_central_path(early, early.best_iterate, tol=1e-9, time_limit=60.0,
+                                       record=lambda **values: steps.append(values))
+    assert 0 < facts["steps"] == len(steps) and facts["factorisations"] >= facts["steps"]
+    assert max(early.measures(end)) <= 1e-9
+    assert steps[-1]["mu"] < 1e-3 * steps[0]["mu"]
+    out = early.outcome_at(end)
+    assert out.status is bm.Status.OPTIMAL and out.iterations == 0
+    sol = static_lp_solution(early.lp, out)
+    assert max(residuals(ops, sol, associative=False).values()) <= VERIFY_TOL
+    assert sol.multiplier <= bm.solve(ops, "static-lp").multiplier + 1e-9
+
+
+def test_a_stalled_interior_run_is_continued_and_the_steps_are_traced():
+    """``run_interior`` continues a run that stalls (here: a tolerance of 1e-17, below round-off) along its
+    central path; the steps count as iterations and are traced; unconverged, the status says so."""
+    ops = bm.assemble(bm.cases.wall(courses=4, blocks_per_course=3))
+    lp = _step_lp(ops)
+    out, facts = run_interior(ops, lp, tol=1e-17, max_iterations=60, time_limit=30.0, fold_weight=0.0)
+    assert out.status is not bm.Status.CONVERGED
+    assert facts["continuation_steps"] > 0
+    traced = [rec for rec in out.trace if rec.get("stage") == "continuation"]
+    assert len(traced) == facts["continuation_steps"]
+    assert [rec["iteration"] for rec in out.trace] == list(range(1, len(out.trace) + 1))
+    assert "continuation" in out.message
+    plain, plain_facts = run_interior(ops, lp, tol=1e-17, max_iterations=60, time_limit=30.0, fold_weight=0.0,
+                                      continuation=False)
+    assert plain_facts["continuation_steps"] == 0 and len(plain.trace) < len(out.trace)

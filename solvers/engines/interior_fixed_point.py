@@ -127,6 +127,10 @@ COUPLINGS = ("exact", "lagged", "fixed")
 #: exactly zero once mu <= FOLD_OFF * mu_0 (module docstring)
 FOLD_KNEE = 1e-3
 FOLD_OFF = 1e-9
+#: continuation of a stalled run (:func:`continue_central_path`): most steps, and the corrector's
+#: tolerance on the weighted products ``max |s o y - mu w| / (mu w)``
+CONTINUATION_STEPS = 3000
+CORRECTOR_TOL = 0.3
 
 
 class InteriorFixedPoint(BlockIPM):
@@ -254,25 +258,135 @@ class InteriorFixedPoint(BlockIPM):
         needs ``G_phi = G_psi``)."""
         return float(it.s @ it.y) / (1 + abs(float(self.c @ it.v)))
 
+    def outcome_at(self, it: IPMIterate):
+        """The outcome (HiGHS's conventions) of a given iterate: a run of 0 iterations started there
+        (``OPTIMAL`` when its residuals of (3) are at most ``tol``); nothing is recorded."""
+        saved = self.max_iterations, self.start_iterate, self.criterion
+        self.max_iterations, self.start_iterate, self.criterion = 0, it, None
+        try:
+            return self.solve()
+        finally:
+            self.max_iterations, self.start_iterate, self.criterion = saved
+
+
+def continue_central_path(engine: InteriorFixedPoint, start: IPMIterate, *, tol: float, time_limit: float,
+                          max_steps: int = CONTINUATION_STEPS, corrector_tol: float = CORRECTOR_TOL,
+                          record=None) -> tuple[IPMIterate, dict]:
+    r"""Pseudo-arclength continuation of the weighted central path of (3) through ``start``.
+
+    The path: ``r(z) = (mu / mu_0) r(z_0)`` for the linear rows (``r`` = :meth:`InteriorFixedPoint.residuals`),
+    ``s o y = mu w`` with ``w = s_0 o y_0 / mu_0``; it passes through ``start`` at ``mu_0``, so a
+    stalled, badly centred iterate is on its own path.  Arclength is measured in
+    ``(ds / s, dy / y, dmu / mu)``.  Each step: a tangent predictor of length ``h`` (halved until
+    ``s, y, mu > 0`` and the corrector converges), then at most 4 Newton corrections of the
+    bordered system ``[J, -dF/dmu; t^T]`` (two solves with the same factors of ``K``: the
+    residual and the path's slope), accepted when a full step keeps ``s, y > 0`` and
+    ``max |s o y - mu w| / (mu w) <= corrector_tol``; ``h`` doubles after a one-correction step.
+    The tangent keeps the previous one's orientation, so a turning point (``dmu/ds`` changing
+    sign) would be followed.  Stops when the relative residuals of (3) are at most ``tol``,
+    after ``max_steps`` steps, after ``time_limit`` seconds (wall clock) or when no step of
+    length ``h > 1e-8`` is accepted.
+
+    Why: Mehrotra's long steps leave this path where it curves (groups of friction rows
+    switching between stick and slip, one after another) and stall; the path itself goes on
+    (module docstring).  ``record(step=..., mu=..., primal=..., dual=..., complementarity=...,
+    multiplier=..., factorisations=...)`` is called after every step.
+
+    Returns the last iterate and ``{"steps", "factorisations", "mu"}``.
+    """
+    import time
+
+    from blockmpec.solvers.engines.block_ipm import single_blas_thread
+
+    t_start = time.perf_counter()
+    mu0 = float(start.s @ start.y) / start.s.size
+    weights = start.s * start.y / mu0
+    r0 = engine.residuals(start)
+    slope = (-r0[0] / mu0, -r0[1] / mu0, -r0[2] / mu0)  # the linear rows' right-hand side per unit mu
+
+    def metric(a, b, z, mu):
+        return float(np.sum(a[1] * b[1] / z.s ** 2) + np.sum(a[3] * b[3] / z.y ** 2) + a[4] * b[4] / mu ** 2)
+
+    def moved(z, d, step):
+        return IPMIterate(z.v + step * d[0], z.s + step * d[1], z.w + step * d[2], z.y + step * d[3])
+
+    def tangent(z, mu, factors, previous=None):
+        t = [*engine._refined_direction(z, factors, *slope, weights), 1.0]
+        norm = np.sqrt(metric(t, t, z, mu))
+        t = [x / norm for x in t]
+        if previous is None:
+            return [-x for x in t]  # towards smaller mu
+        return t if metric(t, previous, z, mu) > 0 else [-x for x in t]
+
+    z, mu, steps, factorisations = start, mu0, 0, 1
+    with single_blas_thread():
+        factors = engine._factorise(z)
+        t = tangent(z, mu, factors)
+        h = 0.1
+        while steps < max_steps and time.perf_counter() - t_start < time_limit and max(engine.measures(z)) > tol:
+            accepted, corrections = False, 0
+            while h > 1e-8 and not accepted:
+                zp, mp = moved(z, t, h), mu + h * t[4]
+                if zp.s.min() <= 0 or zp.y.min() <= 0 or mp <= 0:
+                    h *= 0.5
+                    continue
+                zc, mc = zp, mp
+                for corrections in range(1, 5):
+                    factors = engine._factorise(zc)
+                    factorisations += 1
+                    r_b, r_h, r_c = engine.residuals(zc)
+                    theta = mc / mu0
+                    a = [*engine._refined_direction(zc, factors, r_b - theta * r0[0], r_h - theta * r0[1],
+                                                    r_c - theta * r0[2], mc * weights - zc.s * zc.y), 0.0]
+                    b = [*engine._refined_direction(zc, factors, *slope, weights), 1.0]
+                    offset = metric(t, [zc.v - zp.v, zc.s - zp.s, zc.w - zp.w, zc.y - zp.y, mc - mp], z, mu)
+                    dmu = (-offset - metric(t, a, z, mu)) / metric(t, b, z, mu)
+                    d = [a[i] + dmu * b[i] for i in range(4)] + [dmu]
+                    longest = min(engine._max_step(zc.s, d[1]), engine._max_step(zc.y, d[3]))
+                    full = longest >= 1.0 and (zc.s + d[1]).min() > 0 and (zc.y + d[3]).min() > 0
+                    step = 1.0 if full else 0.9 * longest
+                    zc, mc = moved(zc, d, step), mc + step * dmu
+                    off_path = float(np.max(np.abs(zc.s * zc.y - mc * weights) / (mc * weights))) if mc > 0 else np.inf
+                    if full and off_path <= corrector_tol:
+                        accepted = True
+                        break
+                if not accepted:
+                    h *= 0.5
+            if not accepted:
+                break
+            t = tangent(zc, mc, factors, t)
+            z, mu = zc, mc
+            steps += 1
+            h *= 2.0 if corrections == 1 else 1.3 if corrections == 2 else 1.0
+            if record is not None:
+                primal, dual, complementarity = engine.measures(z)
+                lam = float(engine.column_scale[engine.lam_column] * z.v[engine.lam_column])
+                record(step=steps, mu=mu, primal=primal, dual=dual, complementarity=complementarity,
+                       multiplier=lam, factorisations=factorisations)
+    return z, {"steps": steps, "factorisations": factorisations, "mu": mu}
+
 
 def run_interior(ops, lp, *, tol: float, max_iterations: int, time_limit: float, fold_weight: float,
-                 fold_off: float = FOLD_OFF, ordering: str = "auto"):
+                 fold_off: float = FOLD_OFF, ordering: str = "auto", continuation: bool = True):
     r"""The interior-point fixed point on the compiled step LP ``lp``: ``(RunOutput, facts)``.
 
     One :class:`InteriorFixedPoint` run with the aim term ``fold_weight``; if it does not
     end with a success (``OPTIMAL`` or ``ACCEPTABLE``) and ``fold_weight > 0``, a second
-    run without the aim term in the time left.  A
-    :class:`~blockmpec.solvers.engines.stopping.StoppingCriterion` records every
-    iteration (``kkt_residual`` = max of the relative primal, dual and complementarity
-    residuals of (3)) and the final test ``kkt_residual <= tol``.
+    run without the aim term in the time left.  If the last run stalls (neither ``OPTIMAL``
+    nor out of time or iterations) and ``continuation``, :func:`continue_central_path` follows
+    the central path from its best iterate in the time and iterations left (its steps count as
+    iterations); its end is taken when its residuals of (3) are at most ``tol``.  A :class:`~blockmpec.solvers.engines.stopping.StoppingCriterion`
+    records every iteration and continuation step (``kkt_residual`` = max of the relative
+    primal, dual and complementarity residuals of (3)) and the final test ``kkt_residual <= tol``.
 
     Returns
     -------
     RunOutput, dict
         Status ``CONVERGED`` (residuals of (3) at most ``tol``), ``ACCEPTABLE`` (at most
         1e-6 after the residuals stalled; the verifier decides), or the IPM's failure
-        status; facts: ``lp_solves`` (interior runs), ``lp_time_s`` (``{"interior": s}``),
-        ``fold_weight_used``.
+        status; facts: ``lp_solves`` (interior runs), ``lp_time_s`` (``{"interior": s}``,
+        continuation included), ``fold_weight_used``, ``continuation_steps`` and
+        ``continuation_factorisations`` (0 when it was not needed).
     """
     import time
 
@@ -299,8 +413,28 @@ def run_interior(ops, lp, *, tol: float, max_iterations: int, time_limit: float,
         runs += 1
         if out.status.is_success or out.status is Status.TIME_LIMIT:
             break
+    continued = None
+    if (continuation and out is not None and out.status not in (Status.OPTIMAL, Status.TIME_LIMIT)
+            and engine.best_iterate is not None and crit.remaining() > 0 and crit.iterations < max_iterations):
+        t0 = time.perf_counter()
+        engine.set_fold(0.0)
+
+        def record(**values):
+            crit.iterations += 1
+            crit.record(kkt_residual=max(values["primal"], values["dual"], values["complementarity"]),
+                        fold_weight=0.0, n_change=0.0, stage="continuation", **values)
+
+        end, continued = continue_central_path(engine, engine.best_iterate, tol=tol, time_limit=crit.remaining(),
+                                               max_steps=max_iterations - crit.iterations, record=record)
+        ended = engine.outcome_at(end)
+        seconds += time.perf_counter() - t0
+        continued["iterations"] = out.iterations  # of the stalled run
+        if ended.status is Status.OPTIMAL:
+            out = ended
     facts = {fact_names.LP_SOLVES: runs, fact_names.LP_TIME_S: {"interior": round(seconds, 6)},
-             "fold_weight_used": engine.fold_weight if engine is not None else None}
+             "fold_weight_used": engine.fold_weight if engine is not None else None,
+             "continuation_steps": continued["steps"] if continued else 0,
+             "continuation_factorisations": continued["factorisations"] if continued else 0}
     if out is None:
         return RunOutput(Status.TIME_LIMIT, Solution(), crit.iterations, crit.trace,
                          f"time limit {time_limit:g} s reached before the interior run", extra=facts), facts
@@ -311,8 +445,12 @@ def run_interior(ops, lp, *, tol: float, max_iterations: int, time_limit: float,
     if status is Status.OPTIMAL:
         status = Status.CONVERGED
     crit.check(error, multiplier=sol.multiplier, fold_weight=0.0)
+    iterations = out.iterations if continued is None else continued["iterations"]
     message = out.message if status is not Status.CONVERGED else (
-        f"interior-point fixed point: residuals of (3) {error:.1e} <= {tol:g} after {out.iterations} iterations")
+        f"interior-point fixed point: residuals of (3) {error:.1e} <= {tol:g} after {iterations} iterations")
+    if continued is not None:
+        message += (f" (the interior run stalled there; continuation of its central path: {continued['steps']} "
+                    f"steps to mu {continued['mu']:.1e}{'' if status is Status.CONVERGED else ', not converged'})")
     if runs > 1:
         message += " (second run, without the aim term: the first one failed)"
     return RunOutput(status, sol, crit.iterations, crit.trace, message, out.raw_status, extra=facts), facts
