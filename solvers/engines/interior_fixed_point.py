@@ -88,17 +88,21 @@ from the stalled point (``best_iterate``):
   (``tan(phi)`` on both sides, stopped at 1e-1..1e-6, recentred or not): stalled at
   residuals of (3) between 9e-4 and 0.28 at 2,400 blocks.
 
-**Not a fold** (``studies/fixed_point_continuation.py``, 2,420-block wall ``40x60``, where the
-run stalls at ``mu`` ~ 8.6e-8, worst residual of (3) 1.3e-3).  At the stalled point even pure
-centring (``sigma = 1``, damped) drives the smallest product ``s_i y_i`` from 0.13 ``mu`` to 3e-7
-``mu`` in 60 steps: the iterate is off the path.  Pseudo-arclength continuation of the
-weighted central path through the run's 5th iterate (``mu`` = 2.4e-4, before its steps
-shorten) follows that path well below the stall, with no turning point: ``mu`` 2.4e-4 ->
-5.0e-8 in 150 steps (170 factorisations, 64 s CPU) and 2.0e-8 in 230 steps (tighter
-corrector).  The steps are limited by the path's curvature (groups of friction rows switching
-between stick and slip one after another): about 40 steps per decade of ``mu`` and slowing,
-against 4 decades in Mehrotra's first 5 iterations.  On small walls the continuation converges
-(8x10: verified at 7e-14 in 30 steps); at 2,400 blocks it costs ~20x one cold LP per decade.
+**The closing stage that works: continuation of the central path**
+(:func:`continue_central_path`, ``studies/fixed_point_continuation.py``; 2,420-block wall
+``40x60``, where the run stalls at ``mu`` ~ 8.6e-8, worst residual of (3) 1.3e-3).  At the
+stalled point even pure centring (``sigma = 1``, damped) drives the smallest product
+``s_i y_i`` from 0.13 ``mu`` to 3e-7 ``mu`` in 60 steps: the iterate is off the path.
+Pseudo-arclength continuation of the weighted central path through a point follows it:
+from the run's 5th iterate (``mu`` = 2.4e-4, before its steps shorten) well below the stall
+with no turning point, about 40 steps per decade of ``mu`` while groups of friction rows
+switch between stick and slip one after another, then, once they have settled (``mu`` ~ 2e-9),
+long steps to a verified solution of (3) (2.3e-14, lam 0.41935) after 330 steps; from the
+stalled iterate itself (the path through it) in 155 steps, 74 s CPU in all (~25x one cold
+LP), lam 0.41939, verified at 3.2e-10.  :func:`run_interior` therefore continues a stalled run
+from its best iterate (``fixed-point`` option ``interior_continuation``).  On the 10,050-block
+wall, though, the path through the stalled point turns after ~30 steps and runs back to
+``mu`` ~ 4e9 (110 steps, 170 s CPU); the continuation gives up once ``mu`` has risen 1e3-fold.
 Also measured there, and failed:
 
 * proximal terms that make each Newton step monotone (``rho_k delta_k >= |a_k|^2 / 4`` on the
@@ -111,8 +115,9 @@ Also measured there, and failed:
   but not on the 1,010-block wall (aimed lam 0.449329 for weights 0.1..0.001, the LP at its
   forces 0.449799), and at 2,420 blocks the aimed run itself stalls (4e-6..3.5e-4).
 
-So at 10,000 blocks the interior engine ends ``NUMERICAL`` after 2.3x one cold block-IPM
-LP (CPU, both runs: with and without the aim term) and issue 14's 3x target is not met.
+Without the continuation the interior engine ends ``NUMERICAL`` at 10,000 blocks after 2.2x
+one cold block-IPM LP (CPU, both runs: with and without the aim term); issue 14's 3x target
+is not met there.
 """
 
 from __future__ import annotations
@@ -127,10 +132,13 @@ COUPLINGS = ("exact", "lagged", "fixed")
 #: exactly zero once mu <= FOLD_OFF * mu_0 (module docstring)
 FOLD_KNEE = 1e-3
 FOLD_OFF = 1e-9
-#: continuation of a stalled run (:func:`continue_central_path`): most steps, and the corrector's
-#: tolerance on the weighted products ``max |s o y - mu w| / (mu w)``
+#: continuation of a stalled run (:func:`continue_central_path`): most steps, the corrector's
+#: tolerance on the weighted products ``max |s o y - mu w| / (mu w)``, and the rise of ``mu`` above its
+#: start at which the path counts as turned back for good (on the 10,050-block wall the path through the
+#: stalled point turns after ~30 steps and runs to ``mu`` ~ 4e9 in 110)
 CONTINUATION_STEPS = 3000
 CORRECTOR_TOL = 0.3
+CONTINUATION_MU_RISE = 1e3
 
 
 class InteriorFixedPoint(BlockIPM):
@@ -284,8 +292,9 @@ def continue_central_path(engine: InteriorFixedPoint, start: IPMIterate, *, tol:
     ``max |s o y - mu w| / (mu w) <= corrector_tol``; ``h`` doubles after a one-correction step.
     The tangent keeps the previous one's orientation, so a turning point (``dmu/ds`` changing
     sign) would be followed.  Stops when the relative residuals of (3) are at most ``tol``,
-    after ``max_steps`` steps, after ``time_limit`` seconds (wall clock) or when no step of
-    length ``h > 1e-8`` is accepted.
+    after ``max_steps`` steps, after ``time_limit`` seconds (wall clock), when no step of
+    length ``h > 1e-8`` is accepted, or when ``mu`` has risen to :data:`CONTINUATION_MU_RISE`
+    times its start (the path has turned back towards ``mu = inf``).
 
     Why: Mehrotra's long steps leave this path where it curves (groups of friction rows
     switching between stick and slip, one after another) and stall; the path itself goes on
@@ -323,7 +332,8 @@ def continue_central_path(engine: InteriorFixedPoint, start: IPMIterate, *, tol:
         factors = engine._factorise(z)
         t = tangent(z, mu, factors)
         h = 0.1
-        while steps < max_steps and time.perf_counter() - t_start < time_limit and max(engine.measures(z)) > tol:
+        while (steps < max_steps and time.perf_counter() - t_start < time_limit and max(engine.measures(z)) > tol
+               and mu < CONTINUATION_MU_RISE * mu0):
             accepted, corrections = False, 0
             while h > 1e-8 and not accepted:
                 zp, mp = moved(z, t, h), mu + h * t[4]
