@@ -39,7 +39,10 @@ derives every row).  A run has five stages, all timed:
    (no search).  Otherwise HiGHS on the big-M model (``engine="highs"``), SCIP
    (``engine="scip"``, SOS1 sets ``{s_i, z_i}``) or the branch and bound over the pairs
    of :mod:`blockmpec.solvers.engines.complementarity_bnb` (``engine="bnb"``, a lifted LP
-   bound, no big-M), started from the incumbent.  ``tau >= 0`` makes the model a
+   bound, no big-M; ``lifting`` picks the products in that LP: ``"friction"`` copies ``z_i x`` for
+   the friction pairs, ``"rlt"`` copies for every pair with the products ``lam u`` and ``x u^T``, whose
+   root bound is the minimum of the 2x2, 3x2 and 2x4 running-bond walls; ``lam_branching`` also
+   bisects ``lam``), started from the incumbent.  ``tau >= 0`` makes the model a
    relaxation of (4), so the engine's dual bound is a certified bound on the minimum
    (an upper bound on the maximum).
 4. **polish**: with the pattern of the engine's point fixed (active pair: slack 0;

@@ -132,7 +132,8 @@ class _Layout:
 
 
 def lifted_lp(form, B: sp.coo_array, lam_lower: float, lam_upper: float, slack_max: np.ndarray | None = None,
-              all_copies: bool = False, lam_mechanism: bool = False, force_mechanism: bool = False):
+              all_copies: bool = False, lam_mechanism: bool = False, force_mechanism: bool = False,
+              static_copies: str = "all"):
     """The lifted relaxation's matrices: (A, row_lower, row_upper, col_lower, col_upper, c, layout).
 
     ``all_copies``: a static copy ``x^(i)`` for every pair (not only the friction pairs of ``B``);
@@ -140,7 +141,8 @@ def lifted_lp(form, B: sp.coo_array, lam_lower: float, lam_upper: float, slack_m
     ``zeta_j`` where pair ``j`` has no copy) with compatibility times ``lam`` and ``f_l^T u = 1``
     times ``lam`` (rows (M) of the module docstring); ``force_mechanism`` (needs both): the products
     ``W = x u^T`` with compatibility and ``f_l^T u = 1`` times each ``x_r`` (rows (X) of the module
-    docstring).
+    docstring).  ``static_copies="friction"``: the copies of the other pairs are bare products (columns of
+    the rows (X) only, without their own statics).
     """
     if force_mechanism is not False and force_mechanism is not None and not (all_copies and lam_mechanism):
         raise ValueError("force_mechanism needs all_copies and lam_mechanism")
@@ -206,7 +208,7 @@ def lifted_lp(form, B: sp.coo_array, lam_lower: float, lam_upper: float, slack_m
     copy_pair_rows = {j: [] for j in range(npair)}
     zeta_lower_rows, zeta_upper_rows, own_rows = [], [], []
     for i, xi, zeta in copies:
-        if xi is not None:
+        if xi is not None and (static_copies == "all" or i in friction):
             add(place(E, xi.start) + column(f_l, zeta) + column(f_d, zs.start + i), 0.0, 0.0)
             rows = add(place(Gx, xi.start), -np.inf, 0.0)
             for j in range(npair):
@@ -268,11 +270,12 @@ class ComplementarityBnB:
 
     def __init__(self, form, B, lam_lower, lam_upper, polish, fixed_active=None, fixed_idle=None, strong=4,
                  slack_max=None, lam_branching=False, all_copies=False, lam_mechanism=False, force_mechanism=False,
-                 own_pair_active=True):
+                 own_pair_active=True, static_copies="all"):
         import highspy
 
         A, rl, ru, cl, cu, c, layout = lifted_lp(form, B, lam_lower, lam_upper, slack_max, all_copies=all_copies,
-                                                 lam_mechanism=lam_mechanism, force_mechanism=force_mechanism)
+                                                 lam_mechanism=lam_mechanism, force_mechanism=force_mechanism,
+                                                 static_copies=static_copies)
         self.form, self.B, self.layout, self.polish = form, B, layout, polish
         self.rl0, self.ru0, self.cl0, self.cu0 = rl, ru, cl, cu
         h = highspy.Highs()
