@@ -96,8 +96,10 @@ of (3) and stall; no closing stage from the stalled point reached a solution of 
 (semismooth Newton, exact block-IPM fixed-point steps, restarts, proximal regularisation,
 aimed forces with LP duals), but arclength continuation of the central path from there does
 (``interior_continuation``, on by default; its steps count as iterations): on the
-2,420-block wall a verified solution after 51 iterations and 155 continuation steps (74 s
-CPU, ~25x one cold LP), where the simplex engine does not finish one step in 600 s (the
+2,420-block wall a verified solution, lam 0.41939, in 78 s CPU (20x one cold block-IPM LP;
+aimed run, plain run, 155 continuation steps), where the simplex engine does not finish one
+step in 600 s.  On the 10,050-block wall the path through the stalled point turns back and
+the run still fails (the
 engine module's docstring, ``studies/fixed_point_polish.py``,
 ``studies/fixed_point_continuation.py``).  A run that still fails falls back as above.
 """

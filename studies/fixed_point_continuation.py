@@ -60,8 +60,15 @@ cold block-IPM LP ~3 s CPU; verified = worst residual of (3) at most 1e-8):
   40 steps per decade of ``mu`` and slowing, against Mehrotra's 4 decades in its first 5
   iterations.  With a corrector to 1e-3 of the weighted products (``--corrector-tol 1e-3``):
   ``mu`` 2.0e-8 after 230 steps, 524 factorisations, 177 s CPU.  On the 8x10 wall it converges:
-  verified at 7e-14 in 30 steps (31 factorisations).  At 2,400 blocks it costs ~20x one cold LP
-  per decade of ``mu``, so it cannot meet issue 14's 3x target.
+  verified at 7e-14 in 30 steps (31 factorisations).  Run on (``--arc-steps 2000 --time-limit
+  500``), the groups of switches end near ``mu`` ~ 2e-9 and the path then goes straight to
+  ``mu = 0``: verified at 2.3e-14, lam 0.41935, after 330 steps (184 s CPU in all).  From the
+  stalled iterate (``--start-iteration best``): verified at 3.2e-10, lam 0.41939, after 155 steps
+  (74 s CPU in all, ~20x one cold LP); ``fixed-point`` now does this by itself.
+* ``arclength`` on the 10,050-block wall (``--wall 100x100 --start-iteration best``): the path
+  through the stalled point (``mu`` 5.6e-6, relative complementarity 0.5) turns after ~30 steps
+  (``dmu/ds`` changes sign) and runs back to ``mu`` ~ 4e9 within 110 steps (170 s CPU): no
+  solution of (3) on it.
 
 Usage::
 
