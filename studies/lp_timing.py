@@ -7,8 +7,9 @@ largest residual of the shared verifier (``blockmpec.verify.residuals``, associa
 and the peak resident memory.  Each case runs in a fresh process, so its peak memory
 is its own.  Times are wall-clock (``*_s``) and CPU time of the process (``*_cpu_s``):
 on a shared, loaded machine the CPU times are the ones to compare (the solve is
-single-threaded apart from small BLAS calls).  For the block IPM also the fill-reducing ordering of ``K``, the number
-of factorisations and their time.
+single-threaded apart from small BLAS calls).  For the block IPM also the fill-reducing ordering of ``K``, its
+factorisation (``--factorisations``: ``auto``, ``supernodal``, ``superlu``), the number of factorisations and
+solves with ``K`` and their CPU time.
 Algorithms are those of ``static-lp`` (``blockmpec.solvers.engines.lp_engine.ALGORITHMS``):
 HiGHS's ``dual-simplex``, ``primal-simplex``, ``ipm`` (with crossover), the
 ``block-ipm``, or ``auto``; and, for a side-by-side measurement of the library
@@ -17,7 +18,7 @@ alternative, HiGHS's new interior-point solver HiPO (``hipo``: without crossover
 
     python studies/lp_timing.py [--sizes 100,1000,10000] [--algorithms auto] [--time-limit 600]
                                 [--walls 100x100,316x316] [--orderings auto,mmd] [--ipm-settings previous,default]
-                                [--algorithms block-ipm,hipo,hipo-crossover]
+                                [--factorisations superlu,supernodal] [--algorithms block-ipm,hipo,hipo-crossover]
 
 ``--walls CxB`` gives walls of ``courses=C, blocks_per_course=B`` instead of sizes.
 
@@ -72,7 +73,7 @@ def hipo_engine(lp, ops, time_limit: float, crossover: bool):
 
 
 def time_one(wall: str, algorithm: str, time_limit: float = float("inf"), ordering: str = "auto",
-             max_iterations: int | None = None, ipm_settings: str = "default") -> dict:
+             max_iterations: int | None = None, ipm_settings: str = "default", factorisation: str = "auto") -> dict:
     """One cold solve of the static LP of ``wall`` (a size ``"1000"`` or ``"CxB"`` courses x blocks per course)."""
     from blockmpec.solvers.engines.block_ipm import BlockIPM
     from blockmpec.solvers.engines.highs import static_lp_solution
@@ -96,6 +97,7 @@ def time_one(wall: str, algorithm: str, time_limit: float = float("inf"), orderi
         engine = cold_lp_engine(lp, algorithm, time_limit, ops=ops)  # as static-lp runs it: in load units
     if isinstance(engine, BlockIPM):
         engine.ordering = ordering
+        engine.factorisation = factorisation
         from blockmpec.solvers.engines import block_ipm
 
         engine.settings(**getattr(block_ipm, f"{ipm_settings.upper()}_SETTINGS"))
@@ -111,7 +113,7 @@ def time_one(wall: str, algorithm: str, time_limit: float = float("inf"), orderi
                 if has_point else math.nan)
     factoriser = engine.factoriser if isinstance(engine, BlockIPM) else None
     if isinstance(engine, BlockIPM) and engine.trace:  # mu, steps, centrality, solves per iteration
-        write_csv(OUT / f"trace_{wall}_{ipm_settings}.csv", engine.trace)
+        write_csv(OUT / f"trace_{wall}_{ipm_settings}_{factorisation}.csv", engine.trace)
     return {
         "blocks": s.n_free, "interfaces": len(s.interfaces), "rows": lp.A.shape[0], "columns": lp.A.shape[1],
         "generate_s": t1 - t0, "assemble_s": t2 - t1, "pyomo_build_s": t3 - t2, "compile_s": t4 - t3,
@@ -124,6 +126,9 @@ def time_one(wall: str, algorithm: str, time_limit: float = float("inf"), orderi
         "solve_cpu_s_per_iteration": (c6 - c5) / max(out.iterations, 1),
         "verified_1e-8": bool(out.status.is_success and residual <= 1e-8),
         "ordering": factoriser.ordering if factoriser else "", "factorisations": factoriser.factorisations if factoriser else 0,
+        "factorisation": type(factoriser).__name__ if factoriser else "",
+        "cholesky_fallbacks": engine.cholesky_fallbacks if isinstance(engine, BlockIPM) else 0,
+        "solve_k_cpu_s": factoriser.solve_s if factoriser else 0.0,
         "k_solves": factoriser.solves if factoriser else 0,
         "krylov_steps": engine.krylov_steps if isinstance(engine, BlockIPM) else 0,
         "factorise_s": factoriser.factorise_s if factoriser else 0.0, "factor_nnz": factoriser.factor_nnz if factoriser else 0,
@@ -143,21 +148,24 @@ def main(argv: list[str] | None = None) -> list[dict]:
     parser.add_argument("--orderings", default="auto", help="block IPM orderings of K: auto, metis, mmd")
     parser.add_argument("--ipm-settings", default="default",
                         help="comma-separated block IPM settings: default, stationary, short_refinement, previous, ... (block_ipm.*_SETTINGS)")
+    parser.add_argument("--factorisations", default="auto",
+                        help="comma-separated block IPM factorisations of K: auto, supernodal, superlu")
     parser.add_argument("--time-limit", type=float, default=float("inf"), help="seconds per solve")
     parser.add_argument("--max-iterations", type=int, default=None,
                         help="block IPM iteration cap: measures the cost per iteration of a size too slow to finish")
     args = parser.parse_args(argv)
     walls = args.walls.split(",") if args.walls else args.sizes.split(",")
     block = ("auto", "block-ipm")
-    cases = [(w, a, args.time_limit, o, args.max_iterations, st) for w in walls for a in args.algorithms.split(",")
+    cases = [(w, a, args.time_limit, o, args.max_iterations, st, fa) for w in walls for a in args.algorithms.split(",")
              for o in (args.orderings.split(",") if a in block else ["auto"])
-             for st in (args.ipm_settings.split(",") if a in block else ["default"])]
+             for st in (args.ipm_settings.split(",") if a in block else ["default"])
+             for fa in (args.factorisations.split(",") if a in block else ["auto"])]
     context = multiprocessing.get_context("spawn")  # a fresh process per case: its own peak memory
     rows = []
     for case in cases:
         with context.Pool(1, maxtasksperchild=1) as pool:
             rows.append(pool.apply(_run_in_child, (case,)))
-    keys = ["blocks", "algorithm", "ordering", "ipm_settings", "k_solves", "krylov_steps", "pyomo_build_cpu_s", "compile_cpu_s", "solve_cpu_s", "solve_s",
+    keys = ["blocks", "algorithm", "ordering", "factorisation", "ipm_settings", "k_solves", "factorise_s", "solve_k_cpu_s", "krylov_steps", "pyomo_build_cpu_s", "compile_cpu_s", "solve_cpu_s", "solve_s",
             "build_over_solve_cpu", "lp_iterations", "factorise_s", "peak_memory_mb", "status", "max_residual",
             "multiplier"]
     print(" ".join(f"{k:>13s}" for k in keys), flush=True)
@@ -165,13 +173,15 @@ def main(argv: list[str] | None = None) -> list[dict]:
         print(" ".join(f"{r[k]:>13.4g}" if isinstance(r[k], float) else f"{r[k]!s:>13s}" for k in keys))
     print()
     print("CPU times of the process (wall-clock solve in brackets):")
-    print("| free blocks | engine | ordering | IPM settings | Pyomo build | compile | solve | iterations | build + compile / solve "
-          "| peak memory | verified 1e-8 | λ |")
-    print("| ---: | --- | --- | --- | ---: | ---: | ---: | ---: | ---: | ---: | --- | ---: |")
+    print("| free blocks | engine | ordering | factorisation of K | IPM settings | Pyomo build | compile | solve | iterations "
+          "| factorisations, solves with K (CPU) | build + compile / solve | peak memory | verified 1e-8 | λ |")
+    print("| ---: | --- | --- | --- | --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | --- | ---: |")
     for r in rows:
         engine = "block IPM" if r["engine"] == "BlockIPM" else f"HiGHS {r['algorithm']}"
-        print(f"| {r['blocks']:,} | {engine} | {r['ordering'] or '–'} | {r['ipm_settings'] or '–'} | {r['pyomo_build_cpu_s']:.2g} s "
-              f"| {r['compile_cpu_s']:.2g} s | **{r['solve_cpu_s']:.3g} s** ({r['solve_s']:.3g} s) | {r['lp_iterations']} ({r['k_solves']} K solves) "
+        kind = {"SupernodalCholesky": "supernodal Cholesky", "SymmetricFactoriser": "SuperLU"}.get(r["factorisation"], "–")
+        print(f"| {r['blocks']:,} | {engine} | {r['ordering'] or '–'} | {kind} | {r['ipm_settings'] or '–'} "
+              f"| {r['pyomo_build_cpu_s']:.2g} s | {r['compile_cpu_s']:.2g} s | **{r['solve_cpu_s']:.3g} s** ({r['solve_s']:.3g} s) "
+              f"| {r['lp_iterations']} | {r['factorise_s']:.3g} s, {r['k_solves']} in {r['solve_k_cpu_s']:.3g} s "
               f"| {r['build_over_solve_cpu']:.2f} "
               f"| {r['peak_memory_mb']:,.0f} MB | {'yes' if r['verified_1e-8'] else 'no'} ({r['max_residual']:.1e}) "
               f"| {r['multiplier']:.4f} |")

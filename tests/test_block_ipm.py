@@ -190,3 +190,16 @@ def test_solve_runs_blas_on_one_thread_and_restores_it():
     assert out.status is bm.Status.OPTIMAL
     assert seen and all(threads and set(threads) == {1} for threads in seen)
     assert blas_threads() == before
+
+
+def test_reduced_values_on_the_pattern_equal_the_sparse_product(wall_ipm):
+    """K assembled on its structural pattern by the precomputed scatter (what the iteration factorises)
+    equals A_B H^{-1} A_B^T + 1e-12 diag(K) by sparse products, to round-off, entry by entry."""
+    ipm, it = wall_ipm
+    K_product, _ = ipm.reduced_matrix(it)
+    Hinv, _ = ipm._inverse_blocks(it)
+    K_scatter = ipm._reduced_csc(ipm._reduced_values(Hinv))
+    assert K_scatter.nnz == ipm._K_pattern.nnz >= K_product.nnz
+    difference = abs(K_scatter - K_product).max()
+    assert difference <= 1e-13 * abs(K_product).max()
+    assert np.array_equal(K_scatter.diagonal() > 0, np.ones(K_scatter.shape[0], dtype=bool))

@@ -17,10 +17,15 @@ Mehrotra's predictor-corrector method reduces to
   optimum ``d`` spans 1e-10..1e10 within one interface);
 * ``K = A_B H^{-1} A_B^T``: sparse, symmetric positive definite, of the size of
   the equilibrium rows (3 per block), with the sparsity of the block contact graph
-  (a 2D mesh for walls), factorised once per iteration (``L D L^T`` by SuperLU, no
-  pivoting) after a relative diagonal shift of 1e-12, with a fill-reducing ordering
-  (METIS nested dissection, or minimum degree without pymetis) computed once from the
-  *structural* pattern of ``K`` (:mod:`blockmpec.solvers.engines.cholesky`);
+  (a 2D mesh for walls).  It is assembled on its fixed *structural* pattern: each
+  interface's dense ``a_i H_i^{-1} a_i^T`` (``a_i``: its columns of ``A_B`` on the few
+  rows they touch) is scattered into the pattern's data array by a precomputed index,
+  without sparse products.  After a relative diagonal shift of 1e-12 it is factorised
+  once per iteration by a supernodal multifrontal Cholesky (dense BLAS-3 on fronts;
+  SuperLU's ``L D L^T`` when ``K`` is not symmetric, as in the interior fixed point,
+  or when a pivot is not positive), with a fill-reducing ordering (METIS nested
+  dissection, or minimum degree without pymetis) computed once from that pattern
+  (:mod:`blockmpec.solvers.engines.cholesky`);
 * the border columns by a bordered (Schur) solve: ``K W = [r, A_F]`` and a dense
   ``|F| x |F|`` system ``(A_F^T W_F) dv_F = A_F^T W_r + q_F``;
 * the block unknowns ``(dv_i, dy_i)`` by exact per-block solves, and iterative
@@ -74,7 +79,7 @@ import scipy.sparse as sp
 
 from blockmpec.formulations import LinearProgram
 from blockmpec.result import Status
-from blockmpec.solvers.engines.cholesky import SymmetricFactoriser, structural_pattern
+from blockmpec.solvers.engines.cholesky import SupernodalCholesky, SymmetricFactoriser, structural_pattern
 from blockmpec.solvers.engines.highs import LPOutcome
 
 #: iteration parameters (:meth:`BlockIPM.settings`):
@@ -118,6 +123,16 @@ SHORT_STATIONARY_SETTINGS = {**SHORT_REFINEMENT_SETTINGS, "krylov_iterations": 0
 FEWER_SOLVES_SETTINGS = {**DEFAULT_SETTINGS, "inner_tolerance": 1e-6, "correctors": 4, "gondzio_accept": 1.0}
 #: the settings before the lazy refinement: every direction refined on the whole system
 PREVIOUS_SETTINGS = {**DEFAULT_SETTINGS, "lazy_refinement": False}
+
+#: factorisations of K: ``"auto"`` (the supernodal Cholesky for a symmetric K of at least
+#: :data:`AUTO_SUPERNODAL_ROWS` rows, SuperLU otherwise), ``"supernodal"``, ``"superlu"``
+#: (:mod:`blockmpec.solvers.engines.cholesky`)
+FACTORISATIONS = ("auto", "supernodal", "superlu")
+#: Below this size SuperLU wins: the supernodal factorisation is faster from ~4,000 blocks on (12,060 rows:
+#: 52 against 74 ms), but its solves, a Python loop over supernodes, are slower (8.1 against 4.7 ms) and
+#: there are ~9 per factorisation; from ~10,000 blocks on it wins per iteration (32,670 blocks: 2.35 s
+#: against 3.0 s CPU; studies/lp_timing.py --factorisations)
+AUTO_SUPERNODAL_ROWS = 30_000
 
 #: seconds per solve when none is given: a 100,000-block wall takes about 14 minutes (studies/lp_timing.py)
 DEFAULT_TIME_LIMIT = 3600.0
@@ -180,6 +195,8 @@ class BlockIPM:
         self.settings(**DEFAULT_SETTINGS)
         #: directions refined by GMRES after the stationary refinement stalled (all solves)
         self.krylov_steps = 0
+        #: factorisations where the Cholesky met a nonpositive pivot and SuperLU's LDL^T was used
+        self.cholesky_fallbacks = 0
         # a stalled run whose best iterate is this good is ACCEPTABLE (a success that the
         # shared verifier still checks at its own tolerance, 1e-6 by default)
         self.acceptable_tol = max(1e3 * self.tol, 1e-6)
@@ -244,11 +261,12 @@ class BlockIPM:
         self.A_B = self.A[:, block_columns.ravel()].tocsr()  # columns in block order
         self.A_F = self.A[:, self.border].toarray() if self.border.size else np.zeros((self.A.shape[0], 0))
         self._abs_A_B, self._abs_A_F = abs(self.A_B), np.abs(self.A_F)
-        self._factoriser: SymmetricFactoriser | None = None
-        # CSR pattern of the block-diagonal H^{-1} (fixed; values change per iteration)
-        k, nb = self.k, self.n_blocks
-        self._hinv_indptr = np.arange(0, nb * k * k + 1, k)
-        self._hinv_indices = (np.arange(nb)[:, None, None] * k + np.arange(k)[None, None, :]).repeat(k, axis=1).ravel()
+        self._factoriser: SymmetricFactoriser | SupernodalCholesky | None = None
+        self._superlu: SymmetricFactoriser | None = None
+        #: the factorisation of K (:data:`FACTORISATIONS`)
+        self.factorisation = "auto"
+        self._K_pattern = structural_pattern(self.A_B, self.k)
+        self._K_slots, self._K_targets, self._K_diagonal = self._reduced_scatter()
 
     def dense_blocks(self, G: sp.sparray) -> np.ndarray:
         """The rows of an inequality matrix ``G`` (this LP's pattern) as dense per-block arrays,
@@ -296,33 +314,126 @@ class BlockIPM:
         M[:, k + idx, k + idx] = -1.0
         return M, sqrt_d
 
-    def reduced_matrix(self, it: IPMIterate):
-        """``(K, blocks)``: ``K = A_B H^{-1} A_B^T + 1e-12 diag(K)`` at ``it`` and the block factors ``(M^{-1}, sqrt(d))``."""
+    def _reduced_scatter(self):
+        r"""Fixed maps that assemble ``K = A_B H^{-1} A_B^T`` on its structural pattern.
+
+        Block ``i`` of ``A_B`` (its ``k`` columns) touches a few rows ``r_i`` (the equilibrium rows of
+        the two blocks an interface joins): ``a_i = A_B[r_i, cols_i]``, dense, padded to the largest
+        count.  ``K = sum_i E_i a_i H_i^{-1} a_i^T E_i^T``: each product is scattered into the data
+        array of the pattern (CSC, :func:`structural_pattern`) by a precomputed index (padding goes
+        to a spare slot).  Returns ``(a, targets, diagonal positions)``.
+        """
         k, nb = self.k, self.n_blocks
+        A = sp.coo_array(self.A_B)
+        A.sum_duplicates()
+        block = A.col // k
+        order = np.lexsort((A.row, block))
+        block, row, col, val = block[order], A.row[order], A.col[order], A.data[order]
+        key = block.astype(np.int64) * self.A_B.shape[0] + row
+        unique_key, first = np.unique(key, return_index=True)
+        unique_block = unique_key // self.A_B.shape[0]
+        counts = np.bincount(unique_block, minlength=nb)
+        slots = int(max(counts.max(initial=0), 1))
+        start = np.concatenate([[0], np.cumsum(counts)[:-1]])
+        slot_of_unique = np.arange(unique_key.size) - start[unique_block]
+        rows = np.full((nb, slots), -1, dtype=np.int64)
+        rows[unique_block, slot_of_unique] = unique_key % self.A_B.shape[0]
+        slot = slot_of_unique[np.searchsorted(unique_key, key)]
+        a = np.zeros((nb, slots, k))
+        a[block, slot, col % k] = val
+        P = self._K_pattern
+        n_rows = P.shape[0]
+        pattern_key = np.repeat(np.arange(n_rows, dtype=np.int64), np.diff(P.indptr)) * n_rows + P.indices
+        valid = (rows[:, :, None] >= 0) & (rows[:, None, :] >= 0)
+        entry_key = rows[:, None, :] * n_rows + rows[:, :, None]  # (i, j) -> column rows[j], row rows[i]
+        targets = np.full(valid.shape, P.nnz, dtype=np.int64)
+        targets[valid] = np.searchsorted(pattern_key, entry_key[valid])
+        if np.any(pattern_key[targets[valid]] != entry_key[valid]):
+            raise RuntimeError("block IPM: K has an entry outside its structural pattern")
+        diagonal = np.searchsorted(pattern_key, np.arange(n_rows, dtype=np.int64) * (n_rows + 1))
+        return a, targets.ravel(), diagonal
+
+    def _inverse_blocks(self, it: IPMIterate):
+        """``(H^{-1} per block, (M^{-1}, sqrt(d)))`` at ``it``."""
+        k = self.k
         M, sqrt_d = self._block_systems(it)
         M_inv = np.linalg.inv(M)  # LU with partial pivoting, per block
         Hinv = M_inv[:, :k, :k]
         if self.symmetric:
             Hinv = 0.5 * (Hinv + np.swapaxes(Hinv, 1, 2))
-        Hinv_mat = sp.csr_array((Hinv.ravel(), self._hinv_indices, self._hinv_indptr), shape=(nb * k, nb * k))
-        K = (self.A_B @ Hinv_mat @ self.A_B.T).tocsc()
+        return Hinv, (M_inv, sqrt_d)
+
+    def _reduced_values(self, Hinv: np.ndarray) -> np.ndarray:
+        """Values of ``K = A_B H^{-1} A_B^T + 1e-12 diag(K)`` on its structural pattern (``pattern.data`` order)."""
+        a = self._K_slots
+        products = np.matmul(np.matmul(a, Hinv), np.swapaxes(a, 1, 2))
+        values = np.bincount(self._K_targets, weights=products.reshape(-1), minlength=self._K_pattern.nnz + 1)
+        values = values[:-1]
         # a relative diagonal shift (1e-12 K_ii) keeps the pivots nonzero where a
         # block's forces are all fixed by active rows; iterative refinement against the
         # exact block solves removes its effect on the direction
+        diagonal = self._K_diagonal
+        values[diagonal] += 1e-12 * np.abs(values[diagonal]) + 1e-300
+        return values
+
+    def _reduced_csc(self, values: np.ndarray) -> sp.csc_array:
+        P = self._K_pattern
+        return sp.csc_array((values, P.indices, P.indptr), shape=P.shape)
+
+    def reduced_matrix(self, it: IPMIterate):
+        """``(K, blocks)``: ``K = A_B H^{-1} A_B^T + 1e-12 diag(K)`` at ``it`` by sparse products (scipy
+        drops the exact zeros, e.g. at the starting point) and the block factors ``(M^{-1}, sqrt(d))``.
+
+        For studies and tests: the iteration assembles the same matrix on its fixed structural
+        pattern (:meth:`_reduced_values`; equal to round-off), without sparse products.
+        """
+        k, nb = self.k, self.n_blocks
+        Hinv, blocks = self._inverse_blocks(it)
+        indptr = np.arange(0, nb * k * k + 1, k)
+        indices = (np.arange(nb)[:, None, None] * k + np.arange(k)[None, None, :]).repeat(k, axis=1).ravel()
+        Hinv_mat = sp.csr_array((Hinv.ravel(), indices, indptr), shape=(nb * k, nb * k))
+        K = (self.A_B @ Hinv_mat @ self.A_B.T).tocsc()
         K = K + sp.diags(1e-12 * np.abs(K.diagonal()) + 1e-300, format="csc")
-        return K, (M_inv, sqrt_d)
+        return K, blocks
 
     @property
-    def factoriser(self) -> SymmetricFactoriser:
-        """The factoriser of ``K``, its ordering computed once from ``K``'s structural pattern."""
+    def factoriser(self) -> SymmetricFactoriser | SupernodalCholesky:
+        """The factoriser of ``K``, its ordering computed once from ``K``'s structural pattern:
+        :class:`SupernodalCholesky` for a symmetric ``K`` (``factorisation`` ``"supernodal"``, or
+        ``"auto"`` from :data:`AUTO_SUPERNODAL_ROWS` rows on), SuperLU (:class:`SymmetricFactoriser`) otherwise."""
         if self._factoriser is None:
-            self._factoriser = SymmetricFactoriser(structural_pattern(self.A_B, self.k), self.ordering)
+            if self.factorisation not in FACTORISATIONS:
+                raise ValueError(f"block IPM: unknown factorisation {self.factorisation!r}; "
+                                 f"use one of {', '.join(FACTORISATIONS)}")
+            supernodal = self.symmetric and (self.factorisation == "supernodal" or (
+                self.factorisation == "auto" and self._K_pattern.shape[0] >= AUTO_SUPERNODAL_ROWS))
+            if self.factorisation == "supernodal" and not supernodal:
+                raise ValueError("block IPM: the supernodal Cholesky needs a symmetric K")
+            self._factoriser = (SupernodalCholesky(self._K_pattern, self.ordering) if supernodal
+                                else SymmetricFactoriser(self._K_pattern, self.ordering))
         return self._factoriser
 
     def _factorise(self, it: IPMIterate):
         """Block matrices, ``H^{-1}`` (top-left of their inverses), ``K = A_B H^{-1} A_B^T`` and its factors."""
-        K, blocks = self.reduced_matrix(it)
-        solve_K = self.factoriser.factorise(K)
+        Hinv, blocks = self._inverse_blocks(it)
+        values = self._reduced_values(Hinv)
+        factoriser = self.factoriser
+        solve_K = None
+        if isinstance(factoriser, SupernodalCholesky):
+            solve_K = factoriser.factorise_values(values)
+            if solve_K is None:
+                # a pivot lost definiteness in floating point: SuperLU's LDL^T (same ordering), which
+                # takes any nonzero pivot; its solves are counted with the Cholesky's
+                if self._superlu is None:
+                    self._superlu = SymmetricFactoriser(self._K_pattern, self.ordering, perm=factoriser.perm)
+                self.cholesky_fallbacks += 1
+                solve_lu = self._superlu.factorise(self._reduced_csc(values))
+
+                def solve_K(rhs, _solve=solve_lu, _counter=factoriser):
+                    _counter.solves += 1
+                    return _solve(rhs)
+        else:
+            solve_K = factoriser.factorise(self._reduced_csc(values))
         W_F = solve_K(self.A_F) if self.A_F.shape[1] else self.A_F
         # the small dense Schur complement A_F^T K^{-1} A_F, inverted once (np.linalg.solve
         # on a 1-by-1 matrix costs milliseconds per call)
@@ -334,7 +445,7 @@ class BlockIPM:
         M_inv, sqrt_d = blocks
         rhs = np.concatenate([rhs_dual.reshape(self.n_blocks, self.k),
                               sqrt_d * rhs_primal[self.block_rows]], axis=1)
-        sol = np.matmul(M_inv, rhs[:, :, None])[:, :, 0]
+        sol = np.einsum("bij,bj->bi", M_inv, rhs)  # batched matrix-vector products (faster than matmul here)
         dy = np.empty(self.h.size)
         dy[self.block_rows] = sqrt_d * sol[:, self.k:]
         return sol[:, :self.k].ravel(), dy

@@ -9,10 +9,17 @@ IPM's starting point many entries of ``H^{-1}`` are exact zeros that scipy drops
 an ordering of that sparser matrix gave 17x more fill on later ones (1,000 blocks).
 
 ``K`` is symmetric positive definite (``H^{-1}`` is, and ``A_B`` has full row rank on
-a structure whose every free block has an interface), so it needs no pivoting: after a
-symmetric permutation ``P K P^T`` it is factorised by SuperLU with the natural column
-order, symmetric mode and diagonal pivots only (``diag_pivot_thresh = 0``), i.e. an
-``L D L^T`` in LU form.  Orderings (:data:`ORDERINGS`):
+a structure whose every free block has an interface), so it needs no pivoting.  Two
+factorisations of a symmetric permutation ``P K P^T``:
+
+* :class:`SupernodalCholesky` (the block IPM's default for a symmetric ``K``): a
+  multifrontal supernodal Cholesky written with scipy's LAPACK/BLAS (``potrf``,
+  ``trsm``, ``syrk`` on dense fronts), its symbolic analysis done once per pattern;
+* :class:`SymmetricFactoriser`: SuperLU with the natural column order, symmetric mode
+  and diagonal pivots only (``diag_pivot_thresh = 0``), i.e. an ``L D L^T`` in LU form;
+  it also takes the non-symmetric ``K`` of the interior fixed point.
+
+Orderings (:data:`ORDERINGS`):
 
 * ``"metis"``: METIS nested dissection (``pymetis``, MIT/Apache-2.0), the ordering
   of choice for the 2D mesh pattern of a wall;
@@ -20,11 +27,13 @@ order, symmetric mode and diagonal pivots only (``diag_pivot_thresh = 0``), i.e.
   fallback when pymetis is not installed;
 * ``"auto"``: ``"metis"`` if importable, else ``"mmd"``.
 
-Measured on one mid-iteration ``K`` of a wall (``studies/cholesky_choice.py``): 10,046
-blocks (30,150 rows): METIS 5.0M nonzeros in ``L+U`` against MMD's 5.8M; 100,016 blocks
-(300,042 rows): METIS 71M nonzeros, 7-13 s per factorisation, against MMD's 101M and
-18-35 s.  CHOLMOD (``sksparse-minimal``/``cholespy`` wheels; their bundled Supernodal
-module is GPL) took 19 s and ``qdldl`` (Apache-2.0, AMD) 29 s on the same 100k matrix.
+Measured on one mid-iteration ``K`` of a wall (``studies/cholesky_choice.py``, CPU time): 100,016
+blocks (300,042 rows), METIS: SuperLU 71M nonzeros in ``L+U``, ~6 s per factorisation; the
+supernodal Cholesky ~2.5 s (35.7M structural nonzeros in ``L``, 48.7M stored with the
+amalgamation zeros), its solves within ~1.3x of SuperLU's.  No wheel on PyPI offers a faster
+permissive sparse Cholesky here: CHOLMOD (``sksparse-minimal``/``cholespy``) bundles its GPL
+Supernodal module, ``qdldl`` (Apache-2.0, AMD) took 29 s on the 100k matrix, and MUMPS/SPRAL
+(``python-mumps``, ``pyspral``) have no wheel for this platform.
 """
 
 from __future__ import annotations
@@ -103,11 +112,13 @@ class SymmetricFactoriser:
         :func:`structural_pattern`.
     ordering : str
         One of :data:`ORDERINGS`.
+    perm : ndarray, optional
+        A symmetric permutation to use instead of computing one.
     """
 
-    def __init__(self, pattern: sp.sparray, ordering: str = "auto") -> None:
+    def __init__(self, pattern: sp.sparray, ordering: str = "auto", perm: np.ndarray | None = None) -> None:
         self.ordering = ("metis" if metis_available() else "mmd") if ordering == "auto" else ordering
-        self.perm = fill_reducing_ordering(pattern, self.ordering)
+        self.perm = fill_reducing_ordering(pattern, self.ordering) if perm is None else np.asarray(perm)
         self.inverse_perm = np.empty_like(self.perm)
         self.inverse_perm[self.perm] = np.arange(self.perm.size)
         #: nonzeros of L + U of the last factorisation (fill diagnostics)
@@ -122,18 +133,322 @@ class SymmetricFactoriser:
     def factorise(self, K: sp.sparray):
         """``solve(rhs)`` for ``K x = rhs`` (``rhs`` a vector or a matrix of columns)."""
         p, inv_p = self.perm, self.inverse_perm
-        t0 = time.perf_counter()
+        t0 = time.process_time()
         lu = spla.splu(sp.csc_matrix(K)[p][:, p], permc_spec="NATURAL", diag_pivot_thresh=0.0,
                        options={"SymmetricMode": True})
         self.factor_nnz = int(lu.nnz)
         self.factorisations += 1
-        self.factorise_s += time.perf_counter() - t0
+        self.factorise_s += time.process_time() - t0
 
         def solve(rhs: np.ndarray) -> np.ndarray:
-            t = time.perf_counter()
+            t = time.process_time()
             x = lu.solve(rhs[p])[inv_p]
             self.solves += 1
-            self.solve_s += time.perf_counter() - t
+            self.solve_s += time.process_time() - t
             return x
+
+        return solve
+
+
+#: CHOLMOD's relaxed amalgamation rule (``nrelax``, ``zrelax``): a supernode and its parent are merged
+#: when the merged one has at most ``columns[i]`` columns and at most ``zeros[i]`` of its stored entries
+#: are explicit zeros (and always when it has at most ``columns[0]``); scaled here by ``relax``
+RELAXED_COLUMNS = (4, 16, 48)
+RELAXED_ZEROS = (0.8, 0.1, 0.05)
+#: a child's update matrix is added into its parent's front block by block (slices) when its rows
+#: fall into at most this many runs of consecutive rows of the parent, else by a flat index
+EXTEND_ADD_RUNS = 8
+
+
+def column_structures(lower: sp.sparray) -> tuple[list[np.ndarray], np.ndarray]:
+    """Symbolic Cholesky factorisation: the rows of every column of ``L`` and the elimination tree.
+
+    ``lower``: the lower triangle of a symmetric pattern (CSC).  Column ``j`` of ``L`` has the rows of
+    column ``j`` of ``lower``, ``j`` itself and, for every child ``c`` (``parent(c) = j``), the rows of
+    column ``c`` below ``j``; ``parent(j)`` is its first row below the diagonal (``-1``: a root).
+    Returns ``(rows of each column, sorted, starting with j; parent)``.
+    """
+    lower = sp.csc_array(lower)
+    lower.sort_indices()
+    n = lower.shape[0]
+    indptr, indices = lower.indptr, lower.indices.astype(np.int64)
+    pending: list[list[np.ndarray] | None] = [None] * n
+    structure: list[np.ndarray] = [None] * n  # type: ignore[list-item]
+    parent = np.full(n, -1, dtype=np.int64)
+    for j in range(n):
+        own = indices[indptr[j]:indptr[j + 1]]
+        parts = pending[j]
+        if parts is None and own.size and own[0] == j:
+            rows = own
+        else:
+            rows = np.unique(np.concatenate([[j], own] + (parts or [])))
+        pending[j] = None
+        structure[j] = rows
+        if rows.size > 1:
+            p = int(rows[1])
+            parent[j] = p
+            if pending[p] is None:
+                pending[p] = [rows[1:]]
+            else:
+                pending[p].append(rows[1:])
+    return structure, parent
+
+
+class SupernodalCholesky:
+    r"""Multifrontal supernodal Cholesky ``P K P^T = L~ L~^T`` of matrices with one fixed SPD pattern.
+
+    Symbolic analysis once: the fill-reducing ordering (as :class:`SymmetricFactoriser`), the
+    structure of ``L`` and its elimination tree (:func:`column_structures`), fundamental supernodes (``j + 1`` joins ``j`` when
+    ``parent(j) = j + 1`` and ``|L_{*j}| = |L_{*,j+1}| + 1``) merged by relaxed amalgamation
+    (:data:`RELAXED_COLUMNS`, :data:`RELAXED_ZEROS`), and for every supernode the map from the
+    matrix's values to its dense frontal matrix and from its update matrix into its parent's.
+
+    Numeric factorisation (each call): supernodes in increasing column order (children before
+    parents); front ``F`` = the supernode's columns of ``K`` plus its children's update matrices
+    (extend-add); ``L11 = chol(F11)``, ``L21 = F21 L11^{-T}`` (LAPACK/BLAS: ``potrf``, ``trsm``), update
+    ``F22 - L21 L21^T`` (``gemm``) for the parent.  Dense BLAS-3 work on fronts instead of SuperLU's
+    LU: about half the floating-point work (symmetry) at a higher rate.
+
+    Solves: forward and backward substitution by supernodes, ``L11`` by ``trsv`` and ``L21`` by a
+    matrix-vector product with the rows below (BLAS-2 per supernode, like SuperLU's own solve).
+
+    ``K`` must be symmetric positive definite: a nonpositive pivot (a matrix the 1e-12 shift does not
+    keep definite in floating point) makes :meth:`factorise_values` return ``None``.
+    """
+
+    def __init__(self, pattern: sp.sparray, ordering: str = "auto", relax: float = 4.0) -> None:
+        t0 = time.process_time()
+        self.ordering = ("metis" if metis_available() else "mmd") if ordering == "auto" else ordering
+        pattern = sp.csc_array(pattern)
+        pattern.sort_indices()
+        n = pattern.shape[0]
+        self.n = n
+        self.perm = fill_reducing_ordering(pattern, self.ordering)
+        self.inverse_perm = np.empty_like(self.perm)
+        self.inverse_perm[self.perm] = np.arange(n)
+        # the permuted pattern, each entry carrying its position in `pattern.data` (+1)
+        tagged = sp.csc_matrix((np.arange(1, pattern.nnz + 1, dtype=float), pattern.indices, pattern.indptr),
+                               shape=pattern.shape)
+        permuted = tagged[self.perm][:, self.perm].tocsc()
+        permuted.sort_indices()
+        self._pattern = pattern
+        # structure of L (symbolic factorisation) and the elimination tree
+        structure, parent = column_structures(sp.tril(permuted, format="csc"))
+        counts = np.array([rows.size for rows in structure], dtype=np.int64)
+        joins = np.zeros(n, dtype=bool)
+        joins[1:] = (parent[:-1] == np.arange(1, n)) & (counts[:-1] == counts[1:] + 1)
+        starts = np.flatnonzero(~joins)
+        ends = np.append(starts[1:], n)
+        supernode_of = np.repeat(np.arange(starts.size), ends - starts)
+        last_parent = parent[ends - 1]
+        supernode_parent = np.where(last_parent >= 0, supernode_of[np.maximum(last_parent, 0)], -1)
+        # relaxed amalgamation (children before parents): merge each supernode's group into its
+        # parent's group when the merged one passes CHOLMOD's rule; merged groups are connected
+        # subtrees of the elimination tree, so a topological renumbering makes each one contiguous
+        limits = tuple(relax * c for c in RELAXED_COLUMNS)
+        width = (ends - starts).astype(np.int64)
+        rows = counts[starts].astype(np.int64)
+        true = np.add.reduceat(counts.astype(np.int64), starts)
+        merged_into = np.full(starts.size, -1)
+        for s in range(starts.size):
+            q = int(supernode_parent[s])
+            if q < 0:
+                continue
+            w = width[s] + width[q]
+            m = width[s] + rows[q]
+            stored = w * m - w * (w - 1) // 2
+            zeros = 1.0 - (true[s] + true[q]) / stored
+            if (w <= limits[0] or (w <= limits[1] and zeros <= RELAXED_ZEROS[0])
+                    or (w <= limits[2] and zeros <= RELAXED_ZEROS[1]) or zeros <= RELAXED_ZEROS[2]):
+                merged_into[s] = q
+                width[q], rows[q], true[q] = w, m, true[s] + true[q]
+        top = np.arange(starts.size)
+        for s in range(starts.size - 1, -1, -1):
+            if merged_into[s] >= 0:
+                top[s] = top[merged_into[s]]
+        # new order: groups by their top supernode, each group's columns in their old order
+        column_top = top[supernode_of]
+        order = np.lexsort((np.arange(n), column_top))  # order[new] = old position
+        new_position = np.empty(n, dtype=np.int64)
+        new_position[order] = np.arange(n)
+        tops = np.unique(column_top)
+        first = np.searchsorted(column_top[order], tops)
+        end = np.append(first[1:], n)
+        self.rows = []
+        for t, f, e in zip(tops, first, end):
+            last = ends[t] - 1  # the group's last column (old numbering): its rows below it
+            below = np.sort(new_position[structure[last][1:]])
+            self.rows.append(np.concatenate([np.arange(f, e), below]).astype(np.int64))
+        del structure
+        self.perm = self.perm[order]
+        self.inverse_perm[self.perm] = np.arange(n)
+        permuted = tagged[self.perm][:, self.perm].tocsc()
+        permuted.sort_indices()
+        lower = sp.tril(permuted, format="csc")
+        lower.sort_indices()
+        lower_source = lower.data.astype(np.int64) - 1  # pattern.data index of each lower entry
+        first, end = first.astype(np.int64), end.astype(np.int64)
+        supernode_of = np.repeat(np.arange(first.size), end - first)
+        self.first, self.end = first, end
+        ns = first.size
+        self.children: list[list[int]] = [[] for _ in range(ns)]
+        self.relative: list[np.ndarray | None] = [None] * ns
+        for s in range(ns):
+            width = int(end[s] - first[s])
+            R = self.rows[s]
+            if R.size > width:
+                p_s = int(supernode_of[R[width]])
+                self.children[p_s].append(s)
+                rel = np.searchsorted(self.rows[p_s], R[width:])
+                if not np.array_equal(self.rows[p_s][rel], R[width:]):
+                    raise RuntimeError("supernodal Cholesky: a child's structure is not in its parent's")
+                self.relative[s] = self._extend_add_plan(rel.astype(np.int64), self.rows[p_s].size,
+                                                         int(end[p_s] - first[p_s]))
+        # assembly: each lower entry of permuted K into its supernode's front (flat index)
+        column_of = np.repeat(np.arange(n), np.diff(lower.indptr))
+        s_of = supernode_of[column_of]
+        order = np.argsort(s_of, kind="stable")  # entries are in column order already: stays sorted
+        self._assembly_offsets = np.searchsorted(s_of, np.arange(ns + 1))
+        destination = np.empty(lower.nnz, dtype=np.int64)
+        for s in range(ns):
+            a, b = self._assembly_offsets[s], self._assembly_offsets[s + 1]
+            R = self.rows[s]
+            local_row = np.searchsorted(R, lower.indices[a:b])
+            destination[a:b] = (column_of[a:b] - first[s]) * R.size + local_row  # column-major front
+        del order
+        self._assembly_destination = destination
+        self._assembly_source = lower_source
+        self._below = [self.rows[s][int(end[s] - first[s]):] for s in range(ns)]
+        #: entries stored in the supernodes' panels (lower trapezoids, amalgamation zeros included)
+        self.stored_nnz = int(sum(self.rows[s].size * w - w * (w - 1) // 2
+                                  for s, w in enumerate((end - first).tolist())))
+        self.supernodes = ns
+        #: nonzeros of L (structural, without amalgamation zeros) + U, as SuperLU counts its L + U
+        self.factor_nnz = 2 * int(counts.sum())
+        self.analyse_s = time.process_time() - t0
+        self.factorisations = 0
+        self.factorise_s = 0.0
+        self.solves = 0
+        self.solve_s = 0.0
+
+    @staticmethod
+    def _extend_add_plan(rel: np.ndarray, parent_rows: int, parent_width: int, most_runs: int = EXTEND_ADD_RUNS):
+        """How a child's update matrix is added into its parent's front (rows ``rel`` of the parent).
+
+        ``(runs, None)``: maximal runs of consecutive parent rows (split at the parent's own columns),
+        each ``(u0, u1, f0, f1)``, added block by block (lower triangle only) when there are at most
+        ``most_runs``; else ``(None, flat index)`` into the parent's front (``col * m + row``).
+        """
+        breaks = np.flatnonzero((np.diff(rel) != 1) | (rel[1:] == parent_width)) + 1
+        bounds = np.concatenate([[0], breaks, [rel.size]])
+        if bounds.size - 1 <= most_runs:
+            runs = [(int(u0), int(u1), int(rel[u0]), int(rel[u0]) + int(u1 - u0)) for u0, u1 in zip(bounds[:-1], bounds[1:])]
+            return runs, None
+        index_type = np.int32 if parent_rows * parent_rows < 2**31 else np.int64
+        rel = rel.astype(index_type)
+        return None, (rel[:, None] * index_type(parent_rows) + rel[None, :]).ravel()
+
+    def factorise(self, K: sp.sparray):
+        """``solve(rhs)`` for ``K x = rhs``, ``K`` a sparse matrix within the pattern; None if not definite."""
+        K = sp.coo_array(K)
+        K.sum_duplicates()
+        pattern = self._pattern
+        values = np.zeros(pattern.nnz)
+        rows, columns = K.row, K.col
+        key_K = columns.astype(np.int64) * self.n + rows
+        key_P = np.repeat(np.arange(self.n, dtype=np.int64), np.diff(pattern.indptr)) * self.n + pattern.indices
+        where = np.searchsorted(key_P, key_K)
+        if np.any(where >= key_P.size) or np.any(key_P[np.minimum(where, key_P.size - 1)] != key_K):
+            raise ValueError("supernodal Cholesky: the matrix has entries outside its structural pattern")
+        values[where] = K.data
+        return self.factorise_values(values)
+
+    def factorise_values(self, values: np.ndarray):
+        """``solve(rhs)`` for ``K x = rhs`` with ``K``'s values given on the pattern (``pattern.data`` order);
+        None if a pivot is not positive."""
+        from scipy.linalg.blas import dsyrk, dtrsm
+        from scipy.linalg.lapack import dpotrf
+
+        t0 = time.process_time()
+        source = values[self._assembly_source]
+        destination, offsets = self._assembly_destination, self._assembly_offsets
+        updates: dict[int, np.ndarray] = {}
+        first, end, rows_of = self.first, self.end, self.rows
+        diagonal_blocks: list[np.ndarray] = []
+        below_blocks: list[np.ndarray | None] = []
+        for s in range(self.supernodes):
+            R = rows_of[s]
+            m, width = R.size, int(end[s] - first[s])
+            F = np.zeros((m, m), order="F")  # the front; its lower triangle holds the values
+            flat = F.T.reshape(-1)  # a view: flat[col * m + row]
+            a, b = offsets[s], offsets[s + 1]
+            flat[destination[a:b]] = source[a:b]
+            for c in self.children[s]:
+                update = updates.pop(c)
+                runs, index = self.relative[c]
+                if index is not None:
+                    flat[index] += update.T.reshape(-1)
+                else:
+                    for i, (u0, u1, f0, f1) in enumerate(runs):
+                        for v0, v1, g0, g1 in runs[:i + 1]:
+                            F[f0:f1, g0:g1] += update[u0:u1, v0:v1]
+            L11, info = dpotrf(F[:width, :width], lower=1, clean=1)
+            if info:
+                return None
+            diagonal_blocks.append(L11)
+            if m > width:
+                L21 = dtrsm(1.0, L11, F[width:, :width], side=1, lower=1, trans_a=1)
+                below_blocks.append(L21)
+                # the update matrix F22 - L21 L21^T (lower triangle; syrk on a Fortran copy, in place)
+                updates[s] = dsyrk(-1.0, L21, beta=1.0, c=np.array(F[width:, width:], order="F"), lower=1,
+                                   overwrite_c=1)
+            else:
+                below_blocks.append(None)
+        self.factorisations += 1
+        self.factorise_s += time.process_time() - t0
+        return self._solver(diagonal_blocks, below_blocks)
+
+    def _solver(self, diagonal_blocks: list[np.ndarray], below_blocks: list[np.ndarray | None]):
+        """``solve(rhs)``: ``x = P^T L~^{-T} L~^{-1} P rhs`` by supernodes (BLAS ``trsv``/``trsm``, ``gemv``/``gemm``)."""
+        from scipy.linalg.blas import dgemv, dtrsm, dtrsv
+
+        p, inv_p = self.perm, self.inverse_perm
+        spans = list(zip(self.first.tolist(), self.end.tolist()))
+        below = self._below
+        order = range(self.supernodes)
+
+        def solve(rhs: np.ndarray) -> np.ndarray:
+            t = time.process_time()
+            x = np.array(rhs[p], dtype=float, order="F")
+            if x.ndim == 1:
+                # in place on x (BLAS offsets): trsv on the supernode's entries, gemv for the rows below
+                for s in order:  # L~ y = P rhs
+                    f = spans[s][0]
+                    dtrsv(diagonal_blocks[s], x, offx=f, lower=1, overwrite_x=1)
+                    L21 = below_blocks[s]
+                    if L21 is not None:
+                        x[below[s]] -= dgemv(1.0, L21, x, offx=f)
+                for s in reversed(order):  # L~^T z = y
+                    f = spans[s][0]
+                    L21 = below_blocks[s]
+                    if L21 is not None:
+                        dgemv(-1.0, L21, x[below[s]], beta=1.0, y=x, offy=f, trans=1, overwrite_y=1)
+                    dtrsv(diagonal_blocks[s], x, offx=f, lower=1, trans=1, overwrite_x=1)
+            else:
+                for s in order:
+                    f, e = spans[s]
+                    xs = dtrsm(1.0, diagonal_blocks[s], x[f:e], lower=1)
+                    x[f:e] = xs
+                    L21 = below_blocks[s]
+                    if L21 is not None:
+                        x[below[s]] -= L21 @ xs
+                for s in reversed(order):
+                    f, e = spans[s]
+                    L21 = below_blocks[s]
+                    xs = x[f:e] if L21 is None else x[f:e] - L21.T @ x[below[s]]
+                    x[f:e] = dtrsm(1.0, diagonal_blocks[s], xs, lower=1, trans_a=1)
+            self.solves += 1
+            self.solve_s += time.process_time() - t
+            return x[inv_p]
 
         return solve
