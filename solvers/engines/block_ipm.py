@@ -445,7 +445,7 @@ class BlockIPM:
         M_inv, sqrt_d = blocks
         rhs = np.concatenate([rhs_dual.reshape(self.n_blocks, self.k),
                               sqrt_d * rhs_primal[self.block_rows]], axis=1)
-        sol = np.einsum("bij,bj->bi", M_inv, rhs)  # batched matrix-vector products (faster than matmul here)
+        sol = np.matmul(M_inv, rhs[:, :, None])[:, :, 0]
         dy = np.empty(self.h.size)
         dy[self.block_rows] = sqrt_d * sol[:, self.k:]
         return sol[:, :self.k].ravel(), dy
