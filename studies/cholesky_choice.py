@@ -4,8 +4,9 @@
 running-bond wall's static LP, at a generic interior point (random ``s, y`` in
 1e-3..1e3, so every entry of the structural pattern is nonzero, as in the IPM's later
 iterations).  For each candidate: the ordering time (once per solve), one
-factorisation, one solve (CPU times of the process: comparable on a loaded machine;
-MKL is limited to one thread by ``MKL_NUM_THREADS=1`` for a fair comparison), the nonzeros of the factors and the relative residual
+factorisation, one solve (CPU times of the process: comparable on a loaded machine; BLAS on one
+thread, as the block IPM runs it, and MKL limited to one thread by ``MKL_NUM_THREADS=1`` for a fair
+comparison), the nonzeros of the factors and the relative residual
 ``||K x - b|| / ||b||``.  Candidates that are not installed are skipped:
 
 * ``supernodal-metis``, ``supernodal-mmd``: the block IPM's default
@@ -43,7 +44,7 @@ import scipy.sparse.linalg as spla
 import blockmpec as bm
 from blockmpec.formulations import compile_linear, static_lp
 from blockmpec.formulations._pyomo import pause_gc
-from blockmpec.solvers.engines.block_ipm import IPMIterate
+from blockmpec.solvers.engines.block_ipm import IPMIterate, single_blas_thread
 from blockmpec.solvers.engines.cholesky import (SupernodalCholesky, SymmetricFactoriser, metis_available,
                                                 structural_pattern)
 from blockmpec.solvers.engines.lp_engine import cold_lp_engine
@@ -162,7 +163,8 @@ def main(argv: list[str] | None = None) -> list[dict]:
         courses, per = (int(v) for v in wall.split("x"))
         K, engine = reduced_matrix(courses, per)
         for method in args.methods.split(","):
-            row = measure(method, K, engine)
+            with single_blas_thread():  # as the block IPM runs (multithreaded BLAS spins on small calls)
+                row = measure(method, K, engine)
             if row is None:
                 print(f"{method}: not installed, skipped", flush=True)
                 continue
