@@ -17,8 +17,8 @@ The relaxed LP ::
 
 contains every point of (4) near ``w*`` (near ``w*`` a pair outside ``B`` keeps its positive side
 positive, hence its other side zero).  So if ``lam(w*)`` is the optimum of (RLP), ``w*`` is a local
-minimum of (4) (strong stationarity, Scheel & Scholtes 2000).  Otherwise the minimiser of (RLP)
-says which side of each biactive pair to free, and the next piece is solved (at most ``rounds``
+minimum of (4) (strong stationarity, Scheel & Scholtes 2000).  Otherwise each biactive pair that the
+minimiser of (RLP) leaves positive on one side only moves to that piece, and the next piece is solved (at most ``rounds``
 pieces; the multiplier never increases from one piece to the next, as the previous minimiser lies
 on the next piece).
 
@@ -160,12 +160,11 @@ class PieceLP:
         h = self.lp.highs
         if cold:
             h.clearSolver()
-        if self.interior:
-            # HiGHS's presolve declared the 2,032-block wall's relaxed LP infeasible before its interior point
-            # (which then ended "kInfeasible"); it contains the piece's minimiser, and without presolve it
-            # solves (kOptimal, lam 0.42265 < the piece's 0.42327); likewise the next piece, which contains
-            # that minimiser to the interior point's tolerance
-            h.setOptionValue("presolve", "off")
+        # HiGHS's presolve declared the 2,032-block wall's relaxed LP infeasible before its interior point
+        # (which then ended "kInfeasible"); it contains the piece's minimiser, and without presolve it
+        # solves (kOptimal, lam 0.42265 < the piece's 0.42327).  The pieces keep presolve (without it the
+        # first piece took 2x longer)
+        h.setOptionValue("presolve", "off" if (cold and self.interior) else "choose")
         h.setOptionValue("time_limit", float(remaining) if math.isfinite(remaining) else math.inf)
         t0 = time.perf_counter()
         h.run()
@@ -226,7 +225,7 @@ def piece_descent(form, scaling, w_start: np.ndarray, time_limit: float = math.i
     docstring).  Each round solves (PLP); when its minimiser is complementary, the biactive pairs (both
     sides ``<= ZERO_TOL``) are checked: if the piece's duals are feasible for (RLP), or (RLP) solved
     cold does not go below ``lam`` by more than ``LAM_TOL max(1, |lam|)``, the point is a certified local
-    minimum; otherwise each biactive pair moves to the side (RLP) left (relatively) smaller.
+    minimum; otherwise each biactive pair that (RLP) put on one side moves to it.
     ``interior``: None chooses by size (:data:`IPM_PAIRS`).
 
     Returns
@@ -306,7 +305,16 @@ def _descend(plp: PieceLP, slack_zero: np.ndarray, free: np.ndarray, rounds: int
                        f"over its {biactive} biactive pairs does not go lower)")
             best_w, best_lam = w, lam
             break
+        # a biactive pair goes to the side (RLP) left at zero when it left the other one positive; otherwise it
+        # stays (the piece's minimiser, zero on both sides, lies on the next piece whatever these pairs do)
         z2, s2 = plp.sides(relaxed.v)
-        slack_zero = np.where(both_zero, _relative(s2) <= _relative(z2), slack_zero)
+        moved = np.where(both_zero & (z2 > zero_tol) & (s2 <= zero_tol), True,
+                         np.where(both_zero & (s2 > zero_tol) & (z2 <= zero_tol), False, slack_zero))
+        if np.array_equal(moved, slack_zero):
+            status = Status.ITERATION_LIMIT
+            message = (f"piece LP {k + 1}: lam = {lam:.10g}; the relaxed LP goes lower ({relaxed.objective:.10g}) "
+                       f"but moves no biactive pair to one side: not certified")
+            break
+        slack_zero = moved
     return PieceOutcome(status, best_w, best_lam, status is Status.LOCALLY_OPTIMAL, len(trace), plp.lp_solves,
                         plp.lp_time_s, biactive, message, trace)
