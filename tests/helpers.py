@@ -1,6 +1,7 @@
 """Helpers shared by the tests (closed forms, tolerances, assertions); fixtures live in conftest."""
 
 import numpy as np
+import scipy.sparse as sp
 
 import blockmpec as bm
 
@@ -58,3 +59,20 @@ def block_on_block(big: float, small: float) -> bm.Structure:
         [[big / 2, big], [big / 2 + small, big], [big / 2 + small, big + 2 * small], [big / 2, big + 2 * small]],
     ]
     return bm.make_structure(polys, [True, False, False], friction=0.65)
+
+
+def assert_same_program(a, b) -> None:
+    """Two compiled LinearPrograms are bitwise equal (CSR structure included, not only values)."""
+    A, B = sp.csr_array(a.A), sp.csr_array(b.A)
+    A.sort_indices(), B.sort_indices()
+    assert A.shape == B.shape
+    for name in ("indptr", "indices", "data"):
+        np.testing.assert_array_equal(getattr(A, name), getattr(B, name))
+    for name in ("c", "row_lower", "row_upper", "col_lower", "col_upper"):
+        np.testing.assert_array_equal(getattr(a, name), getattr(b, name))
+    assert a.columns.keys() == b.columns.keys() and a.rows.keys() == b.rows.keys()
+    for g in a.columns:
+        np.testing.assert_array_equal(a.columns[g], b.columns[g])
+    for g in a.rows:
+        np.testing.assert_array_equal(a.rows[g], b.rows[g])
+    assert (a.objective_sign, a.objective_offset) == (b.objective_sign, b.objective_offset)

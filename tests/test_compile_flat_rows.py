@@ -14,23 +14,7 @@ import scipy.sparse as sp
 import blockmpec as bm
 from blockmpec.formulations import _pyomo, kinematic_lp, mcp, modified_lp, static_lp, tie_break_lp
 from blockmpec.formulations._pyomo import PyomoProblem, compile_linear, compile_with_pyomo, linear_dot, sparse_rows
-
-
-def _identical(a, b):
-    """Bitwise-equal compiled programs (CSR structure included, not only values)."""
-    A, B = sp.csr_array(a.A), sp.csr_array(b.A)
-    A.sort_indices(), B.sort_indices()
-    assert A.shape == B.shape
-    for name in ("indptr", "indices", "data"):
-        np.testing.assert_array_equal(getattr(A, name), getattr(B, name))
-    for name in ("c", "row_lower", "row_upper", "col_lower", "col_upper"):
-        np.testing.assert_array_equal(getattr(a, name), getattr(b, name))
-    assert a.columns.keys() == b.columns.keys() and a.rows.keys() == b.rows.keys()
-    for g in a.columns:
-        np.testing.assert_array_equal(a.columns[g], b.columns[g])
-    for g in a.rows:
-        np.testing.assert_array_equal(a.rows[g], b.rows[g])
-    assert (a.objective_sign, a.objective_offset) == (b.objective_sign, b.objective_offset)
+from helpers import assert_same_program
 
 
 def _mcp_rows(ops):
@@ -60,7 +44,7 @@ def test_every_formulation_compiles_flat_and_equals_pyomos_compiler(case, builde
     problem = BUILDERS[builder](ops)
     flat = _pyomo._compile_flat_rows(problem)
     assert flat is not None, f"{builder} no longer compiles on the flat path"
-    _identical(flat, compile_with_pyomo(problem))
+    assert_same_program(flat, compile_with_pyomo(problem))
 
 
 def _toy(kind: str) -> PyomoProblem:
@@ -94,7 +78,7 @@ def _toy(kind: str) -> PyomoProblem:
                                   "constant in body", "expression component"])
 def test_compile_linear_equals_pyomos_compiler_on_models_outside_the_bulk_path(kind):
     problem = _toy(kind)
-    _identical(compile_linear(problem), compile_with_pyomo(problem))
+    assert_same_program(compile_linear(problem), compile_with_pyomo(problem))
 
 
 @pytest.mark.parametrize("kind,flat", [("plain", True), ("ranged", True), ("constant in body", True),
@@ -111,4 +95,4 @@ def test_a_changed_parameter_bound_is_read_at_compile_time():
     problem.model.cohesion[0] = 0.25
     lp = compile_linear(problem)
     assert lp.row_upper[lp.rows["friction"][0]] == 0.25 and lp.row_upper[lp.rows["friction"][1]] == 0.25
-    _identical(lp, compile_with_pyomo(problem))
+    assert_same_program(lp, compile_with_pyomo(problem))

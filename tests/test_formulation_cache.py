@@ -5,18 +5,7 @@ import pytest
 
 import blockmpec as bm
 from blockmpec.formulations import _pyomo, compile_linear, static_lp
-
-
-def _same(a, b):
-    assert (a.A != b.A).nnz == 0 and a.A.shape == b.A.shape
-    for name in ("c", "row_lower", "row_upper", "col_lower", "col_upper"):
-        np.testing.assert_array_equal(getattr(a, name), getattr(b, name))
-    assert a.columns.keys() == b.columns.keys() and a.rows.keys() == b.rows.keys()
-    for g in a.columns:
-        np.testing.assert_array_equal(a.columns[g], b.columns[g])
-    for g in a.rows:
-        np.testing.assert_array_equal(a.rows[g], b.rows[g])
-    assert (a.objective_sign, a.objective_offset) == (b.objective_sign, b.objective_offset)
+from helpers import assert_same_program
 
 
 @pytest.fixture(autouse=True)
@@ -31,13 +20,13 @@ def test_cached_compile_equals_a_fresh_compile_and_hands_out_copies(monkeypatch,
     monkeypatch.chdir(tmp_path)
     ops = bm.assemble(bm.cases.wall())
     first = _pyomo.compiled_linear(static_lp, ops)
-    _same(first, compile_linear(static_lp(ops)))
+    assert_same_program(first, compile_linear(static_lp(ops)))
     first.row_upper[:] = 7.0  # an engine's set_row_upper must not reach the cache
     builds = []
     monkeypatch.setattr(_pyomo, "compile_linear", lambda problem: builds.append(problem))
     second = _pyomo.compiled_linear(static_lp, ops)  # a hit: nothing is built
     assert builds == []
-    _same(second, _pyomo._memory_cache[_pyomo.content_hash(static_lp, ops)])
+    assert_same_program(second, _pyomo._memory_cache[_pyomo.content_hash(static_lp, ops)])
     assert not np.any(second.row_upper == 7.0)
     assert list(tmp_path.iterdir()) == []  # no disk cache unless asked for
 
@@ -64,4 +53,4 @@ def test_disk_cache_is_opt_in_and_reloads_without_building(monkeypatch, tmp_path
         raise AssertionError("built although the disk cache holds the model")
 
     monkeypatch.setattr(_pyomo, "compile_linear", no_build)
-    _same(_pyomo.compiled_linear(static_lp, ops), built)
+    assert_same_program(_pyomo.compiled_linear(static_lp, ops), built)
