@@ -45,8 +45,12 @@ import blockmpec as bm
 from blockmpec.formulations import compile_linear, static_lp
 from blockmpec.formulations._pyomo import pause_gc
 from blockmpec.solvers.engines.block_ipm import IPMIterate, single_blas_thread
-from blockmpec.solvers.engines.cholesky import (SupernodalCholesky, SymmetricFactoriser, metis_available,
-                                                structural_pattern)
+from blockmpec.solvers.engines.cholesky import (
+    SupernodalCholesky,
+    SymmetricFactoriser,
+    metis_available,
+    structural_pattern,
+)
 from blockmpec.solvers.engines.lp_engine import cold_lp_engine
 
 sys.path.insert(0, str(Path(__file__).parent))

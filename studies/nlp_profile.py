@@ -23,9 +23,9 @@ import sys
 import time
 from pathlib import Path
 
-import blockmpec as bm
 import numpy as np
 
+import blockmpec as bm
 from blockmpec.solvers.nlp import RelaxedNLP, _RelaxedMPEC
 
 sys.path.insert(0, str(Path(__file__).parent))

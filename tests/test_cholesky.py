@@ -12,8 +12,12 @@ import scipy.sparse as sp
 import blockmpec as bm
 from blockmpec.formulations import compile_linear, static_lp
 from blockmpec.solvers.engines.block_ipm import BlockIPM, IPMIterate
-from blockmpec.solvers.engines.cholesky import (SupernodalCholesky, SymmetricFactoriser, column_structures,
-                                                structural_pattern)
+from blockmpec.solvers.engines.cholesky import (
+    SupernodalCholesky,
+    SymmetricFactoriser,
+    column_structures,
+    structural_pattern,
+)
 from blockmpec.solvers.engines.lp_engine import cold_lp_engine
 
 

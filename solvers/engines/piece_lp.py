@@ -253,7 +253,6 @@ def piece_descent(form, scaling, w_start: np.ndarray, time_limit: float = math.i
 def _descend(plp: PieceLP, slack_zero: np.ndarray, free: np.ndarray, rounds: int, interior: bool,
              trace: list[dict]) -> PieceOutcome:
     """The rounds of :func:`piece_descent` from one rounding of the start (``slack_zero``, ``free``)."""
-    form = plp.form
     zero_tol, lam_tol = ZERO_TOL[interior], LAM_TOL[interior]
     best_w, best_lam, biactive = None, math.inf, 0
     status, message = Status.ITERATION_LIMIT, f"{rounds} piece LPs without a certificate"
