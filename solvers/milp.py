@@ -633,31 +633,25 @@ class MILPSolver(SolverBase):
 
     # ------------------------------------------------------------------ 4. polish
     def _mechanism(self, active: np.ndarray):
-        """``(u, z)`` with ``f_l^T u = 1`` and ``z_i = 0`` off ``active`` (min ``1^T z``), or None."""
-        kp, hk = self.kinematic, self.polish_kinematic
-        g = hk.highs
-        g.changeRowBounds(int(kp.rows["live"][0]), 1.0, 1.0)
-        g.changeRowBounds(int(kp.rows["total"][0]), -np.inf, np.inf)
-        zcols = kp.columns["z"].astype(np.int32)
-        g.changeColsBounds(zcols.size, zcols, np.zeros(zcols.size), np.where(active, np.inf, 0.0))
-        cost = np.zeros(kp.c.size)
-        cost[zcols] = 1.0
-        g.changeColsCost(cost.size, np.arange(cost.size, dtype=np.int32), cost)
-        ru = hk.solve()
+        """``(u, z)`` with ``f_l^T u = 1`` and ``z_i = 0`` off ``active`` (min ``1^T z``), or None: the kinematic
+        half of the piece LP (:func:`~blockmpec.solvers.engines.piece_lp.mechanism_piece`, shared with ``nlp``)."""
+        from blockmpec.solvers.engines.piece_lp import mechanism_piece
+
+        kp = self.kinematic
+        ru = mechanism_piece(self.polish_kinematic, active)
         if ru.status is not Status.OPTIMAL:
             return None
         return kp.values("u", ru.v), kp.values("z", ru.v)
 
     def _polish(self, active: np.ndarray) -> tuple[Solution | None, str]:
-        """Exact LPs for the pattern ``active`` (one flag per pair); returns (Solution or None, message)."""
-        lp, hl = self.static, self.polish_static
-        h = hl.highs
-        rows = lp.rows["pairs"].astype(np.int32)
-        h.changeRowsBounds(rows.size, rows, np.where(active, 0.0, -np.inf), np.zeros(rows.size))
-        cost = np.zeros(lp.c.size)
-        cost[0] = 1.0 if self.options.sense == "min" else -1.0
-        h.changeColsCost(cost.size, np.arange(cost.size, dtype=np.int32), cost)
-        rx = hl.solve()
+        """Exact LPs for the pattern ``active`` (one flag per pair); returns (Solution or None, message).
+
+        The piece LP of ``active`` in its two halves (:mod:`blockmpec.solvers.engines.piece_lp`, shared with
+        ``nlp``): :func:`~blockmpec.solvers.engines.piece_lp.static_piece` and :meth:`_mechanism`."""
+        from blockmpec.solvers.engines.piece_lp import static_piece
+
+        lp = self.static
+        rx = static_piece(self.polish_static, active, sense=1.0 if self.options.sense == "min" else -1.0)
         if rx.status is not Status.OPTIMAL:
             return None, f"polish LP for (lam, x) is {rx.status.value}"
         mech = self._mechanism(active)

@@ -66,6 +66,10 @@ class PieceOutcome:
     biactive: int
     message: str
     trace: list[dict] = field(default_factory=list)
+    #: the split route: seconds in the static and in the kinematic LPs, and the certificate of ``w``
+    static_time_s: float = 0.0
+    kinematic_time_s: float = 0.0
+    certificate: Certificate | None = None
 
 
 class PieceLP:
@@ -216,10 +220,11 @@ def _relative(v: np.ndarray) -> np.ndarray:
     return v / max(float(v.max(initial=0.0)), 1e-300)
 
 
-def piece_descent(form, scaling, w_start: np.ndarray, time_limit: float = math.inf, rounds: int = 10,
-                  interior: bool | None = None) -> PieceOutcome:
-    """Local descent over the pieces of (4) from ``w_start`` (a solution of (3), possibly approximate).
+def whole_piece_descent(form, scaling, w_start: np.ndarray, time_limit: float = math.inf, rounds: int = 10,
+                        interior: bool | None = None) -> PieceOutcome:
+    """Local descent over the pieces of (4) from ``w_start``, each piece solved as one whole LP (:class:`PieceLP`).
 
+    The route before :func:`piece_descent` (kept for measurement: ``nlp`` option ``piece_lps="whole"``).
     The first piece puts pair ``i`` on side ``S`` when its slack is relatively the smaller side,
     ``s^_i / max s^ <= z^_i / max z^`` (units of ``scaling``), and leaves ambiguous pairs free (module
     docstring).  Each round solves (PLP); when its minimiser is complementary, the biactive pairs (both
@@ -317,3 +322,411 @@ def _descend(plp: PieceLP, slack_zero: np.ndarray, free: np.ndarray, rounds: int
         slack_zero = moved
     return PieceOutcome(status, best_w, best_lam, status is Status.LOCALLY_OPTIMAL, len(trace), plp.lp_solves,
                         plp.lp_time_s, biactive, message, trace)
+
+
+# ---------------------------------------------------------------------------------------------------------------
+# The split piece LPs: (PLP) is a static LP in (lam, x) and a kinematic LP in (u, z), which no row couples.
+
+
+def static_program(form) -> LinearProgram:
+    """The static half of (PLP) over ``v = (lam, x)``: rows ``equilibrium`` ``A[eq] (lam, x) = rhs`` and
+    ``pairs`` ``G x <= 0`` (a piece sets ``G_S x >= 0`` by row bounds); columns ``lam`` (0) and ``x``; no cost.
+
+    The pair rows of (3) are nonzero in the ``x`` columns only and the equilibrium rows in ``(lam, x)`` only,
+    so this LP and :func:`kinematic_program` together are (PLP) (``milp`` builds the same two for its polish).
+    """
+    from blockmpec.formulations._pyomo import LinearProgram
+
+    eq = form.equilibrium
+    cols = np.r_[form.lam, np.arange(form.x.start, form.x.stop)]
+    A = sp.csr_array(sp.vstack([form.A[eq][:, cols], form.G[:, cols]], format="csr"))
+    n, p = cols.size, form.n_pairs
+    n_eq = eq.stop - eq.start
+    return LinearProgram(
+        c=np.zeros(n), A=A, row_lower=np.r_[form.rhs[eq], np.full(p, -np.inf)],
+        row_upper=np.r_[form.rhs[eq], np.zeros(p)], col_lower=np.full(n, -np.inf), col_upper=np.full(n, np.inf),
+        columns={"lam": np.array([0]), "x": np.arange(1, n)},
+        rows={"equilibrium": np.arange(n_eq), "pairs": np.arange(n_eq, n_eq + p)}, objective_sign=1.0)
+
+
+def kinematic_program(form) -> LinearProgram:
+    """The kinematic half of (PLP) over ``(u, z)``: rows ``compatibility`` ``A[cp] (u, z) = 0``, ``live``
+    ``f_l^T u = 1`` and ``total`` ``1^T z`` (free unless a caller bounds it); ``z >= 0`` (a piece sets
+    ``z_Z = 0`` by column bounds); no cost."""
+    from blockmpec.formulations._pyomo import LinearProgram
+
+    cp, nm = form.compatibility, form.normalisation
+    cols = np.r_[np.arange(form.u.start, form.u.stop), np.arange(form.z.start, form.z.stop)]
+    nk, nu, p = cols.size, form.u.stop - form.u.start, form.n_pairs
+    total = sp.csr_array(np.r_[np.zeros(nu), np.ones(p)].reshape(1, -1))
+    A = sp.csr_array(sp.vstack([form.A[cp][:, cols], form.A[nm][:, cols], total], format="csr"))
+    n_cp = cp.stop - cp.start
+    return LinearProgram(
+        c=np.zeros(nk), A=A, row_lower=np.r_[np.zeros(n_cp), 1.0, -np.inf], row_upper=np.r_[np.zeros(n_cp), 1.0, np.inf],
+        col_lower=np.r_[np.full(nu, -np.inf), np.zeros(p)], col_upper=np.full(nk, np.inf),
+        columns={"u": np.arange(nu), "z": np.arange(nu, nk)},
+        rows={"compatibility": np.arange(n_cp), "live": np.array([n_cp]), "total": np.array([n_cp + 1])},
+        objective_sign=1.0)
+
+
+def _set_cost(hl, cost: np.ndarray) -> None:
+    """Costs of a :class:`~blockmpec.solvers.engines.highs.HighsLP` in its compiled LP's units (HiGHS's model
+    only: the compiled LP, which a caller may share between several models, is not changed)."""
+    hl.highs.changeColsCost(cost.size, np.arange(cost.size, dtype=np.int32), hl.column_scale * np.asarray(cost, float))
+
+
+def _set_time(hl, deadline: float) -> bool:
+    """HiGHS's time limit to the time left before ``deadline`` (perf_counter); False when none is left."""
+    if not math.isfinite(deadline):
+        return True
+    remaining = deadline - time.perf_counter()
+    hl.highs.setOptionValue("time_limit", float(max(remaining, 1e-3)))
+    return remaining > 0
+
+
+def static_piece(hl, slack_zero: np.ndarray, sense: float = 1.0, deadline: float = math.inf):
+    """``min sense * lam`` over the static half of the piece: ``G_i x = 0`` where ``slack_zero``, else ``<= 0``.
+
+    ``hl`` is a :class:`~blockmpec.solvers.engines.highs.HighsLP` of :func:`static_program` (any scaling);
+    re-solves are warm (dual simplex after a bound change).  Only HiGHS's model changes, not ``hl.lp``.  Returns its ``LPOutcome`` (``v = (lam, x)``, the
+    row duals in HiGHS's signs), or None when ``deadline`` has passed.
+    """
+    lp = hl.lp
+    rows = lp.rows["pairs"].astype(np.int32)
+    lower = np.where(slack_zero, 0.0, -np.inf)
+    hl.highs.changeRowsBounds(rows.size, rows, hl.row_scale[rows] * lower, np.zeros(rows.size))
+    cost = np.zeros(lp.c.size)
+    cost[lp.columns["lam"][0]] = sense
+    _set_cost(hl, cost)
+    if not _set_time(hl, deadline):
+        return None
+    return hl.solve()
+
+
+def mechanism_piece(hl, allowed: np.ndarray, cost: np.ndarray | None = None, deadline: float = math.inf):
+    """A mechanism of the kinematic half of the piece: ``f_l^T u = 1``, ``z_i >= 0`` where ``allowed``, else 0.
+
+    ``min cost^T z`` (default ``1^T z``, in the LP's units: the mechanism with the least total multiplier,
+    a vertex, so with few active pairs).  ``hl`` is a ``HighsLP`` of :func:`kinematic_program`.  Returns its
+    ``LPOutcome`` (``v = (u, z)``), or None when ``deadline`` has passed.
+    """
+    lp = hl.lp
+    h = hl.highs
+    live, total = int(lp.rows["live"][0]), int(lp.rows["total"][0])
+    h.changeRowBounds(live, hl.row_scale[live], hl.row_scale[live])
+    h.changeRowBounds(total, -np.inf, np.inf)
+    zcols = lp.columns["z"].astype(np.int32)
+    upper = np.where(allowed, np.inf, 0.0)
+    h.changeColsBounds(zcols.size, zcols, np.zeros(zcols.size), upper / hl.column_scale[zcols])
+    c = np.zeros(lp.c.size)
+    c[zcols] = 1.0 if cost is None else cost
+    _set_cost(hl, c)
+    if not _set_time(hl, deadline):
+        return None
+    return hl.solve()
+
+
+def static_piece_ipm(lp: LinearProgram, slack_zero: np.ndarray, row_scale: np.ndarray, column_scale: np.ndarray,
+                     time_limit: float, tol: float = 1e-9):
+    """:func:`static_piece` (min ``lam``) by the block interior-point method (:mod:`~blockmpec.solvers.engines.block_ipm`).
+
+    The block IPM needs the same number of inequality rows in every interface, so the piece's equalities
+    ``G_i x = 0`` are extra equality rows and every pair row stays an inequality, ``G_i x <= S_i`` (slack one
+    unit, never active) on the piece's equalities and ``G_i x <= 0`` elsewhere.  ``lp`` is a
+    :func:`static_program`, ``row_scale``/``column_scale`` its units.  Returns an ``LPOutcome`` in the terms of
+    ``lp`` (``v = (lam, x)``; the dual of a pair row is the sum of its two rows' duals), not a vertex: the point
+    is near the analytic centre of the optimal face, exact to ``tol`` (relative residuals).
+    """
+    from blockmpec.formulations._pyomo import LinearProgram
+    from blockmpec.solvers.engines.block_ipm import BlockIPM
+    from blockmpec.solvers.engines.highs import LPOutcome
+
+    pairs = lp.rows["pairs"]
+    eq_pairs = pairs[slack_zero]
+    p_scale = row_scale[pairs]  # 1 / S_i
+    A = sp.csr_array(sp.vstack([lp.A, lp.A[eq_pairs]], format="csr"))
+    m = lp.A.shape[0]
+    upper = lp.row_upper.copy()
+    upper[pairs] = np.where(slack_zero, 1.0 / p_scale, 0.0)
+    lower = lp.row_lower.copy()
+    lower[pairs] = -np.inf
+    c = np.zeros(lp.c.size)
+    c[lp.columns["lam"][0]] = 1.0
+    ipm_lp = LinearProgram(c=c, A=A, row_lower=np.r_[lower, np.zeros(eq_pairs.size)],
+                           row_upper=np.r_[upper, np.zeros(eq_pairs.size)], col_lower=lp.col_lower,
+                           col_upper=lp.col_upper, columns=lp.columns, rows={}, objective_sign=1.0)
+    ipm = BlockIPM(ipm_lp, lp.columns["x"].reshape(-1, 3), tol=tol, time_limit=time_limit,
+                   row_scale=np.r_[row_scale, row_scale[eq_pairs]], column_scale=column_scale)
+    out = ipm.solve()
+    y = out.row_dual[:m].copy()
+    y[eq_pairs] += out.row_dual[m:]
+    status = Status.OPTIMAL if out.status in (Status.OPTIMAL, Status.ACCEPTABLE) else out.status
+    objective = float(out.v[lp.columns["lam"][0]]) if status is Status.OPTIMAL else math.nan
+    return LPOutcome(status, out.raw_status, objective, out.v, y, out.iterations, out.message)
+
+
+#: a multiplier above this (units, in a mechanism LP's vertex) puts its pair's row among the static equalities
+SUPPORT_TOL = 1e-12
+#: the split certificate's tolerance on the static LP's dual feasibility and its primal rows (units)
+DUAL_TOL = 1e-9
+#: the same for the block IPM's static LPs (solved to relative residuals 1e-9, not to a vertex)
+IPM_DUAL_TOL = 1e-7
+#: static LP engines of the split pieces: HiGHS's dual simplex (a vertex, warm re-solves) or the block IPM
+STATIC_ENGINES = ("auto", "dual-simplex", "block-ipm")
+#: pairs from which ``"auto"`` solves the static halves by the block IPM
+BLOCK_IPM_PAIRS = 4_000
+#: mechanism cost of a pair whose static equality raises lam (its dual, relative to the largest such dual,
+#: times this, plus 1): a vertex then avoids those pairs where it can
+AVOID_WEIGHT = 1e3
+#: most cost per unit of relative start slack in the first mechanism LP (pairs whose start slack is not ~0 are
+#: avoided where a mechanism can do without them)
+START_SLACK_WEIGHT = 1e3
+
+
+@dataclass
+class Certificate:
+    """The split certificate of a point ``w`` of (4): is ``(lam, x)`` optimal for (RLP) at ``w``?
+
+    ``support``: pairs with ``z_i > 0`` (their rows must be equalities); ``stationarity``: largest reduced
+    cost of the static LP's (free) columns, in units; ``wrong_signs``: pair rows off the support whose dual
+    is positive (relaxing ``G_i x = 0`` to ``<= 0`` would lower ``lam``); ``complementarity``: largest slack
+    on the support and ``primal``: largest pair violation (units).  ``holds`` when all four are within tolerance.
+    """
+
+    holds: bool
+    support: int
+    biactive: int
+    stationarity: float
+    wrong_signs: int
+    complementarity: float
+    primal: float
+
+
+class SplitPieces:
+    """The two halves of (PLP) as two HiGHS models, re-solved warm: :func:`static_piece` and :func:`mechanism_piece`.
+
+    Parameters
+    ----------
+    form : CompiledMCP
+    column_scale, row_scale, slack_scale : ndarray
+        The units of :func:`blockmpec.solvers.nlp.nlp_scaling`.
+    time_limit : float
+        Seconds for every LP together.
+    """
+
+    def __init__(self, form, column_scale: np.ndarray, row_scale: np.ndarray, slack_scale: np.ndarray,
+                 time_limit: float = math.inf, static_engine: str = "auto") -> None:
+        from blockmpec.solvers.engines.highs import HighsLP
+
+        if static_engine not in STATIC_ENGINES:
+            raise ValueError(f"static_engine must be one of {STATIC_ENGINES}; got {static_engine!r}")
+        if static_engine == "auto":
+            static_engine = "block-ipm" if form.n_pairs >= BLOCK_IPM_PAIRS else "dual-simplex"
+        self.static_engine = static_engine
+        interior = static_engine == "block-ipm"
+        #: a slack or multiplier counts as zero at most this (units); the certificate's tolerance
+        self.zero_tol = ZERO_TOL[interior]
+        self.dual_tol = IPM_DUAL_TOL if interior else DUAL_TOL
+        self.lam_tol = LAM_TOL[interior]
+
+        self.form = form
+        eq, cp, nm = form.equilibrium, form.compatibility, form.normalisation
+        s_cols = np.r_[form.lam, np.arange(form.x.start, form.x.stop)]
+        k_cols = np.r_[np.arange(form.u.start, form.u.stop), np.arange(form.z.start, form.z.stop)]
+        self.s_cols, self.k_cols = s_cols, k_cols
+        self.z_unit = column_scale[form.pair_column]
+        self.s_unit = slack_scale
+        self.static_row_scale = np.r_[row_scale[eq], 1.0 / slack_scale]
+        self.static = HighsLP(static_program(form), "dual-simplex", row_scale=self.static_row_scale,
+                              column_scale=column_scale[s_cols])
+        self.kinematic = HighsLP(kinematic_program(form), "dual-simplex",
+                                 row_scale=np.r_[row_scale[cp], row_scale[nm], 1.0], column_scale=column_scale[k_cols])
+        self.deadline = time.perf_counter() + time_limit
+        self.lp_solves = 0
+        self.lp_time_s = 0.0
+        self.static_time_s = 0.0
+        self.kinematic_time_s = 0.0
+
+    def sides(self, w: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """``(z^, s^)``: the pair multipliers and slacks of ``w`` in units (negative parts cut)."""
+        z = np.maximum(w[self.form.pair_column], 0.0) / self.z_unit
+        s = np.maximum(-(self.form.G @ w), 0.0) / self.s_unit
+        return z, s
+
+    def _timed(self, solve, kind: str):
+        t0 = time.perf_counter()
+        out = solve()
+        dt = time.perf_counter() - t0
+        self.lp_time_s += dt
+        setattr(self, f"{kind}_time_s", getattr(self, f"{kind}_time_s") + dt)
+        if out is not None:
+            self.lp_solves += 1
+        return out
+
+    def static_lp(self, slack_zero: np.ndarray):
+        """:func:`static_piece` (min ``lam``) on this structure's static LP; None past the deadline."""
+        if self.static_engine == "block-ipm":
+            remaining = self.deadline - time.perf_counter()
+            if remaining <= 0:
+                return None
+            return self._timed(lambda: static_piece_ipm(self.static.lp, slack_zero, self.static_row_scale,
+                                                        self.static.column_scale, remaining), "static")
+        return self._timed(lambda: static_piece(self.static, slack_zero, deadline=self.deadline), "static")
+
+    def mechanism(self, allowed: np.ndarray, weight: np.ndarray | None = None):
+        """:func:`mechanism_piece` with cost ``weight`` per unit multiplier ``z^_i`` (default 1); None past the deadline."""
+        cost = (np.ones(allowed.size) if weight is None else weight) / self.z_unit
+        return self._timed(lambda: mechanism_piece(self.kinematic, allowed, cost, deadline=self.deadline), "kinematic")
+
+    def point(self, static_out, mechanism_out) -> np.ndarray:
+        """``w`` from the two halves; multipliers at most :data:`SUPPORT_TOL` (units) set to exact zeros."""
+        form = self.form
+        w = np.zeros(form.n_columns)
+        w[self.s_cols] = static_out.v
+        w[self.k_cols] = mechanism_out.v
+        z = w[form.pair_column]
+        w[form.pair_column] = np.where(z / self.z_unit > SUPPORT_TOL, z, 0.0)
+        return w
+
+    def support(self, mechanism_out) -> np.ndarray:
+        """Pairs whose multiplier in the mechanism LP's point exceeds :data:`SUPPORT_TOL` (units)."""
+        z = self.kinematic.lp.values("z", mechanism_out.v)
+        return z / self.z_unit > SUPPORT_TOL
+
+    def certificate(self, w: np.ndarray, static_out, tol: float | None = None) -> Certificate:
+        """Check that ``(lam, x)`` of ``w`` with the static LP's row duals certifies ``w`` a local minimum of (4).
+
+        Near ``w`` a pair with ``z_i > 0`` keeps ``s_i = 0``; every other pair may take any ``s_i >= 0`` with
+        ``z_i = 0`` and ``(u, z)`` unchanged.  So (RLP) at ``w`` is ``min lam`` s.t. equilibrium,
+        ``G_i x = 0`` on the support of ``z``, ``G_i x <= 0`` elsewhere (its kinematic half is feasible, with no
+        cost), and ``w`` is a local minimum of (4) iff ``(lam, x)`` is optimal for it: the duals ``y`` (HiGHS's
+        signs) must make the reduced costs ``c - A^T y`` of the free columns zero and ``y_i <= 0`` on every pair
+        row off the support.  The support is read from ``w`` itself, not from the piece the LP was solved on: a
+        point solved with an equality on a pair whose multiplier is zero fails when that row's dual is positive.
+        """
+        form, lp = self.form, self.static.lp
+        tol = self.dual_tol if tol is None else tol
+        z, s = self.sides(w)
+        on = z > 0
+        y = static_out.row_dual
+        c = np.zeros(lp.c.size)
+        c[lp.columns["lam"][0]] = 1.0  # min lam
+        reduced = (c - lp.A.T @ y) * self.static.column_scale
+        pair_dual = y[lp.rows["pairs"]] * self.s_unit  # dual of the row (G_i x) / S_i
+        wrong = int(np.sum(~on & (pair_dual > tol)))
+        g = (form.G @ w) / self.s_unit  # pair rows in units (<= 0 when admissible)
+        primal = float(np.max(g, initial=0.0))
+        comp = float(np.max(s[on], initial=0.0))
+        stationarity = float(np.max(np.abs(reduced), initial=0.0)) if np.all(np.isfinite(reduced)) else math.inf
+        holds = stationarity <= tol and wrong == 0 and comp <= tol and primal <= tol
+        return Certificate(holds, int(on.sum()), int(np.sum(~on & (s <= tol))), stationarity, wrong, comp, primal)
+
+
+def piece_descent(form, scaling, w_start: np.ndarray, time_limit: float = math.inf, rounds: int = 10,
+                  static_engine: str = "auto") -> PieceOutcome:
+    """Local descent over the pieces of (4) from ``w_start``, each piece's LP solved as its two halves.
+
+    1. A mechanism (:func:`mechanism_piece`) on the pairs that may carry a multiplier at the start: those
+       whose slack is relatively the smaller side or ambiguous (:data:`AMBIGUOUS`, the same rounding as
+       :func:`whole_piece_descent`), each multiplier costing ``1 + START_SLACK_WEIGHT * s^_i / max s^`` (a
+       vertex, few active pairs, avoiding pairs whose start slack is not ~0).
+    2. The static LP (:func:`static_piece`) with ``G_i x = 0`` exactly on that mechanism's support: its
+       minimiser with the mechanism solves (3) (``z_i = 0`` off the support), and the static LP *is* the
+       relaxed LP (RLP) at that point (:meth:`SplitPieces.certificate`), so its duals certify it a local minimum
+       of (4); the certificate is checked, not assumed.
+    3. Descent: a support pair whose row dual is positive would lower ``lam`` if its multiplier could vanish.
+       A new mechanism on the pairs with zero slack at the current ``x`` (so the current ``(lam, x)`` stays
+       feasible and ``lam`` cannot rise), costing those pairs ``1 + AVOID_WEIGHT * dual / max dual``; when
+       its support differs, the static LP on it is the next point (kept if ``lam`` fell).  At most ``rounds``
+       mechanisms; stops when no support pair has a positive dual or the mechanism keeps its support.
+
+    Returns
+    -------
+    PieceOutcome
+        ``LOCALLY_OPTIMAL`` when the best point's certificate holds (``w`` solves (3) exactly);
+        ``NUMERICAL`` with that point when its certificate fails; ``TIME_LIMIT``; or, with ``w`` None, the
+        failure of the first LPs (no mechanism or an empty static piece for every rounding).
+    """
+    pieces = SplitPieces(form, *scaling, time_limit=time_limit, static_engine=static_engine)
+    z, s = pieces.sides(np.asarray(w_start, float))
+    zr, sr = _relative(z), _relative(s)
+    trace: list[dict] = []
+    first = None
+    message = ""
+    for ambiguous in AMBIGUOUS:
+        allowed = (sr <= zr) | (np.minimum(zr, sr) > ambiguous * np.maximum(zr, sr)) | (np.maximum(zr, sr) < 1e-12)
+        mech = pieces.mechanism(allowed, 1.0 + START_SLACK_WEIGHT * sr)
+        if mech is None or mech.status is Status.TIME_LIMIT:
+            return _outcome(Status.TIME_LIMIT, None, None, pieces, trace, "time limit in the first mechanism LP")
+        if mech.status is not Status.OPTIMAL:
+            message = f"mechanism LP (ambiguous {ambiguous:g}): HiGHS {mech.raw_status}"
+            trace.append({"piece": len(trace) + 1, "lp": "mechanism", "status": mech.raw_status,
+                          "allowed": int(allowed.sum())})
+            continue
+        support = pieces.support(mech)
+        st = pieces.static_lp(support)
+        if st is None or st.status is Status.TIME_LIMIT:
+            return _outcome(Status.TIME_LIMIT, None, None, pieces, trace, "time limit in the first static LP")
+        trace.append({"piece": len(trace) + 1, "lp": "static", "status": st.raw_status, "multiplier": st.objective,
+                      "allowed": int(allowed.sum()), "support": int(support.sum())})
+        if st.status is Status.OPTIMAL:
+            first = (mech, st, support)
+            break
+        message = f"static LP on the mechanism's support (ambiguous {ambiguous:g}): HiGHS {st.raw_status}"
+    if first is None:
+        return _outcome(Status.NUMERICAL, None, None, pieces, trace, f"no solution of (3) from the start: {message}")
+    mech, st, support = first
+    best_w, best_st = pieces.point(st, mech), st
+    status, message = Status.ITERATION_LIMIT, f"{rounds} mechanisms without a stationary support"
+    for k in range(rounds):
+        lam = best_st.objective
+        y = best_st.row_dual[pieces.static.lp.rows["pairs"]] * pieces.s_unit
+        raising = support & (y > pieces.dual_tol)
+        trace[-1]["raising"] = int(raising.sum())
+        if not raising.any():
+            status, message = Status.LOCALLY_OPTIMAL, f"lam = {lam:.10g}: no equality of the support raises lam"
+            break
+        _, s_now = pieces.sides(best_w)
+        weight = 1.0 + AVOID_WEIGHT * np.where(raising, y, 0.0) / float(y[raising].max())
+        mech2 = pieces.mechanism(s_now <= pieces.zero_tol, weight)
+        if mech2 is None or mech2.status is Status.TIME_LIMIT:
+            status, message = Status.TIME_LIMIT, f"time limit in mechanism LP {k + 2}"
+            break
+        if mech2.status is not Status.OPTIMAL:  # the current mechanism is feasible for it: round-off
+            status, message = Status.LOCALLY_OPTIMAL, f"lam = {lam:.10g}; mechanism LP {k + 2}: HiGHS {mech2.raw_status}"
+            break
+        support2 = pieces.support(mech2)
+        if np.array_equal(support2, support) or not (raising & ~support2).any():
+            status, message = Status.LOCALLY_OPTIMAL, (f"lam = {lam:.10g}: no mechanism on the zero slacks frees a "
+                                                       f"pair whose equality raises lam")
+            break
+        st2 = pieces.static_lp(support2)
+        if st2 is None or st2.status is Status.TIME_LIMIT:
+            status, message = Status.TIME_LIMIT, f"time limit in static LP {k + 2}"
+            break
+        trace.append({"piece": len(trace) + 1, "lp": "static", "status": st2.raw_status, "multiplier": st2.objective,
+                      "allowed": int((s_now <= pieces.zero_tol).sum()), "support": int(support2.sum())})
+        if st2.status is not Status.OPTIMAL or st2.objective > lam - pieces.lam_tol * max(1.0, abs(lam)):
+            status, message = Status.LOCALLY_OPTIMAL, f"lam = {lam:.10g}: the next support does not lower lam"
+            break
+        best_w, best_st, support = pieces.point(st2, mech2), st2, support2
+    # the certificate: the best point with its own static LP's duals (kept with the outcome)
+    cert = pieces.certificate(best_w, best_st)
+    trace[-1].update(certificate=cert.holds, stationarity=cert.stationarity, wrong_dual_signs=cert.wrong_signs,
+                     biactive=cert.biactive)
+    if status is Status.TIME_LIMIT:
+        return _outcome(status, best_w, best_st.objective, pieces, trace, message, cert)
+    if cert.holds:
+        return _outcome(Status.LOCALLY_OPTIMAL, best_w, best_st.objective, pieces, trace,
+                        f"{message}; certified local minimum of (4) (the static LP's duals are feasible for the relaxed "
+                        f"LP over its {cert.biactive} biactive pairs)", cert)
+    return _outcome(Status.NUMERICAL, best_w, best_st.objective, pieces, trace,
+                    f"{message}; certificate failed (stationarity {cert.stationarity:.1e}, {cert.wrong_signs} wrong "
+                    f"dual signs, complementarity {cert.complementarity:.1e}, primal {cert.primal:.1e})", cert)
+
+
+def _outcome(status: Status, w, lam, pieces: SplitPieces, trace: list[dict], message: str,
+             cert: Certificate | None = None) -> PieceOutcome:
+    return PieceOutcome(status, w, math.inf if lam is None else float(lam), status is Status.LOCALLY_OPTIMAL,
+                        len(trace), pieces.lp_solves, pieces.lp_time_s, 0 if cert is None else cert.biactive, message,
+                        trace, pieces.static_time_s, pieces.kinematic_time_s, cert)
