@@ -67,8 +67,9 @@ the objective (the penalty formulation of Leyffer, López-Calva & Nocedal 2006):
 linear, so the degenerate product rows (no constraint qualification at ``z_i = s_i = 0``)
 are gone; the Hessian is the constant ``rho`` on each ``(z^_i, s^_i)``.  ``rho`` runs from
 ``penalty`` up by ``penalty_factor`` (at most ``penalty_stages`` stages, each warm-started)
-until every ``z^_i s^_i <= eps_final P``; the polish then makes the products exact.  (In the
-trace, ``eps`` holds the stage's ``rho``, and ``max_work`` the largest ``z^_i s^_i / P``.)  Ipopt
+until every ``z^_i s^_i <= eps_final P``; the polish then makes the products exact.  (The
+trace records the stage's ``rho`` as ``rho``, where the relaxed NLP records ``eps``, and ``max_work``,
+the largest ``z^_i s^_i / P``.)  Ipopt
 runs with ``mu_strategy = monotone`` and ``mu_init = bound_push = bound_frac = 1e-6``: the
 start already satisfies the linear rows and a barrier of Ipopt's default size (0.1, push
 1e-2) first drives the iterate far from it (10x10 wall from the fixed point: 86 Ipopt
@@ -149,6 +150,13 @@ _USER_STOP = 5
 _PENALTY_MU_INIT = 1e-6
 STARTS = ("associative", "cold", "fixed-point")
 COMPLEMENTARITY = ("relaxed", "penalty")
+PIECE_LPS = ("split", "whole")
+ROUTES = ("auto", "ipopt", "pieces")
+#: ``route="auto"`` takes the piece route from this many free blocks on.  Measured (studies/nlp_scaling.py): the
+#: Ipopt stages solve the 50-block wall in ~6 s and at most ~69 blocks within 60 s; the piece route solves the
+#: 2,032-block wall within 60 s.  Below, Ipopt's local minima are kept (10x5 wall: 0.50530 against the
+#: pieces' 0.50582 from the fixed point)
+PIECE_ROUTE_BLOCKS = 100
 
 #: starts taken from a registered method's solution: (method, its options); the associative start is
 #: the static LP's solution, the fixed-point start a solution of (3)
@@ -192,6 +200,13 @@ class NLPOptions:
     ipopt: bool = field(default=True, metadata={
         "help": "solve the relaxed NLP stages; False: the start goes straight to the piece LPs (needs piece_lp and "
                 "start associative or fixed-point)"})
+    piece_lps: str = field(default="split", metadata={
+        "help": "split (each piece LP as its static (lam, x) and kinematic (u, z) halves, the static by the block IPM "
+                "from 4,000 pairs) | whole (each piece one HiGHS LP, the route before; for measurement)"})
+    route: str = field(default="auto", metadata={
+        "help": "auto (pieces from PIECE_ROUTE_BLOCKS = 100 free blocks on, else ipopt) | ipopt (the options above) | "
+                "pieces (the fixed point's solution of (3) straight to the piece LPs: start=fixed-point, ipopt=False, "
+                "piece_lp=True, whatever those options say)"})
 
     def __post_init__(self) -> None:
         check.positive(self, "eps_initial", "eps_final", "tol")
@@ -206,6 +221,8 @@ class NLPOptions:
         check.interval(self, "penalty_factor", 1, math.inf)
         check.integer(self, "penalty_stages", minimum=1)
         check.boolean(self, "warm_start", "polish", "piece_lp", "ipopt")
+        check.choice(self, "piece_lps", PIECE_LPS)
+        check.choice(self, "route", ROUTES)
         if not self.ipopt and (not self.piece_lp or self.start == "cold"):
             raise ValueError(f"ipopt=False needs piece_lp=True and a start other than cold; got piece_lp="
                              f"{self.piece_lp}, start={self.start!r}")
@@ -450,8 +467,15 @@ class RelaxedNLP(SolverBase):
     def setup(self, ops):
         from blockmpec.formulations import compile_mcp
 
+        import dataclasses
+
         self.ops = ops
         self.form = compile_mcp(ops)  # (3), compiled once
+        opt = self.options
+        self.route = opt.route if opt.route != "auto" else (
+            "pieces" if self.form.n_blocks >= PIECE_ROUTE_BLOCKS else "ipopt")
+        if self.route == "pieces":
+            self.options = dataclasses.replace(opt, start="fixed-point", ipopt=False, piece_lp=True)
         self.start_solver = None
         if self.options.start in _START_METHODS:  # the start is the registered method's adapter itself
             from blockmpec.registry import get_solver
@@ -511,13 +535,15 @@ class RelaxedNLP(SolverBase):
         schedule = opt.schedule() if opt.ipopt else []
         # writes the trace (one record per Ipopt solve, measure eps) and keeps the time limit; the
         # stages stop on Ipopt's status, so its iteration limit (every solve twice, and the polish) never binds
-        stop = StoppingCriterion(opt.eps_final, 2 * len(schedule) + 2, opt.time_limit, measure_name="eps").start()
+        penalty = opt.complementarity == "penalty"
+        # the trace's measure: the stage's eps, or its rho in the penalty NLP
+        stop = StoppingCriterion(opt.eps_final, 2 * len(schedule) + 2, opt.time_limit,
+                                 measure_name="rho" if penalty else "eps").start()
         v0, scale, fail, start_msg, lam_associative = self._start_point(stop)
         if fail is not None:
             passed_on = (Status.UNBOUNDED, Status.INFEASIBLE, Status.INFEASIBLE_OR_UNBOUNDED, Status.TIME_LIMIT)
             return RunOutput(fail if fail in passed_on else Status.ERROR, message=start_msg,
                              raw_status="static LP" if opt.start == "associative" else opt.start)
-        penalty = opt.complementarity == "penalty"
         nlp = (_PenaltyMPEC if penalty else _RelaxedMPEC)(self.form, scale, *self.scaling)
         self.nlp = nlp
         v = np.zeros(nlp.n) if v0 is None else nlp.to_units(v0)
@@ -573,13 +599,13 @@ class RelaxedNLP(SolverBase):
         trace = stop.trace
         solution = _without_free_sliding(self.form, nlp.split(v))
         n_stages = len({t["stage"] for t in trace})
-        extra = {"stages": n_stages, "ipopt_solves": len(trace), "scale": scale, "start": opt.start,
+        extra = {"stages": n_stages, "ipopt_solves": len(trace), "scale": scale, "start": opt.start, "route": self.route,
                  "start_time_s": self.start_time_s, "complementarity": opt.complementarity}
         if lam_associative is not None:
             extra[facts.ASSOCIATIVE_MULTIPLIER] = lam_associative
         if not message and opt.ipopt:
             last = trace[-1]
-            final_value = (f"final rho = {last['eps']:.3g}, max z_i s_i / P = {last.get('max_work', math.nan):.3g}"
+            final_value = (f"final rho = {last['rho']:.3g}, max z_i s_i / P = {last.get('max_work', math.nan):.3g}"
                            if penalty else f"final eps = {last['eps']:.3g}")
             message = f"{n_stages} stages ({len(trace)} Ipopt solves), {final_value}; {start_msg}"
             if opt.polish and opt.polish_iterations > 0:
@@ -639,13 +665,14 @@ class RelaxedNLP(SolverBase):
         is the run's: ``LOCALLY_OPTIMAL`` when certified, else its status with its best point (or the start's).
         """
         from blockmpec import facts
-        from blockmpec.solvers.engines.piece_lp import piece_descent
+        from blockmpec.solvers.engines.piece_lp import piece_descent, whole_piece_descent
 
         remaining = stop.remaining()
         if remaining <= 0:
             return solution, status if self.options.ipopt else Status.TIME_LIMIT, "no time left for the piece LPs"
         t0 = time.perf_counter()
-        out = piece_descent(self.form, self.scaling, self.form.pack(solution), time_limit=remaining)
+        descent = piece_descent if self.options.piece_lps == "split" else whole_piece_descent
+        out = descent(self.form, self.scaling, self.form.pack(solution), time_limit=remaining)
         dt = time.perf_counter() - t0
         stop.check(0.0, stage="piece-lp", multiplier=float(out.multiplier), ipopt_status="", ipopt_iterations=0,
                    piece_status=out.status.value, certified=out.certified, piece_lps=out.pieces,
@@ -654,6 +681,10 @@ class RelaxedNLP(SolverBase):
         extra[facts.LP_TIME_S] = out.lp_time_s
         extra["piece_certified"] = out.certified
         extra["piece_lp_trace"] = out.trace  # one record per piece LP: lam, free/biactive pairs, certificate
+        extra["piece_lps"] = self.options.piece_lps
+        if self.options.piece_lps == "split":
+            extra["static_lp_time_s"] = out.static_time_s
+            extra["kinematic_lp_time_s"] = out.kinematic_time_s
         lam = solution.multiplier
         better = out.w is not None and (lam is None or out.multiplier <= lam + 1e-9 * max(1.0, abs(lam)))
         if self.options.ipopt and not (out.certified and better):

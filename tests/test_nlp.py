@@ -89,7 +89,7 @@ def test_time_limit_inside_ipopt_is_a_status_and_kept():
     limit plus one of its iterations (the callback stops Ipopt when the time left is shorter than its
     longest iteration; Ipopt's own max_wall_time is tested only after an iteration)."""
     limit = 2.0
-    res = bm.solve(bm.cases.wall(10, 10), "nlp", time_limit=limit)
+    res = bm.solve(bm.cases.wall(10, 10), "nlp", time_limit=limit, route="ipopt")
     assert res.status is Status.TIME_LIMIT
     assert not res.success
     last = [t for t in res.trace if t["stage"] != "polish"][-1]
@@ -222,7 +222,7 @@ def test_penalty_trace_has_one_stage_per_rho_until_complementarity():
     res = bm.solve(bm.cases.two_blocks(eta=3, mu=0.65), "nlp", complementarity="penalty", penalty=10.0,
                    penalty_factor=100.0, polish=False)
     stages = [t for t in res.trace if t["stage"] != "polish"]
-    np.testing.assert_allclose([t["eps"] for t in stages], [10.0 * 100.0**k for k in range(len(stages))])
+    np.testing.assert_allclose([t["rho"] for t in stages], [10.0 * 100.0**k for k in range(len(stages))])
     assert stages[-1]["max_work"] <= 1e-9 or len(stages) == 4  # stops once every z_i s_i <= eps_final P
 
 
@@ -295,17 +295,23 @@ def test_piece_descent_is_exact_below_its_start_and_its_certificate_holds():
     assert relaxed.objective >= out.multiplier - 1e-9
 
 
-@pytest.mark.parametrize("interior", [False, True], ids=["simplex", "interior"])
+@pytest.mark.parametrize(("interior", "engine"), [(False, None), (True, None), (None, "dual-simplex"),
+                                                  (None, "block-ipm")],
+                         ids=["whole-simplex", "whole-interior", "split-simplex", "split-block-ipm"])
 @pytest.mark.parametrize(("eta", "mu"), [(3, 0.65), (5, 0.3)])
-def test_piece_descent_two_blocks_between_bounds(interior, eta, mu):
-    """Both LP algorithms: a certified local minimum of (4) between the closed-form minimum and the associative lam."""
-    from blockmpec.solvers.engines.piece_lp import piece_descent
+def test_piece_descent_two_blocks_between_bounds(interior, engine, eta, mu):
+    """Whole and split piece LPs, each LP engine: a certified local minimum of (4) between the closed-form minimum
+    and the associative lam."""
+    from blockmpec.solvers.engines.piece_lp import piece_descent, whole_piece_descent
     from blockmpec.solvers.nlp import _without_free_sliding
     from blockmpec.verify import residuals
 
     case = bm.cases.two_blocks(eta=eta, mu=mu)
     ops, form, scaling, fp = _form_and_fixed_point(case)
-    out = piece_descent(form, scaling, form.pack(fp.solution), interior=interior)
+    if interior is None:
+        out = piece_descent(form, scaling, form.pack(fp.solution), static_engine=engine)
+    else:
+        out = whole_piece_descent(form, scaling, form.pack(fp.solution), interior=interior)
     assert out.certified
     solution = _without_free_sliding(form, form.unpack(out.w))  # as nlp does (interior: z_f+- both large)
     assert max(residuals(ops, solution, associative=False).values()) <= 1e-7

@@ -426,43 +426,88 @@ def mechanism_piece(hl, allowed: np.ndarray, cost: np.ndarray | None = None, dea
     return hl.solve()
 
 
+def closed_interfaces(slack_zero: np.ndarray, pair_interface: np.ndarray, pair_kind: np.ndarray,
+                      n_interfaces: int) -> np.ndarray:
+    """Interfaces whose forces a piece fixes at zero: both no-tension rows, both friction rows or three rows
+    ``G_i x = 0``.
+
+    An interface's four pair rows bound a pointed cone in ``(t, n, m)``; two opposite facets (the two
+    no-tension rows, or the two friction rows) or any three facets meet only at 0.
+    """
+    from blockmpec.formulations.compiled import FRICTION, UNILATERAL
+
+    def count(kind=None):
+        mask = slack_zero if kind is None else slack_zero & (pair_kind == kind)
+        return np.bincount(pair_interface[mask], minlength=n_interfaces)
+
+    return (count(UNILATERAL) >= 2) | (count(FRICTION) >= 2) | (count() >= 3)
+
+
 def static_piece_ipm(lp: LinearProgram, slack_zero: np.ndarray, row_scale: np.ndarray, column_scale: np.ndarray,
-                     time_limit: float, tol: float = 1e-9):
+                     time_limit: float, pair_interface: np.ndarray, pair_kind: np.ndarray, tol: float = 1e-9):
     """:func:`static_piece` (min ``lam``) by the block interior-point method (:mod:`~blockmpec.solvers.engines.block_ipm`).
 
-    The block IPM needs the same number of inequality rows in every interface, so the piece's equalities
+    An interior-point method needs a strictly feasible interior.  An interface that the piece closes
+    (:func:`closed_interfaces`: its forces are 0) has none, so its columns and rows are left out (``x_k = 0``).
+    The block IPM needs the same number of inequality rows in every interface, so the other equalities
     ``G_i x = 0`` are extra equality rows and every pair row stays an inequality, ``G_i x <= S_i`` (slack one
     unit, never active) on the piece's equalities and ``G_i x <= 0`` elsewhere.  ``lp`` is a
     :func:`static_program`, ``row_scale``/``column_scale`` its units.  Returns an ``LPOutcome`` in the terms of
-    ``lp`` (``v = (lam, x)``; the dual of a pair row is the sum of its two rows' duals), not a vertex: the point
-    is near the analytic centre of the optimal face, exact to ``tol`` (relative residuals).
+    ``lp``: ``v = (lam, x)``; the dual of a pair row is the sum of its two rows' duals, and a closed
+    interface's pair duals are the least-squares solution of its columns' stationarity (``<= 0`` on rows that
+    are inequalities).  The point is not a vertex: it is near the analytic centre of the optimal face, exact to
+    ``tol`` (relative residuals).
     """
+    from scipy.optimize import lsq_linear
+
     from blockmpec.formulations._pyomo import LinearProgram
     from blockmpec.solvers.engines.block_ipm import BlockIPM
     from blockmpec.solvers.engines.highs import LPOutcome
 
     pairs = lp.rows["pairs"]
-    eq_pairs = pairs[slack_zero]
-    p_scale = row_scale[pairs]  # 1 / S_i
-    A = sp.csr_array(sp.vstack([lp.A, lp.A[eq_pairs]], format="csr"))
-    m = lp.A.shape[0]
-    upper = lp.row_upper.copy()
-    upper[pairs] = np.where(slack_zero, 1.0 / p_scale, 0.0)
-    lower = lp.row_lower.copy()
-    lower[pairs] = -np.inf
-    c = np.zeros(lp.c.size)
-    c[lp.columns["lam"][0]] = 1.0
-    ipm_lp = LinearProgram(c=c, A=A, row_lower=np.r_[lower, np.zeros(eq_pairs.size)],
-                           row_upper=np.r_[upper, np.zeros(eq_pairs.size)], col_lower=lp.col_lower,
-                           col_upper=lp.col_upper, columns=lp.columns, rows={}, objective_sign=1.0)
-    ipm = BlockIPM(ipm_lp, lp.columns["x"].reshape(-1, 3), tol=tol, time_limit=time_limit,
-                   row_scale=np.r_[row_scale, row_scale[eq_pairs]], column_scale=column_scale)
+    eq_rows = lp.rows["equilibrium"]
+    x_cols = lp.columns["x"].reshape(-1, 3)
+    n_if = x_cols.shape[0]
+    closed = closed_interfaces(slack_zero, pair_interface, pair_kind, n_if)
+    open_pair = ~closed[pair_interface]
+    keep_cols = np.r_[lp.columns["lam"], x_cols[~closed].ravel()]
+    keep_pairs = pairs[open_pair]
+    eq_pairs = pairs[slack_zero & open_pair]
+    A = lp.A.tocsr()
+    rows = np.r_[eq_rows, keep_pairs, eq_pairs]
+    A_ipm = sp.csr_array(A[rows][:, keep_cols])
+    p_unit = 1.0 / row_scale[keep_pairs]  # S_i
+    upper = np.r_[lp.row_upper[eq_rows], np.where(slack_zero[open_pair], p_unit, 0.0), np.zeros(eq_pairs.size)]
+    lower = np.r_[lp.row_lower[eq_rows], np.full(keep_pairs.size, -np.inf), np.zeros(eq_pairs.size)]
+    c = np.zeros(keep_cols.size)
+    c[0] = 1.0
+    n_keep = keep_cols.size
+    ipm_lp = LinearProgram(c=c, A=A_ipm, row_lower=lower, row_upper=upper, col_lower=np.full(n_keep, -np.inf),
+                           col_upper=np.full(n_keep, np.inf), columns={}, rows={}, objective_sign=1.0)
+    ipm = BlockIPM(ipm_lp, np.arange(1, n_keep).reshape(-1, 3), tol=tol, time_limit=time_limit,
+                   row_scale=row_scale[rows], column_scale=column_scale[keep_cols])
     out = ipm.solve()
-    y = out.row_dual[:m].copy()
-    y[eq_pairs] += out.row_dual[m:]
     status = Status.OPTIMAL if out.status in (Status.OPTIMAL, Status.ACCEPTABLE) else out.status
-    objective = float(out.v[lp.columns["lam"][0]]) if status is Status.OPTIMAL else math.nan
-    return LPOutcome(status, out.raw_status, objective, out.v, y, out.iterations, out.message)
+    v = np.zeros(lp.c.size)
+    y = np.zeros(lp.A.shape[0])
+    if out.v.size == n_keep and np.all(np.isfinite(out.v)):
+        v[keep_cols] = out.v
+        n_eq, n_kp = eq_rows.size, keep_pairs.size
+        y[eq_rows] = out.row_dual[:n_eq]
+        y[keep_pairs] = out.row_dual[n_eq:n_eq + n_kp]
+        y[eq_pairs] += out.row_dual[n_eq + n_kp:]
+        # closed interfaces: G_k^T y_k = -(A_eq[:, k])^T w on their three columns (reduced costs zero)
+        At = A.T.tocsr()
+        target = -(At[:, eq_rows] @ y[eq_rows])
+        for k in np.flatnonzero(closed):
+            cols = x_cols[k]
+            own = pairs[pair_interface == k]
+            Gk = At[cols][:, own].toarray()  # (3, 4): columns are the pair rows
+            free = slack_zero[pair_interface == k]
+            sol = lsq_linear(Gk, target[cols], bounds=(np.full(own.size, -np.inf), np.where(free, np.inf, 0.0)))
+            y[own] = sol.x
+    objective = float(v[lp.columns["lam"][0]]) if status is Status.OPTIMAL else math.nan
+    return LPOutcome(status, out.raw_status, objective, v, y, out.iterations, out.message)
 
 
 #: a multiplier above this (units, in a mechanism LP's vertex) puts its pair's row among the static equalities
@@ -473,6 +518,8 @@ DUAL_TOL = 1e-9
 IPM_DUAL_TOL = 1e-7
 #: static LP engines of the split pieces: HiGHS's dual simplex (a vertex, warm re-solves) or the block IPM
 STATIC_ENGINES = ("auto", "dual-simplex", "block-ipm")
+#: HiGHS's primal feasibility tolerance of the mechanism LPs of :class:`SplitPieces`
+KINEMATIC_FEASIBILITY_TOL = 1e-10
 #: pairs from which ``"auto"`` solves the static halves by the block IPM
 BLOCK_IPM_PAIRS = 4_000
 #: mechanism cost of a pair whose static equality raises lam (its dual, relative to the largest such dual,
@@ -541,6 +588,9 @@ class SplitPieces:
                               column_scale=column_scale[s_cols])
         self.kinematic = HighsLP(kinematic_program(form), "dual-simplex",
                                  row_scale=np.r_[row_scale[cp], row_scale[nm], 1.0], column_scale=column_scale[k_cols])
+        # HiGHS's default primal feasibility tolerance (1e-7 in units) left the compatibility rows of the 2,032-block
+        # wall's mechanism at 8.8e-7 relative in the verifier (tolerance 1e-6); 1e-10 there: 3e-11 (one run)
+        self.kinematic.highs.setOptionValue("primal_feasibility_tolerance", KINEMATIC_FEASIBILITY_TOL)
         self.deadline = time.perf_counter() + time_limit
         self.lp_solves = 0
         self.lp_time_s = 0.0
@@ -569,8 +619,10 @@ class SplitPieces:
             remaining = self.deadline - time.perf_counter()
             if remaining <= 0:
                 return None
+            form = self.form
             return self._timed(lambda: static_piece_ipm(self.static.lp, slack_zero, self.static_row_scale,
-                                                        self.static.column_scale, remaining), "static")
+                                                        self.static.column_scale, remaining, form.pair_interface,
+                                                        form.pair_kind), "static")
         return self._timed(lambda: static_piece(self.static, slack_zero, deadline=self.deadline), "static")
 
     def mechanism(self, allowed: np.ndarray, weight: np.ndarray | None = None):
@@ -714,12 +766,12 @@ def piece_descent(form, scaling, w_start: np.ndarray, time_limit: float = math.i
     cert = pieces.certificate(best_w, best_st)
     trace[-1].update(certificate=cert.holds, stationarity=cert.stationarity, wrong_dual_signs=cert.wrong_signs,
                      biactive=cert.biactive)
-    if status is Status.TIME_LIMIT:
-        return _outcome(status, best_w, best_st.objective, pieces, trace, message, cert)
-    if cert.holds:
+    if cert.holds:  # also when a later mechanism or static LP ran out of time: the best point is certified
         return _outcome(Status.LOCALLY_OPTIMAL, best_w, best_st.objective, pieces, trace,
                         f"{message}; certified local minimum of (4) (the static LP's duals are feasible for the relaxed "
                         f"LP over its {cert.biactive} biactive pairs)", cert)
+    if status is Status.TIME_LIMIT:
+        return _outcome(status, best_w, best_st.objective, pieces, trace, message, cert)
     return _outcome(Status.NUMERICAL, best_w, best_st.objective, pieces, trace,
                     f"{message}; certificate failed (stationarity {cert.stationarity:.1e}, {cert.wrong_signs} wrong "
                     f"dual signs, complementarity {cert.complementarity:.1e}, primal {cert.primal:.1e})", cert)
