@@ -465,9 +465,9 @@ class RelaxedNLP(SolverBase):
     Options = NLPOptions
 
     def setup(self, ops):
-        from blockmpec.formulations import compile_mcp
-
         import dataclasses
+
+        from blockmpec.formulations import compile_mcp
 
         self.ops = ops
         self.form = compile_mcp(ops)  # (3), compiled once

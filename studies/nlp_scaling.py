@@ -9,9 +9,10 @@ single-threaded here, so CPU seconds are what the run would take alone), Ipopt
 iterations and the iterations per eps stage.  With ``--fixed-point`` each wall is also solved
 once by the registered ``fixed-point`` method (its lam, to compare with, and its CPU seconds,
 the cost of ``start="fixed-point"``).  ``--keep-going`` runs every wall of a set even after a
-failure.  The default sets are ``default``, ``factor-0.01`` and ``penalty-fp``
-(``start="fixed-point", complementarity="penalty"``); the piece-LP route is
-``fp-piece={'start': 'fixed-point', 'ipopt': False, 'piece_lp': True}``.  ``time_limit`` is wall-clock (Ipopt's
+failure.  The default sets are ``ipopt`` (the Ipopt stages from the associative start: ``nlp``'s route below
+100 free blocks), ``factor-0.01``, ``penalty-fp`` (``start="fixed-point", complementarity="penalty"``),
+``pieces-whole`` (the fixed point's solution straight to piece LPs solved as one HiGHS LP each, the piece route
+before the split) and ``pieces`` (``route="pieces"``: the split piece LPs, ``nlp``'s route from 100 free blocks on).  ``time_limit`` is wall-clock (Ipopt's
 ``max_wall_time``, as the runner times a solve), so on a loaded machine a run gets less CPU
 than its limit.  Usage::
 
@@ -39,9 +40,12 @@ from certificate_study import _fmt  # noqa: E402
 
 OUT = Path(__file__).parent / "output" / "nlp"
 COLUMNS = ["config", "wall", "blocks", "status", "verified", "multiplier", "associative", "wall_s", "cpu_s",
-           "solve_s", "setup_s", "ipopt_iterations", "stages", "message"]
-DEFAULT_CONFIGS = ("default={};factor-0.01={'eps_factor': 0.01};"
-                   "penalty-fp={'start': 'fixed-point', 'complementarity': 'penalty'}")
+           "solve_s", "setup_s", "ipopt_iterations", "stages", "route", "certified", "start_s", "lp_s", "static_lp_s",
+           "kinematic_lp_s", "message"]
+DEFAULT_CONFIGS = ("ipopt={'route': 'ipopt'};factor-0.01={'route': 'ipopt', 'eps_factor': 0.01};"
+                   "penalty-fp={'route': 'ipopt', 'start': 'fixed-point', 'complementarity': 'penalty'};"
+                   "pieces-whole={'route': 'ipopt', 'start': 'fixed-point', 'ipopt': False, 'piece_lp': True, "
+                   "'piece_lps': 'whole'};pieces={'route': 'pieces'}")
 
 
 def parse_configs(text: str) -> dict[str, dict]:
@@ -68,6 +72,9 @@ def run_wall(config: str, courses: int, per_course: int, time_limit: float, opti
             "status": res.status.value, "verified": res.success, "multiplier": res.multiplier,
             "associative": res.extra.get(facts.ASSOCIATIVE_MULTIPLIER), "wall_s": wall_s, "cpu_s": cpu_s,
             "solve_s": res.solve_time_s, "setup_s": res.build_time_s, "ipopt_iterations": res.iterations, "stages": stages,
+            "route": res.extra.get("route"), "certified": res.extra.get("piece_certified"),
+            "start_s": res.extra.get("start_time_s"), "lp_s": res.extra.get(facts.LP_TIME_S),
+            "static_lp_s": res.extra.get("static_lp_time_s"), "kinematic_lp_s": res.extra.get("kinematic_lp_time_s"),
             "message": res.message[:100]}
 
 

@@ -9,6 +9,14 @@ A *piece* of the feasible set of (4) fixes, for every pair ``i`` of (3), which s
 
 and each of its feasible points solves (3) exactly (one side of every pair is a bound).
 
+The split.  The pair rows ``G`` are nonzero in the ``x`` columns only, the equilibrium rows in
+``(lam, x)`` only, compatibility and normalisation in ``(u, z)`` only.  So (PLP) is two LPs that no row
+couples: the *static half* ``min lam`` s.t. equilibrium, ``G_S x = 0``, ``G_Z x <= 0``
+(:func:`static_program`, :func:`static_piece`) and the *kinematic half*, a mechanism ``f_l^T u = 1``,
+compatibility, ``z_S >= 0``, ``z_Z = 0`` (:func:`kinematic_program`, :func:`mechanism_piece`; ``min 1^T z``
+gives a vertex with few active pairs).  ``milp``'s polish (:meth:`~blockmpec.solvers.milp.MILPSolver._polish`)
+is these two functions; ``nlp``'s piece route (:func:`piece_descent`) uses them through :class:`SplitPieces`.
+
 Local minimality.  At a point ``w*`` of (4) let ``B`` be its biactive pairs (``z_i = s_i = 0``).
 The relaxed LP ::
 
@@ -17,10 +25,19 @@ The relaxed LP ::
 
 contains every point of (4) near ``w*`` (near ``w*`` a pair outside ``B`` keeps its positive side
 positive, hence its other side zero).  So if ``lam(w*)`` is the optimum of (RLP), ``w*`` is a local
-minimum of (4) (strong stationarity, Scheel & Scholtes 2000).  Otherwise each biactive pair that the
-minimiser of (RLP) leaves positive on one side only moves to that piece, and the next piece is solved (at most ``rounds``
-pieces; the multiplier never increases from one piece to the next, as the previous minimiser lies
-on the next piece).
+minimum of (4) (strong stationarity, Scheel & Scholtes 2000).  (RLP) splits as (PLP) does, and its
+kinematic half, with no cost, is feasible at ``w*``: (RLP) is the static LP with ``G_i x = 0`` on the
+support of ``z*`` and ``G_i x <= 0`` elsewhere.  Conversely every point of that static LP near ``x*``, with
+``(u*, z*)``, is a point of (4): the certificate is exact, and a point is a local minimum iff its
+``(lam, x)`` is optimal for the static LP on its own support (:meth:`SplitPieces.certificate` checks the
+duals).  The split descent (:func:`piece_descent`) therefore only chooses mechanisms: a static LP on a
+mechanism's support is a certified local minimum, and a mechanism that frees a pair whose equality has a
+positive dual may lower ``lam`` further.
+
+The whole route (:func:`whole_piece_descent`, :class:`PieceLP`; the route before the split, kept for
+measurement and as the tests' independent check of the certificate) solves (PLP) and (RLP) as one HiGHS
+LP each: if (RLP) goes lower, each biactive pair that its minimiser leaves positive on one side only moves to
+that piece, and the next piece is solved (at most ``rounds`` pieces).
 
 Rounding the start.  A start that solves (3) only approximately (an interior-point fixed point,
 products ``z_i s_i`` of 1e-10) may round onto an empty piece (measured on the 2,032-block wall:
@@ -28,12 +45,15 @@ HiGHS proves the rounded piece infeasible).  So the first LP leaves *ambiguous* 
 sides ``>= 0``, as in (RLP)): those whose smaller side, relative to its largest value over all pairs,
 is more than a fraction (:data:`AMBIGUOUS`, first 1e-3) of the larger side; if its minimiser leaves both sides of a free pair
 positive, the pair goes to its relatively smaller side and the LP is solved again.  When that
-ends without a solution of (3), a coarser threshold is tried (:data:`AMBIGUOUS`).
+ends without a solution of (3), a coarser threshold is tried (:data:`AMBIGUOUS`).  The split route lets
+the first mechanism use the same pairs (slack the smaller side, or ambiguous).
 
-LP algorithm.  Dual simplex (a vertex, exact zeros) below ``IPM_PAIRS`` pairs; above, HiGHS's
-interior point without crossover (measured on the 2,032-block wall, first piece: dual simplex
-110 s CPU, interior point with crossover 102 s, without 34 s), whose zeros are exact to its
-tolerance; ``zero_tol`` and the certificate's tolerance are set accordingly.
+LP algorithms.  Whole route: dual simplex (a vertex, exact zeros) below ``IPM_PAIRS`` pairs; above,
+HiGHS's interior point without crossover (measured on the 2,032-block wall, first piece: dual simplex
+110 s CPU, interior point with crossover 102 s, without 34 s).  Split route: mechanisms by HiGHS's dual
+simplex (warm; primal feasibility 1e-10); static halves by HiGHS's dual simplex below
+:data:`BLOCK_IPM_PAIRS` pairs and by the block interior-point method above (:func:`static_piece_ipm`;
+measured on the 2,032-block wall, first static half: dual simplex 32 s CPU, block IPM ~2 s).
 
 Units: HiGHS solves in the units of :func:`blockmpec.solvers.nlp.nlp_scaling` (each block's rows
 over its load, pair slacks in the reciprocal units of their multipliers), so that "zero" means
@@ -45,11 +65,15 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 import numpy as np
 import scipy.sparse as sp
 
 from blockmpec.result import Status
+
+if TYPE_CHECKING:
+    from blockmpec.formulations._pyomo import LinearProgram
 
 
 @dataclass
@@ -537,7 +561,8 @@ class Certificate:
     ``support``: pairs with ``z_i > 0`` (their rows must be equalities); ``stationarity``: largest reduced
     cost of the static LP's (free) columns, in units; ``wrong_signs``: pair rows off the support whose dual
     is positive (relaxing ``G_i x = 0`` to ``<= 0`` would lower ``lam``); ``complementarity``: largest slack
-    on the support and ``primal``: largest pair violation (units).  ``holds`` when all four are within tolerance.
+    on the support and ``primal``: largest pair violation (units); ``lam_gap``: ``|lam(w) - the LP's optimum|``
+    relative to ``max(1, |lam|)``.  ``holds`` when all five are within tolerance.
     """
 
     holds: bool
@@ -547,6 +572,7 @@ class Certificate:
     wrong_signs: int
     complementarity: float
     primal: float
+    lam_gap: float = 0.0
 
 
 class SplitPieces:
@@ -653,7 +679,7 @@ class SplitPieces:
         ``G_i x = 0`` on the support of ``z``, ``G_i x <= 0`` elsewhere (its kinematic half is feasible, with no
         cost), and ``w`` is a local minimum of (4) iff ``(lam, x)`` is optimal for it: the duals ``y`` (HiGHS's
         signs) must make the reduced costs ``c - A^T y`` of the free columns zero and ``y_i <= 0`` on every pair
-        row off the support.  The support is read from ``w`` itself, not from the piece the LP was solved on: a
+        row off the support, and ``lam`` of ``w`` must be the optimum of ``static_out``, whose duals they are.  The support is read from ``w`` itself, not from the piece the LP was solved on: a
         point solved with an equality on a pair whose multiplier is zero fails when that row's dual is positive.
         """
         form, lp = self.form, self.static.lp
@@ -670,8 +696,12 @@ class SplitPieces:
         primal = float(np.max(g, initial=0.0))
         comp = float(np.max(s[on], initial=0.0))
         stationarity = float(np.max(np.abs(reduced), initial=0.0)) if np.all(np.isfinite(reduced)) else math.inf
-        holds = stationarity <= tol and wrong == 0 and comp <= tol and primal <= tol
-        return Certificate(holds, int(on.sum()), int(np.sum(~on & (s <= tol))), stationarity, wrong, comp, primal)
+        # the duals certify the LP's optimum: lam of w must be that optimum
+        lam, lam_lp = float(w[form.lam]), float(static_out.objective)
+        lam_gap = abs(lam - lam_lp) / max(1.0, abs(lam)) if math.isfinite(lam_lp) else math.inf
+        holds = stationarity <= tol and wrong == 0 and comp <= tol and primal <= tol and lam_gap <= self.lam_tol
+        return Certificate(holds, int(on.sum()), int(np.sum(~on & (s <= tol))), stationarity, wrong, comp, primal,
+                           lam_gap)
 
 
 def piece_descent(form, scaling, w_start: np.ndarray, time_limit: float = math.inf, rounds: int = 10,
