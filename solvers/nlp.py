@@ -83,13 +83,22 @@ multiplier may end above the start's: the NLP is local, not a descent from it).
 
 Piece LPs (``piece_lp``).  After the stages (and the polish), the point is finished by
 :func:`~blockmpec.solvers.engines.piece_lp.piece_descent`: with every pair's zero side fixed
-by the point, (4) is a linear program (a *piece*), whose minimiser solves (3) exactly; a
-relaxed LP over the biactive pairs (or the piece's duals alone) certifies it a local minimum
-of (4), and otherwise says which piece to try next.  The certified point replaces Ipopt's
-when its ``lam`` is not higher.  With ``ipopt=False`` there are no stages: the start (the
-fixed point's solution of (3)) goes straight to the piece LPs, and their outcome is the run's
-(measured: 510-block wall, certified local minimum 0.44660 below the fixed point's 0.44948
-in 3 s CPU, where the penalty NLP from the same start was unverified after 432 s).
+by the point, (4) is a linear program (a *piece*), whose minimiser solves (3) exactly.  The piece LP is
+two LPs that no row couples, a static one in ``(lam, x)`` and a mechanism in ``(u, z)``
+(``piece_lps="split"``, the default; ``"whole"`` solves each piece as one HiGHS LP, the route before,
+kept for measurement).  The static LP on the support of a mechanism is the relaxed LP at its point, so
+its duals certify a local minimum of (4) (checked, not assumed); further mechanisms that free pairs whose
+equalities raise ``lam`` descend from there.  The certified point replaces Ipopt's when its ``lam`` is
+not higher.  With ``ipopt=False`` there are no stages: the start (the fixed point's solution of (3)) goes
+straight to the piece LPs, and their outcome is the run's.
+
+Route (``route``).  ``"ipopt"`` runs the options above; ``"pieces"`` is ``start="fixed-point",
+ipopt=False, piece_lp=True`` whatever those say; ``"auto"`` (default) takes ``"pieces"`` from
+:data:`PIECE_ROUTE_BLOCKS` free blocks on.  Measured (``studies/nlp_scaling.py``, one loaded run):
+the Ipopt stages reach at most ~69 blocks within 60 s, while the piece route solves the 2,032-block wall
+(certified local minimum 0.42179, below the fixed point's 0.42633) in ~19 s CPU: the fixed point ~5 s,
+the static halves by the block IPM, the mechanisms by HiGHS.  Below the threshold Ipopt is kept: its
+local minima are lower on small walls (10x5: 0.50530 against the pieces' 0.50582).
 
 A stage that fails after a warm start is tried once more from the same primal
 point without Ipopt's multipliers.  With ``polish`` the last stage's point is
