@@ -11,7 +11,7 @@ lam table (one column per set, ``*`` = not verified), then per set: verified, wi
 relative and within 1 % of the certified minimum, never below it, median CPU seconds.
 Usage::
 
-    python studies/nlp_variants.py [--configs "default={};penalty-fp={...}"] [--time-limit 60] [--tag T]
+    python studies/nlp_variants.py [--configs "ipopt={'route': 'ipopt'};pieces={'route': 'pieces'}"] [--time-limit 60] [--tag T]
 
 Writes ``studies/output/nlp/nlp_variants[_TAG].csv``.
 """
