@@ -42,7 +42,8 @@ derives every row).  A run has five stages, all timed:
    bound, no big-M; ``lifting`` picks the products in that LP: ``"friction"`` copies ``z_i x`` for
    the friction pairs, ``"rlt"`` copies for every pair with the products ``lam u`` and ``x u^T``, whose
    root bound is the minimum of the 2x2, 3x2 and 2x4 running-bond walls; ``lam_branching`` also
-   bisects ``lam``), started from the incumbent.  ``tau >= 0`` makes the model a
+   bisects ``lam``; ``root_lp="ipm"`` solves the root LP by the interior point first and drops the
+   rows with zero dual there, a relaxation), started from the incumbent.  ``tau >= 0`` makes the model a
    relaxation of (4), so the engine's dual bound is a certified bound on the minimum
    (an upper bound on the maximum).
 4. **polish**: with the pattern of the engine's point fixed (active pair: slack 0;
@@ -92,6 +93,7 @@ from blockmpec.solver import RunOutput, SolverBase
 
 ENGINES = ("highs", "scip", "bnb")
 LIFTINGS = ("friction", "mechanism", "all", "rlt")
+ROOT_LPS = ("simplex", "ipm")
 
 
 @dataclass
@@ -108,6 +110,10 @@ class MILPOptions:
         "help": "engine=bnb: friction: static copies z_i x for the friction pairs | mechanism: and lam u, lam z "
                 "(compatibility times lam) | all: copies for every pair, and lam u | rlt: all, and the products of "
                 "compatibility and f_l^T u = 1 with each normal and tangential force (x u^T)"})
+    root_lp: str = field(default="simplex", metadata={
+        "help": "engine=bnb: simplex: every node LP by the dual simplex on all rows | ipm: the root LP first by "
+                "the interior point (no crossover), the copy pair rows with zero dual there dropped (a relaxation), "
+                "woken again where a node's LP point violates them"})
     mip_rel_gap: float = field(default=1e-9, metadata={"help": "relative gap |primal - dual| / |primal|"})
     mip_abs_gap: float = field(default=1e-9, metadata={"help": "absolute gap on lam"})
     feasibility_tol: float = field(default=1e-9, metadata={
@@ -152,8 +158,10 @@ class MILPOptions:
             raise ValueError(f"slack_bounds must be 'row' or 'normal'; got {self.slack_bounds!r}")
         if self.lifting not in LIFTINGS:
             raise ValueError(f"lifting must be one of {LIFTINGS}; got {self.lifting!r}")
-        if (self.lam_branching or self.lifting != "friction") and self.engine != "bnb":
-            raise ValueError("lam_branching and lifting are options of engine='bnb'")
+        if self.root_lp not in ROOT_LPS:
+            raise ValueError(f"root_lp must be one of {ROOT_LPS}; got {self.root_lp!r}")
+        if (self.lam_branching or self.lifting != "friction" or self.root_lp != "simplex") and self.engine != "bnb":
+            raise ValueError("lam_branching, lifting and root_lp are options of engine='bnb'")
         for name in ("lam_branching", "multiplier_bounds", "envelope", "dissipation_bound", "bilinear", "incumbent", "warm_bounds",
                      "verbose"):
             if not isinstance(getattr(self, name), bool):
@@ -615,7 +623,8 @@ class MILPSolver(SolverBase):
                                  slack_max=None if lifting == "rlt" else bd.slack_max,
                                  lam_branching=self.options.lam_branching, all_copies=lifting in ("all", "rlt"),
                                  lam_mechanism=lifting != "friction",
-                                 force_mechanism=np.sort(np.r_[self.form.n, self.form.t]) if lifting == "rlt" else None)
+                                 force_mechanism=np.sort(np.r_[self.form.n, self.form.t]) if lifting == "rlt" else None,
+                                 root_lp=self.options.root_lp)
         run, best = bnb.solve(deadline - time.perf_counter(), incumbent, t0=t0)
         self._bnb_lps = bnb.n_lps
         return run, best

@@ -48,6 +48,7 @@ CONFIGS = {
     "bnb-mechanism": ("milp", {"engine": "bnb", "lifting": "mechanism"}),
     "bnb-rlt": ("milp", {"engine": "bnb", "lifting": "rlt"}),
     "bnb-rlt+lam": ("milp", {"engine": "bnb", "lifting": "rlt", "lam_branching": True}),
+    "bnb-rlt-ipm": ("milp", {"engine": "bnb", "lifting": "rlt", "root_lp": "ipm"}),
     "highs-nodiss": ("milp", {"engine": "highs", "dissipation_bound": False, "heuristic": ""}),
     "before": ("milp-before", {}),
 }

@@ -520,13 +520,41 @@ def test_liftings_and_lam_branching_certify_the_closed_form(lifting, lam_branchi
     assert abs(res.multiplier - expected) <= 1e-7
 
 
-@pytest.mark.parametrize(("lifting", "lam_branching"), [("rlt", False), ("friction", True)])
+@pytest.mark.parametrize(("lifting", "lam_branching", "root_lp"),
+                         [("rlt", False, "simplex"), ("friction", True, "simplex"), ("rlt", False, "ipm"),
+                          ("friction", False, "ipm")])
 @pytest.mark.parametrize("case_id", ["wall-2x2", "wall-3x2-opening", "arch-6"])
-def test_liftings_certify_the_big_m_minimum(lifting, lam_branching, case_id):
+def test_liftings_certify_the_big_m_minimum(lifting, lam_branching, root_lp, case_id):
     ref = certified_minimum(case_id)
-    res = bm.solve(LIFTING_CASES[case_id](), "milp", engine="bnb", lifting=lifting, lam_branching=lam_branching)
+    res = bm.solve(LIFTING_CASES[case_id](), "milp", engine="bnb", lifting=lifting, lam_branching=lam_branching,
+                   root_lp=root_lp)
     assert_certified(res)
     assert abs(res.multiplier - ref.multiplier) <= 1e-7
+
+
+@pytest.mark.parametrize("lifting", ["friction", "rlt"])
+@pytest.mark.parametrize("case_id", ["wall-2x2", "wall-3x2-opening"])
+def test_dormant_rows_give_a_relaxation(lifting, case_id):
+    """root_lp="ipm" drops rows (those with zero interior-point dual), so its root bound can only be lower than
+    the full LP's, and never above the certified minimum; rows were in fact dropped, and the ones woken again
+    are exactly the dormant rows violated at the LP point."""
+    from blockmpec.solvers.engines import complementarity_bnb as cb
+
+    lam = certified_minimum(case_id).multiplier
+    full = _lifted(LIFTING_CASES[case_id](), lifting)[1].root_bound()
+    _, bnb = _lifted(LIFTING_CASES[case_id](), lifting)
+    bnb.deadline = time.perf_counter() + 60
+    bnb._apply(bnb.root, bnb.lam_lower, bnb.lam_cap)
+    bnb._make_dormant()
+    assert bnb.dormant.any()
+    st, bound, v = bnb._node_lp(bnb.root, bnb.lam_lower, bnb.lam_cap)
+    assert st is Status.OPTIMAL
+    assert bound <= full + 1e-7 * max(1.0, abs(full))
+    assert bound <= lam + 1e-7 * max(1.0, abs(lam))
+    # the last LP point violates no row it carries: every violated dormant row was woken, unless the rounds ran out
+    sleeping = bnb.dormant[bnb._sleep_rows]
+    violated = sleeping & (bnb._sleep_matrix @ v > cb.SEPARATION_TOL)
+    assert not violated.any() or bnb.woken > 0
 
 
 def test_lifting_options_need_bnb():
@@ -534,3 +562,7 @@ def test_lifting_options_need_bnb():
         bm.solve(bm.cases.two_blocks(), "milp", engine="highs", lifting="rlt")
     with pytest.raises(bm.errors.OptionError, match="lifting"):
         bm.solve(bm.cases.two_blocks(), "milp", engine="bnb", lifting="square")
+    with pytest.raises(bm.errors.OptionError, match="root_lp"):
+        bm.solve(bm.cases.two_blocks(), "milp", engine="highs", root_lp="ipm")
+    with pytest.raises(bm.errors.OptionError, match="root_lp"):
+        bm.solve(bm.cases.two_blocks(), "milp", engine="bnb", root_lp="pdlp")
