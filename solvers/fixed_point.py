@@ -102,6 +102,12 @@ step in 600 s.  On the 10,050-block wall the path through the stalled point turn
 the run still fails (the
 engine module's docstring, ``studies/fixed_point_polish.py``,
 ``studies/fixed_point_continuation.py``).  A run that still fails falls back as above.
+Replacing the engine at 10,000 blocks was measured too (``studies/fixed_point_routes.py``): this
+sequence of LPs with each LP by the block IPM warm-started (5-7 iterations per warm LP, but the
+interior answers converge on ``n`` only linearly: 260 iterations at 1,010 blocks, still 3e-5), path
+following on (3) in a wide neighbourhood, a homotopy on the dilatancy gap (cold Newton on (3)
+converges at 10,050 blocks only up to ``tan(psi)`` 0.45 of 0.65, and the next stage stalls), ``n*``
+moved inside one LP run, and an active-set finish; none reached a solution of (3) within 3x one cold LP.
 """
 
 from __future__ import annotations

@@ -118,6 +118,27 @@ Also measured there, and failed:
 Without the continuation the interior engine ends ``NUMERICAL`` at 10,000 blocks after 2.2x
 one cold block-IPM LP (CPU, both runs: with and without the aim term); issue 14's 3x target
 is not met there.
+
+**Other routes to the 10,000-block target, measured and failed** (``studies/fixed_point_routes.py``,
+its docstring has the table):
+
+* the paper's sequence of LPs (5), each by the block IPM (``coupling="fixed"``, symmetric ``K``) warm
+  from the previous step's iterate (new slacks, ``s, y >= sqrt(mu_t)``): warm steps cost 5-7
+  iterations once ``n*`` settles, but without an exact tie-break the analytic-centre answers converge
+  only linearly (1,010 blocks: 25 LPs, ~260 iterations, ``||n - n*||/||n||`` still 3e-5 with the
+  least-compressed fold 1e-4; Anderson mixing or damping did not help), against Mehrotra's 20 on (3);
+  at 10,050 blocks the second step LP alone took 107 iterations and the third ended ``NUMERICAL``
+  (3 LPs: 2.8x one cold LP);
+* Newton on (3) by path following in the wide neighbourhood ``s_i y_i >= 1e-3 mu``: at 2,420 blocks it
+  stalls at the same ``mu`` ~1e-7 as Mehrotra's iterates, with centred iterates and accurate
+  directions, so the central path of (3) itself is what the iterates cannot follow there;
+* a homotopy on the dilatancy gap: Newton on (3) converges cold up to ``tan(psi)`` 0.45 at 10,050
+  blocks (0.2 at 2,420; ``tan(phi)`` 0.65), 50-88 iterations, but from those answers the next stage
+  towards ``psi = 0`` stalls (4.2e-3 at 10,050 blocks, 3e-3 at 2,420);
+* moving ``n*`` inside one LP run only at centred iterates with a bounded step, or Newton on part
+  of the gap with the rest lagged: both stall at 1,010 blocks, where Newton on (3) converges;
+* a primal-dual active-set method from the converged answer diverges (the piece systems are
+  singular: the forces are not unique).
 """
 
 from __future__ import annotations

@@ -1,0 +1,426 @@
+r"""Routes to a fixed point within 3x one cold LP at 10,000 blocks (issue 14), measured one by one.
+
+The interior engine (:mod:`blockmpec.solvers.engines.interior_fixed_point`, Newton on the MCP (3)
+inside one interior-point run) costs about one cold block-IPM LP at 1,000 blocks but stalls at
+2,400 and 10,000 blocks.  This study measures the routes that replace or repair it.  Each route
+runs on one wall (``--wall CxB``) and prints one row per run; rows go to
+``studies/output/fixed_point_routes/<route>_<wall>.csv``.  ``--cold`` first times one cold
+``static-lp`` (the block IPM at these sizes), the unit of the target.
+
+Routes (subcommands):
+
+* ``steps``: the paper's fixed point on ``n*``.  Each step LP (5) at ``n*`` is solved by the block
+  IPM (:class:`InteriorFixedPoint` with ``coupling="fixed"``: an LP, symmetric ``K``), started from
+  the previous step's last iterate (:func:`warm_start`: slacks of the new rows, ``s`` and ``y``
+  floored at ``sqrt(mu_target)``), the least-compressed rule folded into the objective with weight
+  ``--fold``, ``n*`` updated plainly, damped (``--relax``) or by Anderson mixing (``--accel``).  The
+  test is the paper's ``||n - n*|| <= tol ||n||``; with a fold, the last forces are paired with the
+  duals of the plain LP (5) at the last ``n*`` (both optimal for that LP if the fold picked an LP optimum).
+* ``path``: Newton on (3) by infeasible path following: Mehrotra's sigma and corrector, one step length,
+  backtracked until ``s_i y_i >= gamma mu`` (the wide neighbourhood of the central path).
+* ``gap``: Newton on (3) at a smaller dilatancy gap ``tan(phi) - tan(psi)``: ``--fractions`` of the
+  gap, each run cold (``sweep``) or the stages in order, each started from the previous stage's answer
+  with ``s, y`` floored at ``sqrt(mu_target)`` (``homotopy``; the dual rows' slope is moved in place,
+  :func:`set_dual_slope`).
+* ``trust``: one run of the LP (5) with ``n*`` moved inside it (``n* += min(1, radius / ||n - n*||) (n - n*)``)
+  at iterates whose products are at least ``centrality mu``; its stopping test includes ``||n - n*||/||n||``.
+* ``mixed``: Newton on a fraction ``theta`` of the gap, the rest of the cohesion lagged (``n* := n``
+  before every iteration): between the interior engine (``theta = 1``) and its lagged coupling (0).
+* ``active-set``: from the interior engine's answer, a primal-dual active-set method (semismooth
+  Newton on ``min(s, y) = 0``): each step one factorisation of ``K`` at ``(s, y) = (delta, 1)`` on the
+  active rows and ``(1, delta)`` on the others.
+
+Measured (2 shared cores, CPU seconds; one cold block-IPM LP: 1,010 blocks 0.9 s / 21 iterations,
+10,050 blocks 24.7 s / 53 iterations; budget of the target: ~3x those iterations):
+
+| route | wall (blocks) | result |
+|---|---|---|
+| ``steps``, no fold | 20x50 (1,010) | 15 LPs, 201 iterations: ``n`` wanders (``||n - n*||/||n||`` 1e-2, lam 0.4521..0.4526) |
+| ``steps``, fold 1e-4, ``mu_target`` 1e-4 / 1e-7 | 20x50 | 25 LPs, 262 / 254 iterations (5-7 per warm LP): ``||n - n*||/||n||`` still 5e-4 / 3e-5, linear rate ~0.8 |
+| ``steps``, + Anderson (5) or relaxation 0.5 | 20x50 | 40 LPs, 404 / 437 iterations: 5e-5 / 5e-4 |
+| ``steps``, fold 1e-4, ``mu_target`` 1e-7 | 100x100 (10,050) | 3 LPs, 134 iterations, 61.9 s (2.8x the cold LP's 22.2 s in the same run): the 2nd LP (``n`` moved 0.88) takes 107 warm iterations (``ACCEPTABLE``), the 3rd ends ``NUMERICAL`` |
+| ``path``, gamma 1e-3, sigma_min 0.1 | 20x50 | verified in 32 iterations (lam 0.45205), like Mehrotra's 20 |
+| ``path`` | 40x60 (2,420) | stalls at mu ~1e-7 as Mehrotra does: 150 iterations, sigma 0.3..0.98, steps 1e-3..1, centrality kept (min product 1e-3..0.4 mu) |
+| ``gap`` sweep, cold | 40x60 | converges for ``tan(psi)`` 0.6, 0.5, 0.4, 0.2 (30-48 iterations); stalls at 0.1, 0.05, 0 (1.3e-3) |
+| ``gap`` sweep, cold | 100x100 (10,050) | converges for 0.6, 0.5, 0.45 (50, 60, 88 iterations); stalls at 0.3 (1.1e-3) and 0.2 |
+| ``gap`` homotopy 0.3 -> 0 (fractions of the gap) | 40x60 | first stage 65 iterations, the next stalls (3.0e-3; via 0.15: 5e-5 then 2.8e-3) |
+| ``gap`` homotopy 0.77 -> 0.46 -> 0 | 100x100 | 63 iterations, then stalls at 4.2e-3 (56 iterations) |
+| ``trust``, radius 0.1 / 0.02 | 20x50 | ``NUMERICAL`` (friction complementarity 0.38 / 0.28), where Newton on (3) converges in 20 |
+| ``mixed``, theta 0.7 / 0.4 | 20x50 | ``NUMERICAL``: stalls at 2.7e-5 / 1.7e-4 (27 / 49 iterations); theta 1 converges in 18 |
+| ``active-set`` | 20x50 | diverges from the converged interior answer (1,074 of 11,760 rows switch at once; the piece systems are singular: degenerate forces) |
+
+The classic fixed point's steps are cheap once warm (5-7 iterations of a symmetric ``K``), but the
+analytic-centre answers of the step LPs converge only linearly, and slowly, even with the fold
+(no route there met ``||n - n*|| <= 1e-9 ||n||``); at 10,050 blocks three LPs already cost 2.8x one
+cold LP, where the simplex engine's fixed point takes tens of steps.  Every route on
+(3) itself stalls where the gap is large: the cold Newton run converges at 10,050 blocks only up to a
+gap of ~0.2 (of 0.65), and from a solution at a smaller gap the next stage stalls, so the difficulty is
+the problem at ``psi = 0``, not the path taken to it.
+
+Usage::
+
+    python studies/fixed_point_routes.py steps --wall 20x50 --fold 1e-4 --mu-target 1e-7 [--accel anderson]
+    python studies/fixed_point_routes.py path --wall 40x60
+    python studies/fixed_point_routes.py gap --wall 100x100 --fractions 0.92,0.77,0.69,0.46 --mode sweep
+    python studies/fixed_point_routes.py gap --wall 100x100 --fractions 0.77,0.46,0 --mode homotopy
+    python studies/fixed_point_routes.py trust --wall 20x50 --radius 0.1
+    python studies/fixed_point_routes.py active-set --wall 20x50
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+import blockmpec as bm
+
+sys.path.insert(0, str(Path(__file__).parent))
+from _tables import markdown, write_csv  # noqa: E402
+
+OUT = Path(__file__).parent / "output" / "fixed_point_routes"
+VERIFY_TOL = 1e-8
+
+
+def worst(ops, sol) -> tuple[str, float]:
+    """The largest relative residual of (3) (shared verifier) and its name."""
+    from blockmpec.verify import residuals
+
+    if sol.multiplier is None or not np.isfinite(sol.multiplier):
+        return "none", float("nan")
+    r = residuals(ops, sol, associative=False)
+    name = max(r, key=r.get)
+    return name, float(r[name])
+
+
+def result_row(route: str, setting: str, ops, sol, iterations: int, cpu: float, status: str, **more) -> dict:
+    name, value = worst(ops, sol)
+    row = {"route": route, "setting": setting, "blocks": ops.n_free_blocks, "iterations": iterations,
+           "cpu_s": cpu, "status": status, "multiplier": sol.multiplier, "worst_residual": name,
+           "worst_value": value, "verified": bool(value <= VERIFY_TOL), **more}
+    print(row, flush=True)
+    return row
+
+
+def warm_start(engine, z, mu_target: float):
+    """The previous LP's last iterate moved to the engine's LP: ``s`` the new rows' slack, ``s, y`` floored at
+    ``sqrt(mu_target)`` (so the products are at least ``mu_target``)."""
+    z = z.copy()
+    floor = np.sqrt(mu_target)
+    z.s = np.maximum(engine.h - engine.G @ z.v, floor)
+    z.y = np.maximum(z.y, floor)
+    return z
+
+
+def set_dual_slope(engine, slope, base_slope) -> None:
+    """Move the dual rows' friction slope of an exact-coupling engine built at ``base_slope`` to ``slope``
+    (the primal rows keep ``tan(phi)``)."""
+    import scipy.sparse as sp
+
+    rows = engine.friction_position
+    cols = np.repeat(engine.normal_columns, 2)
+    if not hasattr(engine, "_dual_base"):
+        engine._dual_base = engine.G_dual
+    delta = np.broadcast_to(np.asarray(slope, float) - base_slope, (engine.ops.n_interfaces,))
+    extra = sp.csr_array((engine.in_scale[rows] * np.repeat(delta, 2) * engine.column_scale[cols], (rows, cols)),
+                         shape=engine.G.shape)
+    engine.G_dual = (engine._dual_base + extra).tocsr()
+    engine.g_dual_blocks = engine.dense_blocks(engine.G_dual)
+
+
+def step_lp(ops):
+    from blockmpec.formulations import modified_lp
+    from blockmpec.formulations._pyomo import compiled_linear
+
+    return compiled_linear(modified_lp, ops, np.zeros(ops.n_interfaces), slope=ops.dilatancy)
+
+
+# ---------------------------------------------------------------------------------------------- routes
+def route_steps(ops, args) -> list[dict]:
+    from blockmpec.solvers.engines.highs import static_lp_solution
+    from blockmpec.solvers.engines.interior_fixed_point import InteriorFixedPoint
+    from blockmpec.solvers.engines.lp_sequence import Anderson
+
+    lp = step_lp(ops)
+    t0 = time.process_time()
+    engine = InteriorFixedPoint(lp, ops, coupling="fixed", tol=1e-9, max_iterations=200, time_limit=args.time_limit)
+    engine.set_fold(args.fold)
+    mixer = Anderson(args.memory, args.relax) if args.accel == "anderson" else None
+    n_star, iterate, total, sol, change, status = np.zeros(ops.n_interfaces), None, 0, None, np.inf, "step limit"
+    for k in range(1, args.steps + 1):
+        engine.set_n_star(n_star)
+        engine.start_iterate = None if iterate is None else warm_start(engine, iterate, args.mu_target)
+        engine.best_error, engine.best_iterate, engine.mu0 = np.inf, None, None
+        out = engine.solve()
+        total += out.iterations
+        sol = static_lp_solution(lp, out)
+        n = sol.x[1::3]
+        change = float(np.linalg.norm(n - n_star)) / max(float(np.linalg.norm(n)), 1e-300)
+        print(f"  step {k}: {out.status.value} {out.iterations} it (total {total}), lam {sol.multiplier:.8f}, "
+              f"||n - n*||/||n|| {change:.2e}, cpu {time.process_time() - t0:.1f}", flush=True)
+        if not out.status.is_success:
+            status = out.status.value
+            break
+        iterate = engine.best_iterate if engine.best_iterate is not None else iterate
+        if change <= args.tol:
+            status = "converged"
+            break
+        if mixer is not None:
+            n_star = np.minimum(mixer.update(n_star, np.minimum(n, 0.0)), 0.0)
+        else:
+            n_star = np.minimum(n_star + args.relax * (n - n_star), 0.0)
+    if args.fold > 0 and sol is not None and iterate is not None:
+        # duals of the plain LP (5) at the last n*, paired with the folded forces
+        engine.set_fold(0.0)
+        engine.set_n_star(n_star)
+        engine.start_iterate = warm_start(engine, iterate, args.mu_target)
+        engine.best_error, engine.best_iterate = np.inf, None
+        out = engine.solve()
+        total += out.iterations
+        plain = static_lp_solution(lp, out)
+        sol = type(sol)(multiplier=sol.multiplier, x=sol.x, u=plain.u, z_u=plain.z_u, z_f=plain.z_f)
+    setting = f"fold {args.fold:g}, mu_target {args.mu_target:g}, {args.accel}, relax {args.relax:g}"
+    return [result_row("steps", setting, ops, sol, total, time.process_time() - t0, status, lps=k,
+                       n_change=change)]
+
+
+def route_path(ops, args) -> list[dict]:
+    """Infeasible path following on (3) in the neighbourhood ``s_i y_i >= gamma mu``."""
+    from blockmpec.solvers.engines.block_ipm import IPMIterate, single_blas_thread
+    from blockmpec.solvers.engines.highs import static_lp_solution
+    from blockmpec.solvers.engines.interior_fixed_point import InteriorFixedPoint
+
+    lp = step_lp(ops)
+    t0 = time.process_time()
+    engine = InteriorFixedPoint(lp, ops, tol=1e-9)
+    z = engine.initial_point()
+    p = z.s.size
+    k = 0
+    with single_blas_thread():
+        for k in range(args.iterations):
+            r_b, r_h, r_c = engine.residuals(z)
+            primal, dual, comp = engine.measures(z, (r_b, r_h, r_c))
+            mu = float(z.s @ z.y) / p
+            if max(primal, dual, comp) <= 1e-9 or time.process_time() - t0 > args.time_limit:
+                break
+            factors = engine._factorise(z)
+            dv, ds, dw, dy = engine._direction(z, factors, r_b, r_h, r_c, -z.s * z.y)
+            a = min(engine._max_step(z.s, ds), engine._max_step(z.y, dy))
+            mu_aff = float((z.s + a * ds) @ (z.y + a * dy)) / p
+            sigma = min(1.0, max((max(mu_aff, 0.0) / mu) ** 3, args.sigma_min))
+            r_mu = sigma * mu - z.s * z.y - ds * dy
+            dv, ds, dw, dy = engine._refined_direction(z, factors, r_b, r_h, r_c, r_mu)
+            alpha = 0.9995 * min(engine._max_step(z.s, ds), engine._max_step(z.y, dy))
+            while alpha > 1e-10:
+                s, y = z.s + alpha * ds, z.y + alpha * dy
+                if (s * y).min() >= args.gamma * float(s @ y) / p:
+                    break
+                alpha *= 0.7
+            z = IPMIterate(z.v + alpha * dv, z.s + alpha * ds, z.w + alpha * dw, z.y + alpha * dy)
+            if k % 10 == 0:
+                print(f"  {k}: mu {mu:.2e} sigma {sigma:.2f} step {alpha:.3f} complementarity {comp:.1e}", flush=True)
+    out = engine.outcome_at(z)
+    sol = static_lp_solution(lp, out)
+    return [result_row("path", f"gamma {args.gamma:g}, sigma_min {args.sigma_min:g}", ops, sol, k,
+                       time.process_time() - t0, out.status.value)]
+
+
+def route_gap(ops, args) -> list[dict]:
+    from blockmpec.solvers.engines.highs import static_lp_solution
+    from blockmpec.solvers.engines.interior_fixed_point import InteriorFixedPoint
+
+    lp = step_lp(ops)
+    rows = []
+    t0 = time.process_time()
+    engine = InteriorFixedPoint(lp, ops, tol=1e-9, max_iterations=200, time_limit=args.time_limit)
+    z, total = None, 0
+    for fraction in (float(f) for f in args.fractions.split(",")):
+        if args.mode == "sweep":
+            t0 = time.process_time()
+            engine = InteriorFixedPoint(lp, ops, tol=1e-9, max_iterations=200, time_limit=args.time_limit)
+            z, total = None, 0
+        set_dual_slope(engine, ops.dilatancy + fraction * (ops.friction - ops.dilatancy), ops.dilatancy)
+        engine.start_iterate = None
+        if z is not None:
+            z = z.copy()
+            floor = np.sqrt(args.mu_target)
+            z.s, z.y = np.maximum(z.s, floor), np.maximum(z.y, floor)
+            engine.start_iterate = z
+        engine.best_error, engine.best_iterate = np.inf, None
+        out = engine.solve()
+        total += out.iterations
+        z = engine.best_iterate
+        sol = static_lp_solution(lp, out)
+        tan_psi = float(np.mean(ops.dilatancy + fraction * (ops.friction - ops.dilatancy)))
+        print(f"  gap fraction {fraction:g} (tan psi {tan_psi:.3g}): {out.status.value} {out.iterations} it, "
+              f"best residual {engine.best_error:.1e}", flush=True)
+        rows.append({"route": f"gap {args.mode}", "setting": f"tan psi {tan_psi:.3g}", "blocks": ops.n_free_blocks,
+                     "iterations": out.iterations, "total_iterations": total, "cpu_s": time.process_time() - t0,
+                     "status": out.status.value, "multiplier": sol.multiplier if out.status.is_success else None,
+                     "best_residual": engine.best_error})
+    if args.mode == "homotopy" and float(args.fractions.split(",")[-1]) == 0.0:
+        rows.append(result_row("gap homotopy", "end", ops, sol, total, time.process_time() - t0, out.status.value))
+    return rows
+
+
+def route_trust(ops, args) -> list[dict]:
+    from blockmpec.solvers.engines.highs import static_lp_solution
+    from blockmpec.solvers.engines.interior_fixed_point import InteriorFixedPoint
+
+    class MovingCohesion(InteriorFixedPoint):
+        """The LP (5) whose ``n*`` moves at well-centred iterates by a bounded step."""
+
+        change = 1.0
+
+        def before_iteration(self, it):
+            mu = float(it.s @ it.y) / it.s.size
+            n = np.minimum(self.normal_forces(it), 0.0)
+            step = n - self.n_star
+            size = float(np.linalg.norm(step)) / max(float(np.linalg.norm(n)), 1e-300)
+            if float(np.min(it.s * it.y)) >= args.centrality * mu:
+                self.set_n_star(self.n_star + min(1.0, args.radius / max(size, 1e-300)) * step)
+            self.change = float(np.linalg.norm(n - self.n_star)) / max(float(np.linalg.norm(n)), 1e-300)
+
+        def gap(self, it):
+            return max(super().gap(it), self.change)
+
+    lp = step_lp(ops)
+    t0 = time.process_time()
+    engine = MovingCohesion(lp, ops, coupling="fixed", tol=1e-9, max_iterations=args.iterations, time_limit=300)
+    out = engine.solve()
+    sol = static_lp_solution(lp, out)
+    return [result_row("trust", f"radius {args.radius:g}, centrality {args.centrality:g}", ops, sol, out.iterations,
+                       time.process_time() - t0, out.status.value)]
+
+
+def route_active_set(ops, args) -> list[dict]:
+    from blockmpec.solvers.engines.block_ipm import IPMIterate, single_blas_thread
+    from blockmpec.solvers.engines.highs import static_lp_solution
+    from blockmpec.solvers.engines.interior_fixed_point import InteriorFixedPoint
+
+    lp = step_lp(ops)
+    t0 = time.process_time()
+    engine = InteriorFixedPoint(lp, ops, tol=1e-9)
+    engine.solve()
+    z = engine.best_iterate
+    active = z.s < z.y
+    v, w, k = z.v.copy(), z.w.copy(), 0
+    with single_blas_thread():
+        for k in range(1, args.iterations + 1):
+            S, Y = np.where(active, args.delta, 1.0), np.where(active, 1.0, args.delta)
+            it = IPMIterate(v, S, w, Y)
+            r_b, r_h, r_c = engine.residuals(it)
+            dv, ds, dw, dy = engine._refined_direction(it, engine._factorise(it), r_b, r_h, r_c, -S * Y)
+            v, w, s, y = v + dv, w + dw, S + ds, Y + dy
+            switched = (y > s) != active
+            z = IPMIterate(v.copy(), np.maximum(s, 0.0), w.copy(), np.maximum(y, 0.0))
+            print(f"  {k}: {int(switched.sum())} of {active.size} rows switch, residuals {engine.measures(z)}",
+                  flush=True)
+            if max(engine.measures(z)) <= 1e-9 or not switched.any():
+                break
+            active = y > s
+    out = engine.outcome_at(z)
+    sol = static_lp_solution(lp, out)
+    return [result_row("active-set", f"delta {args.delta:g}", ops, sol, k, time.process_time() - t0,
+                       out.status.value)]
+
+
+def route_mixed(ops, args) -> list[dict]:
+    """Newton on a fraction ``theta`` of the gap, the rest lagged: primal friction rows
+    ``+-t + (tan(psi) + theta g) n <= -(1 - theta) g n*`` with ``n* := n`` before every iteration (at
+    ``n = n*`` the MCP (3)); ``theta = 1`` is the interior engine, ``theta = 0`` its lagged coupling."""
+    import scipy.sparse as sp
+
+    from blockmpec.solvers.engines.highs import static_lp_solution
+    from blockmpec.solvers.engines.interior_fixed_point import InteriorFixedPoint
+
+    theta = args.theta
+
+    class Mixed(InteriorFixedPoint):
+        change = 1.0
+
+        def before_iteration(self, it):
+            n = np.minimum(self.normal_forces(it), 0.0)
+            self.change = float(np.linalg.norm(n - self.n_star)) / max(float(np.linalg.norm(n)), 1e-300)
+            self.set_n_star(n)
+            super().before_iteration(it)
+
+        def gap(self, it):
+            return max(super().gap(it), (1 - theta) * self.change)
+
+    lp = step_lp(ops)
+    t0 = time.process_time()
+    engine = Mixed(lp, ops, coupling="fixed", tol=1e-9, max_iterations=args.iterations, time_limit=args.time_limit)
+    factor = engine.cohesion_factor.copy()
+    rows, cols = engine.friction_position, np.repeat(engine.normal_columns, 2)
+    extra = sp.csr_array((engine.in_scale[rows] * np.repeat(theta * factor, 2) * engine.column_scale[cols],
+                          (rows, cols)), shape=engine.G.shape)
+    engine.G = (engine.G + extra).tocsr()
+    engine.g_blocks = engine.dense_blocks(engine.G)
+    engine.symmetric = theta == 0
+    engine.cohesion_factor = (1 - theta) * factor
+    out = engine.solve()
+    sol = static_lp_solution(lp, out)
+    return [result_row("mixed", f"theta {theta:g}", ops, sol, out.iterations, time.process_time() - t0,
+                       out.status.value)]
+
+
+ROUTES = {"steps": route_steps, "mixed": route_mixed, "path": route_path, "gap": route_gap, "trust": route_trust,
+          "active-set": route_active_set}
+
+
+def main(argv: list[str] | None = None) -> list[dict]:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("route", choices=sorted(ROUTES))
+    parser.add_argument("--wall", default="20x50", help="CxB: courses x blocks per course")
+    parser.add_argument("--cold", action="store_true", help="first time one cold static-lp")
+    parser.add_argument("--time-limit", type=float, default=300.0)
+    parser.add_argument("--iterations", type=int, default=150, help="path, trust, active-set: most iterations")
+    # steps
+    parser.add_argument("--fold", type=float, default=0.0)
+    parser.add_argument("--mu-target", type=float, default=1e-7)
+    parser.add_argument("--relax", type=float, default=1.0)
+    parser.add_argument("--accel", choices=("none", "anderson"), default="none")
+    parser.add_argument("--memory", type=int, default=5)
+    parser.add_argument("--steps", type=int, default=25)
+    parser.add_argument("--tol", type=float, default=1e-9)
+    # path
+    parser.add_argument("--gamma", type=float, default=1e-3)
+    parser.add_argument("--sigma-min", type=float, default=0.1)
+    # gap
+    parser.add_argument("--fractions", default="0.77,0.46,0", help="fractions of the dilatancy gap (1: associative)")
+    parser.add_argument("--mode", choices=("sweep", "homotopy"), default="homotopy")
+    # trust
+    parser.add_argument("--radius", type=float, default=0.1)
+    parser.add_argument("--centrality", type=float, default=1e-3)
+    # mixed
+    parser.add_argument("--theta", type=float, default=0.7)
+    # active set
+    parser.add_argument("--delta", type=float, default=1e-12)
+    args = parser.parse_args(argv)
+    courses, per = (int(v) for v in args.wall.split("x"))
+    ops = bm.assemble(bm.cases.wall(courses=courses, blocks_per_course=per))
+    rows = []
+    if args.cold:
+        from fixed_point_ratio import timed_solve
+
+        res, cpu = timed_solve(ops, "static-lp", algorithm="auto", time_limit=args.time_limit)
+        rows.append({"route": "cold static-lp", "setting": "block IPM", "blocks": ops.n_free_blocks,
+                     "iterations": res.iterations, "cpu_s": cpu, "status": res.status.value,
+                     "multiplier": res.multiplier, "verified": bool(res.success)})
+        print(rows[-1], flush=True)
+    rows += ROUTES[args.route](ops, args)
+    columns = [("route", "route", "{}"), ("setting", "setting", "{}"), ("blocks", "blocks", "{}"),
+               ("iterations", "iterations", "{}"), ("cpu_s", "CPU s", "{:.3g}"), ("status", "status", "{}"),
+               ("multiplier", "lam", "{:.6g}"), ("worst_value", "worst residual of (3)", "{:.1e}"),
+               ("verified", "verified 1e-8", "{}")]
+    print(markdown(rows, columns))
+    print(f"wrote {write_csv(OUT / f'{args.route}_{args.wall}.csv', rows)}")
+    return rows
+
+
+if __name__ == "__main__":
+    main()
