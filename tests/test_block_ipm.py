@@ -153,6 +153,48 @@ def test_krylov_fallback_leaves_converging_directions_unchanged(mild_wall_ipm):
         np.testing.assert_array_equal(a, b)
 
 
+def test_early_switch_to_gmres_saves_solves_and_meets_the_target(mild_wall_ipm):
+    """With factors of ``K + 1e-3 diag(K)`` a stationary correction shrinks the error by ~0.3 only:
+    GMRES taking over after the first slow correction (``krylov_switch``) meets the target with fewer
+    solves than after all ``refinements`` stationary ones, and both give the same direction."""
+    ipm, it = mild_wall_ipm
+    factors = _factors_with_shift(ipm, it, 1e-3)
+    r_b, r_h, r_c = ipm.residuals(it)
+    r_mu = 0.1 * float(it.s @ it.y) / it.s.size - it.s * it.y
+    target = 1e-1 * ipm.tol * (1 + np.max(np.abs(ipm.b)))
+    solves, directions = {}, {}
+    for switch in (DEFAULT_SETTINGS["krylov_switch"], np.inf):
+        ipm.settings(krylov_switch=switch)
+        before, steps = ipm.factoriser.solves, ipm.krylov_steps
+        directions[switch] = ipm._direction(it, factors, r_b, r_h, r_c, r_mu)
+        solves[switch] = ipm.factoriser.solves - before
+        assert ipm.krylov_steps == steps + 1  # GMRES ran either way
+        res = _newton_residuals(ipm, it, directions[switch], r_b, r_h, r_c, r_mu)
+        assert np.max(np.abs(res["equality"])) <= target
+    ipm.settings(**DEFAULT_SETTINGS)
+    assert solves[DEFAULT_SETTINGS["krylov_switch"]] < solves[np.inf]
+    for a, b in zip(directions[DEFAULT_SETTINGS["krylov_switch"]], directions[np.inf], strict=True):
+        np.testing.assert_allclose(a, b, rtol=0, atol=1e-6 * max(np.max(np.abs(b)), 1.0))
+
+
+def test_gmres_direction_equals_the_direct_one(mild_wall_ipm):
+    """GMRES from the first reduced solve (no stationary correction) and the stationary refinement with
+    exact factors solve the same Newton system: the same direction, to the refinement's target."""
+    ipm, it = mild_wall_ipm
+    factors = ipm._factorise(it)
+    r_b, r_h, r_c = ipm.residuals(it)
+    r_mu = 0.1 * float(it.s @ it.y) / it.s.size - it.s * it.y
+    ipm.settings(refinements=8, krylov_iterations=0)
+    direct = ipm._direction(it, factors, r_b, r_h, r_c, r_mu)
+    ipm.settings(refinements=0, krylov_iterations=DEFAULT_SETTINGS["krylov_iterations"])
+    steps = ipm.krylov_steps
+    krylov = ipm._direction(it, factors, r_b, r_h, r_c, r_mu)
+    ipm.settings(**DEFAULT_SETTINGS)
+    assert ipm.krylov_steps == steps + 1
+    for a, b in zip(krylov, direct, strict=True):
+        np.testing.assert_allclose(a, b, rtol=0, atol=1e-7 * max(np.max(np.abs(b)), 1.0))
+
+
 def test_defaults_solve_a_wall_to_the_verifier_tolerance():
     """The default settings give a point the shared verifier accepts at 1e-8, and HiGHS's lambda."""
     from blockmpec.solvers.engines.highs import HighsLP, static_lp_solution
