@@ -119,7 +119,9 @@ DEFAULT_SETTINGS = {"refinements": 8, "lazy_refinement": True, "inner_refinement
 #: (``courses=180, blocks_per_course=181``) is ``OPTIMAL`` in 63 iterations, primal residual <= 3e-12
 #: throughout, 0.84x the CPU time of the stationary refinement (``ACCEPTABLE`` after 74; one run).  With
 #: the defaults the 100,014-block wall is ``OPTIMAL`` after 80 iterations (831 s CPU, primal residual
-#: <= 7e-12 throughout, GMRES in 36 of them), verifier 1.8e-10.
+#: <= 7e-12 throughout, GMRES in 36 of them), verifier 1.8e-10.  With GMRES taking over after the
+#: first slow correction (``krylov_switch`` 0.1) it needs 1,306 instead of 1,487 solves with K (82
+#: iterations either way; GMRES in 42, 378 solves in them), verifier 3.6e-10 (studies/lp_timing.py).
 #: the refinement before that measurement
 SHORT_REFINEMENT_SETTINGS = {**DEFAULT_SETTINGS, "refinements": 3, "final_sweeps": 2}
 #: stationary refinement only (the default before the Krylov fallback), with 8 and 4 or 3 and 2 corrections
