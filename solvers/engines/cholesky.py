@@ -27,10 +27,11 @@ Orderings (:data:`ORDERINGS`):
   fallback when pymetis is not installed;
 * ``"auto"``: ``"metis"`` if importable, else ``"mmd"``.
 
-Measured on one mid-iteration ``K`` of a wall (``studies/cholesky_choice.py``, CPU time): 100,016
-blocks (300,042 rows), METIS: SuperLU 71M nonzeros in ``L+U``, ~6 s per factorisation; the
-supernodal Cholesky ~2.5 s (35.7M structural nonzeros in ``L``, 48.7M stored with the
-amalgamation zeros), its solves within ~1.3x of SuperLU's.  No wheel on PyPI offers a faster
+Measured on one ``K`` of a wall at a generic interior point (``python studies/cholesky_choice.py
+--walls 316x316 --methods supernodal-metis,superlu-metis``, CPU time, idle machine): 100,014 blocks
+(300,042 rows), METIS: SuperLU 71.5M nonzeros in ``L+U``, 4.56 s per factorisation, 0.110 s per
+solve; the supernodal Cholesky 2.11 s (0.46x; 35.7M structural nonzeros in ``L``, 48.7M stored with
+the amalgamation zeros), 0.119 s per solve, 6.6 s of ordering and symbolic analysis (once).  No wheel on PyPI offers a faster
 permissive sparse Cholesky here: CHOLMOD (``sksparse-minimal``/``cholespy``) bundles its GPL
 Supernodal module, ``qdldl`` (Apache-2.0, AMD) took 29 s on the 100k matrix, and MUMPS/SPRAL
 (``python-mumps``, ``pyspral``) have no wheel for this platform.
