@@ -298,9 +298,9 @@ def dual_bound(A, c, row_lower, row_upper, col_lower, col_upper, y, tol: float =
     With ``d = c - A^T y``, for every feasible ``w``: ``c^T w = y^T (A w) + d^T w >=
     sum_r min_{t in [l_r, u_r]} y_r t + sum_j min_{w_j in [cl_j, cu_j]} d_j w_j``.  ``y_r`` of the wrong
     sign for a one-sided row is set to 0 first (its term would be ``-inf``).  The interior point's ``y``
-    leaves small reduced costs ``d_j`` on the free columns (about 1e-9); ``correct``: a least-squares
-    correction of ``y`` on the equality rows and the inequality rows with ``|y_r| > DORMANT_DUAL_TOL``
-    (sign kept) brings them down.  A reduced cost at most ``tol`` in size on an unbounded side counts
+    leaves small reduced costs ``d_j`` on the free columns (about 1e-9); ``correct``: where they give
+    ``-inf``, a least-squares correction of ``y`` on the equality rows and the inequality rows with
+    ``|y_r| > DORMANT_DUAL_TOL`` is tried (kept only if its bound is larger).  A reduced cost at most ``tol`` in size on an unbounded side counts
     as zero, the dual feasibility tolerance under which every simplex LP of this engine is accepted
     as optimal (so this bound is held to the standard of the simplex bounds, not beyond);
     a larger one gives ``-inf``.
@@ -327,7 +327,7 @@ def dual_bound(A, c, row_lower, row_upper, col_lower, col_upper, y, tol: float =
         return float(rows.sum() + cols.sum()), y, d
 
     best, y, d = value(np.asarray(y, float))
-    if correct:
+    if correct and best == -np.inf:  # (measured: where the plain bound was finite, the correction moved it by 3e-9)
         from scipy.sparse.linalg import lsqr
 
         # columns whose reduced cost should vanish: the free ones and every one with a small reduced cost (lam's
@@ -336,7 +336,7 @@ def dual_bound(A, c, row_lower, row_upper, col_lower, col_upper, y, tol: float =
         rows = ~(lower_open | upper_open) | ((lower_open ^ upper_open) & (np.abs(y) > DORMANT_DUAL_TOL))
         M = sp.csr_array(A[:, cols])[rows].T
         y2 = y.copy()
-        y2[rows] += lsqr(M, d[cols], atol=1e-16, btol=1e-16, iter_lim=5000)[0]
+        y2[rows] += lsqr(M, d[cols], atol=1e-16, btol=1e-16, iter_lim=200)[0]
         best = max(best, value(y2)[0])
     return best
 
@@ -386,6 +386,7 @@ class ComplementarityBnB:
         self.woken = 0
         self.ipm_time = 0.0
         self.ipm_bound = None
+        self._timing = {}
         self.root = np.zeros(npair, dtype=np.int8)  # 0 free, 1 active, -1 inactive
         if fixed_active is not None:
             self.root[fixed_active] = 1
@@ -494,22 +495,26 @@ class ComplementarityBnB:
         y = self._interior_duals(self._A, c, rl, ru, cl, cu)
         if y is not None:
             bound = dual_bound(self._A, c, rl, ru, cl, cu, y)
+            self._timing["ipm1"] = time.perf_counter() - t0
             rows = self._sleep_rows
             sleep = rows[np.abs(y[rows]) <= DORMANT_DUAL_TOL]
             self.dormant[sleep] = True
             _checked(self.h.changeRowsBounds(sleep.size, sleep, np.full(sleep.size, -np.inf),
                                              np.full(sleep.size, np.inf)))
-            keep = ~self.dormant
+            # the second run drops every one-sided row with a zero dual (static pair rows and lam rows too)
+            keep = ~((np.isfinite(rl) ^ np.isfinite(ru)) & (np.abs(y) <= DORMANT_DUAL_TOL))
             Ar = sp.csc_array(sp.csr_array(self._A)[keep])
             y2 = self._interior_duals(Ar, c, rl[keep], ru[keep], cl, cu)
             if y2 is not None:
                 bound = max(bound, dual_bound(Ar, c, rl[keep], ru[keep], cl, cu, y2))
+        self._timing["ipm"] = time.perf_counter() - t0
         self.ipm_time = time.perf_counter() - t0
         self.ipm_bound = bound
         return bound
 
-    def _interior_duals(self, A, c, rl, ru, cl, cu) -> np.ndarray | None:
-        """Row duals of the LP by HiGHS's interior point without crossover (None if it gave none)."""
+    def _interior_duals(self, A, c, rl, ru, cl, cu, tol: float | None = None) -> np.ndarray | None:
+        """Row duals of the LP by HiGHS's interior point without crossover (None if it gave none); ``tol``:
+        its optimality and feasibility tolerances (HiGHS's defaults if None)."""
         import highspy
 
         A = sp.csc_array(A)
@@ -524,6 +529,9 @@ class ComplementarityBnB:
         g.passModel(lp)
         g.setOptionValue("solver", "ipm")
         g.setOptionValue("run_crossover", "off")
+        if tol is not None:
+            for name in ("ipm_optimality_tolerance", "primal_feasibility_tolerance", "dual_feasibility_tolerance"):
+                g.setOptionValue(name, tol)
         g.setOptionValue("time_limit", max(self.deadline - time.perf_counter(), 1e-3))
         g.run()
         self.n_lps += 1
@@ -642,10 +650,11 @@ class ComplementarityBnB:
                               best_val, 1, time.perf_counter() - t0, tracer.records), best
             return MIPRun(Status.INFEASIBLE, "infeasible", "root LP infeasible", None, np.inf, np.inf, 1,
                           time.perf_counter() - t0, tracer.records), best
-        if st is Status.TIME_LIMIT:  # the bound passed in (lam_lower) stands
-            tracer.record(self.lam_lower, best_val, force=True)
+        if st is Status.TIME_LIMIT:  # the bound passed in (lam_lower) or the interior point's stands
+            root_bound = max(self.lam_lower, min(interior, best_val))
+            tracer.record(root_bound, best_val, force=True)
             return MIPRun(Status.TIME_LIMIT, "time_limit", "time limit in the root LP", None, best_val,
-                          self.lam_lower, 0, time.perf_counter() - t0, tracer.records), best
+                          root_bound, 0, time.perf_counter() - t0, tracer.records), best
         if st is not Status.OPTIMAL:
             return MIPRun(Status.ERROR, st.value, f"root LP {st.value}", None, best_val, -np.inf, 1,
                           time.perf_counter() - t0, tracer.records), best
