@@ -326,14 +326,15 @@ def test_heuristics_never_below_the_certificate():
                 assert res.multiplier >= lo.multiplier - margin(HEURISTIC_TOL, lo.multiplier), (case_id, method)
 
 
-@pytest.mark.parametrize("engine", ENGINES)
-def test_bound_never_exceeds_a_verified_point(engine):
+@pytest.mark.parametrize("options", [{"engine": e} for e in ENGINES]
+                         + [{"engine": "bnb", "lifting": "rlt", "root_lp": "ipm"}], ids=lambda o: "-".join(o.values()))
+def test_bound_never_exceeds_a_verified_point(options):
     """On a time-out the bound (and every bound in the trace) lies below every verified point of (3):
     the run's own polished point and each verified heuristic result."""
     from helpers import HEURISTIC_TOL, HEURISTICS, margin
 
     structure = bm.cases.wall(3, 3)
-    res = bm.solve(structure, "milp", engine=engine, time_limit=5.0)
+    res = bm.solve(structure, "milp", time_limit=5.0, **options)
     assert res.status in (Status.TIME_LIMIT, Status.OPTIMAL), res.message
     if "bound" not in res.extra:  # the time ran out in the bound LPs: no bound is claimed, and no point
         assert res.status is Status.TIME_LIMIT and res.multiplier is None
@@ -510,12 +511,14 @@ def test_rlt_root_bound_is_the_running_bond_minimum():
     assert bounds["rlt"] == pytest.approx(0.65, abs=1e-7)
 
 
-@pytest.mark.parametrize(("lifting", "lam_branching"), [("rlt", False), ("friction", True), ("rlt", True)])
+@pytest.mark.parametrize(("lifting", "lam_branching", "root_lp"),
+                         [("rlt", False, "simplex"), ("friction", True, "simplex"), ("rlt", True, "simplex"),
+                          ("rlt", False, "ipm")])
 @pytest.mark.parametrize(("eta", "mu"), [(1, 0.3), (3, 0.65), (5, 1.5)])
-def test_liftings_and_lam_branching_certify_the_closed_form(lifting, lam_branching, eta, mu):
+def test_liftings_and_lam_branching_certify_the_closed_form(lifting, lam_branching, root_lp, eta, mu):
     expected = bm.cases.closed_form("two-blocks", "non-associative", eta=eta, mu=mu)
     res = bm.solve(bm.cases.two_blocks(eta=eta, mu=mu), "milp", engine="bnb", lifting=lifting,
-                   lam_branching=lam_branching, heuristic="")
+                   lam_branching=lam_branching, heuristic="", root_lp=root_lp)
     assert_certified(res)
     assert abs(res.multiplier - expected) <= 1e-7
 
