@@ -18,6 +18,7 @@ Usage::
     python studies/certificate_study.py compare --configs highs,scip,before --cases 3x2,6x2s,2x4 --time-limit 60
     python studies/certificate_study.py targets --configs scip
     python studies/certificate_study.py largest --configs highs,before --time-limit 60 --families running,stack,arch
+    python studies/certificate_study.py compare --configs bnb-rlt,bnb-rlt-ipm --cases 3x2,2x4,4x2,4x3,5x2
 """
 
 from __future__ import annotations
