@@ -16,7 +16,10 @@ rows are saved.  ``export``, ``cases``, ``methods``: 0, 2 or 3.
 from __future__ import annotations
 
 import argparse
+import contextlib
+import io
 import json
+import os
 import sys
 import time
 from pathlib import Path
@@ -116,6 +119,32 @@ def _format_result(label: str, r: Result) -> str:
             + (f"\n  {r.message}" if r.message and not r.success else ""))
 
 
+@contextlib.contextmanager
+def _stdout_to_stderr():
+    """Send everything written to file descriptor 1 meanwhile to stderr.
+
+    ``solve --json`` promises one JSON object on stdout, but compiled solvers write there
+    directly (HiGHS 1.16 prints its licence banner when the first instance is created), past
+    ``sys.stdout``.  So for the solve, descriptor 1 points at stderr; nothing is lost, and
+    stdout carries only the JSON.  Where stdout has no descriptor (an in-process caller's
+    buffer) nothing is redirected.
+    """
+    try:
+        stdout_fd = sys.stdout.fileno()
+    except (AttributeError, ValueError, io.UnsupportedOperation):
+        yield
+        return
+    sys.stdout.flush()
+    saved = os.dup(stdout_fd)
+    try:
+        os.dup2(sys.stderr.fileno(), stdout_fd)
+        yield
+    finally:
+        sys.stdout.flush()
+        os.dup2(saved, stdout_fd)
+        os.close(saved)
+
+
 def cmd_solve(args: argparse.Namespace) -> int:
     from blockmpec.study import check_tolerance
 
@@ -124,7 +153,8 @@ def cmd_solve(args: argparse.Namespace) -> int:
     options = parse_pairs(args.option, "-O")
     get_solver(args.method)(**options)  # unknown method / bad option: exit 2 before building anything
     structure = load_case(args.case, params)
-    result = solve(structure, args.method, verify_tol=verify_tol, **options)
+    with _stdout_to_stderr() if args.json else contextlib.nullcontext():
+        result = solve(structure, args.method, verify_tol=verify_tol, **options)
     if args.json:
         out = result.to_dict()
         out["case"] = args.case

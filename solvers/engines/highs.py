@@ -48,6 +48,22 @@ HIGHS_STATUS: dict[str, Status] = {
 }
 
 
+def set_threads(highs, threads: int) -> None:
+    """Set HiGHS's ``threads`` option so that the next ``run()`` accepts it.
+
+    HiGHS starts a task scheduler of ``threads`` workers on the first ``run()`` and
+    refuses a later run whose ``threads`` differs from that size (model status
+    ``kNotset``, "scheduler has already been initialized").  highspy up to 1.15 shut
+    the scheduler down after every run; 1.16 keeps it, one per calling thread.  So the
+    calling thread's scheduler is shut down here (blocking, about 0.3 ms) and the next
+    run starts one of the requested size; other threads' solves are not touched on
+    1.16 (``resetThreadScheduler``), and on older highspy there was nothing to keep.
+    """
+    reset = getattr(type(highs), "resetThreadScheduler", None) or type(highs).resetGlobalScheduler
+    reset(True)
+    highs.setOptionValue("threads", int(threads))
+
+
 def highs_status(highs) -> tuple[Status, str]:
     """``(status, raw_name)`` of a ``highspy.Highs`` after ``run()``: the one HiGHS status map.
 
@@ -129,7 +145,7 @@ class HighsLP:
         if np.isfinite(time_limit):
             h.setOptionValue("time_limit", float(time_limit))
         if threads:
-            h.setOptionValue("threads", int(threads))
+            set_threads(h, threads)
         m, n = lp.A.shape
         self.row_scale = np.ones(m) if row_scale is None else np.asarray(row_scale, float)
         self.column_scale = np.ones(n) if column_scale is None else np.asarray(column_scale, float)

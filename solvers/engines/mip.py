@@ -71,13 +71,13 @@ def solve_highs(mip, time_limit: float, *, rel_gap: float, abs_gap: float, feasi
     """HiGHS on the big-M model (integer columns = binaries)."""
     import highspy
 
-    from blockmpec.solvers.engines.highs import highs_status, mip_info
+    from blockmpec.solvers.engines.highs import highs_status, mip_info, set_threads
 
     t0 = time.perf_counter() if t0 is None else t0
     tracer = _Tracer(mip.objective_sign, t0)
     h = highspy.Highs()
     h.setOptionValue("output_flag", bool(verbose))
-    h.setOptionValue("threads", int(threads))
+    set_threads(h, threads)
     h.setOptionValue("mip_rel_gap", float(rel_gap))
     h.setOptionValue("mip_abs_gap", float(abs_gap))
     h.setOptionValue("mip_feasibility_tolerance", float(feasibility_tol))
