@@ -25,7 +25,11 @@ comparison), the nonzeros of the factors and the relative residual
 
 Usage::
 
-    python studies/cholesky_choice.py [--walls 100x100,316x316] [--methods ...]
+    python studies/cholesky_choice.py [--walls 100x100,316x316] [--methods ...] [--blas-threads 1,2]
+
+``--blas-threads 1,2`` measures each method with one and with two BLAS threads (wall and CPU side by side;
+for the supernodal Cholesky only its fronts of at least ``THREADED_FRONT_ROWS`` rows get them, whose
+dense updates are BLAS-3: multithreaded BLAS on every front spins its threads between tiny calls).
 
 Writes ``studies/output/cholesky_choice/cholesky_choice.csv``.
 """
@@ -40,11 +44,12 @@ from pathlib import Path
 import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
+from threadpoolctl import threadpool_limits
 
 import blockmpec as bm
 from blockmpec.formulations import compile_linear, static_lp
 from blockmpec.formulations._pyomo import pause_gc
-from blockmpec.solvers.engines.block_ipm import IPMIterate, single_blas_thread
+from blockmpec.solvers.engines.block_ipm import IPMIterate
 from blockmpec.solvers.engines.cholesky import (
     SupernodalCholesky,
     SymmetricFactoriser,
@@ -81,8 +86,11 @@ def reduced_matrix(courses: int, per_course: int, seed: int = 0):
     return sp.csc_array(K), engine
 
 
-def measure(method: str, K: sp.csc_array, engine) -> dict | None:
-    """Ordering, one factorisation and one solve of ``K x = b`` by ``method``; None if not installed."""
+def measure(method: str, K: sp.csc_array, engine, threads: int = 1) -> dict | None:
+    """Ordering, one factorisation and one solve of ``K x = b`` by ``method``; None if not installed.
+
+    ``threads``: BLAS threads of the supernodal Cholesky's large fronts (``front_threads``; the rest of
+    the process on one), or of the whole factorisation for the other methods."""
     n = K.shape[0]
     b = np.random.default_rng(1).standard_normal(n)
     t_order = 0.0
@@ -90,36 +98,38 @@ def measure(method: str, K: sp.csc_array, engine) -> dict | None:
     if kind in FACTORISERS and ordering in ("metis", "mmd"):
         if ordering == "metis" and not metis_available():
             return None
-        t = time.process_time()
+        t, w = time.process_time(), time.perf_counter()
         f = FACTORISERS[kind](structural_pattern(engine.A_B, engine.k), ordering)
+        if kind == "supernodal":
+            f.front_threads = threads
         t_order = time.process_time() - t
         f.factorise(K)  # the first numeric factorisation allocates (supernodal); time the second
-        t = time.process_time()
+        t, w = time.process_time(), time.perf_counter()
         solve = f.factorise(K)
-        t_factor = time.process_time() - t
+        t_factor, w_factor = time.process_time() - t, time.perf_counter() - w
         nnz = f.factor_nnz
     elif method == "superlu-colamd":
-        t = time.process_time()
+        t, w = time.process_time(), time.perf_counter()
         lu = spla.splu(sp.csc_matrix(K), permc_spec="COLAMD", diag_pivot_thresh=0.0, options={"SymmetricMode": True})
-        t_factor = time.process_time() - t
+        t_factor, w_factor = time.process_time() - t, time.perf_counter() - w
         solve, nnz = lu.solve, lu.nnz
     elif method == "qdldl":
         try:
             import qdldl
         except ImportError:
             return None
-        t = time.process_time()
+        t, w = time.process_time(), time.perf_counter()
         solver = qdldl.Solver(sp.csc_matrix(K))
-        t_factor = time.process_time() - t
+        t_factor, w_factor = time.process_time() - t, time.perf_counter() - w
         solve, nnz = solver.solve, 2 * solver.factors()[0].nnz + n
     elif method == "cholmod":
         try:
             from sksparse_minimal import SparseCholesky
         except ImportError:
             return None
-        t = time.process_time()
+        t, w = time.process_time(), time.perf_counter()
         factor = SparseCholesky(sp.csc_matrix(K))
-        t_factor = time.process_time() - t
+        t_factor, w_factor = time.process_time() - t, time.perf_counter() - w
         solve, nnz = factor.solve_A, 0
     elif method == "pardiso":
         try:
@@ -129,9 +139,9 @@ def measure(method: str, K: sp.csc_array, engine) -> dict | None:
         solver = pypardiso.PyPardisoSolver(mtype=2)  # real symmetric positive definite
         upper = sp.triu(K, format="csr")
         upper.sort_indices()
-        t = time.process_time()
+        t, w = time.process_time(), time.perf_counter()
         solver.factorize(upper)
-        t_factor = time.process_time() - t
+        t_factor, w_factor = time.process_time() - t, time.perf_counter() - w
 
         def solve(rhs):
             return solver.solve(upper, rhs)
@@ -139,12 +149,13 @@ def measure(method: str, K: sp.csc_array, engine) -> dict | None:
         nnz = 2 * int(solver.iparm[17])
     else:
         raise ValueError(f"unknown method {method!r}; use one of {', '.join(METHODS)}")
-    t = time.process_time()
+    t, w = time.process_time(), time.perf_counter()
     for _ in range(5):
         x = solve(b)
-    t_solve = (time.process_time() - t) / 5
+    t_solve, w_solve = (time.process_time() - t) / 5, (time.perf_counter() - w) / 5
     residual = float(np.linalg.norm(K @ x - b) / np.linalg.norm(b))
     return {"method": method, "rows": n, "nnz_K": K.nnz, "order_s": t_order, "factor_s": t_factor, "solve_s": t_solve,
+            "factor_wall_s": w_factor, "solve_wall_s": w_solve,
             "factor_nnz": nnz, "residual": residual, "licence": LICENCE[method]}
 
 
@@ -152,27 +163,36 @@ def main(argv: list[str] | None = None) -> list[dict]:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--walls", default="100x100", help="comma-separated CxB walls (courses x blocks per course)")
     parser.add_argument("--methods", default=",".join(METHODS))
+    parser.add_argument("--blas-threads", default="1", help="comma-separated BLAS thread counts, each measured")
     args = parser.parse_args(argv)
     rows = []
     for wall in args.walls.split(","):
         courses, per = (int(v) for v in wall.split("x"))
         K, engine = reduced_matrix(courses, per)
         for method in args.methods.split(","):
-            with single_blas_thread():  # as the block IPM runs (multithreaded BLAS spins on small calls)
-                row = measure(method, K, engine)
-            if row is None:
-                print(f"{method}: not installed, skipped", flush=True)
-                continue
-            row["blocks"] = K.shape[0] // 3  # free blocks: 3 equilibrium rows each
-            rows.append(row)
-            print(row, flush=True)
+            for threads in (int(v) for v in args.blas_threads.split(",")):
+                # one thread as the block IPM runs (multithreaded BLAS spins on small calls); the supernodal
+                # Cholesky gives its large fronts `threads` (front_threads), the other methods get them throughout
+                own = 1 if method.startswith("supernodal") else threads
+                with threadpool_limits(limits=own, user_api="blas"):
+                    row = measure(method, K, engine, threads)
+                if row is None:
+                    print(f"{method}: not installed, skipped", flush=True)
+                    break
+                row["blocks"] = K.shape[0] // 3  # free blocks: 3 equilibrium rows each
+                row["blas_threads"] = threads
+                rows.append(row)
+                print(row, flush=True)
     print()
-    print("| blocks | rows of K | method | licence | ordering | factorisation | solve | nonzeros of factors | residual |")
-    print("| ---: | ---: | --- | --- | ---: | ---: | ---: | ---: | ---: |")
+    print("CPU times (wall-clock in brackets):")
+    print("| blocks | rows of K | method | licence | BLAS threads | ordering | factorisation | solve | nonzeros of factors "
+          "| residual |")
+    print("| ---: | ---: | --- | --- | ---: | ---: | ---: | ---: | ---: | ---: |")
     for r in rows:
         nnz = f"{r['factor_nnz'] / 1e6:.1f}M" if r["factor_nnz"] else "–"
-        print(f"| {r['blocks']:,} | {r['rows']:,} | {r['method']} | {r['licence']} | {r['order_s']:.2f} s "
-              f"| {r['factor_s']:.2f} s | {r['solve_s']:.3f} s | {nnz} | {r['residual']:.0e} |")
+        print(f"| {r['blocks']:,} | {r['rows']:,} | {r['method']} | {r['licence']} | {r['blas_threads']} "
+              f"| {r['order_s']:.2f} s | {r['factor_s']:.2f} s ({r['factor_wall_s']:.2f} s) "
+              f"| {r['solve_s']:.3f} s ({r['solve_wall_s']:.3f} s) | {nnz} | {r['residual']:.0e} |")
     if rows:
         print(f"wrote {write_csv(OUT / 'cholesky_choice.csv', rows)}")
     return rows
