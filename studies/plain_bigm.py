@@ -42,7 +42,7 @@ from blockmpec.solvers.engines.mip import solve_highs
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _tables import write_csv  # noqa: E402
-from certificate_study import CONFIGS, case  # noqa: E402
+from certificate_study import CONFIGS, _fmt, case  # noqa: E402
 
 OUT = Path(__file__).parent / "output" / "certificate"
 COLUMNS = [
@@ -145,14 +145,6 @@ def run_milp(spec: str, config: str, time_limit: float) -> dict:
         "nodes": ex.get("nodes"),
         "solve_s": res.solve_time_s,
     }
-
-
-def _fmt(v) -> str:
-    if v is None:
-        return "-"
-    if isinstance(v, float):
-        return f"{v:.4g}"
-    return str(v)
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -48,6 +48,22 @@ HIGHS_STATUS: dict[str, Status] = {
 }
 
 
+def highs_lp(A, c, row_lower, row_upper, col_lower, col_upper):
+    """``min c^T x`` s.t. ``row_lower <= A x <= row_upper``, ``col_lower <= x <= col_upper`` as a
+    ``highspy.HighsLp`` (column-wise matrix; infinite bounds as ``+-inf``)."""
+    import highspy
+
+    A = sp.csc_array(A)
+    model = highspy.HighsLp()
+    model.num_col_, model.num_row_ = A.shape[1], A.shape[0]
+    model.col_cost_ = np.asarray(c, float)
+    model.col_lower_, model.col_upper_ = np.asarray(col_lower, float), np.asarray(col_upper, float)
+    model.row_lower_, model.row_upper_ = np.asarray(row_lower, float), np.asarray(row_upper, float)
+    model.a_matrix_.format_ = highspy.MatrixFormat.kColwise
+    model.a_matrix_.start_, model.a_matrix_.index_, model.a_matrix_.value_ = A.indptr, A.indices, A.data
+    return model
+
+
 def set_threads(highs, threads: int) -> None:
     """Set HiGHS's ``threads`` option so that the next ``run()`` accepts it.
 
@@ -149,19 +165,9 @@ class HighsLP:
         m, n = lp.A.shape
         self.row_scale = np.ones(m) if row_scale is None else np.asarray(row_scale, float)
         self.column_scale = np.ones(n) if column_scale is None else np.asarray(column_scale, float)
-        A = (sp.diags(self.row_scale) @ lp.A @ sp.diags(self.column_scale)).tocsc()
-        model = highspy.HighsLp()
-        model.num_col_ = n
-        model.num_row_ = m
-        model.col_cost_ = self.column_scale * lp.c
-        model.col_lower_ = lp.col_lower / self.column_scale
-        model.col_upper_ = lp.col_upper / self.column_scale
-        model.row_lower_ = self.row_scale * lp.row_lower
-        model.row_upper_ = self.row_scale * lp.row_upper
-        model.a_matrix_.format_ = highspy.MatrixFormat.kColwise
-        model.a_matrix_.start_ = A.indptr
-        model.a_matrix_.index_ = A.indices
-        model.a_matrix_.value_ = A.data
+        A = sp.diags(self.row_scale) @ lp.A @ sp.diags(self.column_scale)
+        model = highs_lp(A, self.column_scale * lp.c, self.row_scale * lp.row_lower, self.row_scale * lp.row_upper,
+                         lp.col_lower / self.column_scale, lp.col_upper / self.column_scale)
         h.passModel(model)
         self.highs = h
         self._highspy = highspy

@@ -71,7 +71,7 @@ def solve_highs(mip, time_limit: float, *, rel_gap: float, abs_gap: float, feasi
     """HiGHS on the big-M model (integer columns = binaries)."""
     import highspy
 
-    from blockmpec.solvers.engines.highs import highs_status, mip_info, set_threads
+    from blockmpec.solvers.engines.highs import highs_lp, highs_status, mip_info, set_threads
 
     t0 = time.perf_counter() if t0 is None else t0
     tracer = _Tracer(mip.objective_sign, t0)
@@ -83,14 +83,7 @@ def solve_highs(mip, time_limit: float, *, rel_gap: float, abs_gap: float, feasi
     h.setOptionValue("mip_feasibility_tolerance", float(feasibility_tol))
     h.setOptionValue("primal_feasibility_tolerance", float(feasibility_tol))
     h.setOptionValue("time_limit", float(max(time_limit, 1e-3)))
-    A = mip.A.tocsc()
-    model = highspy.HighsLp()
-    model.num_col_, model.num_row_ = A.shape[1], A.shape[0]
-    model.col_cost_ = mip.c
-    model.col_lower_, model.col_upper_ = mip.col_lower, mip.col_upper
-    model.row_lower_, model.row_upper_ = mip.row_lower, mip.row_upper
-    model.a_matrix_.format_ = highspy.MatrixFormat.kColwise
-    model.a_matrix_.start_, model.a_matrix_.index_, model.a_matrix_.value_ = A.indptr, A.indices, A.data
+    model = highs_lp(mip.A, mip.c, mip.row_lower, mip.row_upper, mip.col_lower, mip.col_upper)
     model.integrality_ = [highspy.HighsVarType.kInteger if k else highspy.HighsVarType.kContinuous
                           for k in mip.integer]
     h.passModel(model)
