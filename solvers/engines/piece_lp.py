@@ -578,13 +578,8 @@ class Certificate:
 class SplitPieces:
     """The two halves of (PLP) as two HiGHS models, re-solved warm: :func:`static_piece` and :func:`mechanism_piece`.
 
-    Parameters
-    ----------
-    form : CompiledMCP
-    column_scale, row_scale, slack_scale : ndarray
-        The units of :func:`blockmpec.solvers.nlp.nlp_scaling`.
-    time_limit : float
-        Seconds for every LP together.
+    ``form``, the units ``column_scale, row_scale, slack_scale`` and ``time_limit`` (seconds for every
+    LP together) are those of :class:`PieceLP`.
     """
 
     def __init__(self, form, column_scale: np.ndarray, row_scale: np.ndarray, slack_scale: np.ndarray,
