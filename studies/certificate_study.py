@@ -50,9 +50,14 @@ CONFIGS = {
     "bnb-rlt": ("milp", {"engine": "bnb", "lifting": "rlt"}),
     "bnb-rlt+lam": ("milp", {"engine": "bnb", "lifting": "rlt", "lam_branching": True}),
     "bnb-rlt-ipm": ("milp", {"engine": "bnb", "lifting": "rlt", "root_lp": "ipm"}),
+    # root_lp="ipm" as before issue 12's third round: HiGHS's own "ipm" choice (HiPO first, IPX after it stalls)
+    "bnb-rlt-ipm-choose": ("milp", {"engine": "bnb", "lifting": "rlt", "root_lp": "ipm"}),
     "highs-nodiss": ("milp", {"engine": "highs", "dissipation_bound": False, "heuristic": ""}),
     "before": ("milp-before", {}),
 }
+
+#: configuration name -> module constants of the bnb engine set for its runs (restored after each)
+ENGINE_CONSTANTS = {"bnb-rlt-ipm-choose": {"INTERIOR_SOLVER": "ipm"}}
 
 COLUMNS = ["case", "blocks", "config", "status", "certified", "multiplier", "root_bound", "bound", "gap_abs", "nodes",
            "bound_s", "solve_s", "message"]
@@ -89,9 +94,19 @@ def case(spec: str) -> bm.Structure:
 
 
 def run(spec: str, config: str, time_limit: float, traces: list | None = None) -> dict:
+    from blockmpec.solvers.engines import complementarity_bnb
+
     method, options = CONFIGS[config]
     structure = case(spec)
-    res = bm.solve(structure, method, time_limit=time_limit, **options)
+    constants = ENGINE_CONSTANTS.get(config, {})
+    saved = {name: getattr(complementarity_bnb, name) for name in constants}
+    try:
+        for name, value in constants.items():
+            setattr(complementarity_bnb, name, value)
+        res = bm.solve(structure, method, time_limit=time_limit, **options)
+    finally:
+        for name, value in saved.items():
+            setattr(complementarity_bnb, name, value)
     ex = res.extra
     bound = ex.get("bound", ex.get("dual_bound"))
     if traces is not None:

@@ -611,3 +611,22 @@ def test_lifting_options_need_bnb():
         bm.solve(bm.cases.two_blocks(), "milp", engine="highs", root_lp="ipm")
     with pytest.raises(bm.errors.OptionError, match="root_lp"):
         bm.solve(bm.cases.two_blocks(), "milp", engine="bnb", root_lp="pdlp")
+
+
+def test_interior_root_stops_after_one_run_when_it_closes():
+    """root_lp="ipm": when the first interior point's dual bound already meets the incumbent, the second run
+    (on the LP without the dormant rows) is skipped; without an incumbent both run.  Either bound stays below
+    the certified minimum."""
+    lam = certified_minimum("wall-2x2").multiplier
+    runs = {}
+    for target in (lam, np.inf):
+        _, bnb = _lifted(LIFTING_CASES["wall-2x2"](), "rlt")
+        bnb.deadline = time.perf_counter() + 60
+        bnb._apply(bnb.root, bnb.lam_lower, bnb.lam_cap)
+        before = bnb.n_lps
+        bound = bnb._interior_root(target)
+        runs[target] = bnb.n_lps - before
+        assert bound <= lam + 1e-7 * max(1.0, abs(lam))
+        assert lam - bound <= 1e-7 * max(1.0, abs(lam))
+        assert bnb.dormant.any()
+    assert runs == {lam: 1, np.inf: 2}

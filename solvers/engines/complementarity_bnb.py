@@ -63,13 +63,14 @@ its rows ``G_j x^(i) = 0`` imposed.  The interior point's row duals ``y`` also g
 duality (:func:`dual_bound`: ``lam >= sum_r min_{[l_r, u_r]} y_r t + sum_j min_{[cl_j, cu_j]} d_j w_j``,
 ``d = c - A^T y``); the interior point runs on the LP without the cap ``lam <= incumbent`` (with the cap
 it stopped short on the 4x2 wall), and when that bound meets the incumbent within ``INTERIOR_CLOSE_TOL``
-the root is closed with no simplex at all.  Measured (CPU s, loaded machine): root LP of the 4x2 /
-5x2 / 4x3 running-bond walls 4.4 / 12.6 / 37-87 s by the interior point against 21 / > 600 / > 600 s
-by the dual simplex.  The first run's dual bound is 1.4e-8 below the 4x2 minimum and 3.8e-7 below the
-4x3 one (its own duality gap, which tighter HiGHS tolerances did not reduce); the second run's
-(:meth:`ComplementarityBnB._interior_root`) is 5.8e-10 below, so the 4x3 wall is certified at the root
-(57.9 s in all, on a loaded machine).  The dual simplex on the remaining rows: 4.0 s (4x2), 7.5 s
-(5x2), > 200 s (4x3).
+the root is closed with no simplex at all.  The interior point is HiGHS's IPX (``INTERIOR_SOLVER``;
+HiGHS's own "ipm" choice runs HiPO first, which stalled on the 4x3 wall).  Measured (CPU s): root LP of
+the 4x2 / 5x2 / 4x3 running-bond walls 1.8 / 7.1 / 25.8 s by IPX (HiGHS's "ipm": 4.5 / 15.4 / 42 s)
+against 21 / > 600 / > 600 s by the dual simplex.  IPX's first run's dual bound is 8e-10 below the 4x2
+minimum and 2.8e-12 below the 4x3 one, so the 4x3 wall is certified at the root by one run (HiGHS's
+"ipm": 3.8e-7 below; a second run without the dormant rows, 5.8e-10 below, is what
+:meth:`ComplementarityBnB._interior_root` does when the first does not close the root).  The dual
+simplex on the remaining rows: 4.0 s (4x2), 7.5-36 s (5x2), > 200 s (4x3).
 
 A node whose pairs are all fixed (a leaf) is one pattern: its minimum is the exact
 polish of the pattern (:meth:`MILPSolver._polish`).  Nodes are explored best-bound first;
@@ -112,6 +113,12 @@ ROOT_LPS = ("simplex", "ipm")
 #: root_lp="ipm": the root is closed when the interior point's dual bound is within this (times max(1, |incumbent|))
 #: of the incumbent (= CERTIFICATE_TOL of milp, which then checks the reported gap against the same tolerance)
 INTERIOR_CLOSE_TOL = 1e-7
+#: root_lp="ipm": HiGHS's interior point.  "ipx", not HiGHS's "ipm" (which in 1.15 runs HiPO first and IPX only
+#: after HiPO stalls): one run on each root LP, IPX against "ipm" (CPU s; first run, second run):
+#: 4x3 wall 25.8 / 6.9 s against 42.0 / 16.5 s, dual bound 2.8e-12 against 3.8e-7 below the minimum after the
+#: first run; 5x2 7.1 / 2.3 against 15.4 / 3.8; 2x4 1.2 / 0.6 against 4.0 / 1.1; 3x2 0.4 / 0.3 against 2.0 / 0.9.
+#: On the 4x3 wall HiPO stopped after 26 iterations (23 s, "no progress") and IPX restarted from scratch.
+INTERIOR_SOLVER = "ipx"
 
 
 def highspy_status(name: str):
@@ -480,14 +487,15 @@ class ComplementarityBnB:
         _checked(self.h.changeRowsBounds(wake.size, wake, np.full(wake.size, -np.inf), np.zeros(wake.size)))
         return True
 
-    def _interior_root(self) -> float:
+    def _interior_root(self, target: float = np.inf) -> float:
         """``root_lp="ipm"``: the root LP (its bounds already applied) by HiGHS's interior point without
-        crossover, twice.  The first run (all rows) picks the dormant rows: the candidate rows whose dual
+        crossover, at most twice.  The first run (all rows) picks the dormant rows: the candidate rows whose dual
         is zero within ``DORMANT_DUAL_TOL`` (only a choice: any choice keeps the bound valid; an interior
-        point that fails or runs out of time leaves every row in place).  The second runs on the LP
-        without them (a relaxation): smaller, and measured to converge much closer (4x3 wall: its dual
-        bound 5.8e-10 below the incumbent in 20 s, the first's 3.8e-7 below in 37 s).  Returns the larger
-        of their dual bounds (:func:`dual_bound`; ``-inf`` if none)."""
+        point that fails or runs out of time leaves every row in place).  When its dual bound
+        (:func:`dual_bound`) is already within ``INTERIOR_CLOSE_TOL`` of ``target`` (the incumbent) the root
+        is closed and nothing else runs.  Otherwise the second run, on the LP without the dormant rows (a
+        relaxation: smaller, and measured to converge closer), may still close it.  Returns the larger of
+        their dual bounds (``-inf`` if none)."""
         t0 = time.perf_counter()
         lp = self.h.getLp()
         c = np.asarray(lp.col_cost_)
@@ -503,12 +511,13 @@ class ComplementarityBnB:
             self.dormant[sleep] = True
             _checked(self.h.changeRowsBounds(sleep.size, sleep, np.full(sleep.size, -np.inf),
                                              np.full(sleep.size, np.inf)))
-            # the second run drops every one-sided row with a zero dual (static pair rows and lam rows too)
-            keep = ~((np.isfinite(rl) ^ np.isfinite(ru)) & (np.abs(y) <= DORMANT_DUAL_TOL))
-            Ar = sp.csc_array(sp.csr_array(self._A)[keep])
-            y2 = self._interior_duals(Ar, c, rl[keep], ru[keep], cl, cu)
-            if y2 is not None:
-                bound = max(bound, dual_bound(Ar, c, rl[keep], ru[keep], cl, cu, y2))
+            if not (np.isfinite(target) and target - bound <= INTERIOR_CLOSE_TOL * max(1.0, abs(target))):
+                # the second run drops every one-sided row with a zero dual (static pair rows and lam rows too)
+                keep = ~((np.isfinite(rl) ^ np.isfinite(ru)) & (np.abs(y) <= DORMANT_DUAL_TOL))
+                Ar = sp.csc_array(sp.csr_array(self._A)[keep])
+                y2 = self._interior_duals(Ar, c, rl[keep], ru[keep], cl, cu)
+                if y2 is not None:
+                    bound = max(bound, dual_bound(Ar, c, rl[keep], ru[keep], cl, cu, y2))
         self._timing["ipm"] = time.perf_counter() - t0
         self.ipm_time = time.perf_counter() - t0
         self.ipm_bound = bound
@@ -529,7 +538,7 @@ class ComplementarityBnB:
         g = highspy.Highs()
         g.setOptionValue("output_flag", False)
         g.passModel(lp)
-        g.setOptionValue("solver", "ipm")
+        g.setOptionValue("solver", INTERIOR_SOLVER)
         g.setOptionValue("run_crossover", "off")
         if tol is not None:
             for name in ("ipm_optimality_tolerance", "primal_feasibility_tolerance", "dual_feasibility_tolerance"):
@@ -633,7 +642,7 @@ class ComplementarityBnB:
             # was seen to stop short (4x2 wall: no bound, where the uncapped LP gave the minimum within 1.4e-8)
             cap, self.lam_cap = self.lam_cap, self.lam_upper
             self._apply(self.root, a0, b0)
-            interior = self._interior_root()
+            interior = self._interior_root(best_val)
             self.lam_cap = cap
             if best is not None and best_val - interior <= INTERIOR_CLOSE_TOL * max(1.0, abs(best_val)):
                 # the interior point's duals meet the incumbent within the accuracy of an interior point (the
