@@ -64,6 +64,21 @@ def highs_lp(A, c, row_lower, row_upper, col_lower, col_upper):
     return model
 
 
+def use_interior_point(highs, crossover: bool) -> None:
+    """Select HiGHS's interior point IPX (``solver="ipx"``), with or without its crossover to a basis.
+
+    Not ``solver="ipm"``: with the optional wheel ``highspy-extras`` installed, HiGHS 1.15 runs its newer
+    HiPO first under that name (it stalled on the 4x3 wall's lifted root LP of ``milp``), so the same code
+    took another path on a machine with the wheel.  HiGHS without the value ``"ipx"`` takes ``"ipm"``,
+    which is IPX there.
+    """
+    import highspy
+
+    if highs.setOptionValue("solver", "ipx") != highspy.HighsStatus.kOk:
+        highs.setOptionValue("solver", "ipm")
+    highs.setOptionValue("run_crossover", "on" if crossover else "off")
+
+
 def set_threads(highs, threads: int) -> None:
     """Set HiGHS's ``threads`` option so that the next ``run()`` accepts it.
 
@@ -178,8 +193,7 @@ class HighsLP:
         h = self.highs
         algorithm = select_algorithm(algorithm, self.lp.A.shape[0], need_basis=True, warm=not self._first)
         if algorithm == "ipm":
-            h.setOptionValue("solver", "ipm")
-            h.setOptionValue("run_crossover", "on")
+            use_interior_point(h, crossover=True)
         else:
             h.setOptionValue("solver", "simplex")
             strategy = {"simplex": 0, "dual-simplex": 1, "primal-simplex": 4}[algorithm]

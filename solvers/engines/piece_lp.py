@@ -113,7 +113,7 @@ class PieceLP:
     def __init__(self, form, column_scale: np.ndarray, row_scale: np.ndarray, slack_scale: np.ndarray,
                  time_limit: float = math.inf, interior: bool = False) -> None:
         from blockmpec.formulations._pyomo import LinearProgram
-        from blockmpec.solvers.engines.highs import HighsLP
+        from blockmpec.solvers.engines.highs import HighsLP, use_interior_point
 
         self.form = form
         n, p = form.n_columns, form.n_pairs
@@ -135,8 +135,7 @@ class PieceLP:
         h = self.lp.highs
         self.interior = interior
         if interior:
-            h.setOptionValue("solver", "ipm")
-            h.setOptionValue("run_crossover", "off")
+            use_interior_point(h, crossover=False)
         else:
             h.setOptionValue("solver", "simplex")
             h.setOptionValue("simplex_strategy", 1)  # dual
