@@ -19,6 +19,8 @@ Usage::
     python studies/certificate_study.py targets --configs scip
     python studies/certificate_study.py largest --configs highs,before --time-limit 60 --families running,stack,arch
     python studies/certificate_study.py compare --configs bnb-rlt,bnb-rlt-ipm --cases 3x2,2x4,4x2,4x3,5x2
+    python studies/certificate_study.py compare --configs bnb-rlt-ipm,bnb-rlt-ipm-choose \
+        --cases 4x3,2x4,3x2,4x2,5x2 --time-limit 60 --tag ipx
 """
 
 from __future__ import annotations
