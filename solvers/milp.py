@@ -92,7 +92,7 @@ from blockmpec.result import Solution, Status
 from blockmpec.solver import RunOutput, SolverBase
 
 ENGINES = ("highs", "scip", "bnb")
-LIFTINGS = ("friction", "mechanism", "all", "rlt")
+LIFTINGS = ("friction", "mechanism", "all", "rlt", "rlt-full")
 ROOT_LPS = ("simplex", "ipm")
 
 
@@ -109,7 +109,8 @@ class MILPOptions:
     lifting: str = field(default="friction", metadata={
         "help": "engine=bnb: friction: static copies z_i x for the friction pairs | mechanism: and lam u, lam z "
                 "(compatibility times lam) | all: copies for every pair, and lam u | rlt: all, and the products of "
-                "compatibility and f_l^T u = 1 with each normal and tangential force (x u^T)"})
+                "compatibility and f_l^T u = 1 with each normal and tangential force (x u^T) | rlt-full: rlt with the "
+                "moments too"})
     root_lp: str = field(default="simplex", metadata={
         "help": "engine=bnb: simplex: every node LP by the dual simplex on all rows | ipm: the root LP first by "
                 "the interior point (no crossover), the copy pair rows with zero dual there dropped (a relaxation), "
@@ -620,10 +621,11 @@ class MILPSolver(SolverBase):
         lifting = self.options.lifting
         bnb = ComplementarityBnB(self.form, work_matrix(self.form), bd.lam_lower, bd.lam_upper, polish,
                                  fixed_active=bd.slack_max == 0.0, fixed_idle=bd.z_max == 0.0,
-                                 slack_max=None if lifting == "rlt" else bd.slack_max,
-                                 lam_branching=self.options.lam_branching, all_copies=lifting in ("all", "rlt"),
-                                 lam_mechanism=lifting != "friction",
-                                 force_mechanism=np.sort(np.r_[self.form.n, self.form.t]) if lifting == "rlt" else None,
+                                 slack_max=None if lifting.startswith("rlt") else bd.slack_max,
+                                 lam_branching=self.options.lam_branching,
+                                 all_copies=lifting in ("all", "rlt", "rlt-full"), lam_mechanism=lifting != "friction",
+                                 force_mechanism={"rlt": np.sort(np.r_[self.form.n, self.form.t]),
+                                                  "rlt-full": True}.get(lifting),
                                  root_lp=self.options.root_lp)
         run, best = bnb.solve(deadline - time.perf_counter(), incumbent, t0=t0)
         self._bnb_lps = bnb.n_lps

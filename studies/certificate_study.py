@@ -21,6 +21,8 @@ Usage::
     python studies/certificate_study.py compare --configs bnb-rlt,bnb-rlt-ipm --cases 3x2,2x4,4x2,4x3,5x2
     python studies/certificate_study.py compare --configs bnb-rlt-ipm,bnb-rlt-ipm-choose \
         --cases 4x3,2x4,3x2,4x2,5x2 --time-limit 60 --tag ipx
+    python studies/certificate_study.py compare --configs bnb-rlt-ipm,bnb-rltfull-ipm \
+        --cases 5x2,4x3,3x4,2x4,3x2,4x2,2x3 --time-limit 60 --tag rltfull2
 """
 
 from __future__ import annotations
@@ -52,6 +54,7 @@ CONFIGS = {
     "bnb-rlt": ("milp", {"engine": "bnb", "lifting": "rlt"}),
     "bnb-rlt+lam": ("milp", {"engine": "bnb", "lifting": "rlt", "lam_branching": True}),
     "bnb-rlt-ipm": ("milp", {"engine": "bnb", "lifting": "rlt", "root_lp": "ipm"}),
+    "bnb-rltfull-ipm": ("milp", {"engine": "bnb", "lifting": "rlt-full", "root_lp": "ipm"}),
     # root_lp="ipm" as before issue 12's third round: HiGHS's own "ipm" choice (HiPO first, IPX after it stalls)
     "bnb-rlt-ipm-choose": ("milp", {"engine": "bnb", "lifting": "rlt", "root_lp": "ipm"}),
     "highs-nodiss": ("milp", {"engine": "highs", "dissipation_bound": False, "heuristic": ""}),

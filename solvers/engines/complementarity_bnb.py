@@ -34,6 +34,9 @@ Products with the mechanism (``lifting`` of :class:`~blockmpec.solvers.milp.MILP
   when ``E^T`` is injective and are left out.  Measured root bounds (``studies/certificate_study.py``):
   2x2 running bond 0.16 -> 0.65, 3x2 0 -> 0.65, 2x4 0.07 -> 0.65 (each the certified minimum); tying the
   normal forces alone gave 0.40 on 2x4, all forces (moments too) the same 0.65 at twice the LP time.
+  ``lifting="rlt-full"`` ties every force, the moments too: on the 5x2 running-bond wall the root
+  bound is then the minimum 0.6, where tying normal and tangential forces gave 0.5578 (a gap that
+  branching on pairs or on ``lam`` hardly moved: child bounds 0.5578-0.5667, 0.5605 after 5 nodes).
 
 Branching on ``lam`` (``lam_branching``): a node carries ``[a, b]`` (``b`` capped by the incumbent)
 with ``a z_i <= zeta_i <= b z_i`` in every copy and ``a <= lam <= b``, valid since ``z_i >= 0``;
@@ -152,6 +155,7 @@ class _Layout:
     v: slice | None = None  # lam u (lam_mechanism)
     w: slice | None = None  # W[t, k] = x_{tied[t]} u_k (force_mechanism)
     tied: np.ndarray | None = None
+    tied_rows: np.ndarray | None = None  # rows (X) of x_{tied[t]}: tied_rows[t] (compatibility times x_r, then f_l^T u)
 
     def lift(self, lam: float, x: np.ndarray, u: np.ndarray, z: np.ndarray) -> np.ndarray:
         """The lifted point of ``(lam, x, u, z)``: every product column set to its product (a point of (3)
@@ -274,10 +278,12 @@ def lifted_lp(form, B: sp.coo_array, lam_lower: float, lam_upper: float, slack_m
         rr = (np.arange(nt)[:, None] * ncomp + Fc.row[None, :]).ravel()
         cc = (np.array([copy_x[int(i)].start for i in Fc.col])[None, :] + tied[:, None]).ravel()
         vv = np.broadcast_to(Fc.data[None, :], (nt, Fc.nnz)).ravel()
-        add(place(sp.kron(I_t, Ecomp), ws.start) + sp.csr_array((vv, (rr, cc)), shape=(nt * ncomp, n)), 0.0, 0.0)
+        compat_rows = add(place(sp.kron(I_t, Ecomp), ws.start) + sp.csr_array((vv, (rr, cc)), shape=(nt * ncomp, n)),
+                          0.0, 0.0)
         # x_r (f_l^T u - 1) = 0:  f_l^T W[r, :] - x_r = 0
         pick = sp.csr_array((np.ones(nt), (np.arange(nt), tied)), shape=(nt, nx))
-        add(place(sp.kron(I_t, f_l.reshape(1, -1)), ws.start) - place(pick, xs.start), 0.0, 0.0)
+        norm_rows = add(place(sp.kron(I_t, f_l.reshape(1, -1)), ws.start) - place(pick, xs.start), 0.0, 0.0)
+        tied_rows = np.hstack([compat_rows.reshape(nt, ncomp), norm_rows[:, None]])
     # work identity: lam + f_d^T u - sum_e B_e x^(i_e)_{r_e} = 0
     identity = column([1.0], lam) - place(-f_d.reshape(1, -1), us.start)
     for e in range(B.nnz):
@@ -295,7 +301,8 @@ def lifted_lp(form, B: sp.coo_array, lam_lower: float, lam_upper: float, slack_m
     layout = _Layout(n, lam, xs, us, zs, copies, static_pair_rows,
                      {j: np.array(r, dtype=int) for j, r in copy_pair_rows.items()}, np.array(zeta_lower_rows),
                      np.array(zeta_upper_rows), np.array(own_rows, dtype=int), copy_x,
-                     vs if lam_mechanism else None, ws if tied is not None else None, tied)
+                     vs if lam_mechanism else None, ws if tied is not None else None, tied,
+                     tied_rows if tied is not None else None)
     return A, np.concatenate(lo), np.concatenate(hi), col_lower, col_upper, c, layout
 
 
@@ -392,6 +399,13 @@ class ComplementarityBnB:
         self._A = sp.csc_array(A)
         self._sleep_matrix = sp.csr_array(A)[self._sleep_rows]
         self.dormant = np.zeros(A.shape[0], dtype=bool)
+        # rows (X) of the forces other than normal and tangential ones (the moments, lifting="rlt-full"): left out
+        # of the root's first interior point (see _interior_root)
+        late = np.zeros(A.shape[0], dtype=bool)
+        if layout.tied is not None:
+            nt_forces = np.isin(layout.tied, np.r_[form.n, form.t])
+            late[layout.tied_rows[~nt_forces].ravel()] = True
+        self._late_rows = late
         self.woken = 0
         self.ipm_time = 0.0
         self.ipm_bound = None
@@ -489,7 +503,11 @@ class ComplementarityBnB:
 
     def _interior_root(self, target: float = np.inf) -> float:
         """``root_lp="ipm"``: the root LP (its bounds already applied) by HiGHS's interior point without
-        crossover, at most twice.  The first run (all rows) picks the dormant rows: the candidate rows whose dual
+        crossover, at most three times.  With the moments' products in the LP (``lifting="rlt-full"``) and an
+        incumbent (``target`` finite), a run without their rows (X) comes first (a relaxation: the LP of
+        ``lifting="rlt"``), and closes the root if its dual bound meets ``target`` within ``INTERIOR_CLOSE_TOL``
+        (3x4 wall: the LP with the moments did not finish in 60 s, the one without certified it in 14 s).
+        Then the first run on the whole LP picks the dormant rows: the candidate rows whose dual
         is zero within ``DORMANT_DUAL_TOL`` (only a choice: any choice keeps the bound valid; an interior
         point that fails or runs out of time leaves every row in place).  When its dual bound
         (:func:`dual_bound`) is already within ``INTERIOR_CLOSE_TOL`` of ``target`` (the incumbent) the root
@@ -502,9 +520,22 @@ class ComplementarityBnB:
         rl, ru = np.asarray(lp.row_lower_), np.asarray(lp.row_upper_)
         cl, cu = np.asarray(lp.col_lower_), np.asarray(lp.col_upper_)
         bound = -np.inf
+        if self._late_rows.any() and np.isfinite(target):
+            # first without the moments' products (rows (X) of the moments: a relaxation, the LP of lifting="rlt"),
+            # which closes most walls at a fraction of the cost
+            keep = ~self._late_rows
+            Ar = sp.csc_array(sp.csr_array(self._A)[keep])
+            y0 = self._interior_duals(Ar, c, rl[keep], ru[keep], cl, cu)
+            if y0 is not None:
+                bound = dual_bound(Ar, c, rl[keep], ru[keep], cl, cu, y0)
+            self._timing["ipm0"] = time.perf_counter() - t0
+            if target - bound <= INTERIOR_CLOSE_TOL * max(1.0, abs(target)):
+                self.ipm_time = self._timing["ipm"] = time.perf_counter() - t0
+                self.ipm_bound = bound
+                return bound
         y = self._interior_duals(self._A, c, rl, ru, cl, cu)
         if y is not None:
-            bound = dual_bound(self._A, c, rl, ru, cl, cu, y)
+            bound = max(bound, dual_bound(self._A, c, rl, ru, cl, cu, y))
             self._timing["ipm1"] = time.perf_counter() - t0
             rows = self._sleep_rows
             sleep = rows[np.abs(y[rows]) <= DORMANT_DUAL_TOL]
