@@ -40,8 +40,10 @@ derives every row).  A run has five stages, all timed:
    (``engine="scip"``, SOS1 sets ``{s_i, z_i}``) or the branch and bound over the pairs
    of :mod:`blockmpec.solvers.engines.complementarity_bnb` (``engine="bnb"``, a lifted LP
    bound, no big-M; ``lifting`` picks the products in that LP: ``"friction"`` copies ``z_i x`` for
-   the friction pairs, ``"rlt"`` copies for every pair with the products ``lam u`` and ``x u^T``, whose
-   root bound is the minimum of the 2x2, 3x2 and 2x4 running-bond walls; ``lam_branching`` also
+   the friction pairs, ``"rlt"`` copies for every pair with the products ``lam u`` and ``x u^T`` (normal and
+   tangential forces), whose root bound is the minimum of the 2x2, 3x2 and 2x4 running-bond walls,
+   ``"rlt-full"`` those products with the moments too (root bound the minimum of the 5x2 wall, where
+   ``"rlt"`` stops at 0.558 against 0.6); ``lam_branching`` also
    bisects ``lam``; ``root_lp="ipm"`` solves the root LP by the interior point first and drops the
    rows with zero dual there, a relaxation), started from the incumbent.  ``tau >= 0`` makes the model a
    relaxation of (4), so the engine's dual bound is a certified bound on the minimum

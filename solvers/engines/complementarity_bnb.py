@@ -95,6 +95,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from blockmpec.result import Status
+from blockmpec.solvers.engines.highs import highs_lp
 from blockmpec.solvers.engines.mip import MIPRun, _Tracer
 
 #: a node is pruned when its bound is within this (times max(1, |incumbent|)) of the incumbent
@@ -380,14 +381,7 @@ class ComplementarityBnB:
         h = highspy.Highs()
         h.setOptionValue("output_flag", False)
         self.deadline = np.inf
-        lp = highspy.HighsLp()
-        Ac = A.tocsc()
-        lp.num_col_, lp.num_row_ = Ac.shape[1], Ac.shape[0]
-        lp.col_cost_, lp.col_lower_, lp.col_upper_ = c, cl, cu
-        lp.row_lower_, lp.row_upper_ = rl, ru
-        lp.a_matrix_.format_ = highspy.MatrixFormat.kColwise
-        lp.a_matrix_.start_, lp.a_matrix_.index_, lp.a_matrix_.value_ = Ac.indptr, Ac.indices, Ac.data
-        h.passModel(lp)
+        h.passModel(highs_lp(A, c, rl, ru, cl, cu))
         self.h = h
         self.root_lp = root_lp
         npair = form.n_pairs
@@ -559,17 +553,11 @@ class ComplementarityBnB:
         its optimality and feasibility tolerances (HiGHS's defaults if None)."""
         import highspy
 
-        A = sp.csc_array(A)
-        lp = highspy.HighsLp()
-        lp.num_col_, lp.num_row_ = A.shape[1], A.shape[0]
-        lp.col_cost_, lp.col_lower_, lp.col_upper_ = c, cl, cu
-        lp.row_lower_, lp.row_upper_ = rl, ru
-        lp.a_matrix_.format_ = highspy.MatrixFormat.kColwise
-        lp.a_matrix_.start_, lp.a_matrix_.index_, lp.a_matrix_.value_ = A.indptr, A.indices, A.data
         g = highspy.Highs()
         g.setOptionValue("output_flag", False)
-        g.passModel(lp)
-        g.setOptionValue("solver", INTERIOR_SOLVER)
+        g.passModel(highs_lp(A, c, rl, ru, cl, cu))
+        if g.setOptionValue("solver", INTERIOR_SOLVER) != highspy.HighsStatus.kOk:
+            g.setOptionValue("solver", "ipm")  # a HiGHS without the name "ipx": its "ipm" is IPX
         g.setOptionValue("run_crossover", "off")
         if tol is not None:
             for name in ("ipm_optimality_tolerance", "primal_feasibility_tolerance", "dual_feasibility_tolerance"):
