@@ -19,7 +19,7 @@ active at it (column ``bigm_active``).  Only the branch and cut is timed for the
 formulation (its build is untimed); ``milp``'s time is its whole timed run (bound LPs,
 incumbent, search, polish).  Usage::
 
-    python studies/plain_bigm.py [--cases 2x2,3x2,2x3,4x2,3x2s,6x2s,arch:20] [--configs highs,bnb-rlt-ipm]
+    python studies/plain_bigm.py [--cases 2x2,3x2,2x3,4x2,3x2s,6x2s,arch:20] [--configs highs,bnb-rltfull-ipm]
                                  [--time-limit 60] [--bigm 100]
 
 Writes ``studies/output/certificate/plain_bigm.csv`` and prints a table.
@@ -150,7 +150,7 @@ def run_milp(spec: str, config: str, time_limit: float) -> dict:
 def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--cases", default="2x2,3x2,2x3,4x2,3x2s,6x2s,arch:20")
-    p.add_argument("--configs", default="highs,bnb-rlt-ipm")
+    p.add_argument("--configs", default="highs,bnb-rltfull-ipm")
     p.add_argument("--time-limit", type=float, default=60.0)
     p.add_argument("--bigm", type=float, default=100.0)
     args = p.parse_args(argv)
