@@ -373,6 +373,24 @@ def test_bound_never_exceeds_a_verified_point(options):
     assert times == sorted(times)
 
 
+def test_rlt_full_certifies_the_5x2_running_bond_wall():
+    """Issue 12's hardest 60 s target, end to end (not timed): with the moments' products the lifted root LP
+    certifies the 5x2 running-bond wall, every heuristic's verified point lies above the certified bound, and
+    the certified point solves (3) (``rlt`` stops at a root bound of 0.558 there: studies/certificate_study.py)."""
+    from helpers import HEURISTIC_TOL, HEURISTICS, margin
+
+    structure = bm.cases.wall(5, 2, bond="running", mu=0.65)
+    res = bm.solve(structure, "milp", engine="bnb", lifting="rlt-full", root_lp="ipm", time_limit=300.0)
+    assert res.status is Status.OPTIMAL and res.verified, res.message
+    bound = res.extra["bound"]
+    assert bound <= res.multiplier + 1e-12 and res.multiplier - bound <= 1e-7 * max(1.0, abs(res.multiplier))
+    for method in ("fixed-point", "nlp", "mcp-newton"):
+        if method in HEURISTICS:
+            h = bm.solve(structure, method)
+            if h.verified and h.status.is_success:
+                assert h.multiplier + margin(HEURISTIC_TOL, h.multiplier) >= bound - 1e-9, method
+
+
 @pytest.mark.parametrize("engine", ENGINES)
 @pytest.mark.parametrize("scale", [0.8, 0.01])
 def test_too_small_bigm_is_detected_by_every_engine(engine, scale):
