@@ -95,7 +95,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from blockmpec.result import Status
-from blockmpec.solvers.engines.highs import highs_lp
+from blockmpec.solvers.engines.highs import highs_lp, use_interior_point
 from blockmpec.solvers.engines.mip import MIPRun, _Tracer
 
 #: a node is pruned when its bound is within this (times max(1, |incumbent|)) of the incumbent
@@ -123,6 +123,12 @@ INTERIOR_CLOSE_TOL = 1e-7
 #: first run; 5x2 7.1 / 2.3 against 15.4 / 3.8; 2x4 1.2 / 0.6 against 4.0 / 1.1; 3x2 0.4 / 0.3 against 2.0 / 0.9.
 #: On the 4x3 wall HiPO stopped after 26 iterations (23 s, "no progress") and IPX restarted from scratch.
 INTERIOR_SOLVER = "ipx"
+
+
+def _meets(bound: float, target: float) -> bool:
+    """``root_lp="ipm"``: the dual ``bound`` closes the root at the incumbent's ``target`` (finite) within
+    ``INTERIOR_CLOSE_TOL`` (times ``max(1, |target|)``); never without an incumbent."""
+    return bool(np.isfinite(target) and target - bound <= INTERIOR_CLOSE_TOL * max(1.0, abs(target)))
 
 
 def highspy_status(name: str):
@@ -513,38 +519,36 @@ class ComplementarityBnB:
         c = np.asarray(lp.col_cost_)
         rl, ru = np.asarray(lp.row_lower_), np.asarray(lp.row_upper_)
         cl, cu = np.asarray(lp.col_lower_), np.asarray(lp.col_upper_)
+        A = self._A
+
+        def bound_without(drop: np.ndarray) -> float:
+            """The dual bound of one interior point on the LP without the rows ``drop`` (a relaxation)."""
+            keep = ~drop
+            Ar = sp.csc_array(sp.csr_array(A)[keep])
+            y = self._interior_duals(Ar, c, rl[keep], ru[keep], cl, cu)
+            return -np.inf if y is None else dual_bound(Ar, c, rl[keep], ru[keep], cl, cu, y)
+
         bound = -np.inf
         if self._late_rows.any() and np.isfinite(target):
             # first without the moments' products (rows (X) of the moments: a relaxation, the LP of lifting="rlt"),
             # which closes most walls at a fraction of the cost
-            keep = ~self._late_rows
-            Ar = sp.csc_array(sp.csr_array(self._A)[keep])
-            y0 = self._interior_duals(Ar, c, rl[keep], ru[keep], cl, cu)
-            if y0 is not None:
-                bound = dual_bound(Ar, c, rl[keep], ru[keep], cl, cu, y0)
+            bound = bound_without(self._late_rows)
             self._timing["ipm0"] = time.perf_counter() - t0
-            if target - bound <= INTERIOR_CLOSE_TOL * max(1.0, abs(target)):
-                self.ipm_time = self._timing["ipm"] = time.perf_counter() - t0
-                self.ipm_bound = bound
-                return bound
-        y = self._interior_duals(self._A, c, rl, ru, cl, cu)
-        if y is not None:
-            bound = max(bound, dual_bound(self._A, c, rl, ru, cl, cu, y))
-            self._timing["ipm1"] = time.perf_counter() - t0
-            rows = self._sleep_rows
-            sleep = rows[np.abs(y[rows]) <= DORMANT_DUAL_TOL]
-            self.dormant[sleep] = True
-            _checked(self.h.changeRowsBounds(sleep.size, sleep, np.full(sleep.size, -np.inf),
-                                             np.full(sleep.size, np.inf)))
-            if not (np.isfinite(target) and target - bound <= INTERIOR_CLOSE_TOL * max(1.0, abs(target))):
-                # the second run drops every one-sided row with a zero dual (static pair rows and lam rows too)
-                keep = ~((np.isfinite(rl) ^ np.isfinite(ru)) & (np.abs(y) <= DORMANT_DUAL_TOL))
-                Ar = sp.csc_array(sp.csr_array(self._A)[keep])
-                y2 = self._interior_duals(Ar, c, rl[keep], ru[keep], cl, cu)
-                if y2 is not None:
-                    bound = max(bound, dual_bound(Ar, c, rl[keep], ru[keep], cl, cu, y2))
-        self._timing["ipm"] = time.perf_counter() - t0
-        self.ipm_time = time.perf_counter() - t0
+        if not _meets(bound, target):
+            y = self._interior_duals(A, c, rl, ru, cl, cu)
+            if y is not None:
+                bound = max(bound, dual_bound(A, c, rl, ru, cl, cu, y))
+                self._timing["ipm1"] = time.perf_counter() - t0
+                rows = self._sleep_rows
+                sleep = rows[np.abs(y[rows]) <= DORMANT_DUAL_TOL]
+                self.dormant[sleep] = True
+                _checked(self.h.changeRowsBounds(sleep.size, sleep, np.full(sleep.size, -np.inf),
+                                                 np.full(sleep.size, np.inf)))
+                if not _meets(bound, target):
+                    # the second run drops every one-sided row with a zero dual (static pair rows and lam rows too)
+                    bound = max(bound, bound_without((np.isfinite(rl) ^ np.isfinite(ru))
+                                                     & (np.abs(y) <= DORMANT_DUAL_TOL)))
+        self.ipm_time = self._timing["ipm"] = time.perf_counter() - t0
         self.ipm_bound = bound
         return bound
 
@@ -556,9 +560,7 @@ class ComplementarityBnB:
         g = highspy.Highs()
         g.setOptionValue("output_flag", False)
         g.passModel(highs_lp(A, c, rl, ru, cl, cu))
-        if g.setOptionValue("solver", INTERIOR_SOLVER) != highspy.HighsStatus.kOk:
-            g.setOptionValue("solver", "ipm")  # a HiGHS without the name "ipx": its "ipm" is IPX
-        g.setOptionValue("run_crossover", "off")
+        use_interior_point(g, crossover=False, solver=INTERIOR_SOLVER)
         if tol is not None:
             for name in ("ipm_optimality_tolerance", "primal_feasibility_tolerance", "dual_feasibility_tolerance"):
                 g.setOptionValue(name, tol)
@@ -663,7 +665,7 @@ class ComplementarityBnB:
             self._apply(self.root, a0, b0)
             interior = self._interior_root(best_val)
             self.lam_cap = cap
-            if best is not None and best_val - interior <= INTERIOR_CLOSE_TOL * max(1.0, abs(best_val)):
+            if best is not None and _meets(interior, best_val):
                 # the interior point's duals meet the incumbent within the accuracy of an interior point (the
                 # certificate tolerance of milp): the gap, reported as it is, is closed
                 tracer.record(min(interior, best_val), best_val, force=True)

@@ -64,17 +64,17 @@ def highs_lp(A, c, row_lower, row_upper, col_lower, col_upper):
     return model
 
 
-def use_interior_point(highs, crossover: bool) -> None:
+def use_interior_point(highs, crossover: bool, solver: str = "ipx") -> None:
     """Select HiGHS's interior point IPX (``solver="ipx"``), with or without its crossover to a basis.
 
     Not ``solver="ipm"``: with the optional wheel ``highspy-extras`` installed, HiGHS 1.15 runs its newer
     HiPO first under that name (it stalled on the 4x3 wall's lifted root LP of ``milp``), so the same code
     took another path on a machine with the wheel.  HiGHS without the value ``"ipx"`` takes ``"ipm"``,
-    which is IPX there.
+    which is IPX there.  ``solver``: another of HiGHS's interior-point names, for comparisons.
     """
     import highspy
 
-    if highs.setOptionValue("solver", "ipx") != highspy.HighsStatus.kOk:
+    if highs.setOptionValue("solver", solver) != highspy.HighsStatus.kOk:
         highs.setOptionValue("solver", "ipm")
     highs.setOptionValue("run_crossover", "on" if crossover else "off")
 
