@@ -30,13 +30,13 @@ from __future__ import annotations
 import argparse
 import sys
 from pathlib import Path
-from types import SimpleNamespace
 
 import numpy as np
 import scipy.sparse as sp
 
 import blockmpec as bm
 from blockmpec.formulations import compile_mcp
+from blockmpec.formulations.mpec_milp import MixedIntegerMPEC
 from blockmpec.operators import assemble
 from blockmpec.solvers.engines.mip import solve_highs
 
@@ -62,7 +62,7 @@ COLUMNS = [
 ACTIVE_TOL = 1e-6
 
 
-def plain_model(form, bigm: float) -> SimpleNamespace:
+def plain_model(form, bigm: float) -> MixedIntegerMPEC:
     """The plain big-M MILP of (4) on the compiled MCP ``form`` (module docstring)."""
     nw, npair = form.n_columns, form.n_pairs
     n = nw + npair
@@ -70,18 +70,10 @@ def plain_model(form, bigm: float) -> SimpleNamespace:
     zc = form.pair_column
     A = sp.hstack([form.A, sp.csr_array((form.A.shape[0], npair))]).tocsr()
     G = sp.hstack([form.G, sp.csr_array((npair, npair))]).tocsr()
-    eye = sp.eye_array(npair, format="csr")
-    # z_i - M y_i <= 0
-    Z = (
-        sp.csr_array((np.ones(npair), (np.arange(npair), zc)), shape=(npair, n))
-        - bigm * sp.hstack([sp.csr_array((npair, nw)), eye]).tocsr()
-    )
-    # -G_i w + M y_i <= M
-    S = -G + bigm * sp.hstack([sp.csr_array((npair, nw)), eye]).tocsr()
-    rows = sp.vstack([A, G, Z, S]).tocsr()
-    m_eq, m_p = A.shape[0], npair
-    row_lower = np.concatenate([form.rhs, np.full(3 * m_p, -np.inf)])
-    row_upper = np.concatenate([form.rhs, np.zeros(2 * m_p), np.full(m_p, bigm)])
+    My = bigm * sp.hstack([sp.csr_array((npair, nw)), sp.eye_array(npair)]).tocsr()  # M y_i per pair row
+    Z = sp.csr_array((np.ones(npair), (np.arange(npair), zc)), shape=(npair, n)) - My  # z_i - M y_i <= 0
+    S = -G + My  # -G_i w + M y_i <= M
+    m_eq = A.shape[0]
     col_lower = np.full(n, -np.inf)
     col_upper = np.full(n, np.inf)
     col_lower[zc] = 0.0
@@ -90,17 +82,21 @@ def plain_model(form, bigm: float) -> SimpleNamespace:
     c[form.lam] = 1.0
     integer = np.zeros(n, dtype=bool)
     integer[y] = True
-    assert m_eq == form.A.shape[0]
-    return SimpleNamespace(
-        A=rows,
+    groups = np.cumsum([0, m_eq, npair, npair, npair])
+    return MixedIntegerMPEC(
         c=c,
+        A=sp.vstack([A, G, Z, S]).tocsr(),
         col_lower=col_lower,
         col_upper=col_upper,
-        row_lower=row_lower,
-        row_upper=row_upper,
-        integer=integer,
+        row_lower=np.concatenate([form.rhs, np.full(3 * npair, -np.inf)]),
+        row_upper=np.concatenate([form.rhs, np.zeros(2 * npair), np.full(npair, bigm)]),
+        columns={"y": y},
+        rows={
+            name: np.arange(groups[k], groups[k + 1]) for k, name in enumerate(("mcp", "pairs", "z_bigm", "slack_bigm"))
+        },
         objective_sign=1.0,
-        n_columns=n,
+        integer=integer,
+        bigm=np.full(npair, bigm),
     )
 
 
