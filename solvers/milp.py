@@ -98,6 +98,16 @@ LIFTINGS = ("friction", "mechanism", "all", "rlt", "rlt-full")
 ROOT_LPS = ("simplex", "ipm")
 
 
+def lifting_options(form, lifting: str, slack_max: np.ndarray) -> dict:
+    """The arguments of :class:`~blockmpec.solvers.engines.complementarity_bnb.ComplementarityBnB` that
+    ``lifting`` (:data:`LIFTINGS`) sets: which copies of the static field, the products ``lam u``, the forces
+    tied to ``u`` (``x u^T``: normal and tangential ones for ``"rlt"``, all for ``"rlt-full"``), and the
+    LP-proven slack bounds (``slack_max``), which the ``rlt`` liftings do without."""
+    return dict(slack_max=None if lifting.startswith("rlt") else slack_max,
+                all_copies=lifting in ("all", "rlt", "rlt-full"), lam_mechanism=lifting != "friction",
+                force_mechanism={"rlt": np.sort(np.r_[form.n, form.t]), "rlt-full": True}.get(lifting))
+
+
 @dataclass
 class MILPOptions:
     """Options of the ``milp`` method."""
@@ -620,15 +630,10 @@ class MILPSolver(SolverBase):
         def polish(active):
             return self._polish(active)[0]
 
-        lifting = self.options.lifting
         bnb = ComplementarityBnB(self.form, work_matrix(self.form), bd.lam_lower, bd.lam_upper, polish,
                                  fixed_active=bd.slack_max == 0.0, fixed_idle=bd.z_max == 0.0,
-                                 slack_max=None if lifting.startswith("rlt") else bd.slack_max,
-                                 lam_branching=self.options.lam_branching,
-                                 all_copies=lifting in ("all", "rlt", "rlt-full"), lam_mechanism=lifting != "friction",
-                                 force_mechanism={"rlt": np.sort(np.r_[self.form.n, self.form.t]),
-                                                  "rlt-full": True}.get(lifting),
-                                 root_lp=self.options.root_lp)
+                                 lam_branching=self.options.lam_branching, root_lp=self.options.root_lp,
+                                 **lifting_options(self.form, self.options.lifting, bd.slack_max))
         run, best = bnb.solve(deadline - time.perf_counter(), incumbent, t0=t0)
         self._bnb_lps = bnb.n_lps
         return run, best

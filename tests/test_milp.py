@@ -490,18 +490,15 @@ def _lifted(structure, lifting: str):
     """(solver in per-block units, ComplementarityBnB with no incumbent) for ``lifting``."""
     from blockmpec.formulations.mpec_milp import work_matrix
     from blockmpec.solvers.engines.complementarity_bnb import ComplementarityBnB
-    from blockmpec.solvers.milp import MILPSolver
+    from blockmpec.solvers.milp import MILPSolver, lifting_options
 
     solver = MILPSolver(engine="bnb", lifting=lifting)
     solver.setup(bm.operators.assemble(structure))
     bd = solver._bounds(time.perf_counter() + 60)
     form = solver.form
-    tied = {"rlt": np.sort(np.r_[form.n, form.t]), "rlt-full": True}.get(lifting)
     bnb = ComplementarityBnB(form, work_matrix(form), bd.lam_lower, bd.lam_upper, lambda a: solver._polish(a)[0],
                              fixed_active=bd.slack_max == 0.0, fixed_idle=bd.z_max == 0.0,
-                             slack_max=None if lifting.startswith("rlt") else bd.slack_max,
-                             all_copies=lifting in ("all", "rlt", "rlt-full"),
-                             lam_mechanism=lifting != "friction", force_mechanism=tied)
+                             **lifting_options(form, lifting, bd.slack_max))
     return solver, bnb
 
 
