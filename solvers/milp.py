@@ -36,7 +36,9 @@ derives every row).  A run has five stages, all timed:
 3. **solve**.  Incumbent first: the associative-pattern point (when its active set admits
    a mechanism) and the ``heuristic``'s verified point polished on its pattern, the better
    one.  If it meets ``lam_lower`` within ``CERTIFICATE_TOL`` it is certified at the root
-   (no search).  Otherwise HiGHS on the big-M model (``engine="highs"``), SCIP
+   (no search).  Otherwise the engine: ``engine="auto"`` (the default) is ``"bnb"`` for ``sense="min"``
+   on structures of at most ``AUTO_BNB_MAX_PAIRS`` pairs and ``"highs"`` otherwise
+   (:meth:`MILPSolver._resolve_engine`; ``extra["engine"]`` names the one that ran).  HiGHS on the big-M model (``engine="highs"``), SCIP
    (``engine="scip"``, SOS1 sets ``{s_i, z_i}``) or the branch and bound over the pairs
    of :mod:`blockmpec.solvers.engines.complementarity_bnb` (``engine="bnb"``, a lifted LP
    bound, no big-M; ``lifting`` picks the products in that LP: ``"friction"`` copies ``z_i x`` for
@@ -45,7 +47,8 @@ derives every row).  A run has five stages, all timed:
    ``"rlt-full"`` those products with the moments too (root bound the minimum of the 5x2 wall, where
    ``"rlt"`` stops at 0.558 against 0.6); ``lam_branching`` also
    bisects ``lam``; ``root_lp="ipm"`` solves the root LP by the interior point first and drops the
-   rows with zero dual there, a relaxation), started from the incumbent.  ``tau >= 0`` makes the model a
+   rows with zero dual there, a relaxation; defaults ``lifting="rlt-full"``, ``root_lp="ipm"``), started
+   from the incumbent.  ``tau >= 0`` makes the model a
    relaxation of (4), so the engine's dual bound is a certified bound on the minimum
    (an upper bound on the maximum).
 4. **polish**: with the pattern of the engine's point fixed (active pair: slack 0;
@@ -93,7 +96,16 @@ from blockmpec.registry import register_solver
 from blockmpec.result import Solution, Status
 from blockmpec.solver import RunOutput, SolverBase
 
-ENGINES = ("highs", "scip", "bnb")
+ENGINES = ("auto", "highs", "scip", "bnb")
+#: engine="auto" runs "bnb" (sense="min") on structures of at most this many complementarity pairs, "highs" above
+#: it and for sense="max".  The lifted LP of "bnb" grows like pairs^2 (rows G_j x^(i) of every copy): 124 pairs
+#: (4x3 running-bond wall) 29,929 rows, 352 pairs (8x4, 36 blocks) 233,575 rows; above this neither engine
+#: certifies a running-bond wall in 10 minutes and the lifted LP alone would cost memory and set-up time.
+AUTO_BNB_MAX_PAIRS = 400
+#: defaults of the bnb engine's options (None in MILPOptions: "not set"): the best measured
+#: (``python studies/certificate_study.py suite --configs highs,bnb-rltfull-ipm``)
+BNB_DEFAULT_LIFTING = "rlt-full"
+BNB_DEFAULT_ROOT_LP = "ipm"
 LIFTINGS = ("friction", "mechanism", "all", "rlt", "rlt-full")
 ROOT_LPS = ("simplex", "ipm")
 
@@ -113,18 +125,19 @@ class MILPOptions:
     """Options of the ``milp`` method."""
 
     time_limit: float = field(default=60.0, metadata={"help": "seconds for the whole run (bounds + MILP + polish)"})
-    engine: str = field(default="highs", metadata={
-        "help": "highs: HiGHS branch and cut on the big-M model | scip: SCIP with SOS1 complementarity | "
+    engine: str = field(default="auto", metadata={
+        "help": "auto: bnb for sense=min up to AUTO_BNB_MAX_PAIRS (400) complementarity pairs, highs otherwise | "
+                "highs: HiGHS branch and cut on the big-M model | scip: SCIP with SOS1 complementarity | "
                 "bnb: branch and bound over the pairs on the lifted work-identity LP (no big-M; sense=min)"})
     lam_branching: bool = field(default=False, metadata={
         "help": "engine=bnb: also branch on lam (bisect the node's lam-interval; every copy's live load in it)"})
-    lifting: str = field(default="friction", metadata={
-        "help": "engine=bnb: friction: static copies z_i x for the friction pairs | mechanism: and lam u, lam z "
+    lifting: str | None = field(default=None, metadata={
+        "help": "engine=bnb (default rlt-full): friction: static copies z_i x for the friction pairs | mechanism: and lam u, lam z "
                 "(compatibility times lam) | all: copies for every pair, and lam u | rlt: all, and the products of "
                 "compatibility and f_l^T u = 1 with each normal and tangential force (x u^T) | rlt-full: rlt with the "
                 "moments too"})
-    root_lp: str = field(default="simplex", metadata={
-        "help": "engine=bnb: simplex: every node LP by the dual simplex on all rows | ipm: the root LP first by "
+    root_lp: str | None = field(default=None, metadata={
+        "help": "engine=bnb (default ipm): simplex: every node LP by the dual simplex on all rows | ipm: the root LP first by "
                 "the interior point (no crossover), the copy pair rows with zero dual there dropped (a relaxation), "
                 "woken again where a node's LP point violates them"})
     mip_rel_gap: float = field(default=1e-9, metadata={"help": "relative gap |primal - dual| / |primal|"})
@@ -169,12 +182,16 @@ class MILPOptions:
             raise ValueError(f"sense must be 'min' or 'max'; got {self.sense!r}")
         if self.slack_bounds not in ("row", "normal"):
             raise ValueError(f"slack_bounds must be 'row' or 'normal'; got {self.slack_bounds!r}")
-        if self.lifting not in LIFTINGS:
+        if self.lifting is not None and self.lifting not in LIFTINGS:
             raise ValueError(f"lifting must be one of {LIFTINGS}; got {self.lifting!r}")
-        if self.root_lp not in ROOT_LPS:
+        if self.root_lp is not None and self.root_lp not in ROOT_LPS:
             raise ValueError(f"root_lp must be one of {ROOT_LPS}; got {self.root_lp!r}")
-        if (self.lam_branching or self.lifting != "friction" or self.root_lp != "simplex") and self.engine != "bnb":
+        bnb_options = self.lam_branching or self.lifting is not None or self.root_lp is not None
+        if bnb_options and self.engine not in ("bnb", "auto"):
             raise ValueError("lam_branching, lifting and root_lp are options of engine='bnb'")
+        if bnb_options and self.engine == "auto" and self.sense != "min":
+            raise ValueError("lam_branching, lifting and root_lp are options of engine='bnb', which bounds the "
+                             "minimum only (sense='max' runs engine='highs')")
         for name in ("lam_branching", "multiplier_bounds", "envelope", "dissipation_bound", "bilinear", "incumbent", "warm_bounds",
                      "verbose"):
             if not isinstance(getattr(self, name), bool):
@@ -290,6 +307,9 @@ class MILPSolver(SolverBase):
         # the MILP, its bounds and its polish all work on (3) in per-block units (ops.units)
         form, self._w_unit, self._lam_unit = per_block_units(compile_mcp(ops), ops)
         self.form = form
+        self.engine = self._resolve_engine(form)
+        self.lifting = self.options.lifting or BNB_DEFAULT_LIFTING
+        self.root_lp = self.options.root_lp or BNB_DEFAULT_ROOT_LP
         eq, cp, nm = form.equilibrium, form.compatibility, form.normalisation
         # static LP over (lam, x): A[equilibrium] (lam, x) = rhs, G x <= 0
         sc = np.r_[form.lam, np.arange(form.x.start, form.x.stop)]
@@ -334,6 +354,20 @@ class MILPSolver(SolverBase):
             h.clearSolver()
         self._n_lps += 1
         return hl.solve()
+
+    def _resolve_engine(self, form) -> str:
+        """The engine that runs: ``engine`` unless it is ``"auto"``, which picks ``"bnb"`` (its lifted LP is
+        the stronger bound: every structure of the heuristic suite certified in 0.5x the total time of
+        ``"highs"``, running-bond walls of 13-14 blocks within 60 s where ``"highs"`` stops at 7) for
+        ``sense="min"`` with at most ``AUTO_BNB_MAX_PAIRS`` pairs or any bnb option set, else ``"highs"``."""
+        opt = self.options
+        if opt.engine != "auto":
+            return opt.engine
+        if opt.sense != "min":
+            return "highs"
+        if opt.lam_branching or opt.lifting is not None or opt.root_lp is not None:
+            return "bnb"
+        return "bnb" if form.n_pairs <= AUTO_BNB_MAX_PAIRS else "highs"
 
     def _bounds(self, deadline: float):
         """All LP bounds (:meth:`_root_bounds` then :meth:`_model_bounds`)."""
@@ -582,7 +616,7 @@ class MILPSolver(SolverBase):
 
         opt = self.options
         M = opt.bigm_scale * bd.slack_max
-        complementarity = "bigm" if opt.engine == "highs" else "sos1"
+        complementarity = "bigm" if self.engine == "highs" else "sos1"
         mip = fm.mpec_milp(self.form, bd, sense=opt.sense, complementarity=complementarity, bigm=M,
                            envelope=opt.envelope, tau_min=tau_min)
         zcols = self.form.pair_column
@@ -632,8 +666,8 @@ class MILPSolver(SolverBase):
 
         bnb = ComplementarityBnB(self.form, work_matrix(self.form), bd.lam_lower, bd.lam_upper, polish,
                                  fixed_active=bd.slack_max == 0.0, fixed_idle=bd.z_max == 0.0,
-                                 lam_branching=self.options.lam_branching, root_lp=self.options.root_lp,
-                                 **lifting_options(self.form, self.options.lifting, bd.slack_max))
+                                 lam_branching=self.options.lam_branching, root_lp=self.root_lp,
+                                 **lifting_options(self.form, self.lifting, bd.slack_max))
         run, best = bnb.solve(deadline - time.perf_counter(), incumbent, t0=t0)
         self._bnb_lps = bnb.n_lps
         return run, best
@@ -645,7 +679,7 @@ class MILPSolver(SolverBase):
         kw = dict(rel_gap=opt.mip_rel_gap, abs_gap=opt.mip_abs_gap, feasibility_tol=opt.feasibility_tol,
                   threads=opt.threads, verbose=opt.verbose, start=start, t0=t0)
         limit = deadline - time.perf_counter()
-        if opt.engine == "scip":
+        if self.engine == "scip":
             return engines.solve_scip(mip, limit, bilinear=opt.bilinear, **kw)
         return engines.solve_highs(mip, limit, **kw)
 
@@ -828,7 +862,7 @@ class MILPSolver(SolverBase):
         t0 = time.perf_counter()
         mip = self._build(bd)
         t_build = time.perf_counter() - t0
-        if opt.engine == "bnb":
+        if self.engine == "bnb":
             return self._run_bnb(bd, incumbent, deadline, t_build, trace)
         run = self._solve(mip, deadline, self._start(mip, incumbent), t_start)
         trace += [dict(r, iteration=len(trace) + k, stage="search") for k, r in enumerate(run.trace)]
@@ -839,7 +873,7 @@ class MILPSolver(SolverBase):
             facts.ASSOCIATIVE_MULTIPLIER: bd.lam_associative,
             facts.BOUND: bound,
             facts.LP_SOLVES: bd.n_lps,
-            facts.ENGINE: opt.engine,
+            facts.ENGINE: self.engine,
             "lam_static_min": bd.lam_static_min,
             "lam_kinematic": bd.lam_kinematic,
             "lam_dissipation": bd.lam_dissipation,

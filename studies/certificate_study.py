@@ -8,7 +8,10 @@ Three parts, each a table (markdown on stdout, CSV in ``studies/output/certifica
              within 60 s, and a running-bond wall of 30-50 blocks (half blocks at
              the course ends, as ``bm.cases.wall`` builds them) within 600 s;
 ``largest``  the largest running-bond wall, stack wall and arch certified within a
-             time limit, growing each family until the first size that fails.
+             time limit, growing each family until the first size that fails;
+``suite``    every configuration on the structures the heuristic suite certifies by ``milp``
+             (``studies/heuristic_suite.py``: walls with openings, arches on buttresses,
+             psi > 0, ...): certified or not, time, and whether the certified values agree.
 
 ``--before DIR`` adds the method as it was before this work (``git show 9f29e3c``):
 extract it with ``mkdir -p DIR && git archive 9f29e3c solvers/milp.py
@@ -23,6 +26,7 @@ Usage::
         --cases 4x3,2x4,3x2,4x2,5x2 --time-limit 60 --tag ipx
     python studies/certificate_study.py compare --configs bnb-rlt-ipm,bnb-rltfull-ipm \
         --cases 5x2,4x3,3x4,2x4,3x2,4x2,2x3 --time-limit 60 --tag rltfull2
+    python studies/certificate_study.py suite --configs highs,bnb-rltfull-ipm --time-limit 60
 """
 
 from __future__ import annotations
@@ -43,16 +47,18 @@ OUT = Path(__file__).parent / "output" / "certificate"
 
 #: configuration name -> (method, options)
 CONFIGS = {
+    "auto": ("milp", {}),  # the default: engine="auto"
     "highs": ("milp", {"engine": "highs"}),
     "highs+env": ("milp", {"engine": "highs", "envelope": True}),
     "scip": ("milp", {"engine": "scip"}),
     "scip+env": ("milp", {"engine": "scip", "envelope": True}),
     "scip+bilinear": ("milp", {"engine": "scip", "envelope": True, "bilinear": True}),
-    "bnb": ("milp", {"engine": "bnb"}),
-    "bnb+lam": ("milp", {"engine": "bnb", "lam_branching": True}),
-    "bnb-mechanism": ("milp", {"engine": "bnb", "lifting": "mechanism"}),
-    "bnb-rlt": ("milp", {"engine": "bnb", "lifting": "rlt"}),
-    "bnb-rlt+lam": ("milp", {"engine": "bnb", "lifting": "rlt", "lam_branching": True}),
+    # the bnb engine as first measured (its defaults are now lifting="rlt-full", root_lp="ipm": "bnb-rltfull-ipm")
+    "bnb": ("milp", {"engine": "bnb", "lifting": "friction", "root_lp": "simplex"}),
+    "bnb+lam": ("milp", {"engine": "bnb", "lifting": "friction", "root_lp": "simplex", "lam_branching": True}),
+    "bnb-mechanism": ("milp", {"engine": "bnb", "lifting": "mechanism", "root_lp": "simplex"}),
+    "bnb-rlt": ("milp", {"engine": "bnb", "lifting": "rlt", "root_lp": "simplex"}),
+    "bnb-rlt+lam": ("milp", {"engine": "bnb", "lifting": "rlt", "root_lp": "simplex", "lam_branching": True}),
     "bnb-rlt-ipm": ("milp", {"engine": "bnb", "lifting": "rlt", "root_lp": "ipm"}),
     "bnb-rltfull-ipm": ("milp", {"engine": "bnb", "lifting": "rlt-full", "root_lp": "ipm"}),
     # root_lp="ipm" as before issue 12's third round: HiGHS's own "ipm" choice (HiPO first, IPX after it stalls)
@@ -99,10 +105,16 @@ def case(spec: str) -> bm.Structure:
 
 
 def run(spec: str, config: str, time_limit: float, traces: list | None = None) -> dict:
+    """One certificate run of the case ``spec`` (see :func:`case`) by ``config``: one row of the tables."""
+    return run_structure(spec, case(spec), config, time_limit, traces)
+
+
+def run_structure(spec: str, structure: bm.Structure, config: str, time_limit: float,
+                  traces: list | None = None) -> dict:
+    """One certificate run of ``structure`` (labelled ``spec``) by ``config``."""
     from blockmpec.solvers.engines import complementarity_bnb
 
     method, options = CONFIGS[config]
-    structure = case(spec)
     constants = ENGINE_CONSTANTS.get(config, {})
     saved = {name: getattr(complementarity_bnb, name) for name in constants}
     try:
@@ -143,6 +155,39 @@ def write(rows: list[dict], name: str, columns: list[str]) -> Path:
     return write_csv(OUT / f"{name}.csv", rows, columns)
 
 
+#: two certified values of one structure agree when they differ by at most this (times max(1, |value|))
+AGREE_TOL = 1e-6
+
+
+def suite_summary(rows: list[dict], configs: list[str]) -> str:
+    """Per configuration: structures certified, total and median solve time, and the structures where its
+    certified value differs from another configuration's certified value (a bug in one of them)."""
+    import statistics
+
+    by_case: dict = {}
+    for r in rows:
+        by_case.setdefault(r["case"], {})[r["config"]] = r
+    out = []
+    for config in configs:
+        mine = [r for r in rows if r["config"] == config]
+        times = [r["solve_s"] for r in mine if r["solve_s"] is not None]
+        disagree = 0
+        for runs in by_case.values():
+            r = runs.get(config)
+            if r is None or not r["certified"]:
+                continue
+            others = [o for c, o in runs.items() if c != config and o["certified"]]
+            disagree += any(abs(o["multiplier"] - r["multiplier"]) > AGREE_TOL * max(1.0, abs(r["multiplier"]))
+                            for o in others)
+        only = sum(1 for runs in by_case.values() if runs.get(config, {}).get("certified")
+                   and not any(o["certified"] for c, o in runs.items() if c != config))
+        out.append({"config": config, "structures": len(mine), "certified": sum(bool(r["certified"]) for r in mine),
+                    "only_it_certified": only, "disagreements": disagree,
+                    "total_solve_s": sum(times), "median_solve_s": statistics.median(times) if times else None})
+    return table(out, ["config", "structures", "certified", "only_it_certified", "disagreements", "total_solve_s",
+                       "median_solve_s"])
+
+
 #: growing sizes of each family for ``largest``
 FAMILIES = {
     "running": ["2x2", "3x2", "2x3", "4x2", "2x4", "5x2", "4x3", "3x4", "6x3", "5x4", "6x4", "6x5", "8x4", "6x6"],
@@ -153,7 +198,7 @@ FAMILIES = {
 
 def main(argv: list[str] | None = None) -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("part", choices=["compare", "targets", "largest"])
+    ap.add_argument("part", choices=["compare", "targets", "largest", "suite"])
     ap.add_argument("--configs", default="highs,scip")
     ap.add_argument("--cases", default="3x2,6x2s,2x4,4x3,5x2")
     ap.add_argument("--time-limit", type=float, default=60.0)
@@ -174,6 +219,17 @@ def main(argv: list[str] | None = None) -> None:
             for config in configs:
                 rows.append(run(spec, config, args.time_limit, traces))
                 print(table(rows[-1:], COLUMNS).splitlines()[-1], flush=True)
+    elif args.part == "suite":
+        from heuristic_suite import suite
+
+        for entry in suite(include_large=False):
+            if entry.source != "milp":
+                continue
+            for config in configs:
+                rows.append(run_structure(entry.label, entry.build(), config, args.time_limit, traces))
+                print(table(rows[-1:], COLUMNS).splitlines()[-1], flush=True)
+        print()
+        print(suite_summary(rows, configs))
     elif args.part == "targets":
         for spec, limit in (("2x4", 60.0), ("4x3", 60.0), ("5x2", 60.0), ("8x4", 600.0)):
             for config in configs:

@@ -96,7 +96,7 @@ def test_round_arch_published_value():
 def test_not_above_associative(case_id):
     structure = SMALL_CASES[case_id]()
     assoc = solved(case_id, "static-lp")
-    res = solved(case_id, "milp")
+    res = solved(case_id, "milp", engine="highs")  # the big-M model's engine (the default "auto" runs bnb here)
     assert_certified(res)
     assert res.multiplier <= assoc.multiplier + 1e-9
     # every recorded big-M bound covers the slack of the returned solution
@@ -140,7 +140,7 @@ def test_single_block_closed_form():
 def test_too_small_bigm_is_detected(scale, mu):
     """Shrunken slack bounds cut off the optimum: never reported as a certified optimum."""
     structure = bm.cases.two_blocks(eta=3, mu=mu)
-    res = bm.solve(structure, "milp", bigm_scale=scale)
+    res = bm.solve(structure, "milp", engine="highs", bigm_scale=scale)
     assert res.status is not Status.OPTIMAL
     if res.status is Status.INFEASIBLE:
         assert "bigm_scale" in res.message
@@ -189,7 +189,7 @@ def test_spurious_zero_live_work_point_is_not_certified(monkeypatch):
         return mip
 
     monkeypatch.setattr(fm, "mpec_milp", without_cut)
-    res = bm.solve(bm.cases.two_blocks(eta=3, mu=1.5), "milp", incumbent=False)
+    res = bm.solve(bm.cases.two_blocks(eta=3, mu=1.5), "milp", engine="highs", incumbent=False)
     assert res.status is not Status.OPTIMAL
     assert "tau_restart" in res.extra
     assert res.extra["bound"] < 1 / 3 - 1e-3
@@ -406,6 +406,38 @@ def test_bilinear_needs_scip_and_bnb_needs_min():
         bm.solve(bm.cases.two_blocks(), "milp", engine="bnb", sense="max")
 
 
+def test_auto_engine_runs_bnb_for_the_minimum_and_highs_otherwise(monkeypatch):
+    """engine="auto" (the default): bnb for sense="min" on a small structure, highs for sense="max" and
+    above AUTO_BNB_MAX_PAIRS; both certify the same minimum; bnb's options with sense="max" are refused."""
+    from blockmpec.solvers import milp
+
+    structure = bm.cases.wall(2, 2)
+    by_bnb = bm.solve(structure, "milp", incumbent=False, heuristic="")  # no root certificate: an engine runs
+    assert_certified(by_bnb)
+    assert by_bnb.extra["engine"] == "bnb"
+    assert bm.solve(structure, "milp", sense="max").extra["engine"] in ("highs", "root")
+    monkeypatch.setattr(milp, "AUTO_BNB_MAX_PAIRS", 0)
+    by_highs = bm.solve(structure, "milp", incumbent=False, heuristic="")
+    assert_certified(by_highs)
+    assert by_highs.extra["engine"] == "highs"
+    assert by_highs.multiplier == pytest.approx(by_bnb.multiplier, abs=1e-7)
+    with pytest.raises(bm.errors.OptionError, match="bnb"):
+        bm.solve(structure, "milp", lifting="rlt", sense="max")
+
+
+@pytest.mark.parametrize("options", [{"lifting": "friction", "root_lp": "simplex"}, {}], ids=["friction", "default"])
+@pytest.mark.parametrize("case_id", ["wall-2x2", "two-blocks"])
+def test_bnb_without_any_incumbent_finds_and_certifies_the_minimum(options, case_id):
+    """No associative-pattern start and no heuristic: the search itself must find the point (before the fix
+    an infinite incumbent made the prune tolerance infinite, and the run ended with no point at all)."""
+    structure = {"wall-2x2": lambda: bm.cases.wall(2, 2), "two-blocks": lambda: bm.cases.two_blocks(eta=3, mu=0.65)}
+    res = bm.solve(structure[case_id](), "milp", engine="bnb", incumbent=False, heuristic="", **options)
+    assert_certified(res)
+    reference = bm.solve(structure[case_id](), "milp", engine="highs")
+    assert_certified(reference)
+    assert res.multiplier == pytest.approx(reference.multiplier, abs=1e-7)
+
+
 @pytest.mark.parametrize("case_id", ["wall-2x2", "wall-3x2-stack", "round-arch", "arch-on-buttresses"])
 def test_bnb_and_highs_certify_the_same_minimum(case_id):
     """The lifted-LP branch and bound (no big-M) and the big-M MILP certify the same value."""
@@ -445,10 +477,12 @@ def test_tiny_block_on_big_block_is_certified_in_per_block_units(engine, small):
     assert res.multiplier == pytest.approx(0.5, rel=1e-9)
 
 
-def test_huge_dead_point_loads_are_certified_in_the_problems_units():
+@pytest.mark.parametrize("engine", ["highs", "bnb"])
+def test_huge_dead_point_loads_are_certified_in_the_problems_units(engine):
     """Dead point loads 1e10 times the weights: lam ~3.3e9 is certified; the MILP runs with lam in
     a power-of-two unit, and the bound, the gap and the big-M bounds come back in the problem's
-    units: the bound meets the returned lam, and every returned slack lies under its big-M."""
+    units: the bound meets the returned lam, and every returned slack lies under its big-M (engine
+    "highs"; "bnb" has no big-M)."""
     import json
     from pathlib import Path
 
@@ -459,8 +493,9 @@ def test_huge_dead_point_loads_are_certified_in_the_problems_units():
                         for b, p in [(1, [0.5, 0.25]), (2, [0.4, 1.0]), (3, [1.5, 0.25])]]
     structure = structure_from_dict(d)
     assoc = bm.solve(structure, "static-lp")
-    res = bm.solve(structure, "milp", heuristic="", incumbent=False)
+    res = bm.solve(structure, "milp", engine=engine, heuristic="", incumbent=False)
     assert_certified(res)
+    assert res.extra["engine"] == engine
     unit = res.extra["lam_unit"]
     assert unit > 1e9 and np.log2(unit) == round(np.log2(unit))
     assert res.multiplier == pytest.approx(assoc.multiplier, rel=1e-9)
@@ -468,7 +503,9 @@ def test_huge_dead_point_loads_are_certified_in_the_problems_units():
     ops = bm.operators.assemble(structure)
     slack = -np.concatenate([ops.N_u.T @ res.solution.x, ops.N_f.T @ res.solution.x])
     M = np.array(res.extra["bigm"])
-    assert M.shape == slack.shape and np.all(slack <= M)
+    assert (M.size == 0) == (engine == "bnb")
+    if engine == "highs":
+        assert M.shape == slack.shape and np.all(slack <= M)
 
 
 # ----------------------------------------------------------------------------- issue 12: liftings of the bnb engine

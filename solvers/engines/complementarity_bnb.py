@@ -696,7 +696,9 @@ class ComplementarityBnB:
         status = Status.OPTIMAL
 
         def tol():
-            return PRUNE_TOL * max(1.0, abs(best_val))
+            # without an incumbent (best_val = inf) nothing is pruned: inf - bound <= inf closed the root at once,
+            # and inf - inf = nan kept every child off the heap (a run without incumbent found no point)
+            return PRUNE_TOL * max(1.0, abs(best_val)) if np.isfinite(best_val) else 0.0
 
         while heap:
             global_bound = min(entry[0] for entry in heap)
