@@ -38,9 +38,9 @@ derives every row).  A run has five stages, all timed:
    one.  If it meets ``lam_lower`` within ``CERTIFICATE_TOL`` it is certified at the root
    (no search).  Otherwise the engine: ``engine="auto"`` (the default) is ``"bnb"`` for ``sense="min"``
    on structures of at most ``AUTO_BNB_MAX_PAIRS`` pairs and ``"highs"`` otherwise
-   (:meth:`MILPSolver._resolve_engine`; ``extra["engine"]`` names the one that ran).  HiGHS on the big-M model (``engine="highs"``), SCIP
-   (``engine="scip"``, SOS1 sets ``{s_i, z_i}``) or the branch and bound over the pairs
-   of :mod:`blockmpec.solvers.engines.complementarity_bnb` (``engine="bnb"``, a lifted LP
+   (:meth:`MILPSolver._resolve_engine`; ``extra["engine"]`` names the one that ran).  HiGHS on the
+   big-M model (``engine="highs"``), SCIP (``engine="scip"``, SOS1 sets ``{s_i, z_i}``) or the branch
+   and bound over the pairs of :mod:`blockmpec.solvers.engines.complementarity_bnb` (``engine="bnb"``, a lifted LP
    bound, no big-M; ``lifting`` picks the products in that LP: ``"friction"`` copies ``z_i x`` for
    the friction pairs, ``"rlt"`` copies for every pair with the products ``lam u`` and ``x u^T`` (normal and
    tangential forces), whose root bound is the minimum of the 2x2, 3x2 and 2x4 running-bond walls,
@@ -132,14 +132,14 @@ class MILPOptions:
     lam_branching: bool = field(default=False, metadata={
         "help": "engine=bnb: also branch on lam (bisect the node's lam-interval; every copy's live load in it)"})
     lifting: str | None = field(default=None, metadata={
-        "help": "engine=bnb (default rlt-full): friction: static copies z_i x for the friction pairs | mechanism: and lam u, lam z "
-                "(compatibility times lam) | all: copies for every pair, and lam u | rlt: all, and the products of "
-                "compatibility and f_l^T u = 1 with each normal and tangential force (x u^T) | rlt-full: rlt with the "
-                "moments too"})
+        "help": "engine=bnb (default rlt-full): friction: static copies z_i x for the friction pairs | "
+                "mechanism: and lam u, lam z (compatibility times lam) | all: copies for every pair, and lam u | "
+                "rlt: all, and the products of compatibility and f_l^T u = 1 with each normal and tangential force "
+                "(x u^T) | rlt-full: rlt with the moments too"})
     root_lp: str | None = field(default=None, metadata={
-        "help": "engine=bnb (default ipm): simplex: every node LP by the dual simplex on all rows | ipm: the root LP first by "
-                "the interior point (no crossover), the copy pair rows with zero dual there dropped (a relaxation), "
-                "woken again where a node's LP point violates them"})
+        "help": "engine=bnb (default ipm): simplex: every node LP by the dual simplex on all rows | ipm: the root "
+                "LP first by the interior point (no crossover), the copy pair rows with zero dual there dropped "
+                "(a relaxation), woken again where a node's LP point violates them"})
     mip_rel_gap: float = field(default=1e-9, metadata={"help": "relative gap |primal - dual| / |primal|"})
     mip_abs_gap: float = field(default=1e-9, metadata={"help": "absolute gap on lam"})
     feasibility_tol: float = field(default=1e-9, metadata={
@@ -286,7 +286,8 @@ class MILPSolver(SolverBase):
     name = "milp"
     problem = "non-associative"
     summary = ("certified global minimum of the MPEC (4) (sense=max: maximum of lam over solutions of (3)): "
-               "LP bounds from the work identity, then HiGHS big-M MILP (or SCIP SOS1, or a pair branch and bound)")
+               "LP bounds from the work identity, then a branch and bound over the pairs on a lifted LP "
+               "(engine=auto; or HiGHS big-M MILP, or SCIP SOS1)")
     certifies_minimum = True
     requires = ("highspy", "pyomo")
     Options = MILPOptions
