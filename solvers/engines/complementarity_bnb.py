@@ -94,6 +94,7 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.sparse as sp
 
+from blockmpec.formulations.compiled import FRICTION
 from blockmpec.result import Status
 from blockmpec.solvers.engines.highs import highs_lp, use_interior_point
 from blockmpec.solvers.engines.mip import MIPRun, _Tracer
@@ -113,7 +114,13 @@ DORMANT_DUAL_TOL = 1e-7
 SEPARATION_TOL = 1e-9
 #: re-solves of one node LP after waking violated dormant rows
 SEPARATION_ROUNDS = 3
-ROOT_LPS = ("simplex", "ipm")
+ROOT_LPS = ("simplex", "ipm", "ipm-rows")
+#: root_lp="ipm-rows": interior-point rounds of the root's row generation at most (each adds the rows violated at
+#: the previous round's point)
+ROOT_ROW_ROUNDS = 30
+#: root_lp="ipm-rows": a left-out row violated by more than this (absolute, per-block units; IPX's primal
+#: feasibility tolerance) at an interior point's primal point is added for the next round
+ROOT_ROW_TOL = 1e-7
 #: root_lp="ipm": the root is closed when the interior point's dual bound is within this (times max(1, |incumbent|))
 #: of the incumbent (= CERTIFICATE_TOL of milp, which then checks the reported gap against the same tolerance)
 INTERIOR_CLOSE_TOL = 1e-7
@@ -552,9 +559,76 @@ class ComplementarityBnB:
         self.ipm_bound = bound
         return bound
 
+    def _generated_root(self, target: float = np.inf) -> float:
+        """``root_lp="ipm-rows"``: the root LP (its bounds already applied) by row generation, each round one
+        interior point (no crossover) on a subset of its rows; returns the largest round's dual bound (``-inf``
+        if none).
+
+        Any subset of the rows is a relaxation, so every round's :func:`dual_bound` (on the LP actually solved)
+        is a valid lower bound.  Round 0 leaves out the copy friction rows ``G_j x^(i) <= 0`` (``j != i``, ``j``
+        a friction pair) and the moments' rows (X) (without the unilateral rows too, the 4x3 wall's first interior
+        point had not ended after 200 s); each round adds every left-out row violated by more than
+        ``ROOT_ROW_TOL`` at the interior point's primal point.  It stops when the bound meets ``target`` (``INTERIOR_CLOSE_TOL``), when no
+        left-out row is violated (the point is feasible for the whole LP: its bound is then the whole LP's within
+        the interior point's tolerances), after ``ROOT_ROW_ROUNDS`` rounds, or when an interior point gives no
+        duals (time limit).  The copy pair rows still left out are made dormant for the node LPs
+        (woken where a node's point violates them, as with ``root_lp="ipm"``).  ``self.root_rounds``: one dict
+        per round (rows, columns, nonzeros, rows added after it, bound, seconds since the start);
+        ``self.root_lp_rows``: the rows of the last LP solved (a mask of the lifted LP's rows)."""
+        t0 = time.perf_counter()
+        lp = self.h.getLp()
+        c = np.asarray(lp.col_cost_)
+        rl, ru = np.asarray(lp.row_lower_), np.asarray(lp.row_upper_)
+        cl, cu = np.asarray(lp.col_lower_), np.asarray(lp.col_upper_)
+        lay = self.layout
+        A = sp.csr_array(self._A)
+        out = np.zeros(A.shape[0], dtype=bool)
+        friction_rows = [lay.copy_pair_rows[j] for j in np.flatnonzero(self.form.pair_kind == FRICTION)]
+        out[np.concatenate(friction_rows) if friction_rows else np.zeros(0, int)] = True
+        out[lay.own_rows] = False
+        out |= self._late_rows
+        bound = -np.inf
+        self.root_rounds = []
+        record = getattr(self, "_record", None)
+        for k in range(ROOT_ROW_ROUNDS):
+            keep = ~out
+            Ak = sp.csc_array(A[keep])
+            y, vk = self._interior_solution(Ak, c, rl[keep], ru[keep], cl, cu)
+            if y is None:
+                break
+            self.root_lp_rows = keep.copy()
+            bound = max(bound, dual_bound(Ak, c, rl[keep], ru[keep], cl, cu, y))
+            info = {"round": k, "rows": int(keep.sum()), "cols": int(A.shape[1]), "nnz": int(Ak.nnz),
+                    "bound": bound, "time_s": time.perf_counter() - t0, "added": 0}
+            self.root_rounds.append(info)
+            if record is not None:
+                record(bound)
+            if _meets(bound, target) or vk is None:
+                break
+            r = A @ vk
+            viol = np.maximum(r - ru, rl - r)
+            add = out & (viol > ROOT_ROW_TOL)
+            info["added"] = int(add.sum())
+            if not add.any():
+                break
+            out &= ~add
+        # the copy pair rows still left out sleep in the node LPs
+        sleep = self._sleep_rows[out[self._sleep_rows]]
+        self.dormant[sleep] = True
+        _checked(self.h.changeRowsBounds(sleep.size, sleep, np.full(sleep.size, -np.inf),
+                                         np.full(sleep.size, np.inf)))
+        self.ipm_time = self._timing["ipm"] = time.perf_counter() - t0
+        self.ipm_bound = bound
+        return bound
+
     def _interior_duals(self, A, c, rl, ru, cl, cu, tol: float | None = None) -> np.ndarray | None:
         """Row duals of the LP by HiGHS's interior point without crossover (None if it gave none); ``tol``:
         its optimality and feasibility tolerances (HiGHS's defaults if None)."""
+        return self._interior_solution(A, c, rl, ru, cl, cu, tol)[0]
+
+    def _interior_solution(self, A, c, rl, ru, cl, cu, tol: float | None = None) -> tuple:
+        """``(row duals, column values)`` of the LP by HiGHS's interior point without crossover (``(None,
+        None)`` if it gave no duals; the values None if it gave none)."""
         import highspy
 
         g = highspy.Highs()
@@ -569,9 +643,11 @@ class ComplementarityBnB:
         self.n_lps += 1
         # kUnknown: the interior point stopped near the optimum without meeting its tolerances (seen on small
         # walls with an opening); its duals still tell the rows apart and give a bound
-        if g.getModelStatus() in (highspy_status("kOptimal"), highspy_status("kUnknown")) and g.getSolution().dual_valid:
-            return np.asarray(g.getSolution().row_dual, float)
-        return None
+        sol = g.getSolution()
+        if g.getModelStatus() in (highspy_status("kOptimal"), highspy_status("kUnknown")) and sol.dual_valid:
+            return (np.asarray(sol.row_dual, float),
+                    np.asarray(sol.col_value, float) if sol.value_valid else None)
+        return None, None
 
     def _run(self) -> None:
         """One LP solve: at ``LOOSE_LP_TOL`` first (the lifted LPs are degenerate: the dual simplex at 1e-10
@@ -658,12 +734,13 @@ class ComplementarityBnB:
         self._restrict_to_improvements(best_val)
         a0, b0 = self.lam_lower, np.inf
         interior = -np.inf
-        if self.root_lp == "ipm" and a0 <= self.lam_cap:
+        if self.root_lp in ("ipm", "ipm-rows") and a0 <= self.lam_cap:
             # without the cap lam <= incumbent: with it the LP's optimum sits on the cap and the interior point
             # was seen to stop short (4x2 wall: no bound, where the uncapped LP gave the minimum within 1.4e-8)
             cap, self.lam_cap = self.lam_cap, self.lam_upper
             self._apply(self.root, a0, b0)
-            interior = self._interior_root(best_val)
+            self._record = lambda bnd: tracer.record(min(bnd, best_val), best_val, force=True)
+            interior = self._interior_root(best_val) if self.root_lp == "ipm" else self._generated_root(best_val)
             self.lam_cap = cap
             if best is not None and _meets(interior, best_val):
                 # the interior point's duals meet the incumbent within the accuracy of an interior point (the

@@ -1,0 +1,91 @@
+"""Row generation at the root of ``milp``'s lifted LP (``root_lp="ipm-rows"``) against the interior point on the
+whole LP (``root_lp="ipm"``), issue 12's 30-50-block target.
+
+Part 1 (``--compare``): both root LPs side by side on the same walls, one run at a time, ``lifting="rlt-full"``,
+``engine="bnb"``, mu = 0.65: status, multiplier, bound, CPU seconds, and the bound after every interior-point round.
+Part 2 (``--sizes``): the 30-36-block walls' lifted LP (rows, columns, nonzeros, copy pair rows) and how many pairs
+the bound tightening fixes (``slack_max = 0``: active, ``z_max = 0``: idle), which row generation and the
+copy removal of idle pairs could drop.
+
+    python studies/root_rows.py --compare 2x4,5x2,4x3,3x4 --time-limit 300
+    python studies/root_rows.py --sizes 2x15,4x7,8x4
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import time
+from pathlib import Path
+
+import numpy as np
+
+import blockmpec as bm
+
+OUT = Path(__file__).parent / "output" / "root_rows"
+
+
+def _wall(spec: str):
+    courses, blocks = (int(k) for k in spec.split("x"))
+    return bm.cases.wall(courses, blocks, mu=0.65)
+
+
+def compare(walls: list[str], modes: list[str], time_limit: float) -> list[dict]:
+    rows = []
+    for spec in walls:
+        for mode in modes:
+            cpu = time.process_time()
+            res = bm.solve(_wall(spec), "milp", engine="bnb", lifting="rlt-full", root_lp=mode,
+                           time_limit=time_limit)
+            row = {"wall": spec, "root_lp": mode, "status": res.status.value, "lam": res.multiplier,
+                   "bound": res.extra.get(bm.facts.BOUND), "cpu_s": time.process_time() - cpu,
+                   "rounds": [(round(t["time_s"], 1), t["bound"]) for t in res.trace if t.get("stage") == "search"]}
+            print(json.dumps(row), flush=True)
+            rows.append(row)
+    return rows
+
+
+def sizes(walls: list[str]) -> list[dict]:
+    from blockmpec.formulations.mpec_milp import work_matrix
+    from blockmpec.solvers.engines.complementarity_bnb import lifted_lp
+    from blockmpec.solvers.milp import MILPSolver, lifting_options
+
+    rows = []
+    for spec in walls:
+        solver = MILPSolver(engine="bnb", lifting="rlt-full", root_lp="ipm-rows")
+        solver.setup(bm.operators.assemble(_wall(spec)))
+        cpu = time.process_time()
+        bd = solver._bounds(time.perf_counter() + 600)
+        bound_s = time.process_time() - cpu
+        form = solver.form
+        A, *_, layout = lifted_lp(form, work_matrix(form), bd.lam_lower, bd.lam_upper,
+                                  **lifting_options(form, "rlt-full", bd.slack_max))
+        pair_rows = sum(r.size for r in layout.copy_pair_rows.values())
+        late = 0 if layout.tied is None else int(layout.tied_rows[~np.isin(layout.tied, np.r_[form.n, form.t])].size)
+        row = {"wall": spec, "blocks": int(_wall(spec).n_blocks), "pairs": int(form.n_pairs),
+               "fixed_active": int((bd.slack_max == 0).sum()), "fixed_idle": int((bd.z_max == 0).sum()),
+               "rows": int(A.shape[0]), "cols": int(A.shape[1]), "nnz": int(A.nnz), "copy_pair_rows": int(pair_rows),
+               "moment_rows": late, "bounds_cpu_s": bound_s, "lam_lower": bd.lam_lower}
+        print(json.dumps(row), flush=True)
+        rows.append(row)
+    return rows
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--compare", default="", help="walls CxB, comma-separated, for the side-by-side runs")
+    ap.add_argument("--modes", default="ipm,ipm-rows")
+    ap.add_argument("--time-limit", type=float, default=300.0)
+    ap.add_argument("--sizes", default="", help="walls CxB whose lifted LP sizes and fixed pairs are counted")
+    args = ap.parse_args()
+    OUT.mkdir(parents=True, exist_ok=True)
+    if args.compare:
+        out = compare(args.compare.split(","), args.modes.split(","), args.time_limit)
+        (OUT / "compare.json").write_text(json.dumps(out, indent=1))
+    if args.sizes:
+        out = sizes(args.sizes.split(","))
+        (OUT / "sizes.json").write_text(json.dumps(out, indent=1))
+
+
+if __name__ == "__main__":
+    main()

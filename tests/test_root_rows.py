@@ -1,0 +1,91 @@
+"""``milp``'s root LP by row generation (``root_lp="ipm-rows"``, issue 12): every round's LP is a relaxation of
+the lifted LP (a certified minimiser, lifted, satisfies each of its rows), no round's dual bound exceeds the
+certified minimum, and the certified values are those of ``root_lp="ipm"``."""
+
+import time
+
+import numpy as np
+import pytest
+import scipy.sparse as sp
+from helpers import CERTIFIED_TOL, margin
+
+import blockmpec as bm
+
+WALLS = {"2x2": (2, 2), "3x2": (3, 2)}
+
+
+def _wall(spec):
+    return bm.cases.wall(*WALLS.get(spec, tuple(int(k) for k in spec.split("x"))), mu=0.65)
+
+
+def _certified(spec, root_lp):
+    res = bm.solve(_wall(spec), "milp", engine="bnb", lifting="rlt-full", root_lp=root_lp, time_limit=60)
+    assert res.status is bm.Status.OPTIMAL, res.message
+    assert abs(res.multiplier - res.extra[bm.facts.BOUND]) <= margin(CERTIFIED_TOL, res.multiplier)
+    return res
+
+
+def _rows_bnb(spec):
+    """(solver in per-block units, ComplementarityBnB with root_lp="ipm-rows" at the root pattern)."""
+    from blockmpec.formulations.mpec_milp import work_matrix
+    from blockmpec.solvers.engines.complementarity_bnb import ComplementarityBnB
+    from blockmpec.solvers.milp import MILPSolver, lifting_options
+
+    solver = MILPSolver(engine="bnb", lifting="rlt-full", root_lp="ipm-rows")
+    solver.setup(bm.operators.assemble(_wall(spec)))
+    bd = solver._bounds(time.perf_counter() + 60)
+    form = solver.form
+    bnb = ComplementarityBnB(form, work_matrix(form), bd.lam_lower, bd.lam_upper, lambda a: solver._polish(a)[0],
+                             fixed_active=bd.slack_max == 0.0, fixed_idle=bd.z_max == 0.0, root_lp="ipm-rows",
+                             **lifting_options(form, "rlt-full", bd.slack_max))
+    bnb.deadline = time.perf_counter() + 60
+    bnb._apply(bnb.root, bnb.lam_lower, np.inf)
+    return solver, bnb
+
+
+def _within(M, v, lower, upper, tol):
+    r = M @ v
+    return bool(np.all(r >= lower - tol) and np.all(r <= upper + tol))
+
+
+@pytest.mark.parametrize("spec", list(WALLS))
+def test_every_generated_lp_holds_at_the_lifted_minimiser_and_bounds_below_it(spec):
+    """Without an incumbent the rounds run until no left-out row is violated: the last LP solved (a subset of
+    the lifted LP's rows) and the node LP left behind (its left-out copy pair rows free) hold at the lifted
+    certified minimiser, each round's bound lies below the minimum, and the last one is the minimum (the lifted
+    LP's root bound on these walls)."""
+    res = _certified(spec, "ipm")
+    solver, bnb = _rows_bnb(spec)
+    form = solver.form
+    w = form.pack(solver.scaled(res.solution))
+    v = bnb.layout.lift(w[form.lam], w[form.x], w[form.u], w[form.z])
+    lam = float(w[form.lam])
+    lp = bnb.h.getLp()
+    rl, ru = np.asarray(lp.row_lower_), np.asarray(lp.row_upper_)
+    bound = bnb._generated_root()
+    tol = 1e-7 * max(1.0, float(np.abs(v).max()))
+    A = sp.csr_array(bnb._A)
+    kept = bnb.root_lp_rows
+    assert 0 < kept.sum() < A.shape[0]  # a strict subset: some rows were never needed
+    assert _within(A[kept], v, rl[kept], ru[kept], tol)
+    after = bnb.h.getLp()
+    assert bnb.dormant.any()
+    assert np.all(np.asarray(after.row_upper_)[bnb.dormant] == np.inf)
+    assert _within(A, v, np.asarray(after.row_lower_), np.asarray(after.row_upper_), tol)
+    assert np.all(v >= np.asarray(after.col_lower_) - tol) and np.all(v <= np.asarray(after.col_upper_) + tol)
+    rounds = bnb.root_rounds
+    assert len(rounds) >= 2 and rounds[0]["rows"] < rounds[-1]["rows"] and rounds[-1]["added"] == 0
+    bounds = [r["bound"] for r in rounds]
+    assert all(b <= lam + margin(CERTIFIED_TOL, lam) for b in bounds)
+    assert bounds == sorted(bounds) and bounds[-1] == bound
+    assert abs(bound - lam) <= margin(1e-6, lam)
+
+
+@pytest.mark.parametrize("spec", ["2x2", "3x2", "2x4"])
+def test_row_generation_certifies_the_same_minimum(spec):
+    """Side by side with the interior point on the whole root LP: the same certified multiplier, and the trace's
+    bounds (one per round) never above it."""
+    whole, rows = _certified(spec, "ipm"), _certified(spec, "ipm-rows")
+    assert abs(rows.multiplier - whole.multiplier) <= margin(CERTIFIED_TOL, whole.multiplier)
+    search = [t["bound"] for t in rows.trace if t.get("stage") == "search" and t["bound"] is not None]
+    assert search and all(b <= rows.multiplier + margin(CERTIFIED_TOL, rows.multiplier) for b in search)
