@@ -107,7 +107,7 @@ AUTO_BNB_MAX_PAIRS = 400
 BNB_DEFAULT_LIFTING = "rlt-full"
 BNB_DEFAULT_ROOT_LP = "ipm"
 LIFTINGS = ("friction", "mechanism", "all", "rlt", "rlt-full")
-ROOT_LPS = ("simplex", "ipm")
+ROOT_LPS = ("simplex", "ipm", "ipm-rows")  # ipm-rows: the root LP by row generation (complementarity_bnb)
 
 
 def lifting_options(form, lifting: str, slack_max: np.ndarray) -> dict:
