@@ -62,7 +62,7 @@ def sizes(walls: list[str]) -> list[dict]:
                                   **lifting_options(form, "rlt-full", bd.slack_max))
         pair_rows = sum(r.size for r in layout.copy_pair_rows.values())
         late = 0 if layout.tied is None else int(layout.tied_rows[~np.isin(layout.tied, np.r_[form.n, form.t])].size)
-        row = {"wall": spec, "blocks": int(_wall(spec).n_blocks), "pairs": int(form.n_pairs),
+        row = {"wall": spec, "blocks": int(_wall(spec).n_free), "pairs": int(form.n_pairs),
                "fixed_active": int((bd.slack_max == 0).sum()), "fixed_idle": int((bd.z_max == 0).sum()),
                "rows": int(A.shape[0]), "cols": int(A.shape[1]), "nnz": int(A.nnz), "copy_pair_rows": int(pair_rows),
                "moment_rows": late, "bounds_cpu_s": bound_s, "lam_lower": bd.lam_lower}

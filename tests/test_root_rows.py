@@ -7,9 +7,9 @@ import time
 import numpy as np
 import pytest
 import scipy.sparse as sp
-from helpers import CERTIFIED_TOL, margin
 
 import blockmpec as bm
+from helpers import CERTIFIED_TOL, margin
 
 WALLS = {"2x2": (2, 2), "3x2": (3, 2)}
 

@@ -75,6 +75,16 @@ minimum and 2.8e-12 below the 4x3 one, so the 4x3 wall is certified at the root 
 :meth:`ComplementarityBnB._interior_root` does when the first does not close the root).  The dual
 simplex on the remaining rows: 4.0 s (4x2), 7.5-36 s (5x2), > 200 s (4x3).
 
+Row generation (``root_lp="ipm-rows"``, :meth:`ComplementarityBnB._generated_root`): the root LP by rounds of the
+same interior point, the first without the copy friction rows and the moments' rows (X), each next one with the
+left-out rows violated at the last point added; every round's dual bound is valid (a relaxation).  Measured
+(``studies/root_rows.py``, rlt-full, CPU s to certify, against ``root_lp="ipm"`` in the same run): 2x4 6.5 / 3.8,
+5x2 90 / 21, 4x3 219 / 20, 3x4 149 / 17, with 4-6 rounds whose bound stays near 0 until most rows are back (4x3:
+-1.6e-9, 0.14, 0.31, 0.38, 0.63, 0.636 = the minimum, the last LP 26k of the 30k rows): the reduced LPs are not
+cheaper for the interior point (4x3: 12 s for round 0's 19k rows, 35-52 s for each later round, 26 s for the whole
+LP without the moments).  Without the unilateral rows too the copies are nearly free and round 0 on the 4x3 wall had
+not ended after 200 s.  So it stays an option, not the default.
+
 A node whose pairs are all fixed (a leaf) is one pattern: its minimum is the exact
 polish of the pattern (:meth:`MILPSolver._polish`).  Nodes are explored best-bound first;
 the LP is warm-started from the previous node (HiGHS re-solves after bound changes).  An
