@@ -6,9 +6,12 @@ Part 1 (``--compare``): both root LPs side by side on the same walls, one run at
 Part 2 (``--sizes``): the 30-36-block walls' lifted LP (rows, columns, nonzeros, copy pair rows) and how many pairs
 the bound tightening fixes (``slack_max = 0``: active, ``z_max = 0``: idle), which row generation and the
 copy removal of idle pairs could drop.
+Part 3 (``--copies``): the root LP's interior-point bound with full static copies for every pair
+(``static_copies="all"``, what ``rlt-full`` builds) against copies with statics for the friction pairs only.
 
     python studies/root_rows.py --compare 2x4,5x2,4x3,3x4 --time-limit 300
     python studies/root_rows.py --sizes 2x15,4x7,8x4
+    python studies/root_rows.py --copies 5x2
 """
 
 from __future__ import annotations
@@ -71,12 +74,40 @@ def sizes(walls: list[str]) -> list[dict]:
     return rows
 
 
+def copies(walls: list[str], time_limit: float) -> list[dict]:
+    from blockmpec.formulations.mpec_milp import work_matrix
+    from blockmpec.solvers.engines.complementarity_bnb import ComplementarityBnB
+    from blockmpec.solvers.milp import MILPSolver, lifting_options
+
+    rows = []
+    for spec in walls:
+        for static_copies in ("all", "friction"):
+            solver = MILPSolver(engine="bnb", lifting="rlt-full", root_lp="ipm")
+            solver.setup(bm.operators.assemble(_wall(spec)))
+            bd = solver._bounds(time.perf_counter() + time_limit)
+            form = solver.form
+            bnb = ComplementarityBnB(form, work_matrix(form), bd.lam_lower, bd.lam_upper,
+                                     lambda a: solver._polish(a)[0], fixed_active=bd.slack_max == 0.0,
+                                     fixed_idle=bd.z_max == 0.0, root_lp="ipm", static_copies=static_copies,
+                                     **lifting_options(form, "rlt-full", bd.slack_max))
+            bnb.deadline = time.perf_counter() + time_limit
+            bnb._apply(bnb.root, bnb.lam_lower, np.inf)
+            cpu = time.process_time()
+            bound = bnb._interior_root()  # no target: the whole LP (per-block units)
+            row = {"wall": spec, "static_copies": static_copies, "rows": int(bnb._A.shape[0]),
+                   "nnz": int(bnb._A.nnz), "root_bound": bound, "cpu_s": time.process_time() - cpu}
+            print(json.dumps(row), flush=True)
+            rows.append(row)
+    return rows
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--compare", default="", help="walls CxB, comma-separated, for the side-by-side runs")
     ap.add_argument("--modes", default="ipm,ipm-rows")
     ap.add_argument("--time-limit", type=float, default=300.0)
     ap.add_argument("--sizes", default="", help="walls CxB whose lifted LP sizes and fixed pairs are counted")
+    ap.add_argument("--copies", default="", help="walls CxB whose root bound is measured with fewer full copies")
     args = ap.parse_args()
     OUT.mkdir(parents=True, exist_ok=True)
     if args.compare:
@@ -85,6 +116,9 @@ def main() -> None:
     if args.sizes:
         out = sizes(args.sizes.split(","))
         (OUT / "sizes.json").write_text(json.dumps(out, indent=1))
+    if args.copies:
+        out = copies(args.copies.split(","), args.time_limit)
+        (OUT / "copies.json").write_text(json.dumps(out, indent=1))
 
 
 if __name__ == "__main__":
