@@ -139,7 +139,9 @@ class MILPOptions:
     root_lp: str | None = field(default=None, metadata={
         "help": "engine=bnb (default ipm): simplex: every node LP by the dual simplex on all rows | ipm: the root "
                 "LP first by the interior point (no crossover), the copy pair rows with zero dual there dropped "
-                "(a relaxation), woken again where a node's LP point violates them"})
+                "(a relaxation), woken again where a node's LP point violates them | ipm-rows: the root LP by row "
+                "generation, rounds of the interior point each with the rows violated at the last point added "
+                "(every round's bound in the trace; measured slower than ipm)"})
     mip_rel_gap: float = field(default=1e-9, metadata={"help": "relative gap |primal - dual| / |primal|"})
     mip_abs_gap: float = field(default=1e-9, metadata={"help": "absolute gap on lam"})
     feasibility_tol: float = field(default=1e-9, metadata={

@@ -684,9 +684,12 @@ def test_interior_root_stops_after_one_run_when_it_closes(lifting):
         bnb.deadline = time.perf_counter() + 60
         bnb._apply(bnb.root, bnb.lam_lower, bnb.lam_cap)
         before = bnb.n_lps
-        bound = bnb._interior_root(target)
+        recorded = []
+        bound = bnb._interior_root(target, recorded.append)
         runs[target] = bnb.n_lps - before
         assert bound <= lam + 1e-7 * max(1.0, abs(lam))
         assert lam - bound <= 1e-7 * max(1.0, abs(lam))
         assert ("ipm0" in bnb._timing) == (lifting == "rlt-full" and np.isfinite(target))
+        # the trace hears of every run's bound as it arrives: one per run, never falling, the last the result
+        assert len(recorded) == runs[target] and recorded == sorted(recorded) and recorded[-1] == bound
     assert runs == {lam: 1, np.inf: 2}

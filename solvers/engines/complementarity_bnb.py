@@ -518,7 +518,7 @@ class ComplementarityBnB:
         _checked(self.h.changeRowsBounds(wake.size, wake, np.full(wake.size, -np.inf), np.zeros(wake.size)))
         return True
 
-    def _interior_root(self, target: float = np.inf) -> float:
+    def _interior_root(self, target: float = np.inf, record=None) -> float:
         """``root_lp="ipm"``: the root LP (its bounds already applied) by HiGHS's interior point without
         crossover, at most three times.  With the moments' products in the LP (``lifting="rlt-full"``) and an
         incumbent (``target`` finite), a run without their rows (X) comes first (a relaxation: the LP of
@@ -530,7 +530,8 @@ class ComplementarityBnB:
         (:func:`dual_bound`) is already within ``INTERIOR_CLOSE_TOL`` of ``target`` (the incumbent) the root
         is closed and nothing else runs.  Otherwise the second run, on the LP without the dormant rows (a
         relaxation: smaller, and measured to converge closer), may still close it.  Returns the larger of
-        their dual bounds (``-inf`` if none)."""
+        their dual bounds (``-inf`` if none); ``record(bound)`` (if given) is called with the bound so far after
+        each run that gave one (the trace: a time-out after the first run still shows its bound)."""
         t0 = time.perf_counter()
         lp = self.h.getLp()
         c = np.asarray(lp.col_cost_)
@@ -545,17 +546,23 @@ class ComplementarityBnB:
             y = self._interior_duals(Ar, c, rl[keep], ru[keep], cl, cu)
             return -np.inf if y is None else dual_bound(Ar, c, rl[keep], ru[keep], cl, cu, y)
 
+        def note(value: float) -> None:
+            if record is not None and np.isfinite(value):
+                record(value)
+
         bound = -np.inf
         if self._late_rows.any() and np.isfinite(target):
             # first without the moments' products (rows (X) of the moments: a relaxation, the LP of lifting="rlt"),
             # which closes most walls at a fraction of the cost
             bound = bound_without(self._late_rows)
             self._timing["ipm0"] = time.perf_counter() - t0
+            note(bound)
         if not _meets(bound, target):
             y = self._interior_duals(A, c, rl, ru, cl, cu)
             if y is not None:
                 bound = max(bound, dual_bound(A, c, rl, ru, cl, cu, y))
                 self._timing["ipm1"] = time.perf_counter() - t0
+                note(bound)
                 rows = self._sleep_rows
                 sleep = rows[np.abs(y[rows]) <= DORMANT_DUAL_TOL]
                 self.dormant[sleep] = True
@@ -565,11 +572,12 @@ class ComplementarityBnB:
                     # the second run drops every one-sided row with a zero dual (static pair rows and lam rows too)
                     bound = max(bound, bound_without((np.isfinite(rl) ^ np.isfinite(ru))
                                                      & (np.abs(y) <= DORMANT_DUAL_TOL)))
+                    note(bound)
         self.ipm_time = self._timing["ipm"] = time.perf_counter() - t0
         self.ipm_bound = bound
         return bound
 
-    def _generated_root(self, target: float = np.inf) -> float:
+    def _generated_root(self, target: float = np.inf, record=None) -> float:
         """``root_lp="ipm-rows"``: the root LP (its bounds already applied) by row generation, each round one
         interior point (no crossover) on a subset of its rows; returns the largest round's dual bound (``-inf``
         if none).
@@ -599,7 +607,6 @@ class ComplementarityBnB:
         out |= self._late_rows
         bound = -np.inf
         self.root_rounds = []
-        record = getattr(self, "_record", None)
         for k in range(ROOT_ROW_ROUNDS):
             keep = ~out
             Ak = sp.csc_array(A[keep])
@@ -749,8 +756,8 @@ class ComplementarityBnB:
             # was seen to stop short (4x2 wall: no bound, where the uncapped LP gave the minimum within 1.4e-8)
             cap, self.lam_cap = self.lam_cap, self.lam_upper
             self._apply(self.root, a0, b0)
-            self._record = lambda bnd: tracer.record(min(bnd, best_val), best_val, force=True)
-            interior = self._interior_root(best_val) if self.root_lp == "ipm" else self._generated_root(best_val)
+            root = self._interior_root if self.root_lp == "ipm" else self._generated_root
+            interior = root(best_val, lambda bnd: tracer.record(max(a0, min(bnd, best_val)), best_val, force=True))
             self.lam_cap = cap
             if best is not None and _meets(interior, best_val):
                 # the interior point's duals meet the incumbent within the accuracy of an interior point (the
