@@ -518,6 +518,13 @@ class ComplementarityBnB:
         _checked(self.h.changeRowsBounds(wake.size, wake, np.full(wake.size, -np.inf), np.zeros(wake.size)))
         return True
 
+    def _lp_arrays(self) -> tuple:
+        """``(c, row_lower, row_upper, col_lower, col_upper)`` of the lifted LP as HiGHS holds it now (the node's
+        bounds applied, dormant rows free)."""
+        lp = self.h.getLp()
+        return (np.asarray(lp.col_cost_), np.asarray(lp.row_lower_), np.asarray(lp.row_upper_),
+                np.asarray(lp.col_lower_), np.asarray(lp.col_upper_))
+
     def _interior_root(self, target: float = np.inf, record=None) -> float:
         """``root_lp="ipm"``: the root LP (its bounds already applied) by HiGHS's interior point without
         crossover, at most three times.  With the moments' products in the LP (``lifting="rlt-full"``) and an
@@ -533,10 +540,7 @@ class ComplementarityBnB:
         their dual bounds (``-inf`` if none); ``record(bound)`` (if given) is called with the bound so far after
         each run that gave one (the trace: a time-out after the first run still shows its bound)."""
         t0 = time.perf_counter()
-        lp = self.h.getLp()
-        c = np.asarray(lp.col_cost_)
-        rl, ru = np.asarray(lp.row_lower_), np.asarray(lp.row_upper_)
-        cl, cu = np.asarray(lp.col_lower_), np.asarray(lp.col_upper_)
+        c, rl, ru, cl, cu = self._lp_arrays()
         A = self._A
 
         def bound_without(drop: np.ndarray) -> float:
@@ -594,10 +598,7 @@ class ComplementarityBnB:
         per round (rows, columns, nonzeros, rows added after it, bound, seconds since the start);
         ``self.root_lp_rows``: the rows of the last LP solved (a mask of the lifted LP's rows)."""
         t0 = time.perf_counter()
-        lp = self.h.getLp()
-        c = np.asarray(lp.col_cost_)
-        rl, ru = np.asarray(lp.row_lower_), np.asarray(lp.row_upper_)
-        cl, cu = np.asarray(lp.col_lower_), np.asarray(lp.col_upper_)
+        c, rl, ru, cl, cu = self._lp_arrays()
         lay = self.layout
         A = sp.csr_array(self._A)
         out = np.zeros(A.shape[0], dtype=bool)
