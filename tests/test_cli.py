@@ -202,10 +202,13 @@ def test_sigint_during_milp_saves_the_finished_rows_and_exits_130(tmp_path):
 
     out = tmp_path / "out"
     wall = _big_wall(tmp_path)
+    # as a foreground command gets it: a test run started in the background by a non-interactive shell
+    # inherits SIGINT ignored (POSIX), and an ignored signal stays ignored across exec
     proc = subprocess.Popen(
         [sys.executable, "-m", "blockmpec.cli", "compare", "--cases", f"two-blocks,{wall}", "--methods",
          "static-lp,milp", "-O", "milp.time_limit=300", "--out", str(out), "--quiet"],
-        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+        preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
     rows = out / "rows.jsonl"
     deadline = time.time() + 120
     while time.time() < deadline and (not rows.exists() or len(rows.read_text().splitlines()) < 3):
