@@ -167,6 +167,11 @@ class MILPOptions:
         "help": "min: the MPEC (4), min lam over solutions of (3) | max: max lam over the same set"})
     verbose: bool = field(default=False, metadata={"help": "print the engine log"})
 
+    @property
+    def sets_bnb_options(self) -> bool:
+        """An option of engine="bnb" is set (``lam_branching``, ``lifting`` or ``root_lp``)."""
+        return self.lam_branching or self.lifting is not None or self.root_lp is not None
+
     def __post_init__(self) -> None:
         if not self.time_limit > 0:
             raise ValueError(f"time_limit must be > 0 seconds; got {self.time_limit}")
@@ -188,7 +193,7 @@ class MILPOptions:
             raise ValueError(f"lifting must be one of {LIFTINGS}; got {self.lifting!r}")
         if self.root_lp is not None and self.root_lp not in ROOT_LPS:
             raise ValueError(f"root_lp must be one of {ROOT_LPS}; got {self.root_lp!r}")
-        bnb_options = self.lam_branching or self.lifting is not None or self.root_lp is not None
+        bnb_options = self.sets_bnb_options
         if bnb_options and self.engine not in ("bnb", "auto"):
             raise ValueError("lam_branching, lifting and root_lp are options of engine='bnb'")
         if bnb_options and self.engine == "auto" and self.sense != "min":
@@ -368,7 +373,7 @@ class MILPSolver(SolverBase):
             return opt.engine
         if opt.sense != "min":
             return "highs"
-        if opt.lam_branching or opt.lifting is not None or opt.root_lp is not None:
+        if opt.sets_bnb_options:
             return "bnb"
         return "bnb" if form.n_pairs <= AUTO_BNB_MAX_PAIRS else "highs"
 
@@ -659,21 +664,29 @@ class MILPSolver(SolverBase):
         return v
 
     # ------------------------------------------------------------------ 3. solve
-    def _solve_bnb(self, bd, incumbent: Solution | None, deadline: float, t0: float):
-        """engine="bnb": (MIPRun with lam-unit bounds, best polished Solution or None)."""
+    def _complementarity_bnb(self, bd, **overrides):
+        """The branch and bound of :mod:`~blockmpec.solvers.engines.complementarity_bnb` on this structure: the
+        LP bounds ``bd`` and the pairs they fix, the options' ``lifting``, ``root_lp`` and ``lam_branching``,
+        leaves polished by :meth:`_polish`; ``overrides`` replace any keyword argument (studies and tests)."""
         from blockmpec.formulations.mpec_milp import work_matrix
         from blockmpec.solvers.engines.complementarity_bnb import ComplementarityBnB
 
-        def polish(active):
-            return self._polish(active)[0]
+        kwargs = dict(fixed_active=bd.slack_max == 0.0, fixed_idle=bd.z_max == 0.0,
+                      lam_branching=self.options.lam_branching, root_lp=self.root_lp,
+                      **lifting_options(self.form, self.lifting, bd.slack_max))
+        kwargs.update(overrides)
+        return ComplementarityBnB(self.form, work_matrix(self.form), bd.lam_lower, bd.lam_upper,
+                                  lambda active: self._polish(active)[0], **kwargs)
 
-        bnb = ComplementarityBnB(self.form, work_matrix(self.form), bd.lam_lower, bd.lam_upper, polish,
-                                 fixed_active=bd.slack_max == 0.0, fixed_idle=bd.z_max == 0.0,
-                                 lam_branching=self.options.lam_branching, root_lp=self.root_lp,
-                                 **lifting_options(self.form, self.lifting, bd.slack_max))
+    def _solve_bnb(self, bd, incumbent: Solution | None, deadline: float, t0: float):
+        """engine="bnb": (MIPRun with lam-unit bounds, best polished Solution or None, seconds to build the
+        lifted LP)."""
+        tb = time.perf_counter()
+        bnb = self._complementarity_bnb(bd)
+        t_build = time.perf_counter() - tb
         run, best = bnb.solve(deadline - time.perf_counter(), incumbent, t0=t0)
         self._bnb_lps = bnb.n_lps
-        return run, best
+        return run, best, t_build
 
     def _solve(self, mip, deadline: float, start: np.ndarray | None, t0: float):
         from blockmpec.solvers.engines import mip as engines
@@ -862,11 +875,11 @@ class MILPSolver(SolverBase):
             st = fail.status if fail.status in (Status.UNBOUNDED, Status.INFEASIBLE, Status.TIME_LIMIT,
                                                 Status.INFEASIBLE_OR_UNBOUNDED) else Status.ERROR
             return RunOutput(st, message=str(fail), extra=extra)
+        if self.engine == "bnb":  # its own lifted LP: the big-M model is not built
+            return self._run_bnb(bd, incumbent, deadline, trace)
         t0 = time.perf_counter()
         mip = self._build(bd)
         t_build = time.perf_counter() - t0
-        if self.engine == "bnb":
-            return self._run_bnb(bd, incumbent, deadline, t_build, trace)
         run = self._solve(mip, deadline, self._start(mip, incumbent), t_start)
         trace += [dict(r, iteration=len(trace) + k, stage="search") for k, r in enumerate(run.trace)]
         sign = mip.objective_sign
@@ -926,9 +939,9 @@ class MILPSolver(SolverBase):
                              f"{pmsg}; the {bound_word} bound {bound:.10g} stands", run.raw_status, extra)
         return self._certify(sol, run, bound, bd, extra, trace)
 
-    def _run_bnb(self, bd, incumbent, deadline: float, t_build: float, trace: list) -> RunOutput:
+    def _run_bnb(self, bd, incumbent, deadline: float, trace: list) -> RunOutput:
         """Stages 3-5 with engine="bnb": its points are polished patterns already, its bound is in lam."""
-        run, best = self._solve_bnb(bd, incumbent, deadline, self._t_start)
+        run, best, t_build = self._solve_bnb(bd, incumbent, deadline, self._t_start)
         trace += [dict(r, iteration=len(trace) + k, stage="search") for k, r in enumerate(run.trace)]
         bound = float(run.dual_bound)
         extra = {facts.SENSE: "min", facts.ASSOCIATIVE_MULTIPLIER: bd.lam_associative, facts.BOUND: bound,

@@ -75,21 +75,15 @@ def sizes(walls: list[str]) -> list[dict]:
 
 
 def copies(walls: list[str], time_limit: float) -> list[dict]:
-    from blockmpec.formulations.mpec_milp import work_matrix
-    from blockmpec.solvers.engines.complementarity_bnb import ComplementarityBnB
-    from blockmpec.solvers.milp import MILPSolver, lifting_options
+    from blockmpec.solvers.milp import MILPSolver
 
     rows = []
     for spec in walls:
         for static_copies in ("all", "friction"):
             solver = MILPSolver(engine="bnb", lifting="rlt-full", root_lp="ipm")
             solver.setup(bm.operators.assemble(_wall(spec)))
-            bd = solver._bounds(time.perf_counter() + time_limit)
-            form = solver.form
-            bnb = ComplementarityBnB(form, work_matrix(form), bd.lam_lower, bd.lam_upper,
-                                     lambda a: solver._polish(a)[0], fixed_active=bd.slack_max == 0.0,
-                                     fixed_idle=bd.z_max == 0.0, root_lp="ipm", static_copies=static_copies,
-                                     **lifting_options(form, "rlt-full", bd.slack_max))
+            bnb = solver._complementarity_bnb(solver._bounds(time.perf_counter() + time_limit),
+                                              static_copies=static_copies)
             bnb.deadline = time.perf_counter() + time_limit
             bnb._apply(bnb.root, bnb.lam_lower, np.inf)
             cpu = time.process_time()

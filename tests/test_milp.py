@@ -525,18 +525,11 @@ LIFTING_CASES = {
 
 def _lifted(structure, lifting: str):
     """(solver in per-block units, ComplementarityBnB with no incumbent) for ``lifting``."""
-    from blockmpec.formulations.mpec_milp import work_matrix
-    from blockmpec.solvers.engines.complementarity_bnb import ComplementarityBnB
-    from blockmpec.solvers.milp import MILPSolver, lifting_options
+    from blockmpec.solvers.milp import MILPSolver
 
-    solver = MILPSolver(engine="bnb", lifting=lifting)
+    solver = MILPSolver(engine="bnb", lifting=lifting, root_lp="simplex")
     solver.setup(bm.operators.assemble(structure))
-    bd = solver._bounds(time.perf_counter() + 60)
-    form = solver.form
-    bnb = ComplementarityBnB(form, work_matrix(form), bd.lam_lower, bd.lam_upper, lambda a: solver._polish(a)[0],
-                             fixed_active=bd.slack_max == 0.0, fixed_idle=bd.z_max == 0.0,
-                             **lifting_options(form, lifting, bd.slack_max))
-    return solver, bnb
+    return solver, solver._complementarity_bnb(solver._bounds(time.perf_counter() + 60))
 
 
 @functools.cache

@@ -27,17 +27,11 @@ def _certified(spec, root_lp):
 
 def _rows_bnb(spec):
     """(solver in per-block units, ComplementarityBnB with root_lp="ipm-rows" at the root pattern)."""
-    from blockmpec.formulations.mpec_milp import work_matrix
-    from blockmpec.solvers.engines.complementarity_bnb import ComplementarityBnB
-    from blockmpec.solvers.milp import MILPSolver, lifting_options
+    from blockmpec.solvers.milp import MILPSolver
 
     solver = MILPSolver(engine="bnb", lifting="rlt-full", root_lp="ipm-rows")
     solver.setup(bm.operators.assemble(_wall(spec)))
-    bd = solver._bounds(time.perf_counter() + 60)
-    form = solver.form
-    bnb = ComplementarityBnB(form, work_matrix(form), bd.lam_lower, bd.lam_upper, lambda a: solver._polish(a)[0],
-                             fixed_active=bd.slack_max == 0.0, fixed_idle=bd.z_max == 0.0, root_lp="ipm-rows",
-                             **lifting_options(form, "rlt-full", bd.slack_max))
+    bnb = solver._complementarity_bnb(solver._bounds(time.perf_counter() + 60))
     bnb.deadline = time.perf_counter() + 60
     bnb._apply(bnb.root, bnb.lam_lower, np.inf)
     return solver, bnb
