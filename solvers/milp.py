@@ -365,7 +365,7 @@ class MILPSolver(SolverBase):
 
     def _resolve_engine(self, form) -> str:
         """The engine that runs: ``engine`` unless it is ``"auto"``, which picks ``"bnb"`` (its lifted LP is
-        the stronger bound: every structure of the heuristic suite certified in 0.42x the total time of
+        the stronger bound: every structure of the heuristic suite certified in 0.24x the total time of
         ``"highs"``, running-bond walls of 13-14 blocks within 60 s where ``"highs"`` stops at 7) for
         ``sense="min"`` with at most ``AUTO_BNB_MAX_PAIRS`` pairs or any bnb option set, else ``"highs"``."""
         opt = self.options

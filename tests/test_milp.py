@@ -665,6 +665,37 @@ def test_lifting_options_need_bnb():
         bm.solve(bm.cases.two_blocks(), "milp", engine="bnb", root_lp="pdlp")
 
 
+def test_a_failed_interior_point_is_repaired_by_crossover(monkeypatch):
+    """An interior point that gives no duals (simulated: every run without crossover returns none) is re-run once
+    with crossover, whose basic duals still close the root at the certified minimum, bound below it."""
+    lam = certified_minimum("wall-2x2").multiplier
+    _, bnb = _lifted(LIFTING_CASES["wall-2x2"](), "rlt-full")
+    bnb.deadline = time.perf_counter() + 60
+    bnb._apply(bnb.root, bnb.lam_lower, bnb.lam_cap)
+    solution = bnb._interior_solution
+    monkeypatch.setattr(bnb, "_interior_solution",
+                        lambda *a, crossover=False, **k: solution(*a, crossover=crossover, **k) if crossover
+                        else (None, None))
+    bound = bnb._interior_root(lam)
+    assert bnb.crossover_runs >= 1
+    assert bound <= lam + 1e-7 * max(1.0, abs(lam))
+    assert lam - bound <= 1e-7 * max(1.0, abs(lam))
+
+
+def test_the_arch_on_buttresses_is_closed_by_the_root_interior_point():
+    """The arch on buttresses (8 voussoirs, mu = 0.4), where IPX without crossover gives no bound on either root
+    LP: the root's interior points (with the crossover repair) close it at the big-M minimum, no simplex needed."""
+    structure = bm.cases.arch_on_buttresses(n_voussoirs=8, mu=0.4)
+    ref = bm.solve(structure, "milp", engine="highs")
+    assert_certified(ref)
+    _, bnb = _lifted(structure, "rlt-full")
+    bnb.deadline = time.perf_counter() + 60
+    bnb._apply(bnb.root, bnb.lam_lower, bnb.lam_cap)
+    bound = bnb._interior_root(ref.multiplier)
+    assert bound <= ref.multiplier + 1e-7 * max(1.0, abs(ref.multiplier))
+    assert ref.multiplier - bound <= 1e-7 * max(1.0, abs(ref.multiplier))
+
+
 @pytest.mark.parametrize("lifting", ["rlt", "rlt-full"])
 def test_interior_root_stops_after_one_run_when_it_closes(lifting):
     """root_lp="ipm": when the first interior point's dual bound already meets the incumbent, nothing else runs

@@ -426,6 +426,7 @@ class ComplementarityBnB:
         self.woken = 0
         self.ipm_time = 0.0
         self.ipm_bound = None
+        self.crossover_runs = 0  # interior points re-run with crossover (_interior_bound)
         self._timing = {}
         self.root = np.zeros(npair, dtype=np.int8)  # 0 free, 1 active, -1 inactive
         if fixed_active is not None:
@@ -536,7 +537,8 @@ class ComplementarityBnB:
         point that fails or runs out of time leaves every row in place).  When its dual bound
         (:func:`dual_bound`) is already within ``INTERIOR_CLOSE_TOL`` of ``target`` (the incumbent) the root
         is closed and nothing else runs.  Otherwise the second run, on the LP without the dormant rows (a
-        relaxation: smaller, and measured to converge closer), may still close it.  Returns the larger of
+        relaxation: smaller, and measured to converge closer), may still close it.  A run that gives no finite
+        bound is repeated once with crossover (:meth:`_interior_bound`).  Returns the larger of
         their dual bounds (``-inf`` if none); ``record(bound)`` (if given) is called with the bound so far after
         each run that gave one (the trace: a time-out after the first run still shows its bound)."""
         t0 = time.perf_counter()
@@ -547,8 +549,7 @@ class ComplementarityBnB:
             """The dual bound of one interior point on the LP without the rows ``drop`` (a relaxation)."""
             keep = ~drop
             Ar = sp.csc_array(sp.csr_array(A)[keep])
-            y = self._interior_duals(Ar, c, rl[keep], ru[keep], cl, cu)
-            return -np.inf if y is None else dual_bound(Ar, c, rl[keep], ru[keep], cl, cu, y)
+            return self._interior_bound(Ar, c, rl[keep], ru[keep], cl, cu)[0]
 
         def note(value: float) -> None:
             if record is not None and np.isfinite(value):
@@ -562,9 +563,9 @@ class ComplementarityBnB:
             self._timing["ipm0"] = time.perf_counter() - t0
             note(bound)
         if not _meets(bound, target):
-            y = self._interior_duals(A, c, rl, ru, cl, cu)
+            full, y = self._interior_bound(A, c, rl, ru, cl, cu)
             if y is not None:
-                bound = max(bound, dual_bound(A, c, rl, ru, cl, cu, y))
+                bound = max(bound, full)
                 self._timing["ipm1"] = time.perf_counter() - t0
                 note(bound)
                 rows = self._sleep_rows
@@ -639,20 +640,41 @@ class ComplementarityBnB:
         self.ipm_bound = bound
         return bound
 
+    def _interior_bound(self, A, c, rl, ru, cl, cu) -> tuple:
+        """``(dual bound, row duals)`` of the LP from HiGHS's interior point without crossover, and, when that
+        gives no finite bound and time is left, from a second run *with* crossover (``(-inf, None)`` if neither
+        gives one).
+
+        The second run is the repair for an interior point that stops short: on the lifted LP of the arch on
+        buttresses (8 voussoirs, mu = 0.4) IPX without crossover ended "unknown" with reduced costs of 1e4 on free
+        columns (no bound) on the LP without the moments' rows and "infeasible" on the whole (feasible) LP, and the
+        root then went to the dual simplex (12 s in all); with crossover both ended optimal with the minimum as
+        their bound (1.0 s and 2.4 s).  A crossover can take long on the large walls, which is why it is only the
+        fallback; its basic duals pick more rows dormant (any choice keeps the bound valid)."""
+        y = self._interior_duals(A, c, rl, ru, cl, cu)
+        bound = -np.inf if y is None else dual_bound(A, c, rl, ru, cl, cu, y)
+        if bound == -np.inf and time.perf_counter() < self.deadline:
+            self.crossover_runs += 1
+            y2 = self._interior_solution(A, c, rl, ru, cl, cu, crossover=True)[0]
+            bound2 = -np.inf if y2 is None else dual_bound(A, c, rl, ru, cl, cu, y2)
+            if y is None or bound2 > bound:
+                bound, y = bound2, y2
+        return bound, y
+
     def _interior_duals(self, A, c, rl, ru, cl, cu, tol: float | None = None) -> np.ndarray | None:
         """Row duals of the LP by HiGHS's interior point without crossover (None if it gave none); ``tol``:
         its optimality and feasibility tolerances (HiGHS's defaults if None)."""
         return self._interior_solution(A, c, rl, ru, cl, cu, tol)[0]
 
-    def _interior_solution(self, A, c, rl, ru, cl, cu, tol: float | None = None) -> tuple:
-        """``(row duals, column values)`` of the LP by HiGHS's interior point without crossover (``(None,
-        None)`` if it gave no duals; the values None if it gave none)."""
+    def _interior_solution(self, A, c, rl, ru, cl, cu, tol: float | None = None, crossover: bool = False) -> tuple:
+        """``(row duals, column values)`` of the LP by HiGHS's interior point, without crossover unless
+        ``crossover`` (``(None, None)`` if it gave no duals; the values None if it gave none)."""
         import highspy
 
         g = highspy.Highs()
         g.setOptionValue("output_flag", False)
         g.passModel(highs_lp(A, c, rl, ru, cl, cu))
-        use_interior_point(g, crossover=False, solver=INTERIOR_SOLVER)
+        use_interior_point(g, crossover=crossover, solver=INTERIOR_SOLVER)
         if tol is not None:
             for name in ("ipm_optimality_tolerance", "primal_feasibility_tolerance", "dual_feasibility_tolerance"):
                 g.setOptionValue(name, tol)
