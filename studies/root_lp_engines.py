@@ -1,0 +1,183 @@
+"""Engines and liftings for the root LP of ``milp``'s branch and bound (issue 12's 30-50-block target): a recorded
+negative result.
+
+The 30-block running-bond walls are not certified because the root's lifted LP (``lifting="rlt-full"``, 166,078 rows
+on the 2x15 wall) is not solved in 10 minutes by HiGHS's IPX, the interior point ``root_lp="ipm"`` runs.  This study
+asks whether another interior point, an IPX setting or a smaller lifting would do it.
+
+Part 1 (``--engines``): the same root LP (the root's bounds applied, every row) by each engine, one after the other in
+one process: CPU seconds and the dual bound of :func:`~blockmpec.solvers.engines.complementarity_bnb.dual_bound` from
+its row duals (the bound ``milp`` would use; ``-inf``: none).  Engines:
+
+* ``ipx``: HiGHS's IPX without crossover, what ``root_lp="ipm"`` runs;
+* ``ipx-presolve-off``, ``ipx-tol-1e-4``: IPX with HiGHS's presolve off / ``ipm_optimality_tolerance=1e-4``;
+* ``hipo``: HiGHS's newer interior point (needs the wheel ``highspy-extras``; without it HiGHS silently runs
+  another solver, so the study refuses to run it);
+* ``clarabel``: Clarabel (pip ``clarabel``, Apache-2.0; not a dependency of blockmpec) on the LP as a conic
+  problem (equality rows a zero cone, the rest a nonnegative cone) at tolerances 1e-10 and static regularisation
+  1e-7 (with its defaults it ends "NumericalError" within 3 iterations on the 3x2 wall's LP).
+
+Part 2 (``--liftings``): the root LP of each ``lifting`` by IPX: rows, CPU seconds, dual bound; which products the
+bound needs.
+
+    python studies/root_lp_engines.py --engines 5x2,4x3 --time-limit 300
+    python studies/root_lp_engines.py --liftings 2x8
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import time
+from pathlib import Path
+
+import numpy as np
+import scipy.sparse as sp
+
+import blockmpec as bm
+
+OUT = Path(__file__).parent / "output" / "root_lp_engines"
+ENGINES = ("ipx", "ipx-presolve-off", "ipx-tol-1e-4", "hipo", "clarabel")
+#: HiGHS options of each HiGHS engine (the interior point without crossover in every case)
+HIGHS_ENGINES = {"ipx": ("ipx", {}), "ipx-presolve-off": ("ipx", {"presolve": "off"}),
+                 "ipx-tol-1e-4": ("ipx", {"ipm_optimality_tolerance": 1e-4}), "hipo": ("hipo", {})}
+
+
+def _wall(spec: str):
+    courses, blocks = (int(k) for k in spec.split("x"))
+    return bm.cases.wall(courses, blocks, mu=0.65)
+
+
+def root_lp(spec: str, lifting: str = "rlt-full"):
+    """``(A, c, row_lower, row_upper, col_lower, col_upper)`` of the root's lifted LP of the wall ``spec``."""
+    from blockmpec.solvers.milp import MILPSolver
+
+    solver = MILPSolver(engine="bnb", lifting=lifting, root_lp="ipm")
+    solver.setup(bm.operators.assemble(_wall(spec)))
+    bnb = solver._complementarity_bnb(solver._bounds(time.perf_counter() + 600))
+    bnb._apply(bnb.root, bnb.lam_lower, bnb.lam_cap)
+    c, rl, ru, cl, cu = bnb._lp_arrays()
+    return sp.csc_array(bnb._A), c, rl, ru, cl, cu
+
+
+def highs_duals(lp, solver: str, options: dict, time_limit: float):
+    """Row duals of the LP by one of HiGHS's interior points without crossover (None if it gave none)."""
+    import highspy
+
+    from blockmpec.solvers.engines.highs import highs_lp, use_interior_point
+
+    A, c, rl, ru, cl, cu = lp
+    h = highspy.Highs()
+    h.setOptionValue("output_flag", False)
+    h.passModel(highs_lp(A, c, rl, ru, cl, cu))
+    if solver == "hipo":
+        try:
+            import highspy_extras  # noqa: F401
+        except ImportError:
+            raise SystemExit("hipo needs the wheel highspy-extras (without it HiGHS silently runs another solver)")
+    use_interior_point(h, crossover=False, solver=solver)
+    h.setOptionValue("time_limit", time_limit)
+    for name, value in options.items():
+        h.setOptionValue(name, value)
+    h.run()
+    sol = h.getSolution()
+    return (np.asarray(sol.row_dual, float) if sol.dual_valid else None), h.modelStatusToString(h.getModelStatus())
+
+
+def clarabel_duals(lp, time_limit: float):
+    """Row duals of the LP by Clarabel: ``min c^T w`` s.t. ``M w + s = b``, ``s`` in (zero cone of the equality
+    rows) x (nonnegative cone of the one-sided rows and column bounds); HiGHS's row dual is ``-z`` on the rows
+    written ``A w + s = b`` and ``+z`` on those written ``-A w + s = -b``."""
+    try:
+        import clarabel
+    except ImportError:
+        raise SystemExit("clarabel is not installed (pip install clarabel): it is not a dependency of blockmpec")
+    A, c, rl, ru, cl, cu = lp
+    A = sp.csr_array(A)
+    eq = np.isfinite(rl) & np.isfinite(ru) & (rl == ru)
+    lo, up = np.isfinite(rl) & ~eq, np.isfinite(ru) & ~eq
+    n = A.shape[1]
+    eye = sp.identity(n, format="csr")
+    has_lower, has_upper = np.isfinite(cl), np.isfinite(cu)
+    M = sp.csc_matrix(sp.vstack([A[eq], -A[lo], A[up], -eye[has_lower], eye[has_upper]]))
+    b = np.concatenate([rl[eq], -rl[lo], ru[up], -cl[has_lower], cu[has_upper]])
+    cones = [clarabel.ZeroConeT(int(eq.sum())),
+             clarabel.NonnegativeConeT(int(lo.sum() + up.sum() + has_lower.sum() + has_upper.sum()))]
+    settings = clarabel.DefaultSettings()
+    settings.verbose = False
+    settings.time_limit = time_limit
+    settings.tol_gap_abs = settings.tol_gap_rel = settings.tol_feas = 1e-10
+    settings.static_regularization_constant = 1e-7
+    sol = clarabel.DefaultSolver(sp.csc_matrix((n, n)), c, M, b, cones, settings).solve()
+    z = np.asarray(sol.z)
+    y = np.zeros(A.shape[0])
+    start = 0
+    for mask, sign in ((eq, -1.0), (lo, 1.0), (up, -1.0)):
+        k = int(mask.sum())
+        y[mask] = sign * z[start:start + k]
+        start += k
+    return y, str(sol.status)
+
+
+def engines(walls: list[str], names: list[str], time_limit: float) -> list[dict]:
+    from blockmpec.solvers.engines.complementarity_bnb import dual_bound
+
+    rows = []
+    for spec in walls:
+        lp = root_lp(spec)
+        for name in names:
+            cpu = time.process_time()
+            if name == "clarabel":
+                y, status = clarabel_duals(lp, time_limit)
+            else:
+                solver, options = HIGHS_ENGINES[name]
+                y, status = highs_duals(lp, solver, options, time_limit)
+            cpu = time.process_time() - cpu
+            bound = -np.inf if y is None else dual_bound(*lp, y)
+            row = {"wall": spec, "rows": int(lp[0].shape[0]), "engine": name, "status": status, "cpu_s": cpu,
+                   "bound": bound}
+            print(json.dumps(row), flush=True)
+            rows.append(row)
+    return rows
+
+
+def liftings(walls: list[str], time_limit: float) -> list[dict]:
+    from blockmpec.solvers.engines.complementarity_bnb import dual_bound
+    from blockmpec.solvers.milp import LIFTINGS
+
+    rows = []
+    for spec in walls:
+        for lifting in LIFTINGS:
+            lp = root_lp(spec, lifting)
+            cpu = time.process_time()
+            y, status = highs_duals(lp, "ipx", {}, time_limit)
+            cpu = time.process_time() - cpu
+            row = {"wall": spec, "lifting": lifting, "rows": int(lp[0].shape[0]), "status": status, "cpu_s": cpu,
+                   "bound": -np.inf if y is None else dual_bound(*lp, y)}
+            print(json.dumps(row), flush=True)
+            rows.append(row)
+    return rows
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--engines", default="", help="walls CxB, comma-separated: the root LP by every engine")
+    ap.add_argument("--only", default=",".join(ENGINES), help=f"engines of --engines, from {', '.join(ENGINES)}")
+    ap.add_argument("--liftings", default="", help="walls CxB: the root LP of every lifting by IPX")
+    ap.add_argument("--time-limit", type=float, default=300.0, help="seconds per LP solve")
+    args = ap.parse_args()
+    names = [n for n in args.only.split(",") if n]
+    unknown = sorted(set(names) - set(ENGINES))
+    if unknown:
+        raise SystemExit(f"unknown engine(s) {', '.join(unknown)}; known: {', '.join(ENGINES)}")
+    OUT.mkdir(parents=True, exist_ok=True)
+    if args.engines:
+        out = engines(args.engines.split(","), names, args.time_limit)
+        (OUT / "engines.json").write_text(json.dumps(out, indent=1))
+    if args.liftings:
+        out = liftings(args.liftings.split(","), args.time_limit)
+        (OUT / "liftings.json").write_text(json.dumps(out, indent=1))
+
+
+if __name__ == "__main__":
+    main()
