@@ -138,8 +138,9 @@ class MILPOptions:
                 "(x u^T) | rlt-full: rlt with the moments too"})
     root_lp: str | None = field(default=None, metadata={
         "help": "engine=bnb (default ipm): simplex: every node LP by the dual simplex on all rows | ipm: the root "
-                "LP first by the interior point (no crossover), the copy pair rows with zero dual there dropped "
-                "(a relaxation), woken again where a node's LP point violates them | ipm-rows: the root LP by row "
+                "LP first by the interior point (no crossover; once more with crossover when that gives no bound), "
+                "the copy pair rows with zero dual there dropped (a relaxation), woken again where a node's LP point "
+                "violates them | ipm-rows: the root LP by row "
                 "generation, rounds of the interior point each with the rows violated at the last point added "
                 "(every round's bound in the trace; measured slower than ipm)"})
     mip_rel_gap: float = field(default=1e-9, metadata={"help": "relative gap |primal - dual| / |primal|"})

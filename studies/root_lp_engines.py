@@ -20,8 +20,14 @@ its row duals (the bound ``milp`` would use; ``-inf``: none).  Engines:
 Part 2 (``--liftings``): the root LP of each ``lifting`` by IPX: rows, CPU seconds, dual bound; which products the
 bound needs.
 
+Part 3 (``--profile``): where IPX spends its time on one root LP (``--lifting``, default ``rlt``: the LP the root
+solves first, which certifies the two-course walls): IPX's own log (written to ``studies/output/root_lp_engines/``),
+summarised as the seconds spent constructing IPX's starting basis (from the last iteration before it to the first after
+it, so one iteration included), the iterations and seconds after it, and the last iteration's gap.
+
     python studies/root_lp_engines.py --engines 5x2,4x3 --time-limit 300
     python studies/root_lp_engines.py --liftings 2x8
+    python studies/root_lp_engines.py --profile 2x8,2x15 --time-limit 650
 """
 
 from __future__ import annotations
@@ -46,6 +52,12 @@ HIGHS_ENGINES = {"ipx": ("ipx", {}), "ipx-presolve-off": ("ipx", {"presolve": "o
 def _wall(spec: str):
     courses, blocks = (int(k) for k in spec.split("x"))
     return bm.cases.wall(courses, blocks, mu=0.65)
+
+
+def _emit(rows: list[dict], row: dict) -> None:
+    """Print one result row as it arrives (a long run shows its progress) and keep it."""
+    print(json.dumps(row), flush=True)
+    rows.append(row)
 
 
 def root_lp(spec: str, lifting: str = "rlt-full"):
@@ -136,8 +148,7 @@ def engines(walls: list[str], names: list[str], time_limit: float) -> list[dict]
             bound = -np.inf if y is None else dual_bound(*lp, y)
             row = {"wall": spec, "rows": int(lp[0].shape[0]), "engine": name, "status": status, "cpu_s": cpu,
                    "bound": bound}
-            print(json.dumps(row), flush=True)
-            rows.append(row)
+            _emit(rows, row)
     return rows
 
 
@@ -154,8 +165,57 @@ def liftings(walls: list[str], time_limit: float) -> list[dict]:
             cpu = time.process_time() - cpu
             row = {"wall": spec, "lifting": lifting, "rows": int(lp[0].shape[0]), "status": status, "cpu_s": cpu,
                    "bound": -np.inf if y is None else dual_bound(*lp, y)}
-            print(json.dumps(row), flush=True)
-            rows.append(row)
+            _emit(rows, row)
+    return rows
+
+
+def profile(walls: list[str], lifting: str, time_limit: float) -> list[dict]:
+    """IPX's log on the root LP of each wall, and its summary (see the module docstring)."""
+    import re
+
+    import highspy
+
+    from blockmpec.solvers.engines.highs import highs_lp, use_interior_point
+
+    # IPX's iteration line: iter, primal obj, dual obj, pinf, dinf, gap, time (then, with log_dev_level 1 and when
+    # HiGHS passes it on, the two step sizes, ...)
+    sci = r"([-+]?\d\.\d+e[-+]\d+)"
+    iteration = re.compile(rf"^\s*(\d+)\*?\s+{sci}\s+{sci}\s+{sci}\s+{sci}\s+{sci}\s+(\d+\.\d+)(?:\s+(\d\.\d+)\s+(\d\.\d+))?")
+    rows = []
+    for spec in walls:
+        A, c, rl, ru, cl, cu = root_lp(spec, lifting)
+        log = OUT / f"ipx-{spec}-{lifting}.log"
+        log.unlink(missing_ok=True)
+        h = highspy.Highs()
+        h.setOptionValue("output_flag", True)
+        h.setOptionValue("log_to_console", False)
+        h.setOptionValue("log_file", str(log))
+        h.setOptionValue("log_dev_level", 1)  # IPX's step sizes and KKT iterations in its iteration lines
+        h.passModel(highs_lp(A, c, rl, ru, cl, cu))
+        use_interior_point(h, crossover=False, solver="ipx")
+        h.setOptionValue("time_limit", time_limit)
+        cpu = time.process_time()
+        h.run()
+        cpu = time.process_time() - cpu
+        h.setOptionValue("log_file", "")
+        its, crash_before, crash_after, seen_crash = [], None, None, False
+        for line in log.read_text().splitlines():
+            if "Constructing starting basis" in line:
+                seen_crash, crash_before = True, its[-1]["time_s"] if its else 0.0
+                continue
+            m = iteration.match(line)
+            if m:
+                its.append({"iter": int(m[1]), "gap": float(m[6]), "time_s": float(m[7]),
+                            "steps": (float(m[8]), float(m[9])) if m[8] else None})
+                if seen_crash and crash_after is None:
+                    crash_after = its[-1]["time_s"]
+        row = {"wall": spec, "lifting": lifting, "rows": int(A.shape[0]), "cols": int(A.shape[1]),
+               "status": h.modelStatusToString(h.getModelStatus()), "cpu_s": cpu, "iterations": len(its),
+               "starting_basis_s": None if crash_after is None else crash_after - crash_before,
+               "after_basis_s": None if crash_after is None else its[-1]["time_s"] - crash_after,
+               "last_gap": its[-1]["gap"] if its else None, "last_steps": its[-1]["steps"] if its else None,
+               "log": str(log)}
+        _emit(rows, row)
     return rows
 
 
@@ -164,6 +224,8 @@ def main() -> None:
     ap.add_argument("--engines", default="", help="walls CxB, comma-separated: the root LP by every engine")
     ap.add_argument("--only", default=",".join(ENGINES), help=f"engines of --engines, from {', '.join(ENGINES)}")
     ap.add_argument("--liftings", default="", help="walls CxB: the root LP of every lifting by IPX")
+    ap.add_argument("--profile", default="", help="walls CxB: IPX's log on the root LP of --lifting, summarised")
+    ap.add_argument("--lifting", default="rlt", help="lifting of --profile")
     ap.add_argument("--time-limit", type=float, default=300.0, help="seconds per LP solve")
     args = ap.parse_args()
     names = [n for n in args.only.split(",") if n]
@@ -177,6 +239,9 @@ def main() -> None:
     if args.liftings:
         out = liftings(args.liftings.split(","), args.time_limit)
         (OUT / "liftings.json").write_text(json.dumps(out, indent=1))
+    if args.profile:
+        out = profile(args.profile.split(","), args.lifting, args.time_limit)
+        (OUT / "profile.json").write_text(json.dumps(out, indent=1))
 
 
 if __name__ == "__main__":
