@@ -687,6 +687,7 @@ class MILPSolver(SolverBase):
         t_build = time.perf_counter() - tb
         run, best = bnb.solve(deadline - time.perf_counter(), incumbent, t0=t0)
         self._bnb_lps = bnb.n_lps
+        self._bnb_root = {"root_interior_time_s": bnb.ipm_time, "root_crossover_runs": bnb.crossover_runs}
         return run, best, t_build
 
     def _solve(self, mip, deadline: float, start: np.ndarray | None, t0: float):
@@ -949,7 +950,7 @@ class MILPSolver(SolverBase):
                  facts.LP_SOLVES: bd.n_lps + self._bnb_lps, facts.ENGINE: "bnb", "lam_static_min": bd.lam_static_min,
                  "lam_kinematic": bd.lam_kinematic, "lam_dissipation": bd.lam_dissipation, "bound_time_s": bd.time_s,
                  "build_time_s": t_build, "search_time_s": run.time_s, "nodes": run.nodes, "bigm_active": [],
-                 "bigm": [], "engine_multiplier": None if best is None else best.multiplier}
+                 "bigm": [], "engine_multiplier": None if best is None else best.multiplier, **self._bnb_root}
         if best is None:
             st = Status.TIME_LIMIT if run.status is Status.TIME_LIMIT else Status.ERROR
             return RunOutput(st, Solution(), run.nodes, trace, f"no point of (3) found; bound {bound:.10g}",

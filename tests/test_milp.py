@@ -415,6 +415,9 @@ def test_auto_engine_runs_bnb_for_the_minimum_and_highs_otherwise(monkeypatch):
     by_bnb = bm.solve(structure, "milp", incumbent=False, heuristic="")  # no root certificate: an engine runs
     assert_certified(by_bnb)
     assert by_bnb.extra["engine"] == "bnb"
+    # the root's interior points ran (root_lp="ipm" is the default), inside the search's time
+    assert 0 < by_bnb.extra["root_interior_time_s"] <= by_bnb.extra["search_time_s"]
+    assert by_bnb.extra["root_crossover_runs"] >= 0
     assert bm.solve(structure, "milp", sense="max").extra["engine"] in ("highs", "root")
     monkeypatch.setattr(milp, "AUTO_BNB_MAX_PAIRS", 0)
     by_highs = bm.solve(structure, "milp", incumbent=False, heuristic="")
