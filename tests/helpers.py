@@ -1,9 +1,23 @@
 """Helpers shared by the tests (closed forms, tolerances, assertions); fixtures live in conftest."""
 
+import importlib.util
+from pathlib import Path
+
 import numpy as np
 import scipy.sparse as sp
 
 import blockmpec as bm
+
+#: the repository's studies/ folder (plain scripts, not part of the installed package)
+STUDIES = Path(__file__).resolve().parents[1] / "studies"
+
+
+def load_study(name: str):
+    """The study script ``studies/<name>.py`` imported as a module (its functions callable from a test)."""
+    spec = importlib.util.spec_from_file_location(name, STUDIES / f"{name}.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
 
 
 def two_block_associative(eta: float, mu: float) -> float:

@@ -30,14 +30,11 @@ Each benchmark also checks its result, so a benchmark of a broken stage fails:
 
 from __future__ import annotations
 
-import importlib.util
-from pathlib import Path
-
 import numpy as np
 import pytest
 
 import blockmpec as bm
-from helpers import assert_success, two_block_associative
+from helpers import assert_success, load_study, two_block_associative
 
 pytestmark = pytest.mark.benchmark
 
@@ -130,10 +127,7 @@ def test_milp_wall_2x2(benchmark):
 
 def test_benchmark_scaling_study_smallest(benchmark, capsys):
     """The scaling study end to end at its smallest sizes: both tables, every stage a success."""
-    path = Path(__file__).resolve().parents[1] / "studies" / "benchmark_scaling.py"
-    spec = importlib.util.spec_from_file_location("benchmark_scaling", path)
-    study = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(study)
+    study = load_study("benchmark_scaling")
     argv = ["--sizes", "10,20", "--largest", "milp", "--largest-max", "4", "--tag", "pytest"]
     out = benchmark.pedantic(study.main, args=(argv,), rounds=1)
     printed = capsys.readouterr().out

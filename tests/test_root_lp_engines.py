@@ -2,23 +2,17 @@
 bounds with (IPX's dual bound on it meets the certified minimum of the 2x2 running-bond wall, never above it), a
 lifting without the products with the mechanism gives a weaker bound, and its profile parses IPX's log."""
 
-import importlib.util
 from pathlib import Path
 
 import pytest
 
 import blockmpec as bm
-from helpers import CERTIFIED_TOL, margin
-
-STUDY = Path(__file__).resolve().parents[1] / "studies" / "root_lp_engines.py"
+from helpers import CERTIFIED_TOL, load_study, margin
 
 
 @pytest.fixture(scope="module")
 def study():
-    spec = importlib.util.spec_from_file_location("root_lp_engines", STUDY)
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
+    return load_study("root_lp_engines")
 
 
 @pytest.fixture(scope="module")

@@ -8,23 +8,16 @@ counterpart of the associative mechanism (A1 -> NA1, A2-1 / A2-2 -> NA2, A3 -> N
 
 from __future__ import annotations
 
-import importlib.util
-from pathlib import Path
-
 import numpy as np
 import pytest
 
 import blockmpec as bm
-
-STUDY = Path(__file__).resolve().parents[1] / "studies" / "two_block_maps.py"
+from helpers import load_study
 
 
 @pytest.fixture(scope="module")
 def study():
-    spec = importlib.util.spec_from_file_location("two_block_maps", STUDY)
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
+    return load_study("two_block_maps")
 
 
 @pytest.fixture(scope="module")
