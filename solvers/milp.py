@@ -680,15 +680,13 @@ class MILPSolver(SolverBase):
                                   lambda active: self._polish(active)[0], **kwargs)
 
     def _solve_bnb(self, bd, incumbent: Solution | None, deadline: float, t0: float):
-        """engine="bnb": (MIPRun with lam-unit bounds, best polished Solution or None, seconds to build the
-        lifted LP)."""
+        """engine="bnb": (MIPRun with lam-unit bounds, best polished Solution or None, the branch and bound that
+        ran (its LP count and root timings), seconds to build its lifted LP)."""
         tb = time.perf_counter()
         bnb = self._complementarity_bnb(bd)
         t_build = time.perf_counter() - tb
         run, best = bnb.solve(deadline - time.perf_counter(), incumbent, t0=t0)
-        self._bnb_lps = bnb.n_lps
-        self._bnb_root = {"root_interior_time_s": bnb.ipm_time, "root_crossover_runs": bnb.crossover_runs}
-        return run, best, t_build
+        return run, best, bnb, t_build
 
     def _solve(self, mip, deadline: float, start: np.ndarray | None, t0: float):
         from blockmpec.solvers.engines import mip as engines
@@ -943,14 +941,15 @@ class MILPSolver(SolverBase):
 
     def _run_bnb(self, bd, incumbent, deadline: float, trace: list) -> RunOutput:
         """Stages 3-5 with engine="bnb": its points are polished patterns already, its bound is in lam."""
-        run, best, t_build = self._solve_bnb(bd, incumbent, deadline, self._t_start)
+        run, best, bnb, t_build = self._solve_bnb(bd, incumbent, deadline, self._t_start)
         trace += [dict(r, iteration=len(trace) + k, stage="search") for k, r in enumerate(run.trace)]
         bound = float(run.dual_bound)
         extra = {facts.SENSE: "min", facts.ASSOCIATIVE_MULTIPLIER: bd.lam_associative, facts.BOUND: bound,
-                 facts.LP_SOLVES: bd.n_lps + self._bnb_lps, facts.ENGINE: "bnb", "lam_static_min": bd.lam_static_min,
+                 facts.LP_SOLVES: bd.n_lps + bnb.n_lps, facts.ENGINE: "bnb", "lam_static_min": bd.lam_static_min,
                  "lam_kinematic": bd.lam_kinematic, "lam_dissipation": bd.lam_dissipation, "bound_time_s": bd.time_s,
                  "build_time_s": t_build, "search_time_s": run.time_s, "nodes": run.nodes, "bigm_active": [],
-                 "bigm": [], "engine_multiplier": None if best is None else best.multiplier, **self._bnb_root}
+                 "bigm": [], "engine_multiplier": None if best is None else best.multiplier,
+                 "root_interior_time_s": bnb.ipm_time, "root_crossover_runs": bnb.crossover_runs}
         if best is None:
             st = Status.TIME_LIMIT if run.status is Status.TIME_LIMIT else Status.ERROR
             return RunOutput(st, Solution(), run.nodes, trace, f"no point of (3) found; bound {bound:.10g}",

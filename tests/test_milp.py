@@ -535,6 +535,15 @@ def _lifted(structure, lifting: str):
     return solver, solver._complementarity_bnb(solver._bounds(time.perf_counter() + 60))
 
 
+def _at_root(structure, lifting: str):
+    """The ComplementarityBnB of :func:`_lifted` with the root pattern applied (no cap from an incumbent) and 60 s
+    for its LPs: ready for the root's interior points."""
+    _, bnb = _lifted(structure, lifting)
+    bnb.deadline = time.perf_counter() + 60
+    bnb._apply(bnb.root, bnb.lam_lower, bnb.lam_cap)
+    return bnb
+
+
 @functools.cache
 def certified_minimum(case_id: str) -> bm.Result:
     res = bm.solve(LIFTING_CASES[case_id](), "milp")
@@ -637,13 +646,12 @@ def test_dormant_rows_give_a_relaxation(lifting, case_id):
 
     lam = certified_minimum(case_id).multiplier
     full = _lifted(LIFTING_CASES[case_id](), lifting)[1].root_bound()
-    _, bnb = _lifted(LIFTING_CASES[case_id](), lifting)
-    bnb.deadline = time.perf_counter() + 60
-    bnb._apply(bnb.root, bnb.lam_lower, bnb.lam_cap)
+    bnb = _at_root(LIFTING_CASES[case_id](), lifting)
     interior = bnb._interior_root()
     assert bnb.dormant.any()
     # the interior point's dual bound is a lower bound too (weak duality); on the 2x2 wall (an interior point that
-    # converges; with the opening it stops short, status unknown, and gives no bound) it meets the LP's optimum
+    # converges) it meets the LP's optimum; with the opening IPX stops short ("unknown"; with rlt no bound until its
+    # crossover re-run), so only the inequality is asserted there
     assert interior <= full + 1e-7 * max(1.0, abs(full))
     if case_id == "wall-2x2":
         assert interior >= full - 1e-7
@@ -655,6 +663,14 @@ def test_dormant_rows_give_a_relaxation(lifting, case_id):
     sleeping = bnb.dormant[bnb._sleep_rows]
     violated = sleeping & (bnb._sleep_matrix @ v > cb.SEPARATION_TOL)
     assert not violated.any() or bnb.woken > 0
+
+
+def test_milp_and_its_engine_accept_the_same_root_lps():
+    """milp keeps its own ROOT_LPS (importing the engine at start-up would pull in Pyomo); the two must agree."""
+    from blockmpec.solvers import milp
+    from blockmpec.solvers.engines import complementarity_bnb
+
+    assert milp.ROOT_LPS == complementarity_bnb.ROOT_LPS
 
 
 def test_lifting_options_need_bnb():
@@ -672,9 +688,7 @@ def test_a_failed_interior_point_is_repaired_by_crossover(monkeypatch):
     """An interior point that gives no duals (simulated: every run without crossover returns none) is re-run once
     with crossover, whose basic duals still close the root at the certified minimum, bound below it."""
     lam = certified_minimum("wall-2x2").multiplier
-    _, bnb = _lifted(LIFTING_CASES["wall-2x2"](), "rlt-full")
-    bnb.deadline = time.perf_counter() + 60
-    bnb._apply(bnb.root, bnb.lam_lower, bnb.lam_cap)
+    bnb = _at_root(LIFTING_CASES["wall-2x2"](), "rlt-full")
     solution = bnb._interior_solution
     monkeypatch.setattr(bnb, "_interior_solution",
                         lambda *a, crossover=False, **k: solution(*a, crossover=crossover, **k) if crossover
@@ -691,9 +705,7 @@ def test_the_arch_on_buttresses_is_closed_by_the_root_interior_point():
     structure = bm.cases.arch_on_buttresses(n_voussoirs=8, mu=0.4)
     ref = bm.solve(structure, "milp", engine="highs")
     assert_certified(ref)
-    _, bnb = _lifted(structure, "rlt-full")
-    bnb.deadline = time.perf_counter() + 60
-    bnb._apply(bnb.root, bnb.lam_lower, bnb.lam_cap)
+    bnb = _at_root(structure, "rlt-full")
     bound = bnb._interior_root(ref.multiplier)
     assert bound <= ref.multiplier + 1e-7 * max(1.0, abs(ref.multiplier))
     assert ref.multiplier - bound <= 1e-7 * max(1.0, abs(ref.multiplier))
@@ -707,9 +719,7 @@ def test_interior_root_stops_after_one_run_when_it_closes(lifting):
     lam = certified_minimum("wall-2x2").multiplier
     runs = {}
     for target in (lam, np.inf):
-        _, bnb = _lifted(LIFTING_CASES["wall-2x2"](), lifting)
-        bnb.deadline = time.perf_counter() + 60
-        bnb._apply(bnb.root, bnb.lam_lower, bnb.lam_cap)
+        bnb = _at_root(LIFTING_CASES["wall-2x2"](), lifting)
         before = bnb.n_lps
         recorded = []
         bound = bnb._interior_root(target, recorded.append)

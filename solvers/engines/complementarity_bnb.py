@@ -651,7 +651,7 @@ class ComplementarityBnB:
         root then went to the dual simplex (12 s in all); with crossover both ended optimal with the minimum as
         their bound (1.0 s and 2.4 s).  A crossover can take long on the large walls, which is why it is only the
         fallback; its basic duals pick more rows dormant (any choice keeps the bound valid)."""
-        y = self._interior_duals(A, c, rl, ru, cl, cu)
+        y = self._interior_solution(A, c, rl, ru, cl, cu)[0]
         bound = -np.inf if y is None else dual_bound(A, c, rl, ru, cl, cu, y)
         if bound == -np.inf and time.perf_counter() < self.deadline:
             self.crossover_runs += 1
@@ -661,23 +661,15 @@ class ComplementarityBnB:
                 bound, y = bound2, y2
         return bound, y
 
-    def _interior_duals(self, A, c, rl, ru, cl, cu, tol: float | None = None) -> np.ndarray | None:
-        """Row duals of the LP by HiGHS's interior point without crossover (None if it gave none); ``tol``:
-        its optimality and feasibility tolerances (HiGHS's defaults if None)."""
-        return self._interior_solution(A, c, rl, ru, cl, cu, tol)[0]
-
-    def _interior_solution(self, A, c, rl, ru, cl, cu, tol: float | None = None, crossover: bool = False) -> tuple:
-        """``(row duals, column values)`` of the LP by HiGHS's interior point, without crossover unless
-        ``crossover`` (``(None, None)`` if it gave no duals; the values None if it gave none)."""
+    def _interior_solution(self, A, c, rl, ru, cl, cu, crossover: bool = False) -> tuple:
+        """``(row duals, column values)`` of the LP by HiGHS's interior point at its default tolerances, without
+        crossover unless ``crossover`` (``(None, None)`` if it gave no duals; the values None if it gave none)."""
         import highspy
 
         g = highspy.Highs()
         g.setOptionValue("output_flag", False)
         g.passModel(highs_lp(A, c, rl, ru, cl, cu))
         use_interior_point(g, crossover=crossover, solver=INTERIOR_SOLVER)
-        if tol is not None:
-            for name in ("ipm_optimality_tolerance", "primal_feasibility_tolerance", "dual_feasibility_tolerance"):
-                g.setOptionValue(name, tol)
         g.setOptionValue("time_limit", max(self.deadline - time.perf_counter(), 1e-3))
         g.run()
         self.n_lps += 1
