@@ -177,10 +177,9 @@ def profile(walls: list[str], lifting: str, time_limit: float) -> list[dict]:
 
     from blockmpec.solvers.engines.highs import highs_lp, use_interior_point
 
-    # IPX's iteration line: iter, primal obj, dual obj, pinf, dinf, gap, time (then, with log_dev_level 1 and when
-    # HiGHS passes it on, the two step sizes, ...)
+    # IPX's iteration line in HiGHS's log file: iter, primal obj, dual obj, pinf, dinf, gap, time
     sci = r"([-+]?\d\.\d+e[-+]\d+)"
-    iteration = re.compile(rf"^\s*(\d+)\*?\s+{sci}\s+{sci}\s+{sci}\s+{sci}\s+{sci}\s+(\d+\.\d+)(?:\s+(\d\.\d+)\s+(\d\.\d+))?")
+    iteration = re.compile(rf"^\s*(\d+)\*?\s+{sci}\s+{sci}\s+{sci}\s+{sci}\s+{sci}\s+(\d+\.\d+)")
     rows = []
     for spec in walls:
         A, c, rl, ru, cl, cu = root_lp(spec, lifting)
@@ -190,7 +189,6 @@ def profile(walls: list[str], lifting: str, time_limit: float) -> list[dict]:
         h.setOptionValue("output_flag", True)
         h.setOptionValue("log_to_console", False)
         h.setOptionValue("log_file", str(log))
-        h.setOptionValue("log_dev_level", 1)  # IPX's step sizes and KKT iterations in its iteration lines
         h.passModel(highs_lp(A, c, rl, ru, cl, cu))
         use_interior_point(h, crossover=False, solver="ipx")
         h.setOptionValue("time_limit", time_limit)
@@ -205,16 +203,14 @@ def profile(walls: list[str], lifting: str, time_limit: float) -> list[dict]:
                 continue
             m = iteration.match(line)
             if m:
-                its.append({"iter": int(m[1]), "gap": float(m[6]), "time_s": float(m[7]),
-                            "steps": (float(m[8]), float(m[9])) if m[8] else None})
+                its.append({"iter": int(m[1]), "gap": float(m[6]), "time_s": float(m[7])})
                 if seen_crash and crash_after is None:
                     crash_after = its[-1]["time_s"]
         row = {"wall": spec, "lifting": lifting, "rows": int(A.shape[0]), "cols": int(A.shape[1]),
                "status": h.modelStatusToString(h.getModelStatus()), "cpu_s": cpu, "iterations": len(its),
                "starting_basis_s": None if crash_after is None else crash_after - crash_before,
                "after_basis_s": None if crash_after is None else its[-1]["time_s"] - crash_after,
-               "last_gap": its[-1]["gap"] if its else None, "last_steps": its[-1]["steps"] if its else None,
-               "log": str(log)}
+               "last_gap": its[-1]["gap"] if its else None, "log": str(log)}
         _emit(rows, row)
     return rows
 
