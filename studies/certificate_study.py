@@ -71,7 +71,7 @@ CONFIGS = {
 ENGINE_CONSTANTS = {"bnb-rlt-ipm-choose": {"INTERIOR_SOLVER": "ipm"}}
 
 COLUMNS = ["case", "blocks", "config", "status", "certified", "multiplier", "root_bound", "bound", "gap_abs", "nodes",
-           "bound_s", "solve_s", "message"]
+           "crossover_runs", "bound_s", "solve_s", "message"]
 
 
 def load_before(root: str) -> None:
@@ -134,6 +134,7 @@ def run_structure(spec: str, structure: bm.Structure, config: str, time_limit: f
             "certified": res.status is bm.Status.OPTIMAL and res.verified, "multiplier": res.multiplier,
             "root_bound": root_bound,
             "bound": bound, "gap_abs": ex.get("gap_abs"), "nodes": ex.get("nodes"),
+            "crossover_runs": ex.get("root_crossover_runs"),
             "bound_s": ex.get("bound_time_s"), "solve_s": res.solve_time_s, "message": res.message[:100]}
 
 
