@@ -285,6 +285,12 @@ class BlockIPM:
         self._superlu: SymmetricFactoriser | None = None
         #: the factorisation of K (:data:`FACTORISATIONS`)
         self.factorisation = "auto"
+        #: weights ``w > 0`` of the complementarity targets (one per inequality row, in ``self.h``'s order):
+        #: the iterates follow the weighted central path ``s_i y_i = w_i mu``, ``mu = mean(s o y / w)``.
+        #: ``None``: all ones, the central path itself (the same iterates, bit for bit).  Read at every
+        #: iteration (:meth:`before_iteration` may change them).  The weights change the path, never the
+        #: LP's solutions (studies/ipm_crawl.py measures what they change)
+        self.path_weights: np.ndarray | None = None
         self._K_pattern = structural_pattern(self.A_B, self.k)
         self._K_slots, self._K_targets, self._K_diagonal = self._reduced_scatter()
 
@@ -651,6 +657,20 @@ class BlockIPM:
         dobj = self.b @ it.w - self.h @ it.y
         return abs(pobj - dobj) / (1 + abs(pobj))
 
+    def _path_weights(self) -> np.ndarray:
+        """:attr:`path_weights` checked (one positive finite weight per inequality row), or ones."""
+        p = self.h.size
+        if self.path_weights is None:
+            return np.ones(p)
+        weights = np.asarray(self.path_weights, dtype=float)
+        if weights.shape != (p,):
+            raise ValueError(f"block IPM: path_weights has shape {weights.shape}, expected ({p},) "
+                             "(one per inequality row)")
+        bad = np.flatnonzero(~(np.isfinite(weights) & (weights > 0)))
+        if bad.size:
+            raise ValueError(f"block IPM: path_weights must be positive and finite; row {int(bad[0])} has {weights[bad[0]]}")
+        return weights
+
     def before_iteration(self, it: IPMIterate) -> None:
         """Called at the start of every iteration with the current iterate; the LP's data
         (e.g. ``self.h``) may be changed here.  Does nothing: subclasses that move the LP
@@ -696,10 +716,11 @@ class BlockIPM:
         k = 0
         for k in range(self.max_iterations + 1):
             self.before_iteration(it)
+            weights = self._path_weights()  # read every iteration: before_iteration may change them
             r_b, r_h, r_c = self.residuals(it)
             primal, dual, gap = self.measures(it, (r_b, r_h, r_c))
             error = max(primal, dual, gap)
-            mu = float(it.s @ it.y) / p
+            mu = float(it.s @ (it.y / weights)) / p
             if error < best_error:
                 best, best_error, best_k = it.copy(), error, k
                 best_measures = (primal, dual, gap)
@@ -737,10 +758,10 @@ class BlockIPM:
             dv, ds, dw, dy = self._direction(it, factors, r_b, r_h, r_c, -it.s * it.y, inner, loose)
             ap = self._max_step(it.s, ds)
             ad = self._max_step(it.y, dy)
-            mu_aff = float((it.s + ap * ds) @ (it.y + ad * dy)) / p
+            mu_aff = float((it.s + ap * ds) @ ((it.y + ad * dy) / weights)) / p
             sigma = min(1.0, max((mu_aff / mu) ** self.sigma_power, self.sigma_min))
             # corrector
-            r_mu = sigma * mu - it.s * it.y - ds * dy
+            r_mu = sigma * mu * weights - it.s * it.y - ds * dy
             if lazy:
                 dv, ds, dw, dy = self._direction(it, factors, r_b, r_h, r_c, r_mu, inner, loose)
             else:
@@ -756,8 +777,8 @@ class BlockIPM:
                     break
                 tp, td = min(1.0, self.gondzio_factor * ap + self.gondzio_delta), min(1.0, self.gondzio_factor * ad + self.gondzio_delta)
                 products = (it.s + tp * ds) * (it.y + td * dy)
-                target = np.clip(products, 0.1 * sigma * mu, 10.0 * sigma * mu)
-                correction = np.maximum(target - products, -10.0 * sigma * mu)
+                target = np.clip(products, 0.1 * sigma * mu * weights, 10.0 * sigma * mu * weights)
+                correction = np.maximum(target - products, -10.0 * sigma * mu * weights)
                 if lazy:
                     cv, cs, cw, cy = self._direction(it, factors, zeros_b, zeros_h, zeros_c, correction, inner, loose)
                 else:
@@ -777,7 +798,7 @@ class BlockIPM:
                 ad = eta * self._max_step(it.y, dy)
             self.trace.append({"k": k, "mu": mu, "primal": primal, "dual": dual, "gap": gap, "sigma": sigma,
                                "step_primal": ap, "step_dual": ad, "correctors": used,
-                               "centrality": float(np.min(it.s * it.y)) / mu,
+                               "centrality": float(np.min(it.s * it.y / weights)) / mu,
                                "solves": self.factoriser.solves - solves0, "krylov": self.krylov_steps - krylov0,
                                "krylov_solves": self.krylov_solves - krylov_solves0,
                                "fact_over_solve": (self.factoriser.factorise_s / self.factoriser.factorisations)

@@ -1,0 +1,217 @@
+"""Why the block IPM needs more iterations on larger walls, and what a weighted central path changes.
+
+Issue 14's 100,000-block target needs fewer interior-point iterations: 82 factorisations of ``K`` at
+2.2 s each already exceed two minutes.  The iterations grow with the wall (1,010 blocks: 21, 10,050: 53,
+100,014: 82).  Nearly all the growth is one phase, the *crawl*.  It starts once the residuals are
+small and only the relative gap, about 1, is left.  After that, steps are 0.1-0.7 and ``mu`` falls about
+0.75x per iteration.  This study measures three things:
+
+* ``--diagnose CxB``: every iteration's spread of the complementarity products ``s_i y_i / mu`` and
+  the products of the two *blocking* rows (the rows whose ratio test sets the primal and the dual
+  step: the smallest ``s_{k+1} / s_k`` and ``y_{k+1} / y_k``).  If the blocking rows are centred
+  (products near ``mu``), the short steps come from the central path's curvature and not from
+  lost centrality.  Better centring (more correctors, ``sigma_min``, neighbourhoods) cannot fix that.
+* ``--oracle CxB``: the same LP on a *weighted* central path ``s_i y_i = w_i mu``
+  (:attr:`BlockIPM.path_weights`).  The weights come from the plain run's own solution
+  (:func:`solution_weights`), which a real solve does not have.  The measurement asks whether any
+  weights shorten the crawl, and by how much.  It also measures two rules that a solve does have:
+  weights from the current iterate's products (``current``), and the oracle's formula with the current
+  iterate in place of the solution, switched on at the crawl start (``running``).
+* ``--transfer CxB --mu A --to B,C``: weights from the solution at friction coefficient ``A``,
+  used for the same wall at ``B``, ``C`` (a parameter study's next LP).
+
+:func:`solution_weights`: a row that ends active (its ``s`` fell by more than its ``y``, relative to
+the crawl start) leaves the crawl once ``mu`` reaches about ``y*_i s_c,i``; a row that ends inactive
+leaves it at ``s*_i y_c,i`` (``c``: the crawl start, ``*``: the solution).  Weights proportional to
+that level (geometric mean 1, clipped to ``[1/clip, clip]``) make every row leave at the same ``mu``.
+
+Usage::
+
+    python studies/ipm_crawl.py --diagnose 100x100
+    python studies/ipm_crawl.py --oracle 20x50,100x100
+    python studies/ipm_crawl.py --transfer 100x100 --mu 0.65 --to 0.5,0.6,0.7
+
+Writes ``studies/output/ipm_crawl/{diagnose,oracle,transfer}.csv``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+import blockmpec as bm
+from blockmpec.formulations import compile_linear, static_lp
+from blockmpec.solvers.engines.block_ipm import BlockIPM, IPMIterate
+from blockmpec.solvers.engines.lp_engine import cold_lp_engine
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from _tables import write_csv  # noqa: E402
+
+OUT = Path(__file__).parent / "output" / "ipm_crawl"
+#: the crawl starts at the first iterate whose relative duality gap is at most this (the residuals
+#: are 1e-6 or below there on every wall measured; the gap is ``p mu`` over ``|lam|``, p ~ 4 rows per interface)
+CRAWL_GAP = 3.0
+
+
+def wall_lp(spec: str, mu: float | None = None):
+    """``(lp, ops)``: the static LP (1) of the running-bond wall ``"CxB"`` (courses x blocks per course)."""
+    courses, per_course = (int(v) for v in spec.split("x"))
+    options = {} if mu is None else {"mu": mu}
+    ops = bm.assemble(bm.cases.wall(courses=courses, blocks_per_course=per_course, **options))
+    return compile_linear(static_lp(ops)), ops
+
+
+class Recorder:
+    """Keeps the iterate at the crawl start and the last one, and (``diagnose``) one row of statistics per
+    iteration, through the engine's :meth:`~BlockIPM.before_iteration` hook."""
+
+    def __init__(self, engine: BlockIPM, diagnose: bool = False, rule: str = "none", clip: float = 10.0) -> None:
+        self.engine, self.diagnose, self.rule, self.clip = engine, diagnose, rule, clip
+        self.start: IPMIterate | None = None
+        self.previous: IPMIterate | None = None
+        self.rows: list[dict] = []
+        engine.before_iteration = self
+
+    def __call__(self, it: IPMIterate) -> None:
+        engine = self.engine
+        if self.start is None and engine.gap(it) <= CRAWL_GAP:
+            self.start = it.copy()
+        if self.diagnose:
+            self._statistics(it)
+        if self.start is not None and self.rule == "current":
+            mu = float(it.s @ it.y) / it.s.size
+            engine.path_weights = np.clip(it.s * it.y / mu, 1 / self.clip, self.clip)
+        elif self.start is not None and self.rule == "running":
+            engine.path_weights = solution_weights(self.start, it, self.clip)
+        self.previous = it.copy()
+
+    def _statistics(self, it: IPMIterate) -> None:
+        mu = float(it.s @ it.y) / it.s.size
+        row = {"k": len(self.rows), "mu": mu, "gap": self.engine.gap(it)}
+        if self.previous is not None:
+            prev = self.previous
+            prev_mu = float(prev.s @ prev.y) / prev.s.size
+            products = prev.s * prev.y / prev_mu
+            quantiles = np.quantile(products, [0.01, 0.5, 0.99])
+            blocking_s = int(np.argmin(it.s / prev.s))
+            blocking_y = int(np.argmin(it.y / prev.y))
+            step = self.engine.trace[-1]
+            self.rows[-1].update({
+                "step_primal": step["step_primal"], "step_dual": step["step_dual"], "sigma": step["sigma"],
+                "products_q01": quantiles[0], "products_median": quantiles[1], "products_q99": quantiles[2],
+                "outside_0.1_10": float(np.mean((products < 0.1) | (products > 10))),
+                "blocking_primal_product": products[blocking_s], "blocking_dual_product": products[blocking_y]})
+        self.rows.append(row)
+
+
+def solution_weights(start: IPMIterate, end: IPMIterate, clip: float = 10.0) -> np.ndarray:
+    """Weights that make every row leave the crawl at the same ``mu`` (module docstring).
+
+    ``start``: the iterate at the crawl start, ``end``: the solution (or an estimate of it).
+    ``w_i = y_i^end s_i^start`` where ``s`` fell by more than ``y`` from start to end (active),
+    ``s_i^end y_i^start`` elsewhere; normalised to geometric mean 1 and clipped to ``[1/clip, clip]``.
+    """
+    active = end.s / start.s < end.y / start.y
+    level = np.where(active, end.y * start.s, end.s * start.y)
+    level = np.maximum(level, np.finfo(float).tiny)
+    return np.clip(level / np.exp(np.mean(np.log(level))), 1.0 / clip, clip)
+
+
+def run(lp, ops, weights: np.ndarray | None = None, diagnose: bool = False, rule: str = "none",
+        clip: float = 10.0) -> tuple[dict, Recorder]:
+    """One cold block-IPM solve; returns its summary row and the recorder."""
+    engine = cold_lp_engine(lp, "block-ipm", ops=ops)
+    if not isinstance(engine, BlockIPM):
+        raise RuntimeError("ipm_crawl: the wall's LP did not get the block IPM")
+    engine.path_weights = weights
+    recorder = Recorder(engine, diagnose=diagnose, rule=rule, clip=clip)
+    cpu = time.process_time()
+    out = engine.solve()
+    cpu = time.process_time() - cpu
+    lam = float(lp.values("lam", out.v)[0]) if out.status.is_success else float("nan")
+    return {"status": out.status.value, "iterations": out.iterations, "cpu_s": round(cpu, 2), "lam": lam}, recorder
+
+
+def _emit(rows: list[dict], name: str) -> None:
+    for row in rows:
+        print(json.dumps(row), flush=True)
+    write_csv(OUT / f"{name}.csv", rows)
+
+
+def diagnose(spec: str) -> tuple[list[dict], dict]:
+    """Per-iteration rows, and a summary of the crawl (iterations from the first gap <= :data:`CRAWL_GAP`)."""
+    lp, ops = wall_lp(spec)
+    summary, recorder = run(lp, ops, diagnose=True)
+    rows = [{"wall": spec, **{k: (float(f"{v:.3g}") if isinstance(v, float) else v) for k, v in row.items()}}
+            for row in recorder.rows]
+    crawl = [row for row in rows if row["gap"] <= CRAWL_GAP and "step_primal" in row]
+    blocking = np.array([[row["blocking_primal_product"], row["blocking_dual_product"]] for row in crawl]).ravel()
+    steps = np.array([min(row["step_primal"], row["step_dual"]) for row in crawl])
+    summary = {"wall": spec, **summary, "crawl_start": crawl[0]["k"] if crawl else None, "crawl_iterations": len(crawl),
+               "median_shorter_step": float(np.median(steps)) if crawl else None,
+               "blocking_rows_centred": float(np.mean((blocking >= 0.1) & (blocking <= 10))) if crawl else None,
+               "median_rows_outside_0.1_10": float(np.median([row["outside_0.1_10"] for row in crawl])) if crawl else None}
+    return rows, summary
+
+
+def oracle(spec: str, clips: tuple[float, ...] = (10.0, 100.0)) -> list[dict]:
+    lp, ops = wall_lp(spec)
+    plain, recorder = run(lp, ops)
+    rows = [{"wall": spec, "weights": "none (central path)", **plain}]
+    if recorder.start is None:
+        return rows
+    for clip in clips:
+        weights = solution_weights(recorder.start, recorder.previous, clip)
+        row, _ = run(lp, ops, weights=weights)
+        rows.append({"wall": spec, "weights": f"from its own solution, clip {clip:g}", **row})
+    for rule in ("current", "running"):
+        row, _ = run(lp, ops, rule=rule)
+        rows.append({"wall": spec, "weights": f"{rule} (from the crawl start)", **row})
+    return rows
+
+
+def transfer(spec: str, mu: float, targets: list[float], clip: float = 10.0) -> list[dict]:
+    lp, ops = wall_lp(spec, mu)
+    _, recorder = run(lp, ops)
+    weights = solution_weights(recorder.start, recorder.previous, clip)
+    rows = []
+    for target in targets:
+        lp_t, ops_t = wall_lp(spec, target)
+        plain, _ = run(lp_t, ops_t)
+        weighted, _ = run(lp_t, ops_t, weights=weights)
+        rows.append({"wall": spec, "mu_source": mu, "mu": target, **{f"plain_{k}": v for k, v in plain.items()},
+                     **{f"weighted_{k}": v for k, v in weighted.items()}})
+    return rows
+
+
+def main(argv: list[str] | None = None) -> list[dict]:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--diagnose", default="", help="a wall CxB: per-iteration products and blocking rows")
+    parser.add_argument("--oracle", default="", help="comma-separated walls CxB: weighted paths side by side")
+    parser.add_argument("--transfer", default="", help="a wall CxB: weights from --mu used at --to")
+    parser.add_argument("--mu", type=float, default=0.65)
+    parser.add_argument("--to", default="0.5,0.6,0.7")
+    args = parser.parse_args(argv)
+    rows: list[dict] = []
+    if args.diagnose:
+        rows, summary = diagnose(args.diagnose)
+        _emit(rows, "diagnose")
+        print(json.dumps(summary), flush=True)
+    if args.oracle:
+        rows = [row for spec in args.oracle.split(",") for row in oracle(spec)]
+        _emit(rows, "oracle")
+    if args.transfer:
+        rows = transfer(args.transfer, args.mu, [float(v) for v in args.to.split(",")])
+        _emit(rows, "transfer")
+    if not (args.diagnose or args.oracle or args.transfer):
+        parser.error("give --diagnose, --oracle or --transfer")
+    return rows
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,75 @@
+"""Weighted central paths in the block IPM (``BlockIPM.path_weights``) and studies/ipm_crawl.py.
+
+The weights change the path the iterates follow, never the LP's solution: a weighted run must end at
+the central path's optimum (the same lambda, verified at 1e-8), and unit weights must give the central
+path itself, bit for bit.
+"""
+
+import numpy as np
+import pytest
+from helpers import load_study
+
+import blockmpec as bm
+from blockmpec.solvers.engines.highs import static_lp_solution
+from blockmpec.solvers.engines.lp_engine import cold_lp_engine
+
+
+@pytest.fixture(scope="module")
+def crawl():
+    return load_study("ipm_crawl")
+
+
+def _engine(lp, ops, weights=None):
+    engine = cold_lp_engine(lp, "block-ipm", ops=ops)
+    engine.path_weights = weights
+    return engine
+
+
+def test_unit_weights_give_the_central_path_bit_for_bit(crawl):
+    lp, ops = crawl.wall_lp("8x10")
+    plain = _engine(lp, ops)
+    out = plain.solve()
+    ones = _engine(lp, ops, np.ones(plain.h.size))
+    out_ones = ones.solve()
+    assert out.iterations == out_ones.iterations
+    assert np.array_equal(out.v, out_ones.v) and np.array_equal(out.row_dual, out_ones.row_dual)
+    assert [t["mu"] for t in plain.trace] == [t["mu"] for t in ones.trace]
+
+
+def test_weights_from_the_solution_shorten_the_path_to_the_same_optimum(crawl):
+    """The oracle of the study: weights that make every row leave the crawl at once take fewer
+    iterations, and the point they reach is the LP's optimum (verified, the central path's lambda)."""
+    lp, ops = crawl.wall_lp("20x50")
+    plain, recorder = crawl.run(lp, ops)
+    assert recorder.start is not None and recorder.previous is not None
+    weights = crawl.solution_weights(recorder.start, recorder.previous, clip=10.0)
+    assert weights.min() >= 0.1 and weights.max() <= 10.0 and weights.min() < 1 < weights.max()
+    engine = _engine(lp, ops, weights)
+    out = engine.solve()
+    assert out.status is bm.Status.OPTIMAL
+    assert out.iterations < plain["iterations"]
+    lam = float(lp.values("lam", out.v)[0])
+    assert lam == pytest.approx(plain["lam"], rel=1e-8)
+    residuals = bm.verify.residuals(ops, static_lp_solution(lp, out), associative=True)
+    assert max(residuals.values()) <= 1e-8
+
+
+def test_the_crawl_is_not_lost_centrality(crawl):
+    """After the residuals are met, the rows that stop the steps are centred (products within
+    [0.1, 10] mu) in most iterations: the short steps are the path's curvature (study docstring)."""
+    rows, summary = crawl.diagnose("20x50")
+    assert summary["status"] == "optimal" and summary["crawl_iterations"] >= 5
+    assert summary["blocking_rows_centred"] >= 0.8
+    assert summary["median_shorter_step"] < 0.9
+
+
+@pytest.mark.parametrize("weights, message", [(np.ones(3), "shape"), ("negative", "row 5")])
+def test_bad_path_weights_are_named(crawl, weights, message):
+    lp, ops = crawl.wall_lp("2x2")
+    engine = _engine(lp, ops)
+    if isinstance(weights, str):
+        weights = np.ones(engine.h.size)
+        weights[5] = -1.0
+    engine.path_weights = weights
+    with pytest.raises(ValueError, match=message):
+        engine.solve()
