@@ -29,6 +29,7 @@ Usage::
 
     python studies/ipm_crawl.py --diagnose 100x100
     python studies/ipm_crawl.py --oracle 20x50,100x100
+    python studies/ipm_crawl.py --oracle 316x316 --clips 10 --rules ""
     python studies/ipm_crawl.py --transfer 100x100 --mu 0.65 --to 0.5,0.6,0.7
 
 Writes ``studies/output/ipm_crawl/{diagnose,oracle,transfer}.csv``.
@@ -159,7 +160,7 @@ def diagnose(spec: str) -> tuple[list[dict], dict]:
     return rows, summary
 
 
-def oracle(spec: str, clips: tuple[float, ...] = (10.0, 100.0)) -> list[dict]:
+def oracle(spec: str, clips: tuple[float, ...] = (10.0, 100.0), rules: tuple[str, ...] = ("current", "running")) -> list[dict]:
     lp, ops = wall_lp(spec)
     plain, recorder = run(lp, ops)
     rows = [{"wall": spec, "weights": "none (central path)", **plain}]
@@ -169,7 +170,7 @@ def oracle(spec: str, clips: tuple[float, ...] = (10.0, 100.0)) -> list[dict]:
         weights = solution_weights(recorder.start, recorder.previous, clip)
         row, _ = run(lp, ops, weights=weights)
         rows.append({"wall": spec, "weights": f"from its own solution, clip {clip:g}", **row})
-    for rule in ("current", "running"):
+    for rule in rules:
         row, _ = run(lp, ops, rule=rule)
         rows.append({"wall": spec, "weights": f"{rule} (from the crawl start)", **row})
     return rows
@@ -194,6 +195,8 @@ def main(argv: list[str] | None = None) -> list[dict]:
     parser.add_argument("--diagnose", default="", help="a wall CxB: per-iteration products and blocking rows")
     parser.add_argument("--oracle", default="", help="comma-separated walls CxB: weighted paths side by side")
     parser.add_argument("--transfer", default="", help="a wall CxB: weights from --mu used at --to")
+    parser.add_argument("--clips", default="10,100", help="--oracle: clips of the weights from the solution")
+    parser.add_argument("--rules", default="current,running", help="--oracle: rules without the solution ('' for none)")
     parser.add_argument("--mu", type=float, default=0.65)
     parser.add_argument("--to", default="0.5,0.6,0.7")
     args = parser.parse_args(argv)
@@ -203,7 +206,9 @@ def main(argv: list[str] | None = None) -> list[dict]:
         _emit(rows, "diagnose")
         print(json.dumps(summary), flush=True)
     if args.oracle:
-        rows = [row for spec in args.oracle.split(",") for row in oracle(spec)]
+        clips = tuple(float(v) for v in args.clips.split(",") if v)
+        rules = tuple(v for v in args.rules.split(",") if v)
+        rows = [row for spec in args.oracle.split(",") for row in oracle(spec, clips, rules)]
         _emit(rows, "oracle")
     if args.transfer:
         rows = transfer(args.transfer, args.mu, [float(v) for v in args.to.split(",")])
