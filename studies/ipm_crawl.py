@@ -19,6 +19,9 @@ small and only the relative gap, about 1, is left.  After that, steps are 0.1-0.
   iterate in place of the solution, switched on at the crawl start (``running``).
 * ``--transfer CxB --mu A --to B,C``: weights from the solution at friction coefficient ``A``,
   used for the same wall at ``B``, ``C`` (a parameter study's next LP).
+* ``--oracle CxB --coarse DxE``: also weights from a coarser wall's solution, each row taking the
+  weight of the same row (same orientation and row of its interface) of the nearest coarse interface,
+  positions scaled to the unit square (:func:`mapped_weights`).
 
 :func:`solution_weights`: a row that ends active (its ``s`` fell by more than its ``y``, relative to
 the crawl start) leaves the crawl once ``mu`` reaches about ``y*_i s_c,i``; a row that ends inactive
@@ -30,6 +33,7 @@ Usage::
     python studies/ipm_crawl.py --diagnose 100x100
     python studies/ipm_crawl.py --oracle 20x50,100x100
     python studies/ipm_crawl.py --oracle 316x316 --clips 10 --rules ""
+    python studies/ipm_crawl.py --oracle 100x100 --clips "" --rules "" --coarse 50x50
     python studies/ipm_crawl.py --transfer 100x100 --mu 0.65 --to 0.5,0.6,0.7
 
 Writes ``studies/output/ipm_crawl/{diagnose,oracle,transfer}.csv``.
@@ -61,9 +65,7 @@ CRAWL_GAP = 3.0
 
 def wall_lp(spec: str, mu: float | None = None):
     """``(lp, ops)``: the static LP (1) of the running-bond wall ``"CxB"`` (courses x blocks per course)."""
-    courses, per_course = (int(v) for v in spec.split("x"))
-    options = {} if mu is None else {"mu": mu}
-    ops = bm.assemble(bm.cases.wall(courses=courses, blocks_per_course=per_course, **options))
+    ops = bm.assemble(_wall(spec) if mu is None else _wall(spec, mu=mu))
     return compile_linear(static_lp(ops)), ops
 
 
@@ -123,6 +125,43 @@ def solution_weights(start: IPMIterate, end: IPMIterate, clip: float = 10.0) -> 
     return np.clip(level / np.exp(np.mean(np.log(level))), 1.0 / clip, clip)
 
 
+def interface_rows(engine: BlockIPM, structure: bm.Structure) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Each inequality row's interface, its row within the interface, the interface's midpoint scaled to the
+    unit square and whether it is a bed joint (normal within 45 degrees of vertical)."""
+    position = np.empty(engine.h.size, dtype=np.int64)
+    position[engine.block_rows.ravel()] = np.arange(engine.h.size)
+    interface, local = position // engine.rows_per_block, position % engine.rows_per_block
+    midpoint = structure.interfaces.midpoint
+    low, span = midpoint.min(axis=0), np.ptp(midpoint, axis=0)
+    unit = (midpoint - low) / np.where(span > 0, span, 1.0)
+    bed = np.abs(structure.interfaces.normal[:, 1]) > np.sqrt(0.5)
+    return interface, local, unit[interface], bed[interface]
+
+
+def mapped_weights(coarse: tuple[BlockIPM, bm.Structure, np.ndarray], fine: tuple[BlockIPM, bm.Structure]) -> np.ndarray:
+    """Weights of the fine wall's rows: the coarse wall's weight (``coarse[2]``) of the same row of the nearest
+    coarse interface with the same orientation, positions in the unit square."""
+    from scipy.spatial import cKDTree
+
+    _, local_c, unit_c, bed_c = interface_rows(coarse[0], coarse[1])
+    _, local_f, unit_f, bed_f = interface_rows(fine[0], fine[1])
+    weights = np.ones(local_f.size)
+    for bed in (True, False):
+        for row in np.unique(local_f):
+            source = (bed_c == bed) & (local_c == row)
+            target = (bed_f == bed) & (local_f == row)
+            if source.any() and target.any():
+                _, nearest = cKDTree(unit_c[source]).query(unit_f[target])
+                weights[target] = coarse[2][source][nearest]
+    return weights
+
+
+def _wall(spec: str, **options) -> bm.Structure:
+    """The running-bond wall ``"CxB"`` of :func:`blockmpec.cases.wall` (``options``: e.g. ``mu``)."""
+    courses, per_course = (int(v) for v in spec.split("x"))
+    return bm.cases.wall(courses=courses, blocks_per_course=per_course, **options)
+
+
 def run(lp, ops, weights: np.ndarray | None = None, diagnose: bool = False, rule: str = "none",
         clip: float = 10.0) -> tuple[dict, Recorder]:
     """One cold block-IPM solve; returns its summary row and the recorder."""
@@ -160,10 +199,20 @@ def diagnose(spec: str) -> tuple[list[dict], dict]:
     return rows, summary
 
 
-def oracle(spec: str, clips: tuple[float, ...] = (10.0, 100.0), rules: tuple[str, ...] = ("current", "running")) -> list[dict]:
+def oracle(spec: str, clips: tuple[float, ...] = (10.0, 100.0), rules: tuple[str, ...] = ("current", "running"),
+           coarse: str = "") -> list[dict]:
     lp, ops = wall_lp(spec)
     plain, recorder = run(lp, ops)
     rows = [{"wall": spec, "weights": "none (central path)", **plain}]
+    if coarse:
+        lp_c, ops_c = wall_lp(coarse)
+        _, recorder_c = run(lp_c, ops_c)
+        weights_c = solution_weights(recorder_c.start, recorder_c.previous, 10.0)
+        weights = mapped_weights((recorder_c.engine, _wall(coarse), weights_c), (recorder.engine, _wall(spec)))
+        own = solution_weights(recorder.start, recorder.previous, 10.0)
+        row, _ = run(lp, ops, weights=weights)
+        rows.append({"wall": spec, "weights": f"from the {coarse} wall's solution (clip 10), mapped by position", **row,
+                     "log10_correlation_with_own": round(float(np.corrcoef(np.log10(weights), np.log10(own))[0, 1]), 3)})
     if recorder.start is None:
         return rows
     for clip in clips:
@@ -197,6 +246,7 @@ def main(argv: list[str] | None = None) -> list[dict]:
     parser.add_argument("--transfer", default="", help="a wall CxB: weights from --mu used at --to")
     parser.add_argument("--clips", default="10,100", help="--oracle: clips of the weights from the solution")
     parser.add_argument("--rules", default="current,running", help="--oracle: rules without the solution ('' for none)")
+    parser.add_argument("--coarse", default="", help="--oracle: also weights from this coarser wall CxB's solution")
     parser.add_argument("--mu", type=float, default=0.65)
     parser.add_argument("--to", default="0.5,0.6,0.7")
     args = parser.parse_args(argv)
@@ -208,7 +258,7 @@ def main(argv: list[str] | None = None) -> list[dict]:
     if args.oracle:
         clips = tuple(float(v) for v in args.clips.split(",") if v)
         rules = tuple(v for v in args.rules.split(",") if v)
-        rows = [row for spec in args.oracle.split(",") for row in oracle(spec, clips, rules)]
+        rows = [row for spec in args.oracle.split(",") for row in oracle(spec, clips, rules, args.coarse)]
         _emit(rows, "oracle")
     if args.transfer:
         rows = transfer(args.transfer, args.mu, [float(v) for v in args.to.split(",")])

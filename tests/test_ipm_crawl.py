@@ -73,3 +73,15 @@ def test_bad_path_weights_are_named(crawl, weights, message):
     engine.path_weights = weights
     with pytest.raises(ValueError, match=message):
         engine.solve()
+
+
+def test_mapping_a_wall_onto_itself_keeps_every_weight(crawl):
+    """The coarse-to-fine map of the study sends each row to the same row of the nearest interface of the
+    same orientation: a wall mapped onto itself gets its own weights back, row for row."""
+    lp, ops = crawl.wall_lp("8x10")
+    _, recorder = crawl.run(lp, ops)
+    weights = crawl.solution_weights(recorder.start, recorder.previous)
+    other = _engine(lp, ops)
+    wall = crawl._wall("8x10")
+    mapped = crawl.mapped_weights((recorder.engine, wall, weights), (other, wall))
+    np.testing.assert_array_equal(mapped, weights)
