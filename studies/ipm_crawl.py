@@ -1,10 +1,10 @@
 """Why the block IPM needs more iterations on larger walls, and what a weighted central path changes.
 
 Issue 14's 100,000-block target needs fewer interior-point iterations: 82 factorisations of ``K`` at
-2.2 s each already exceed two minutes.  The iterations grow with the wall (1,010 blocks: 21, 10,050: 53,
+1.8-2.2 s each already exceed two minutes.  The iterations grow with the wall (1,010 blocks: 21, 10,050: 53,
 100,014: 82).  Nearly all the growth is one phase, the *crawl*.  It starts once the residuals are
-small and only the relative gap, about 1, is left.  After that, steps are 0.1-0.7 and ``mu`` falls about
-0.75x per iteration.  This study measures three things:
+small and only the relative gap, a few units, is left.  After that, steps are 0.1-0.7 and ``mu`` falls about
+0.75x per iteration.  This study measures:
 
 * ``--diagnose CxB``: every iteration's spread of the complementarity products ``s_i y_i / mu`` and
   the products of the two *blocking* rows (the rows whose ratio test sets the primal and the dual
