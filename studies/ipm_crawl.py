@@ -94,12 +94,11 @@ class Recorder:
         self.previous = it.copy()
 
     def _statistics(self, it: IPMIterate) -> None:
-        mu = float(it.s @ it.y) / it.s.size
-        row = {"k": len(self.rows), "mu": mu, "gap": self.engine.gap(it)}
+        primal, dual, gap = self.engine.measures(it)
+        row = {"k": len(self.rows), "mu": float(it.s @ it.y) / it.s.size, "primal": primal, "dual": dual, "gap": gap}
         if self.previous is not None:
             prev = self.previous
-            prev_mu = float(prev.s @ prev.y) / prev.s.size
-            products = prev.s * prev.y / prev_mu
+            products = prev.s * prev.y / self.rows[-1]["mu"]
             quantiles = np.quantile(products, [0.01, 0.5, 0.99])
             blocking_s = int(np.argmin(it.s / prev.s))
             blocking_y = int(np.argmin(it.y / prev.y))
@@ -128,8 +127,8 @@ def solution_weights(start: IPMIterate, end: IPMIterate, clip: float = 10.0) -> 
 def interface_rows(engine: BlockIPM, structure: bm.Structure) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Each inequality row's interface, its row within the interface, the interface's midpoint scaled to the
     unit square and whether it is a bed joint (normal within 45 degrees of vertical)."""
-    position = np.empty(engine.h.size, dtype=np.int64)
-    position[engine.block_rows.ravel()] = np.arange(engine.h.size)
+    # each row's place in the (interface, row) block layout: the map the engine keeps for its block solves
+    position = engine._dy_of_solution
     interface, local = position // engine.rows_per_block, position % engine.rows_per_block
     midpoint = structure.interfaces.midpoint
     low, span = midpoint.min(axis=0), np.ptp(midpoint, axis=0)
@@ -204,6 +203,8 @@ def oracle(spec: str, clips: tuple[float, ...] = (10.0, 100.0), rules: tuple[str
     lp, ops = wall_lp(spec)
     plain, recorder = run(lp, ops)
     rows = [{"wall": spec, "weights": "none (central path)", **plain}]
+    if recorder.start is None:
+        return rows
     if coarse:
         lp_c, ops_c = wall_lp(coarse)
         _, recorder_c = run(lp_c, ops_c)
@@ -213,8 +214,6 @@ def oracle(spec: str, clips: tuple[float, ...] = (10.0, 100.0), rules: tuple[str
         row, _ = run(lp, ops, weights=weights)
         rows.append({"wall": spec, "weights": f"from the {coarse} wall's solution (clip 10), mapped by position", **row,
                      "log10_correlation_with_own": round(float(np.corrcoef(np.log10(weights), np.log10(own))[0, 1]), 3)})
-    if recorder.start is None:
-        return rows
     for clip in clips:
         weights = solution_weights(recorder.start, recorder.previous, clip)
         row, _ = run(lp, ops, weights=weights)

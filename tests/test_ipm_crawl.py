@@ -55,7 +55,7 @@ def test_weights_from_the_solution_shorten_the_path_to_the_same_optimum(crawl):
 
 
 def test_the_crawl_is_not_lost_centrality(crawl):
-    """After the residuals are met, the rows that stop the steps are centred (products within
+    """Once the residuals are small, the rows that stop the steps are centred (products within
     [0.1, 10] mu) in most iterations: the short steps are the path's curvature (study docstring)."""
     rows, summary = crawl.diagnose("20x50")
     assert summary["status"] == "optimal" and summary["crawl_iterations"] >= 5
