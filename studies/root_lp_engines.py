@@ -11,6 +11,10 @@ its row duals (the bound ``milp`` would use; ``-inf``: none).  Engines:
 
 * ``ipx``: HiGHS's IPX without crossover, what ``root_lp="ipm"`` runs;
 * ``ipx-presolve-off``, ``ipx-tol-1e-4``: IPX with HiGHS's presolve off / ``ipm_optimality_tolerance=1e-4``;
+* ``ipx-primal``, ``ipx-filippo``: IPX on the primal LP (``ipx_dualize_strategy=-1``; by default IPX solves this LP's
+  dual, whose starting basis costs most of the 2x15 run) / with IPX's other dualisation test (3), which here also picks
+  the primal.  Measured (one run, CPU s): 5x2 8.1 against 11.7, 4x3 25.4 against 35.2, 2x8 33.9 against 56.2, same
+  bounds: the primal LP is slower;
 * ``hipo``: HiGHS's newer interior point (needs the wheel ``highspy-extras``; without it HiGHS silently runs
   another solver, so the study refuses to run it);
 * ``clarabel``: Clarabel (pip ``clarabel``, Apache-2.0; not a dependency of blockmpec) on the LP as a conic
@@ -43,10 +47,14 @@ import scipy.sparse as sp
 import blockmpec as bm
 
 OUT = Path(__file__).parent / "output" / "root_lp_engines"
-ENGINES = ("ipx", "ipx-presolve-off", "ipx-tol-1e-4", "hipo", "clarabel")
+ENGINES = ("ipx", "ipx-presolve-off", "ipx-tol-1e-4", "ipx-primal", "ipx-filippo", "hipo", "clarabel")
 #: HiGHS options of each HiGHS engine (the interior point without crossover in every case)
 HIGHS_ENGINES = {"ipx": ("ipx", {}), "ipx-presolve-off": ("ipx", {"presolve": "off"}),
-                 "ipx-tol-1e-4": ("ipx", {"ipm_optimality_tolerance": 1e-4}), "hipo": ("hipo", {})}
+                 "ipx-tol-1e-4": ("ipx", {"ipm_optimality_tolerance": 1e-4}),
+                 # HiGHS's ipx_dualize_strategy: -1 never dualise, 2 (default) dualise when rows > 2 columns,
+                 # 3 IPX's other test ("Filippo")
+                 "ipx-primal": ("ipx", {"ipx_dualize_strategy": -1}),
+                 "ipx-filippo": ("ipx", {"ipx_dualize_strategy": 3}), "hipo": ("hipo", {})}
 
 
 def _wall(spec: str):
