@@ -26,10 +26,14 @@ comparison), the nonzeros of the factors and the relative residual
 Usage::
 
     python studies/cholesky_choice.py [--walls 100x100,316x316] [--methods ...] [--blas-threads 1,2]
+                                      [--extend-add-runs 2,8]
 
 ``--blas-threads 1,2`` measures each method with one and with two BLAS threads (wall and CPU side by side;
 for the supernodal Cholesky only its fronts of at least ``THREADED_FRONT_ROWS`` rows get them, whose
 dense updates are BLAS-3: multithreaded BLAS on every front spins its threads between tiny calls).
+``--extend-add-runs 2,8`` measures the supernodal Cholesky with each ``extend_add_runs`` (children whose rows
+fall into at most that many runs of their parent's rows are added by slices, the others by a flat index) and
+reports the flat indices' memory.
 
 Writes ``studies/output/cholesky_choice/cholesky_choice.csv``.
 """
@@ -86,11 +90,12 @@ def reduced_matrix(courses: int, per_course: int, seed: int = 0):
     return sp.csc_array(K), engine
 
 
-def measure(method: str, K: sp.csc_array, engine, threads: int = 1) -> dict | None:
+def measure(method: str, K: sp.csc_array, engine, threads: int = 1, extend_add_runs: int | None = None) -> dict | None:
     """Ordering, one factorisation and one solve of ``K x = b`` by ``method``; None if not installed.
 
     ``threads``: BLAS threads of the supernodal Cholesky's large fronts (``front_threads``; the rest of
-    the process on one), or of the whole factorisation for the other methods."""
+    the process on one), or of the whole factorisation for the other methods.  ``extend_add_runs``: the
+    supernodal Cholesky's ``extend_add_runs`` (None: its default)."""
     n = K.shape[0]
     b = np.random.default_rng(1).standard_normal(n)
     t_order = 0.0
@@ -99,7 +104,8 @@ def measure(method: str, K: sp.csc_array, engine, threads: int = 1) -> dict | No
         if ordering == "metis" and not metis_available():
             return None
         t, w = time.process_time(), time.perf_counter()
-        f = FACTORISERS[kind](structural_pattern(engine.A_B, engine.k), ordering)
+        extra = {} if kind != "supernodal" or extend_add_runs is None else {"extend_add_runs": extend_add_runs}
+        f = FACTORISERS[kind](structural_pattern(engine.A_B, engine.k), ordering, **extra)
         if kind == "supernodal":
             f.front_threads = threads
         t_order = time.process_time() - t
@@ -154,7 +160,10 @@ def measure(method: str, K: sp.csc_array, engine, threads: int = 1) -> dict | No
         x = solve(b)
     t_solve, w_solve = (time.process_time() - t) / 5, (time.perf_counter() - w) / 5
     residual = float(np.linalg.norm(K @ x - b) / np.linalg.norm(b))
-    return {"method": method, "rows": n, "nnz_K": K.nnz, "order_s": t_order, "factor_s": t_factor, "solve_s": t_solve,
+    runs = f.extend_add_runs if kind == "supernodal" else None
+    index_mb = f.extend_add_index_bytes / 1e6 if kind == "supernodal" else None
+    return {"method": method, "extend_add_runs": runs, "extend_add_index_mb": index_mb,
+            "rows": n, "nnz_K": K.nnz, "order_s": t_order, "factor_s": t_factor, "solve_s": t_solve,
             "factor_wall_s": w_factor, "solve_wall_s": w_solve,
             "factor_nnz": nnz, "residual": residual, "licence": LICENCE[method]}
 
@@ -164,18 +173,23 @@ def main(argv: list[str] | None = None) -> list[dict]:
     parser.add_argument("--walls", default="100x100", help="comma-separated CxB walls (courses x blocks per course)")
     parser.add_argument("--methods", default=",".join(METHODS))
     parser.add_argument("--blas-threads", default="1", help="comma-separated BLAS thread counts, each measured")
+    parser.add_argument("--extend-add-runs", default="",
+                        help="comma-separated extend_add_runs of the supernodal Cholesky, each measured (default: its own)")
     args = parser.parse_args(argv)
     rows = []
     for wall in args.walls.split(","):
         courses, per = (int(v) for v in wall.split("x"))
         K, engine = reduced_matrix(courses, per)
         for method in args.methods.split(","):
-            for threads in (int(v) for v in args.blas_threads.split(",")):
+            runs_values = [None]
+            if method.startswith("supernodal") and args.extend_add_runs:
+                runs_values = [int(v) for v in args.extend_add_runs.split(",")]
+            for threads, runs in ((t, r) for t in (int(v) for v in args.blas_threads.split(",")) for r in runs_values):
                 # one thread as the block IPM runs (multithreaded BLAS spins on small calls); the supernodal
                 # Cholesky gives its large fronts `threads` (front_threads), the other methods get them throughout
                 own = 1 if method.startswith("supernodal") else threads
                 with threadpool_limits(limits=own, user_api="blas"):
-                    row = measure(method, K, engine, threads)
+                    row = measure(method, K, engine, threads, runs)
                 if row is None:
                     print(f"{method}: not installed, skipped", flush=True)
                     break
@@ -185,12 +199,13 @@ def main(argv: list[str] | None = None) -> list[dict]:
                 print(row, flush=True)
     print()
     print("CPU times (wall-clock in brackets):")
-    print("| blocks | rows of K | method | licence | BLAS threads | ordering | factorisation | solve | nonzeros of factors "
-          "| residual |")
-    print("| ---: | ---: | --- | --- | ---: | ---: | ---: | ---: | ---: | ---: |")
+    print("| blocks | rows of K | method | licence | BLAS threads | extend-add runs (index) | ordering | factorisation "
+          "| solve | nonzeros of factors | residual |")
+    print("| ---: | ---: | --- | --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: |")
     for r in rows:
         nnz = f"{r['factor_nnz'] / 1e6:.1f}M" if r["factor_nnz"] else "–"
-        print(f"| {r['blocks']:,} | {r['rows']:,} | {r['method']} | {r['licence']} | {r['blas_threads']} "
+        runs = "–" if r["extend_add_runs"] is None else f"{r['extend_add_runs']} ({r['extend_add_index_mb']:.0f} MB)"
+        print(f"| {r['blocks']:,} | {r['rows']:,} | {r['method']} | {r['licence']} | {r['blas_threads']} | {runs} "
               f"| {r['order_s']:.2f} s | {r['factor_s']:.2f} s ({r['factor_wall_s']:.2f} s) "
               f"| {r['solve_s']:.3f} s ({r['solve_wall_s']:.3f} s) | {nnz} | {r['residual']:.0e} |")
     if rows:

@@ -158,7 +158,11 @@ RELAXED_COLUMNS = (4, 16, 48)
 RELAXED_ZEROS = (0.8, 0.1, 0.05)
 #: a child's update matrix is added into its parent's front block by block (slices) when its rows
 #: fall into at most this many runs of consecutive rows of the parent, else by a flat index
-EXTEND_ADD_RUNS = 8
+#: (``np.add.at``).  ``python studies/cholesky_choice.py --walls 100x100,316x316 --methods supernodal-metis
+#: --extend-add-runs 0,2,8`` (one factorisation at an interior point, CPU s): 10,050 blocks 0.095 with 0 or 2
+#: runs against 0.116 with 8; 100,014 blocks 1.58 with 2 against 1.73 with 8, its flat indices 429 MB
+#: against 350 MB.  (Adding with ``flat[index] += ...``, which buffers, 8 runs was the best.)
+EXTEND_ADD_RUNS = 2
 #: fronts with at least this many rows get ``front_threads`` BLAS threads (smaller ones stay on one:
 #: multithreaded BLAS on every front made a 32,670-block factorisation 11x slower in CPU and 21x in wall
 #: time, its threads spinning between thousands of tiny calls)
@@ -222,11 +226,13 @@ class SupernodalCholesky:
     """
 
     def __init__(self, pattern: sp.sparray, ordering: str = "auto", relax: float = 4.0, front_threads: int = 1,
-                 threaded_front_rows: int = THREADED_FRONT_ROWS) -> None:
+                 threaded_front_rows: int = THREADED_FRONT_ROWS, extend_add_runs: int = EXTEND_ADD_RUNS) -> None:
         t0 = time.process_time()
         #: BLAS threads for the dense work on fronts of at least ``threaded_front_rows`` rows (others: one)
         self.front_threads = int(front_threads)
         self.threaded_front_rows = int(threaded_front_rows)
+        #: children whose rows fall into at most this many runs of their parent's are added by slices
+        self.extend_add_runs = int(extend_add_runs)
         self.ordering = ("metis" if metis_available() else "mmd") if ordering == "auto" else ordering
         pattern = sp.csc_array(pattern)
         pattern.sort_indices()
@@ -312,7 +318,7 @@ class SupernodalCholesky:
                 if not np.array_equal(self.rows[p_s][rel], R[width:]):
                     raise RuntimeError("supernodal Cholesky: a child's structure is not in its parent's")
                 self.relative[s] = self._extend_add_plan(rel.astype(np.int64), self.rows[p_s].size,
-                                                         int(end[p_s] - first[p_s]))
+                                                         int(end[p_s] - first[p_s]), self.extend_add_runs)
         # assembly: each lower entry of permuted K into its supernode's front (flat index)
         column_of = np.repeat(np.arange(n), np.diff(lower.indptr))
         s_of = supernode_of[column_of]
@@ -328,6 +334,9 @@ class SupernodalCholesky:
         self._assembly_destination = destination
         self._assembly_source = lower_source
         self._below = [self.rows[s][int(end[s] - first[s]):] for s in range(ns)]
+        #: bytes of the flat extend-add indices (children added by slices need none)
+        self.extend_add_index_bytes = int(sum(plan[1].nbytes for plan in self.relative
+                                              if plan is not None and plan[1] is not None))
         #: entries stored in the supernodes' panels (lower trapezoids, amalgamation zeros included)
         self.stored_nnz = int(sum(self.rows[s].size * w - w * (w - 1) // 2
                                   for s, w in enumerate((end - first).tolist())))
