@@ -86,7 +86,9 @@ the residuals of (3) are at most ``tol``; ``start``, ``tie_break``, ``fold_weigh
 default) takes the simplex engine below :data:`AUTO_INTERIOR_BLOCKS` free blocks (so the
 small structures' answers are those of the simplex engine), the interior one from there
 up, and falls back to the simplex engine in the time left when the interior run does not
-reach a solution of (3) (residuals above 1e-6).  On the 1,010-block wall the interior
+reach a solution of (3) (residuals above 1e-6), below :data:`AUTO_SIMPLEX_FALLBACK_BLOCKS` free
+blocks (above, the simplex engine cannot finish in the default time limit, and the interior run's
+failure is returned at once).  On the 1,010-block wall the interior
 engine costs 1.4x one cold block-IPM LP (CPU) against the simplex engine's 46x, with
 lam 0.44948 against 0.44946 (``studies/fixed_point_ratio.py``); on the heuristic suite it
 is within 2 % of the certified minimum on 54/56 structures against the simplex engine's
@@ -126,6 +128,11 @@ MULTISTART_VERIFY_TOL = 1e-6
 #: engines of the fixed point; "auto" takes the interior engine from this many free blocks up
 ENGINES = ("auto", "simplex", "interior")
 AUTO_INTERIOR_BLOCKS = 500
+#: "auto" falls back to the simplex engine only below this many free blocks: on the 2,032-block wall the
+#: simplex engine made 13 of the ~50 steps it needs in 400 s (each step LP and its tie-break about 14 s),
+#: and it does not finish one step at 2,420 blocks in 600 s, so a fallback there only uses up the time limit
+#: (``python studies/fixed_point_ratio.py --walls 32x63 --fixed-point "engine=simplex" --time-limit 400``)
+AUTO_SIMPLEX_FALLBACK_BLOCKS = 2000
 #: default weight of the interior engine's aim term (studies/fixed_point_strategies.py)
 INTERIOR_AIM_WEIGHT = 0.1
 
@@ -255,6 +262,10 @@ class FixedPoint(SolverBase):
         out.extra[fact_names.ENGINE] = "interior"
         left = o.time_limit - (time.perf_counter() - t0)
         if o.engine != "auto" or self._verified(out) or left <= 0:
+            return out
+        if self.ops.n_free_blocks >= AUTO_SIMPLEX_FALLBACK_BLOCKS:
+            out.message = (f"{out.message} (no simplex fallback: from {AUTO_SIMPLEX_FALLBACK_BLOCKS:,} free blocks "
+                           "the simplex engine does not converge within the default time limit)")
             return out
         # the interior run did not reach a solution of (3): the simplex engine, in the time left
         self._build_sequence()

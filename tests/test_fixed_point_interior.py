@@ -155,6 +155,22 @@ def test_auto_falls_back_to_the_simplex_engine_when_the_interior_run_fails(monke
     assert not explicit.success and explicit.extra["engine"] == "interior"
 
 
+def test_auto_skips_the_simplex_fallback_on_large_structures(monkeypatch):
+    """From ``AUTO_SIMPLEX_FALLBACK_BLOCKS`` free blocks up a failed interior run is returned as it is (the simplex
+    engine could not finish there): the same failing run as above, with the cap lowered to the structure's size."""
+    from blockmpec.solvers import fixed_point
+
+    monkeypatch.setattr(fixed_point, "AUTO_INTERIOR_BLOCKS", 1)
+    ops = bm.assemble(bm.cases.two_blocks(eta=3.0, mu=0.65))
+    monkeypatch.setattr(fixed_point, "AUTO_SIMPLEX_FALLBACK_BLOCKS", ops.n_free_blocks)
+    res = bm.solve(ops, "fixed-point", max_iterations=3, verify_tol=VERIFY_TOL)
+    assert res.extra["engine"] == "interior"
+    assert not res.success and res.status is not bm.Status.CONVERGED
+    assert "no simplex fallback" in res.message
+    monkeypatch.setattr(fixed_point, "AUTO_SIMPLEX_FALLBACK_BLOCKS", ops.n_free_blocks + 1)
+    assert bm.solve(ops, "fixed-point", max_iterations=3).extra["engine"] == "interior, then simplex"
+
+
 def _step_lp(ops):
     from blockmpec.formulations import modified_lp
     from blockmpec.formulations._pyomo import compiled_linear

@@ -28,10 +28,11 @@ Orderings (:data:`ORDERINGS`):
 * ``"auto"``: ``"metis"`` if importable, else ``"mmd"``.
 
 Measured on one ``K`` of a wall at a generic interior point (``python studies/cholesky_choice.py
---walls 316x316 --methods supernodal-metis,superlu-metis``, CPU time, idle machine): 100,014 blocks
-(300,042 rows), METIS: SuperLU 71.5M nonzeros in ``L+U``, 4.56 s per factorisation, 0.110 s per
-solve; the supernodal Cholesky 2.11 s (0.46x; 35.7M structural nonzeros in ``L``, 48.7M stored with
-the amalgamation zeros), 0.119 s per solve, 6.6 s of ordering and symbolic analysis (once).  No wheel on PyPI offers a faster
+--walls 100x100,316x316 --methods supernodal-metis,superlu-metis --extend-add-runs 2,8``, CPU time, idle machine): 100,014 blocks
+(300,042 rows), METIS: SuperLU 71.5M nonzeros in ``L+U``, 4.59 s per factorisation, 0.108 s per
+solve; the supernodal Cholesky 1.57 s (0.34x; 35.7M structural nonzeros in ``L``, 48.7M stored with
+the amalgamation zeros), 0.115 s per solve, 10.0 s of ordering and symbolic analysis (once), with
+:data:`EXTEND_ADD_RUNS` = 2.  No wheel on PyPI offers a faster
 permissive sparse Cholesky here: CHOLMOD (``sksparse-minimal``/``cholespy``) bundles its GPL
 Supernodal module, ``qdldl`` (Apache-2.0, AMD) took 29 s on the 100k matrix, and MUMPS/SPRAL
 (``python-mumps``, ``pyspral``) have no wheel for this platform.
