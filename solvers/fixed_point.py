@@ -129,7 +129,8 @@ MULTISTART_VERIFY_TOL = 1e-6
 ENGINES = ("auto", "simplex", "interior")
 AUTO_INTERIOR_BLOCKS = 500
 #: "auto" falls back to the simplex engine only below this many free blocks: on the 2,032-block wall the
-#: simplex engine made 13 of the ~50 steps it needs in 400 s (each step LP and its tie-break about 14 s),
+#: simplex engine made 13 steps in 400 s without converging (each step LP and its tie-break about 14 s; the
+#: 1,010-block wall needs 53 steps),
 #: and it does not finish one step at 2,420 blocks in 600 s, so a fallback there only uses up the time limit
 #: (``python studies/fixed_point_ratio.py --walls 32x63 --fixed-point "engine=simplex" --time-limit 400``)
 AUTO_SIMPLEX_FALLBACK_BLOCKS = 2000
