@@ -45,7 +45,7 @@ class KinematicLP(SolverBase):
 
     def setup(self, ops):
         from blockmpec.formulations import compile_linear, kinematic_lp
-        from blockmpec.solvers.engines.highs import HighsLP
+        from blockmpec.solvers.engines.highs import HighsLP, tighten_feasibility
         from blockmpec.solvers.engines.scaling import kinematic_scaling
 
         self.ops = ops
@@ -53,11 +53,8 @@ class KinematicLP(SolverBase):
         row_scale, column_scale = kinematic_scaling(self.lp, ops)
         self.highs = HighsLP(self.lp, self.options.algorithm, self.options.time_limit, row_scale=row_scale,
                              column_scale=column_scale)
-        # z >= 0 are column bounds, held by HiGHS only to its primal feasibility tolerance (1e-7 in load
-        # units); on a 600-block wall that left z at -8e-6 of its size, which the verifier rejects
-        # (multiplier_sign).  1e-9, as the LP sequence uses, keeps the bounds at round-off.
-        for tol in ("primal_feasibility_tolerance", "dual_feasibility_tolerance"):
-            self.highs.highs.setOptionValue(tol, 1e-9)
+        # z >= 0 are column bounds, held by HiGHS only to its primal feasibility tolerance (see FEASIBILITY_TOL)
+        tighten_feasibility(self.highs.highs)
 
     def run(self) -> RunOutput:
         started = time.perf_counter()

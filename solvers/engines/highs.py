@@ -79,6 +79,20 @@ def use_interior_point(highs, crossover: bool, solver: str = "ipx") -> None:
     highs.setOptionValue("run_crossover", "on" if crossover else "off")
 
 
+#: HiGHS's primal and dual feasibility tolerances for the limit-analysis LPs (HiGHS's default: 1e-7).  They are
+#: absolute in load units, so 1e-7 shows as relative violations of 1e-7..1e-5 on light interfaces; the verifier
+#: then rejects the point: the kinematic LP on a 600-block wall left ``z`` at -8e-6 of its size, and the static LP
+#: of the 2,032-block wall by HiGHS's IPM with crossover had a multiplier-sign residual of 4.4e-6 (1.6e-7 with
+#: 1e-9, lam 3e-8 closer to the block IPM's).
+FEASIBILITY_TOL = 1e-9
+
+
+def tighten_feasibility(highs, tol: float = FEASIBILITY_TOL) -> None:
+    """Set HiGHS's primal and dual feasibility tolerances of a ``highspy.Highs`` to ``tol``."""
+    for name in ("primal_feasibility_tolerance", "dual_feasibility_tolerance"):
+        highs.setOptionValue(name, float(tol))
+
+
 def set_threads(highs, threads: int) -> None:
     """Set HiGHS's ``threads`` option so that the next ``run()`` accepts it.
 

@@ -67,7 +67,7 @@ from blockmpec import facts as fact_names
 from blockmpec.operators import Operators, normal
 from blockmpec.result import Solution, Status
 from blockmpec.solver import RunOutput
-from blockmpec.solvers.engines.highs import static_lp_solution
+from blockmpec.solvers.engines.highs import FEASIBILITY_TOL, static_lp_solution
 from blockmpec.verify import positive_part_ratio
 
 TIE_BREAKS = ("closest", "least-compressed", "min-lambda", "on-oscillation", "none")
@@ -128,11 +128,11 @@ class LPSequence:
     """
 
     def __init__(self, ops: Operators, alpha: float = 0.0, tie_break: str = "closest",
-                 algorithm: str = "auto", need_associative: bool = True, feasibility_tol: float = 1e-9,
+                 algorithm: str = "auto", need_associative: bool = True, feasibility_tol: float = FEASIBILITY_TOL,
                  fold_weight: float = 0.0) -> None:
         from blockmpec.formulations import modified_lp, static_lp, tie_break_lp
         from blockmpec.formulations._pyomo import compiled_linear
-        from blockmpec.solvers.engines.highs import HighsLP
+        from blockmpec.solvers.engines.highs import HighsLP, tighten_feasibility
 
         self.ops = ops
         c = ops.n_interfaces
@@ -172,8 +172,7 @@ class LPSequence:
             self.assoc_highs = HighsLP(self.assoc_lp, algorithm, **_scales(self.assoc_lp, ops))
         for highs in (self.step_highs, self.tie_highs, self.assoc_highs):
             if highs is not None:
-                highs.highs.setOptionValue("primal_feasibility_tolerance", float(feasibility_tol))
-                highs.highs.setOptionValue("dual_feasibility_tolerance", float(feasibility_tol))
+                tighten_feasibility(highs.highs, feasibility_tol)
 
     # ------------------------------------------------------------------ warm starts
     def _start_from_associative_basis(self) -> str | None:
