@@ -129,10 +129,10 @@ MULTISTART_VERIFY_TOL = 1e-6
 ENGINES = ("auto", "simplex", "interior")
 AUTO_INTERIOR_BLOCKS = 500
 #: "auto" falls back to the simplex engine only below this many free blocks: on the 2,032-block wall the
-#: simplex engine made 13 steps in 400 s without converging (each step LP and its tie-break about 14 s; the
-#: 1,010-block wall needs 53 steps),
-#: and it does not finish one step at 2,420 blocks in 600 s, so a fallback there only uses up the time limit
-#: (``python studies/fixed_point_ratio.py --walls 32x63 --fixed-point "engine=simplex" --time-limit 400``)
+#: simplex engine made 13 steps in 400 s without converging (``python studies/fixed_point_ratio.py --walls 32x63
+#: --fixed-point "engine=simplex" --time-limit 400``; each step LP and its tie-break about 14 s, while the
+#: 1,010-block wall needs 53 steps) and at 2,420 blocks it does not finish one step in 600 s, so a fallback
+#: there only uses up the time limit
 AUTO_SIMPLEX_FALLBACK_BLOCKS = 2000
 #: default weight of the interior engine's aim term (studies/fixed_point_strategies.py)
 INTERIOR_AIM_WEIGHT = 0.1

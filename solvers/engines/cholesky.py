@@ -160,9 +160,9 @@ RELAXED_ZEROS = (0.8, 0.1, 0.05)
 #: a child's update matrix is added into its parent's front block by block (slices) when its rows
 #: fall into at most this many runs of consecutive rows of the parent, else by a flat index
 #: (``np.add.at``).  ``python studies/cholesky_choice.py --walls 100x100,316x316 --methods supernodal-metis
-#: --extend-add-runs 0,2,8`` (one factorisation at an interior point, CPU s): 10,050 blocks 0.095 with 0 or 2
-#: runs against 0.116 with 8; 100,014 blocks 1.58 with 2 against 1.73 with 8, its flat indices 429 MB
-#: against 350 MB.  (Adding with ``flat[index] += ...``, which buffers, 8 runs was the best.)
+#: --extend-add-runs 2,8`` (one factorisation at an interior point, CPU s, one run): 10,050 blocks 0.10 with 2
+#: runs against 0.12 with 8; 100,014 blocks 1.57 against 1.74, its flat indices 429 MB against 350 MB and
+#: its analysis 10.0 s against 6.2 s.  (Adding with ``flat[index] += ...``, which buffers, 8 runs was the best.)
 EXTEND_ADD_RUNS = 2
 #: fronts with at least this many rows get ``front_threads`` BLAS threads (smaller ones stay on one:
 #: multithreaded BLAS on every front made a 32,670-block factorisation 11x slower in CPU and 21x in wall

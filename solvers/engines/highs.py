@@ -83,7 +83,7 @@ def use_interior_point(highs, crossover: bool, solver: str = "ipx") -> None:
 #: absolute in load units, so 1e-7 shows as relative violations of 1e-7..1e-5 on light interfaces; the verifier
 #: then rejects the point: the kinematic LP on a 600-block wall left ``z`` at -8e-6 of its size, and the static LP
 #: of the 2,032-block wall by HiGHS's IPM with crossover had a multiplier-sign residual of 4.4e-6 (1.6e-7 with
-#: 1e-9, lam 3e-8 closer to the block IPM's).
+#: 1e-9; lam 1.7e-7 and 1.1e-7 below the block IPM's, whose complementarity residual is 6.7e-10).
 FEASIBILITY_TOL = 1e-9
 
 
