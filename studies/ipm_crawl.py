@@ -19,6 +19,10 @@ small and only the relative gap, a few units, is left.  After that, steps are 0.
   iterate in place of the solution, switched on at the crawl start (``running``).
 * ``--transfer CxB --mu A --to B,C``: weights from the solution at friction coefficient ``A``,
   used for the same wall at ``B``, ``C`` (a parameter study's next LP).
+* ``--roundoff CxB``: the same LP twice, the second time with the per-block products of the block solves
+  formed by ``einsum`` instead of ``matmul`` (:func:`einsum_block_solve`: the same sums in another order, so
+  equally accurate, only the round-off differs): how far an iteration count is a property of the LP and how
+  far of the floating-point path to it.
 * ``--oracle CxB --coarse DxE``: also weights from a coarser wall's solution, each row taking the
   weight of the same row (same orientation and row of its interface) of the nearest coarse interface,
   positions scaled to the unit square (:func:`mapped_weights`).
@@ -35,8 +39,9 @@ Usage::
     python studies/ipm_crawl.py --oracle 316x316 --clips 10 --rules ""
     python studies/ipm_crawl.py --oracle 100x100 --clips "" --rules "" --coarse 50x50
     python studies/ipm_crawl.py --transfer 100x100 --mu 0.65 --to 0.5,0.6,0.7
+    python studies/ipm_crawl.py --roundoff 20x50,100x100
 
-Writes ``studies/output/ipm_crawl/{diagnose,oracle,transfer}.csv``.
+Writes ``studies/output/ipm_crawl/{diagnose,oracle,transfer,roundoff}.csv``.
 """
 
 from __future__ import annotations
@@ -238,11 +243,40 @@ def transfer(spec: str, mu: float, targets: list[float], clip: float = 10.0) -> 
     return rows
 
 
+def einsum_block_solve(engine: BlockIPM, blocks, rhs_dual: np.ndarray, rhs_primal: np.ndarray):
+    """:meth:`BlockIPM._block_solve` with the per-block products by ``einsum`` (the engine's uses ``matmul``)."""
+    M_inv, sqrt_d, _ = blocks
+    k = engine.k
+    rhs = np.empty((engine.n_blocks, M_inv.shape[1]))
+    rhs[:, :k] = rhs_dual.reshape(engine.n_blocks, k)
+    rhs[:, k:] = sqrt_d * rhs_primal[engine.block_rows]
+    sol = np.einsum("bij,bj->bi", M_inv, rhs)
+    return sol[:, :k].ravel(), (sqrt_d * sol[:, k:]).reshape(-1)[engine._dy_of_solution]
+
+
+def roundoff(spec: str) -> list[dict]:
+    """The wall's LP with the engine's block products, then with :func:`einsum_block_solve`."""
+    lp, ops = wall_lp(spec)
+    rows = []
+    for products in ("matmul (the engine's)", "einsum"):
+        engine = cold_lp_engine(lp, "block-ipm", ops=ops)
+        if products == "einsum":
+            engine._block_solve = lambda blocks, dual, primal, _e=engine: einsum_block_solve(_e, blocks, dual, primal)
+        cpu = time.process_time()
+        out = engine.solve()
+        cpu = time.process_time() - cpu
+        lam = float(lp.values("lam", out.v)[0]) if out.status.is_success else float("nan")
+        rows.append({"wall": spec, "block products": products, "status": out.status.value,
+                     "iterations": out.iterations, "cpu_s": round(cpu, 2), "lam": lam})
+    return rows
+
+
 def main(argv: list[str] | None = None) -> list[dict]:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--diagnose", default="", help="a wall CxB: per-iteration products and blocking rows")
     parser.add_argument("--oracle", default="", help="comma-separated walls CxB: weighted paths side by side")
     parser.add_argument("--transfer", default="", help="a wall CxB: weights from --mu used at --to")
+    parser.add_argument("--roundoff", default="", help="comma-separated walls CxB: block products by matmul and einsum")
     parser.add_argument("--clips", default="10,100", help="--oracle: clips of the weights from the solution")
     parser.add_argument("--rules", default="current,running", help="--oracle: rules without the solution ('' for none)")
     parser.add_argument("--coarse", default="", help="--oracle: also weights from this coarser wall CxB's solution")
@@ -262,8 +296,11 @@ def main(argv: list[str] | None = None) -> list[dict]:
     if args.transfer:
         rows = transfer(args.transfer, args.mu, [float(v) for v in args.to.split(",")])
         _emit(rows, "transfer")
-    if not (args.diagnose or args.oracle or args.transfer):
-        parser.error("give --diagnose, --oracle or --transfer")
+    if args.roundoff:
+        rows = [row for spec in args.roundoff.split(",") for row in roundoff(spec)]
+        _emit(rows, "roundoff")
+    if not (args.diagnose or args.oracle or args.transfer or args.roundoff):
+        parser.error("give --diagnose, --oracle, --transfer or --roundoff")
     return rows
 
 
