@@ -20,7 +20,7 @@ small and only the relative gap, a few units, is left.  After that, steps are 0.
 * ``--transfer CxB --mu A --to B,C``: weights from the solution at friction coefficient ``A``,
   used for the same wall at ``B``, ``C`` (a parameter study's next LP).
 * ``--roundoff CxB``: the same LP twice, the second time with the per-block products of the block solves
-  formed by ``einsum`` instead of ``matmul`` (:func:`einsum_block_solve`: the same sums in another order, so
+  formed by ``einsum`` instead of ``matmul`` (:func:`einsum_block_product`: the same sums in another order, so
   equally accurate, only the round-off differs): how far an iteration count is a property of the LP and how
   far of the floating-point path to it.
 * ``--oracle CxB --coarse DxE``: also weights from a coarser wall's solution, each row taking the
@@ -167,12 +167,15 @@ def _wall(spec: str, **options) -> bm.Structure:
 
 
 def run(lp, ops, weights: np.ndarray | None = None, diagnose: bool = False, rule: str = "none",
-        clip: float = 10.0) -> tuple[dict, Recorder]:
-    """One cold block-IPM solve; returns its summary row and the recorder."""
+        clip: float = 10.0, block_product=None) -> tuple[dict, Recorder]:
+    """One cold block-IPM solve; returns its summary row and the recorder.  ``block_product``: replaces the
+    engine's :meth:`~BlockIPM._block_product` (None: the engine's own)."""
     engine = cold_lp_engine(lp, "block-ipm", ops=ops)
     if not isinstance(engine, BlockIPM):
         raise RuntimeError("ipm_crawl: the wall's LP did not get the block IPM")
     engine.path_weights = weights
+    if block_product is not None:
+        engine._block_product = block_product
     recorder = Recorder(engine, diagnose=diagnose, rule=rule, clip=clip)
     cpu = time.process_time()
     out = engine.solve()
@@ -243,32 +246,16 @@ def transfer(spec: str, mu: float, targets: list[float], clip: float = 10.0) -> 
     return rows
 
 
-def einsum_block_solve(engine: BlockIPM, blocks, rhs_dual: np.ndarray, rhs_primal: np.ndarray):
-    """:meth:`BlockIPM._block_solve` with the per-block products by ``einsum`` (the engine's uses ``matmul``)."""
-    M_inv, sqrt_d, _ = blocks
-    k = engine.k
-    rhs = np.empty((engine.n_blocks, M_inv.shape[1]))
-    rhs[:, :k] = rhs_dual.reshape(engine.n_blocks, k)
-    rhs[:, k:] = sqrt_d * rhs_primal[engine.block_rows]
-    sol = np.einsum("bij,bj->bi", M_inv, rhs)
-    return sol[:, :k].ravel(), (sqrt_d * sol[:, k:]).reshape(-1)[engine._dy_of_solution]
+def einsum_block_product(M_inv: np.ndarray, rhs: np.ndarray) -> np.ndarray:
+    """:meth:`BlockIPM._block_product` by ``einsum`` instead of ``matmul``: the same sums in another order."""
+    return np.einsum("bij,bj->bi", M_inv, rhs)
 
 
 def roundoff(spec: str) -> list[dict]:
-    """The wall's LP with the engine's block products, then with :func:`einsum_block_solve`."""
+    """The wall's LP with the engine's block products, then with :func:`einsum_block_product`."""
     lp, ops = wall_lp(spec)
-    rows = []
-    for products in ("matmul (the engine's)", "einsum"):
-        engine = cold_lp_engine(lp, "block-ipm", ops=ops)
-        if products == "einsum":
-            engine._block_solve = lambda blocks, dual, primal, _e=engine: einsum_block_solve(_e, blocks, dual, primal)
-        cpu = time.process_time()
-        out = engine.solve()
-        cpu = time.process_time() - cpu
-        lam = float(lp.values("lam", out.v)[0]) if out.status.is_success else float("nan")
-        rows.append({"wall": spec, "block products": products, "status": out.status.value,
-                     "iterations": out.iterations, "cpu_s": round(cpu, 2), "lam": lam})
-    return rows
+    return [{"wall": spec, "block products": name, **run(lp, ops, block_product=product)[0]}
+            for name, product in (("matmul (the engine's)", None), ("einsum", einsum_block_product))]
 
 
 def main(argv: list[str] | None = None) -> list[dict]:

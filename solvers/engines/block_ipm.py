@@ -477,12 +477,18 @@ class BlockIPM:
         """Solve ``G_i^T dy_i = rhs_dual_i``, ``G_i dv_i - (s/y)_i dy_i = rhs_primal_i`` for every block."""
         M_inv, sqrt_d, _ = blocks
         k = self.k
-        rhs = np.empty((self.n_blocks, M_inv.shape[1], 1))
-        rhs[:, :k, 0] = rhs_dual.reshape(self.n_blocks, k)
-        rhs[:, k:, 0] = sqrt_d * rhs_primal[self.block_rows]
-        sol = np.matmul(M_inv, rhs)[:, :, 0]
+        rhs = np.empty((self.n_blocks, M_inv.shape[1]))
+        rhs[:, :k] = rhs_dual.reshape(self.n_blocks, k)
+        rhs[:, k:] = sqrt_d * rhs_primal[self.block_rows]
+        sol = self._block_product(M_inv, rhs)
         # dy by a gather from the block-ordered solutions (a scatter into the rows is slower)
         return sol[:, :k].ravel(), (sqrt_d * sol[:, k:]).reshape(-1)[self._dy_of_solution]
+
+    @staticmethod
+    def _block_product(M_inv: np.ndarray, rhs: np.ndarray) -> np.ndarray:
+        """``M_inv[i] @ rhs[i]`` for every block (``(n, q, q)`` by ``(n, q)``), by ``matmul``
+        (``studies/ipm_crawl.py --roundoff`` swaps in ``einsum``: the same sums in another order)."""
+        return np.matmul(M_inv, rhs[:, :, None])[:, :, 0]
 
     def _block_dual_solve(self, blocks, rhs_dual: np.ndarray) -> np.ndarray:
         """``dv`` of :meth:`_block_solve` with ``rhs_primal = 0``: ``H~_i rhs_dual_i`` (``dy`` not formed)."""
