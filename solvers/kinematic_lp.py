@@ -45,7 +45,7 @@ class KinematicLP(SolverBase):
 
     def setup(self, ops):
         from blockmpec.formulations import compile_linear, kinematic_lp
-        from blockmpec.solvers.engines.highs import HighsLP, tighten_feasibility
+        from blockmpec.solvers.engines.highs import HighsLP, set_feasibility_tolerances
         from blockmpec.solvers.engines.scaling import kinematic_scaling
 
         self.ops = ops
@@ -54,7 +54,7 @@ class KinematicLP(SolverBase):
         self.highs = HighsLP(self.lp, self.options.algorithm, self.options.time_limit, row_scale=row_scale,
                              column_scale=column_scale)
         # z >= 0 are column bounds, held by HiGHS only to its primal feasibility tolerance (see FEASIBILITY_TOL)
-        tighten_feasibility(self.highs.highs)
+        set_feasibility_tolerances(self.highs.highs)
 
     def run(self) -> RunOutput:
         started = time.perf_counter()

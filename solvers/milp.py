@@ -310,7 +310,7 @@ class MILPSolver(SolverBase):
     def setup(self, ops):
         from blockmpec.formulations import compile_mcp
         from blockmpec.formulations._pyomo import LinearProgram
-        from blockmpec.solvers.engines.highs import HighsLP
+        from blockmpec.solvers.engines.highs import HighsLP, set_feasibility_tolerances
 
         self.ops = ops
         # the MILP, its bounds and its polish all work on (3) in per-block units (ops.units)
@@ -350,8 +350,7 @@ class MILPSolver(SolverBase):
         self.polish_static = HighsLP(self.static, "dual-simplex")
         self.polish_kinematic = HighsLP(self.kinematic, "dual-simplex")
         self.kinematic_bound = HighsLP(self.kinematic, "dual-simplex")
-        for name in ("primal_feasibility_tolerance", "dual_feasibility_tolerance"):
-            self.kinematic_bound.highs.setOptionValue(name, BOUND_LP_TOL)
+        set_feasibility_tolerances(self.kinematic_bound.highs, BOUND_LP_TOL)
 
     # ------------------------------------------------------------------ 1. bounds
     def _solve_cost(self, hl, cost: np.ndarray, deadline: float):

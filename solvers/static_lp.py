@@ -50,7 +50,7 @@ class StaticLP(SolverBase):
     def setup(self, ops):
         from blockmpec.formulations import static_lp
         from blockmpec.formulations._pyomo import compiled_linear
-        from blockmpec.solvers.engines.highs import HighsLP, tighten_feasibility
+        from blockmpec.solvers.engines.highs import HighsLP, set_feasibility_tolerances
         from blockmpec.solvers.engines.lp_engine import cold_lp_engine
 
         self.ops = ops
@@ -58,7 +58,7 @@ class StaticLP(SolverBase):
         self.engine = cold_lp_engine(self.lp, self.options.algorithm, self.options.time_limit, ops=ops)
         if isinstance(self.engine, HighsLP):
             # the mechanism's z >= 0 are duals, held by HiGHS to its dual feasibility tolerance (FEASIBILITY_TOL)
-            tighten_feasibility(self.engine.highs)
+            set_feasibility_tolerances(self.engine.highs)
 
     def run(self) -> RunOutput:
         from blockmpec.solvers.engines.highs import static_lp_solution

@@ -7,11 +7,11 @@ path itself, bit for bit.
 
 import numpy as np
 import pytest
-from helpers import load_study
 
 import blockmpec as bm
 from blockmpec.solvers.engines.highs import static_lp_solution
 from blockmpec.solvers.engines.lp_engine import cold_lp_engine
+from helpers import load_study
 
 
 @pytest.fixture(scope="module")

@@ -106,7 +106,7 @@ import scipy.sparse as sp
 
 from blockmpec.formulations.compiled import FRICTION
 from blockmpec.result import Status
-from blockmpec.solvers.engines.highs import highs_lp, use_interior_point
+from blockmpec.solvers.engines.highs import highs_lp, set_feasibility_tolerances, use_interior_point
 from blockmpec.solvers.engines.mip import MIPRun, _Tracer
 
 #: a node is pruned when its bound is within this (times max(1, |incumbent|)) of the incumbent
@@ -687,8 +687,7 @@ class ComplementarityBnB:
         iterations), whose answer alone is used; both within the time left (``self.deadline``)."""
         h = self.h
         for tol in (LOOSE_LP_TOL, LP_TOL):
-            h.setOptionValue("primal_feasibility_tolerance", tol)
-            h.setOptionValue("dual_feasibility_tolerance", tol)
+            set_feasibility_tolerances(h, tol)
             h.setOptionValue("time_limit", h.getRunTime() + max(self.deadline - time.perf_counter(), 1e-3))
             h.run()
             self.n_lps += 1

@@ -87,8 +87,9 @@ def use_interior_point(highs, crossover: bool, solver: str = "ipx") -> None:
 FEASIBILITY_TOL = 1e-9
 
 
-def tighten_feasibility(highs, tol: float = FEASIBILITY_TOL) -> None:
-    """Set HiGHS's primal and dual feasibility tolerances of a ``highspy.Highs`` to ``tol``."""
+def set_feasibility_tolerances(highs, tol: float = FEASIBILITY_TOL) -> None:
+    """Set HiGHS's primal and dual feasibility tolerances of a ``highspy.Highs`` to ``tol`` (default
+    :data:`FEASIBILITY_TOL`)."""
     for name in ("primal_feasibility_tolerance", "dual_feasibility_tolerance"):
         highs.setOptionValue(name, float(tol))
 

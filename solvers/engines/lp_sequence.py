@@ -132,7 +132,7 @@ class LPSequence:
                  fold_weight: float = 0.0) -> None:
         from blockmpec.formulations import modified_lp, static_lp, tie_break_lp
         from blockmpec.formulations._pyomo import compiled_linear
-        from blockmpec.solvers.engines.highs import HighsLP, tighten_feasibility
+        from blockmpec.solvers.engines.highs import HighsLP, set_feasibility_tolerances
 
         self.ops = ops
         c = ops.n_interfaces
@@ -172,7 +172,7 @@ class LPSequence:
             self.assoc_highs = HighsLP(self.assoc_lp, algorithm, **_scales(self.assoc_lp, ops))
         for highs in (self.step_highs, self.tie_highs, self.assoc_highs):
             if highs is not None:
-                tighten_feasibility(highs.highs, feasibility_tol)
+                set_feasibility_tolerances(highs.highs, feasibility_tol)
 
     # ------------------------------------------------------------------ warm starts
     def _start_from_associative_basis(self) -> str | None:
