@@ -14,7 +14,8 @@ its row duals (the bound ``milp`` would use; ``-inf``: none).  Engines:
 * ``ipx-primal``, ``ipx-filippo``: IPX on the primal LP (``ipx_dualize_strategy=-1``; by default IPX solves this LP's
   dual, whose starting basis costs most of the 2x15 run) / with IPX's other dualisation test (3), which here also picks
   the primal.  Measured (one run, CPU s): 5x2 8.1 against 11.7, 4x3 25.4 against 35.2, 2x8 33.9 against 56.2, same
-  bounds: the primal LP is slower;
+  bounds: the primal LP is slower.  On 2x13 (124,564 rows), where the dual's starting basis is costliest, the primal
+  LP also hits a 600 s limit without a bound (588 s CPU; ``--engines 2x13 --only ipx-primal --time-limit 600``);
 * ``hipo``: HiGHS's newer interior point (needs the wheel ``highspy-extras``; without it HiGHS silently runs
   another solver, so the study refuses to run it);
 * ``clarabel``: Clarabel (pip ``clarabel``, Apache-2.0; not a dependency of blockmpec) on the LP as a conic

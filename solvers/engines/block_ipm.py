@@ -91,10 +91,10 @@ from blockmpec.solvers.engines.highs import LPOutcome
 #: two steps becomes at least ``gondzio_accept`` times longer (1: not shorter), its trial step
 #: ``min(1, gondzio_factor * step + gondzio_delta)``; ``step_fraction`` of the step to the boundary;
 #: ``sigma = max(sigma_min, (mu_aff / mu)^sigma_power)``.
-#: Every inner direction is corrected to the absolute target by default: with ``inner_tolerance`` 1e-6,
-#: four correctors and ``gondzio_accept`` 1 (:data:`FEWER_SOLVES_SETTINGS`) walls need fewer solves
-#: with ``K`` (most inner directions are accurate to ~1e-8 after one solve), but a thin-voussoir arch,
-#: where some are off by up to 0.16, then stalls at a residual of 1e-8..1e-6 instead of reaching 1e-9.
+#: Most inner directions are accurate to ~1e-8 after one solve, so ``inner_tolerance`` 1e-6 (below) skips
+#: their correction; with four correctors and ``gondzio_accept`` 1 as well (:data:`FEWER_SOLVES_SETTINGS`)
+#: a thin-voussoir arch, where some inner directions are off by up to 0.16, stalls at a residual of
+#: 1e-8..1e-6 instead of reaching 1e-9, so the correctors stay at two, accepted only if they lengthen the step.
 #: ``krylov_iterations``: when the ``refinements`` stationary corrections of a refined direction do not
 #: reach their target, at most this many GMRES iterations on the reduced (bordered) system, preconditioned
 #: by the factors of ``K`` (0: none; directions whose stationary refinement converges are unchanged);
@@ -104,10 +104,23 @@ from blockmpec.solvers.engines.highs import LPOutcome
 #: where the stationary refinement would have converged slowly.  On walls up to 10,050 blocks every
 #: correction of a refined direction shrinks the error by a factor <= 0.02 (studies/lp_timing.py
 #: traces): the switch never fires there and their iterates are unchanged.
-DEFAULT_SETTINGS = {"refinements": 8, "lazy_refinement": True, "inner_refinements": 1, "inner_tolerance": 0.0,
+#: ``inner_tolerance`` 1e-6 (the inner directions' reduced correction skipped once the equality rows hold to
+#: 1e-6 relative to ``|A| |dv|``; the step taken is still refined to the absolute target) is the default since it
+#: saves solves with ``K`` at every size measured, with the same lam and verifier residuals at round-off
+#: (``python studies/lp_timing.py --walls 20x50,40x60,70x70,50x200,100x100,180x181 --algorithms block-ipm
+#: --ipm-settings exact_inner,default``, CPU s, iterations, solves with K, one run each pair): 1,010 blocks 0.61 ->
+#: 0.57 s (21 -> 21, 193 -> 142); 2,420 2.79 -> 2.34 s (32 -> 30, 278 -> 184); 4,935 8.9 -> 7.8 s (44 -> 43,
+#: 395 -> 288); 10,025 12.0 -> 10.4 s (38 -> 37, 349 -> 243); 10,050 19.1 -> 14.8 s (53 -> 49, 516 -> 356);
+#: 32,670 85.1 -> 78.4 s (64 -> 66, 778 -> 675); 100,014 (separate runs) 414 -> 405 s (82 -> 79, 1,306 -> 1,242).
+#: The interior fixed point (:class:`~blockmpec.solvers.engines.interior_fixed_point.InteriorFixedPoint`),
+#: measured with 0, keeps 0 (:data:`EXACT_INNER_SETTINGS`).
+DEFAULT_SETTINGS = {"refinements": 8, "lazy_refinement": True, "inner_refinements": 1, "inner_tolerance": 1e-6,
                     "final_sweeps": 4, "correctors": 2, "gondzio_accept": 1.01, "gondzio_factor": 1.5,
                     "gondzio_delta": 0.1, "step_fraction": 0.995, "sigma_power": 3.0, "sigma_min": 0.0,
                     "krylov_iterations": 40, "krylov_switch": 0.1}
+#: every inner direction corrected to the absolute target: the default before ``inner_tolerance`` 1e-6, what the
+#: interior fixed point runs, and the base of the comparison sets below (each measured with it)
+EXACT_INNER_SETTINGS = {**DEFAULT_SETTINGS, "inner_tolerance": 0.0}
 #: Near the optimum of large walls the reduced refinement converges slowly (``K`` very ill-conditioned):
 #: with 3 corrections and 2 sweeps (:data:`SHORT_REFINEMENT_SETTINGS`) the step's equality-row error
 #: reached the primal residual (1e-12 -> 4e-7) on a 32,580-block wall, which stalled ``ACCEPTABLE`` after
@@ -123,21 +136,16 @@ DEFAULT_SETTINGS = {"refinements": 8, "lazy_refinement": True, "inner_refinement
 #: first slow correction (``krylov_switch`` 0.1) it needs 1,306 instead of 1,487 solves with K (82
 #: iterations either way; GMRES in 42, 378 solves in them), verifier 3.6e-10 (studies/lp_timing.py).
 #: the refinement before that measurement
-SHORT_REFINEMENT_SETTINGS = {**DEFAULT_SETTINGS, "refinements": 3, "final_sweeps": 2}
+SHORT_REFINEMENT_SETTINGS = {**EXACT_INNER_SETTINGS, "refinements": 3, "final_sweeps": 2}
 #: stationary refinement only (the default before the Krylov fallback), with 8 and 4 or 3 and 2 corrections
-STATIONARY_SETTINGS = {**DEFAULT_SETTINGS, "krylov_iterations": 0}
+STATIONARY_SETTINGS = {**EXACT_INNER_SETTINGS, "krylov_iterations": 0}
 SHORT_STATIONARY_SETTINGS = {**SHORT_REFINEMENT_SETTINGS, "krylov_iterations": 0}
 #: GMRES only after all ``refinements`` stationary corrections failed (the default before ``krylov_switch``)
-LATE_KRYLOV_SETTINGS = {**DEFAULT_SETTINGS, "krylov_switch": float("inf")}
+LATE_KRYLOV_SETTINGS = {**EXACT_INNER_SETTINGS, "krylov_switch": float("inf")}
 #: fewer solves per iteration on walls, not robust (see above); for measurements only
-FEWER_SOLVES_SETTINGS = {**DEFAULT_SETTINGS, "inner_tolerance": 1e-6, "correctors": 4, "gondzio_accept": 1.0}
-#: inner directions corrected only while their equality-row error exceeds 1e-6 relative (the step
-#: is still refined to the absolute target): 10,050-block wall 356 instead of 516 solves with K, 49
-#: instead of 53 iterations; 1,010 blocks 142 instead of 193 (21 iterations either way); the
-#: 984-voussoir arch OPTIMAL in 17 either way (the GMRES fallback removed its former stall)
-INNER_TOLERANCE_SETTINGS = {**DEFAULT_SETTINGS, "inner_tolerance": 1e-6}
+FEWER_SOLVES_SETTINGS = {**DEFAULT_SETTINGS, "correctors": 4, "gondzio_accept": 1.0}
 #: the settings before the lazy refinement: every direction refined on the whole system
-PREVIOUS_SETTINGS = {**DEFAULT_SETTINGS, "lazy_refinement": False}
+PREVIOUS_SETTINGS = {**EXACT_INNER_SETTINGS, "lazy_refinement": False}
 
 #: factorisations of K: ``"auto"`` (the supernodal Cholesky for a symmetric K of at least
 #: :data:`AUTO_SUPERNODAL_ROWS` rows, SuperLU otherwise), ``"supernodal"``, ``"superlu"``
