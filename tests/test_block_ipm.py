@@ -212,6 +212,36 @@ def test_defaults_solve_a_wall_to_the_verifier_tolerance():
 
 
 
+def test_default_inner_tolerance_saves_solves_with_k_to_the_same_optimum():
+    """The default ``inner_tolerance`` skips corrections of inner directions that are already accurate: fewer
+    solves with ``K`` than with every inner direction corrected (``EXACT_INNER_SETTINGS``), the same lambda."""
+    from blockmpec.solvers.engines.block_ipm import EXACT_INNER_SETTINGS
+
+    assert DEFAULT_SETTINGS["inner_tolerance"] > 0 and EXACT_INNER_SETTINGS["inner_tolerance"] == 0
+    ops = bm.assemble(bm.cases.wall(10, 20))
+    runs = {}
+    for name, settings in (("default", DEFAULT_SETTINGS), ("exact", EXACT_INNER_SETTINGS)):
+        ipm = cold_lp_engine(compile_linear(static_lp(ops)), "block-ipm", ops=ops)
+        ipm.settings(**settings)
+        out = ipm.solve()
+        assert out.status is bm.Status.OPTIMAL
+        runs[name] = (ipm.factoriser.solves, out.objective)
+    assert runs["default"][0] < runs["exact"][0]
+    assert runs["default"][1] == pytest.approx(runs["exact"][1], rel=1e-8)
+
+
+def test_interior_fixed_point_keeps_every_inner_direction_corrected():
+    """Newton on (3) was measured with every inner direction corrected; the LP default does not reach it."""
+    from blockmpec.formulations import modified_lp
+    from blockmpec.formulations._pyomo import compiled_linear
+    from blockmpec.solvers.engines.block_ipm import EXACT_INNER_SETTINGS
+    from blockmpec.solvers.engines.interior_fixed_point import InteriorFixedPoint
+
+    ops = bm.assemble(bm.cases.wall(4, 5))
+    engine = InteriorFixedPoint(compiled_linear(modified_lp, ops, np.zeros(ops.n_interfaces), slope=ops.dilatancy), ops)
+    assert {name: getattr(engine, name) for name in EXACT_INNER_SETTINGS} == EXACT_INNER_SETTINGS
+
+
 def test_solve_runs_blas_on_one_thread_and_restores_it():
     """Multithreaded OpenBLAS spends milliseconds per tiny call (block_ipm.single_blas_thread):
     every iteration runs with one BLAS thread, and the caller's setting comes back afterwards."""

@@ -111,7 +111,7 @@ from blockmpec.solvers.engines.highs import LPOutcome
 #: --ipm-settings exact_inner,default``, CPU s, iterations, solves with K, one run each pair): 1,010 blocks 0.61 ->
 #: 0.57 s (21 -> 21, 193 -> 142); 2,420 2.79 -> 2.34 s (32 -> 30, 278 -> 184); 4,935 8.9 -> 7.8 s (44 -> 43,
 #: 395 -> 288); 10,025 12.0 -> 10.4 s (38 -> 37, 349 -> 243); 10,050 19.1 -> 14.8 s (53 -> 49, 516 -> 356);
-#: 32,670 85.1 -> 78.4 s (64 -> 66, 778 -> 675); 100,014 (separate runs) 414 -> 405 s (82 -> 79, 1,306 -> 1,242).
+#: 32,670 85.1 -> 78.4 s (64 -> 66, 778 -> 675); 100,014 480 -> 438 s (82 -> 79, 1,306 -> 1,242; ``--walls 316x316``).
 #: The interior fixed point (:class:`~blockmpec.solvers.engines.interior_fixed_point.InteriorFixedPoint`),
 #: measured with 0, keeps 0 (:data:`EXACT_INNER_SETTINGS`).
 DEFAULT_SETTINGS = {"refinements": 8, "lazy_refinement": True, "inner_refinements": 1, "inner_tolerance": 1e-6,
