@@ -18,9 +18,14 @@ its row duals (the bound ``milp`` would use; ``-inf``: none).  Engines:
   LP also hits a 600 s limit without a bound (588 s CPU; ``--engines 2x13 --only ipx-primal --time-limit 600``);
 * ``hipo``: HiGHS's newer interior point (needs the wheel ``highspy-extras``; without it HiGHS silently runs
   another solver, so the study refuses to run it);
+* ``hipo-augmented``, ``hipo-normaleq``: HiPO with its Newton system forced (``hipo_system``).  On 2x8 (one run,
+  CPU s of the process, ``--engines 2x8 --only ipx,hipo-augmented,hipo-normaleq,clarabel-faer --time-limit 300``):
+  IPX 35.1 s, bound 0.6499999953; HiPO augmented 76.5 s, "unknown", 0.64986; normal equations 84.2 s, "unknown",
+  0.64784; Clarabel with faer 110 s, 0.6499999999994 (112 s with its default solver in an earlier run);
 * ``clarabel``: Clarabel (pip ``clarabel``, Apache-2.0; not a dependency of blockmpec) on the LP as a conic
   problem (equality rows a zero cone, the rest a nonnegative cone) at tolerances 1e-10 and static regularisation
-  1e-7 (with its defaults it ends "NumericalError" within 3 iterations on the 3x2 wall's LP).
+  1e-7 (with its defaults it ends "NumericalError" within 3 iterations on the 3x2 wall's LP); ``clarabel-faer``:
+  the same with ``direct_solve_method="faer"`` (a supernodal LDL^T) instead of its default.
 
 Part 2 (``--liftings``): the root LP of each ``lifting`` by IPX: rows, CPU seconds, dual bound; which products the
 bound needs.
@@ -48,14 +53,19 @@ import scipy.sparse as sp
 import blockmpec as bm
 
 OUT = Path(__file__).parent / "output" / "root_lp_engines"
-ENGINES = ("ipx", "ipx-presolve-off", "ipx-tol-1e-4", "ipx-primal", "ipx-filippo", "hipo", "clarabel")
+ENGINES = ("ipx", "ipx-presolve-off", "ipx-tol-1e-4", "ipx-primal", "ipx-filippo", "hipo", "hipo-augmented",
+           "hipo-normaleq", "clarabel", "clarabel-faer")
 #: HiGHS options of each HiGHS engine (the interior point without crossover in every case)
 HIGHS_ENGINES = {"ipx": ("ipx", {}), "ipx-presolve-off": ("ipx", {"presolve": "off"}),
                  "ipx-tol-1e-4": ("ipx", {"ipm_optimality_tolerance": 1e-4}),
                  # HiGHS's ipx_dualize_strategy: -1 never dualise, 2 (default) dualise when rows > 2 columns,
                  # 3 IPX's other test ("Filippo")
                  "ipx-primal": ("ipx", {"ipx_dualize_strategy": -1}),
-                 "ipx-filippo": ("ipx", {"ipx_dualize_strategy": 3}), "hipo": ("hipo", {})}
+                 "ipx-filippo": ("ipx", {"ipx_dualize_strategy": 3}), "hipo": ("hipo", {}),
+                 # HiPO's Newton system forced: the augmented system (free columns need no regularised
+                 # normal equations) or the normal equations
+                 "hipo-augmented": ("hipo", {"hipo_system": "augmented"}),
+                 "hipo-normaleq": ("hipo", {"hipo_system": "normaleq"})}
 
 
 def _wall(spec: str):
@@ -105,7 +115,7 @@ def highs_duals(lp, solver: str, options: dict, time_limit: float):
     return (np.asarray(sol.row_dual, float) if sol.dual_valid else None), h.modelStatusToString(h.getModelStatus())
 
 
-def clarabel_duals(lp, time_limit: float):
+def clarabel_duals(lp, time_limit: float, direct_solve_method: str = "auto"):
     """Row duals of the LP by Clarabel: ``min c^T w`` s.t. ``M w + s = b``, ``s`` in (zero cone of the equality
     rows) x (nonnegative cone of the one-sided rows and column bounds); HiGHS's row dual is ``-z`` on the rows
     written ``A w + s = b`` and ``+z`` on those written ``-A w + s = -b``."""
@@ -129,6 +139,7 @@ def clarabel_duals(lp, time_limit: float):
     settings.time_limit = time_limit
     settings.tol_gap_abs = settings.tol_gap_rel = settings.tol_feas = 1e-10
     settings.static_regularization_constant = 1e-7
+    settings.direct_solve_method = direct_solve_method  # "faer": a supernodal LDL^T (Rust), on max_threads threads
     sol = clarabel.DefaultSolver(sp.csc_matrix((n, n)), c, M, b, cones, settings).solve()
     z = np.asarray(sol.z)
     y = np.zeros(A.shape[0])
@@ -148,8 +159,8 @@ def engines(walls: list[str], names: list[str], time_limit: float) -> list[dict]
         lp = root_lp(spec)
         for name in names:
             cpu = time.process_time()
-            if name == "clarabel":
-                y, status = clarabel_duals(lp, time_limit)
+            if name.startswith("clarabel"):
+                y, status = clarabel_duals(lp, time_limit, "faer" if name == "clarabel-faer" else "auto")
             else:
                 solver, options = HIGHS_ENGINES[name]
                 y, status = highs_duals(lp, solver, options, time_limit)
