@@ -211,7 +211,6 @@ def test_defaults_solve_a_wall_to_the_verifier_tolerance():
     assert -out.objective == pytest.approx(-simplex.objective, rel=1e-8)
 
 
-
 def test_default_inner_tolerance_saves_solves_with_k_to_the_same_optimum():
     """The default ``inner_tolerance`` skips corrections of inner directions that are already accurate: fewer
     solves with ``K`` than with every inner direction corrected (``EXACT_INNER_SETTINGS``), the same lambda."""
@@ -231,7 +230,8 @@ def test_default_inner_tolerance_saves_solves_with_k_to_the_same_optimum():
 
 
 def test_interior_fixed_point_keeps_every_inner_direction_corrected():
-    """Newton on (3) was measured with every inner direction corrected; the LP default does not reach it."""
+    """Newton on (3) was measured with every inner direction corrected: the interior fixed point keeps that
+    setting, not the LP default's ``inner_tolerance``."""
     from blockmpec.formulations import modified_lp
     from blockmpec.formulations._pyomo import compiled_linear
     from blockmpec.solvers.engines.block_ipm import EXACT_INNER_SETTINGS
