@@ -184,7 +184,7 @@ def run(lp, ops, weights: np.ndarray | None = None, diagnose: bool = False, rule
     engine = cold_lp_engine(lp, "block-ipm", ops=ops)
     if not isinstance(engine, BlockIPM):
         raise RuntimeError("ipm_crawl: the wall's LP did not get the block IPM")
-    engine.settings(**getattr(block_ipm, f"{IPM_SETTINGS.upper()}_SETTINGS"))
+    engine.settings(**block_ipm.named_settings(IPM_SETTINGS))
     engine.path_weights = weights
     if block_product is not None:
         engine._block_product = block_product
@@ -286,8 +286,10 @@ def main(argv: list[str] | None = None) -> list[dict]:
                         help="block IPM settings of every run: exact_inner (this study's tables), default, ... "
                              "(block_ipm.<NAME>_SETTINGS)")
     args = parser.parse_args(argv)
-    if not hasattr(block_ipm, f"{args.ipm_settings.upper()}_SETTINGS"):
-        parser.error(f"unknown --ipm-settings {args.ipm_settings!r}")
+    try:
+        block_ipm.named_settings(args.ipm_settings)
+    except ValueError as error:
+        parser.error(str(error))
     IPM_SETTINGS = args.ipm_settings
     rows: list[dict] = []
     if args.diagnose:

@@ -100,7 +100,7 @@ def time_one(wall: str, algorithm: str, time_limit: float = float("inf"), orderi
         engine.factorisation = factorisation
         from blockmpec.solvers.engines import block_ipm
 
-        engine.settings(**getattr(block_ipm, f"{ipm_settings.upper()}_SETTINGS"))
+        engine.settings(**block_ipm.named_settings(ipm_settings))
         if max_iterations is not None:  # a per-iteration cost measurement (status: iteration limit)
             engine.max_iterations = max_iterations
     t5, c5 = time.perf_counter(), time.process_time()

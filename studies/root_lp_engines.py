@@ -66,6 +66,8 @@ HIGHS_ENGINES = {"ipx": ("ipx", {}), "ipx-presolve-off": ("ipx", {"presolve": "o
                  # normal equations) or the normal equations
                  "hipo-augmented": ("hipo", {"hipo_system": "augmented"}),
                  "hipo-normaleq": ("hipo", {"hipo_system": "normaleq"})}
+#: Clarabel's direct solver of each Clarabel engine
+CLARABEL_ENGINES = {"clarabel": "auto", "clarabel-faer": "faer"}
 
 
 def _wall(spec: str):
@@ -159,8 +161,8 @@ def engines(walls: list[str], names: list[str], time_limit: float) -> list[dict]
         lp = root_lp(spec)
         for name in names:
             cpu = time.process_time()
-            if name.startswith("clarabel"):
-                y, status = clarabel_duals(lp, time_limit, "faer" if name == "clarabel-faer" else "auto")
+            if name in CLARABEL_ENGINES:
+                y, status = clarabel_duals(lp, time_limit, CLARABEL_ENGINES[name])
             else:
                 solver, options = HIGHS_ENGINES[name]
                 y, status = highs_duals(lp, solver, options, time_limit)

@@ -12,7 +12,7 @@ import scipy.sparse as sp
 
 import blockmpec as bm
 from blockmpec.formulations import compile_linear, static_lp
-from blockmpec.solvers.engines.block_ipm import DEFAULT_SETTINGS, BlockIPM, interface_blocks
+from blockmpec.solvers.engines.block_ipm import DEFAULT_SETTINGS, EXACT_INNER_SETTINGS, BlockIPM, interface_blocks
 from blockmpec.solvers.engines.lp_engine import cold_lp_engine
 
 
@@ -214,8 +214,6 @@ def test_defaults_solve_a_wall_to_the_verifier_tolerance():
 def test_default_inner_tolerance_saves_solves_with_k_to_the_same_optimum():
     """The default ``inner_tolerance`` skips corrections of inner directions that are already accurate: fewer
     solves with ``K`` than with every inner direction corrected (``EXACT_INNER_SETTINGS``), the same lambda."""
-    from blockmpec.solvers.engines.block_ipm import EXACT_INNER_SETTINGS
-
     assert DEFAULT_SETTINGS["inner_tolerance"] > 0 and EXACT_INNER_SETTINGS["inner_tolerance"] == 0
     ops = bm.assemble(bm.cases.wall(10, 20))
     runs = {}
@@ -234,7 +232,6 @@ def test_interior_fixed_point_keeps_every_inner_direction_corrected():
     setting, not the LP default's ``inner_tolerance``."""
     from blockmpec.formulations import modified_lp
     from blockmpec.formulations._pyomo import compiled_linear
-    from blockmpec.solvers.engines.block_ipm import EXACT_INNER_SETTINGS
     from blockmpec.solvers.engines.interior_fixed_point import InteriorFixedPoint
 
     ops = bm.assemble(bm.cases.wall(4, 5))
@@ -275,3 +272,13 @@ def test_reduced_values_on_the_pattern_equal_the_sparse_product(wall_ipm):
     difference = abs(K_scatter - K_product).max()
     assert difference <= 1e-13 * abs(K_product).max()
     assert np.array_equal(K_scatter.diagonal() > 0, np.ones(K_scatter.shape[0], dtype=bool))
+
+
+def test_settings_sets_are_found_by_name():
+    """Studies name the settings sets (``--ipm-settings``): a known name gives that set, an unknown one a clear error."""
+    from blockmpec.solvers.engines.block_ipm import named_settings
+
+    assert named_settings("default") is DEFAULT_SETTINGS
+    assert named_settings("exact_inner") is EXACT_INNER_SETTINGS
+    with pytest.raises(ValueError, match="unknown settings set 'nonsense'.*exact_inner"):
+        named_settings("nonsense")

@@ -157,6 +157,17 @@ FACTORISATIONS = ("auto", "supernodal", "superlu")
 #: against 3.0 s CPU; studies/lp_timing.py --factorisations)
 AUTO_SUPERNODAL_ROWS = 30_000
 
+def named_settings(name: str) -> dict:
+    """The settings set ``<NAME>_SETTINGS`` of this module by its lower-case name (``"default"``, ``"exact_inner"``,
+    ``"previous"``, ...), for studies that compare them by name."""
+    settings = globals().get(f"{name.upper()}_SETTINGS")
+    if not isinstance(settings, dict):
+        known = sorted(key[:-len("_SETTINGS")].lower() for key, value in globals().items()
+                       if key.endswith("_SETTINGS") and isinstance(value, dict))
+        raise ValueError(f"block IPM: unknown settings set {name!r}; use one of {', '.join(known)}")
+    return settings
+
+
 #: seconds per solve when none is given: a 100,000-block wall takes about 14 minutes (studies/lp_timing.py)
 DEFAULT_TIME_LIMIT = 3600.0
 
@@ -206,6 +217,9 @@ class BlockIPM:
         (:data:`blockmpec.solvers.engines.cholesky.ORDERINGS`).
     """
 
+    #: the iteration parameters a new engine starts from (:meth:`settings` changes them)
+    default_settings = DEFAULT_SETTINGS
+
     def __init__(self, lp: LinearProgram, block_columns: np.ndarray, tol: float = 1e-9,
                  max_iterations: int = 200, time_limit: float = DEFAULT_TIME_LIMIT,
                  row_scale: np.ndarray | None = None, column_scale: np.ndarray | None = None,
@@ -215,7 +229,7 @@ class BlockIPM:
         self.tol = float(tol)
         self.max_iterations = int(max_iterations)
         self.time_limit = float(time_limit) if np.isfinite(time_limit) else DEFAULT_TIME_LIMIT
-        self.settings(**DEFAULT_SETTINGS)
+        self.settings(**self.default_settings)
         #: directions refined by GMRES after the stationary refinement stalled (all solves), and
         #: the solves with K that GMRES made for them
         self.krylov_steps = 0

@@ -180,6 +180,14 @@ class InteriorFixedPoint(BlockIPM):
     **ipm : options of :class:`BlockIPM` (``tol``, ``max_iterations``, ``time_limit``, ``ordering``).
     """
 
+    #: Newton on (3) was measured (and its stall studied) with every inner direction corrected to the absolute
+    #: target.  With the LP default's inner_tolerance 1e-6 instead (bm.solve(wall, "fixed-point", ...), CPU s, one
+    #: run each): 1,010 blocks the same iterations and lam; 2,032 blocks default 48 instead of 54 iterations (lam
+    #: 0.426318 instead of 0.426330), no aim 57 instead of 81 (3.4 s against 9.2 s, same lam); but 2,420 blocks
+    #: (with the continuation) default 316 instead of 258 iterations (42.4 s against 37.8 s), no aim 242 instead
+    #: of 208: mixed, so the engine keeps the setting it was measured with
+    default_settings = EXACT_INNER_SETTINGS
+
     def __init__(self, lp, ops, coupling: str = "exact", fold_weight: float = 0.0, fold_off: float = FOLD_OFF,
                  fold_knee: float = FOLD_KNEE, **ipm) -> None:
         from blockmpec.solvers.engines.scaling import load_scaling
@@ -188,13 +196,6 @@ class InteriorFixedPoint(BlockIPM):
             raise ValueError(f"interior fixed point: unknown coupling {coupling!r}; use one of {', '.join(COUPLINGS)}")
         row_scale, column_scale = load_scaling(lp, ops)
         super().__init__(lp, interface_blocks(lp), row_scale=row_scale, column_scale=column_scale, **ipm)
-        # Newton on (3) was measured (and its stall studied) with every inner direction corrected to the
-        # absolute target.  With the LP default's inner_tolerance 1e-6 instead (bm.solve(wall, "fixed-point", ...),
-        # CPU s, one run each): 1,010 blocks the same iterations and lam; 2,032 blocks default 48 instead of 54
-        # iterations (lam 0.426318 instead of 0.426330), no aim 57 instead of 81 (3.4 s against 9.2 s, same lam);
-        # but 2,420 blocks (with the continuation) default 316 instead of 258 iterations (42.4 s against 37.8 s),
-        # no aim 242 instead of 208: mixed, so the engine keeps the setting it was measured with
-        self.settings(**EXACT_INNER_SETTINGS)
         self.ops = ops
         self.coupling = coupling
         factor = np.broadcast_to(ops.friction - ops.dilatancy, (ops.n_interfaces,)).astype(float)
