@@ -9,7 +9,13 @@ Part 1 (``--engines``): the same root LP (the root's bounds applied, every row) 
 one process: CPU seconds and the dual bound of :func:`~blockmpec.solvers.engines.complementarity_bnb.dual_bound` from
 its row duals (the bound ``milp`` would use; ``-inf``: none).  Engines:
 
-* ``ipx``: HiGHS's IPX without crossover, what ``root_lp="ipm"`` runs;
+* ``ipx``: HiGHS's IPX without crossover on the lifted LP, what ``root_lp="ipm"`` ran before the null-space
+  coordinates (``root_lp="ipm-lifted"`` now);
+* ``ipx-null-space``: the same LP in null-space coordinates (:mod:`blockmpec.solvers.engines.null_space`:
+  equilibrium and compatibility solved once, ``W = x u^T`` and every copy's equilibrium rows gone), by IPX
+  without crossover at feasibility tolerances ``NULL_SPACE_IPM_TOL``: what ``root_lp="ipm"`` runs now.  Measured
+  (``--engines 2x4,5x2,4x3,2x8 --only ipx,ipx-null-space``, one run, CPU s, lifted against null-space):
+  see the README's root-LP section;
 * ``ipx-presolve-off``, ``ipx-tol-1e-4``: IPX with HiGHS's presolve off / ``ipm_optimality_tolerance=1e-4``;
 * ``ipx-primal``, ``ipx-filippo``: IPX on the primal LP (``ipx_dualize_strategy=-1``; by default IPX solves this LP's
   dual, whose starting basis costs most of the 2x15 run) / with IPX's other dualisation test (3), which here also picks
@@ -53,8 +59,8 @@ import scipy.sparse as sp
 import blockmpec as bm
 
 OUT = Path(__file__).parent / "output" / "root_lp_engines"
-ENGINES = ("ipx", "ipx-presolve-off", "ipx-tol-1e-4", "ipx-primal", "ipx-filippo", "hipo", "hipo-augmented",
-           "hipo-normaleq", "clarabel", "clarabel-faer")
+ENGINES = ("ipx", "ipx-null-space", "ipx-presolve-off", "ipx-tol-1e-4", "ipx-primal", "ipx-filippo", "hipo",
+           "hipo-augmented", "hipo-normaleq", "clarabel", "clarabel-faer")
 #: HiGHS options of each HiGHS engine (the interior point without crossover in every case)
 HIGHS_ENGINES = {"ipx": ("ipx", {}), "ipx-presolve-off": ("ipx", {"presolve": "off"}),
                  "ipx-tol-1e-4": ("ipx", {"ipm_optimality_tolerance": 1e-4}),
@@ -81,8 +87,10 @@ def _emit(rows: list[dict], row: dict) -> None:
     rows.append(row)
 
 
-def root_lp(spec: str, lifting: str = "rlt-full"):
-    """``(A, c, row_lower, row_upper, col_lower, col_upper)`` of the root's lifted LP of the wall ``spec``."""
+def root_lp(spec: str, lifting: str = "rlt-full", null_space: bool = False):
+    """``(A, c, row_lower, row_upper, col_lower, col_upper)`` of the root's lifted LP of the wall ``spec``; with
+    ``null_space`` the same LP in the null-space coordinates that ``root_lp="ipm"`` solves
+    (:mod:`blockmpec.solvers.engines.null_space`)."""
     from blockmpec.solvers.milp import MILPSolver
 
     solver = MILPSolver(engine="bnb", lifting=lifting, root_lp="ipm")
@@ -90,6 +98,11 @@ def root_lp(spec: str, lifting: str = "rlt-full"):
     bnb = solver._complementarity_bnb(solver._bounds(time.perf_counter() + 600))
     bnb._apply(bnb.root, bnb.lam_lower, bnb.lam_cap)
     c, rl, ru, cl, cu = bnb._lp_arrays()
+    if null_space:
+        reduced = bnb._null_space_lp(c, rl, ru, cl, cu)
+        if reduced is None:
+            raise SystemExit(f"{spec}: no null-space coordinates for lifting {lifting!r} (needs rlt-full)")
+        return reduced.arrays
     return sp.csc_array(bnb._A), c, rl, ru, cl, cu
 
 
@@ -154,15 +167,22 @@ def clarabel_duals(lp, time_limit: float, direct_solve_method: str = "auto"):
 
 
 def engines(walls: list[str], names: list[str], time_limit: float) -> list[dict]:
-    from blockmpec.solvers.engines.complementarity_bnb import dual_bound
+    from blockmpec.solvers.engines.complementarity_bnb import NULL_SPACE_IPM_TOL, dual_bound
 
     rows = []
     for spec in walls:
-        lp = root_lp(spec)
+        lifted = root_lp(spec)
         for name in names:
+            lp = lifted
+            if name == "ipx-null-space":  # not timed: its construction is part of milp's root (well under 1 s)
+                lp = root_lp(spec, null_space=True)
             cpu = time.process_time()
             if name in CLARABEL_ENGINES:
                 y, status = clarabel_duals(lp, time_limit, CLARABEL_ENGINES[name])
+            elif name == "ipx-null-space":
+                tolerances = {"primal_feasibility_tolerance": NULL_SPACE_IPM_TOL,
+                              "dual_feasibility_tolerance": NULL_SPACE_IPM_TOL}
+                y, status = highs_duals(lp, "ipx", tolerances, time_limit)
             else:
                 solver, options = HIGHS_ENGINES[name]
                 y, status = highs_duals(lp, solver, options, time_limit)

@@ -90,3 +90,21 @@ def assert_same_program(a, b) -> None:
     for g in a.rows:
         np.testing.assert_array_equal(a.rows[g], b.rows[g])
     assert (a.objective_sign, a.objective_offset) == (b.objective_sign, b.objective_offset)
+
+
+def assert_certified(res: bm.Result, sense: str = "min") -> None:
+    """A ``milp`` result is a certificate: optimal, verified, no active big-M, its gap closed, its bound on the
+    right side of its multiplier, and the polished point's residuals of (3) at most ``CERTIFIED_TOL``."""
+    assert res.status is bm.Status.OPTIMAL, f"{res.status.value}: {res.message}"
+    assert res.verified
+    assert res.extra["sense"] == sense
+    assert res.extra["bigm_active"] == []
+    # closed gap: the polished (exact) multiplier meets the branch-and-bound dual bound
+    assert res.extra["gap_abs"] <= 1e-7 * max(1.0, abs(res.multiplier))
+    if sense == "min":  # the dual bound is a lower bound on the minimum ...
+        assert res.extra["bound"] <= res.multiplier + 1e-7
+        assert "minimum" in res.message
+    else:  # ... and an upper bound on the maximum
+        assert res.extra["bound"] >= res.multiplier - 1e-7
+        assert "maximum" in res.message and "minimum" not in res.message
+    assert max(res.residuals.values()) <= CERTIFIED_TOL, res.residuals

@@ -20,29 +20,13 @@ import pytest
 
 import blockmpec as bm
 from blockmpec.result import Status
-from helpers import two_block_associative, two_block_nonassociative_min
+from helpers import assert_certified, two_block_associative, two_block_nonassociative_min
 
 ETAS = [1, 2, 3, 4, 5]
 MUS = [0.3, 0.5, 0.65, 0.8, 1.0, 1.2, 1.5]
 POLISHED_TOL = 1e-7
 
 pytest.importorskip("highspy")
-
-
-def assert_certified(res: bm.Result, sense: str = "min") -> None:
-    assert res.status is Status.OPTIMAL, f"{res.status.value}: {res.message}"
-    assert res.verified
-    assert res.extra["sense"] == sense
-    assert res.extra["bigm_active"] == []
-    # closed gap: the polished (exact) multiplier meets the branch-and-bound dual bound
-    assert res.extra["gap_abs"] <= 1e-7 * max(1.0, abs(res.multiplier))
-    if sense == "min":  # the dual bound is a lower bound on the minimum ...
-        assert res.extra["bound"] <= res.multiplier + 1e-7
-        assert "minimum" in res.message
-    else:  # ... and an upper bound on the maximum
-        assert res.extra["bound"] >= res.multiplier - 1e-7
-        assert "maximum" in res.message and "minimum" not in res.message
-    assert max(res.residuals.values()) <= POLISHED_TOL, res.residuals
 
 
 SMALL_CASES = {

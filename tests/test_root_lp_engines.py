@@ -41,3 +41,12 @@ def test_profile_reads_ipx_log(study, tmp_path, monkeypatch):
     assert row["status"] == "Optimal"
     assert row["iterations"] > 0 and row["last_gap"] < 1e-6
     assert Path(row["log"]).parent == tmp_path
+
+
+def test_the_null_space_root_lp_gives_the_lifted_bound(study, minimum):
+    """The study's ``ipx-null-space`` engine (the root LP ``root_lp="ipm"`` now solves) is the same LP in other
+    coordinates: its bound equals IPX's on the lifted LP and meets the certified minimum, on fewer rows."""
+    lifted, reduced = study.engines(["2x2"], ["ipx", "ipx-null-space"], time_limit=60)
+    assert reduced["rows"] < lifted["rows"]
+    assert reduced["bound"] <= minimum + margin(CERTIFIED_TOL, minimum)
+    assert abs(reduced["bound"] - lifted["bound"]) <= margin(CERTIFIED_TOL, minimum)

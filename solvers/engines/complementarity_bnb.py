@@ -75,6 +75,17 @@ minimum and 2.8e-12 below the 4x3 one, so the 4x3 wall is certified at the root 
 :meth:`ComplementarityBnB._interior_root` does when the first does not close the root).  The dual
 simplex on the remaining rows: 4.0 s (4x2), 7.5-36 s (5x2), > 200 s (4x3).
 
+Null-space coordinates (``root_lp="ipm"`` with ``lifting="rlt-full"``).  Most rows of the lifted LP say that
+the static field, every copy and the products with ``u`` are static or kinematic fields.
+:mod:`~blockmpec.solvers.engines.null_space` solves equilibrium and compatibility once (a spanning tree of the
+contact graph gives a sparse basis of self-stresses) and writes the root LP in the remaining coordinates: the same
+LP, the same minimum, with every copy's equilibrium rows and all of ``W = x u^T`` gone (2x15 running-bond wall:
+166,078 x 87,359 -> 105,535 x 38,906).  IPX solves it 3-4x faster (CPU s, lifted -> null-space, same bound to
+1e-9: 2x4 1.6 -> 0.4, 5x2 8.6 -> 3.0, 4x3 27.0 -> 7.7, 2x8 36.6 -> 8.5), and the 2x13 and 2x15 walls, whose lifted
+root LP gave no bound in 1,500 s, in 61 s and 117 s.  Its pair rows are rows of the lifted LP, one to one, so their
+duals pick the dormant rows as before; the node LPs stay on the lifted LP.  ``root_lp="ipm-lifted"`` solves the
+lifted LP (``"ipm"`` before).
+
 Row generation (``root_lp="ipm-rows"``, :meth:`ComplementarityBnB._generated_root`): the root LP by rounds of the
 same interior point, the first without the copy friction rows and the moments' rows (X), each next one with the
 left-out rows violated at the last point added; every round's dual bound is valid (a relaxation).  Measured
@@ -124,7 +135,11 @@ DORMANT_DUAL_TOL = 1e-7
 SEPARATION_TOL = 1e-9
 #: re-solves of one node LP after waking violated dormant rows
 SEPARATION_ROUNDS = 3
-ROOT_LPS = ("simplex", "ipm", "ipm-rows")
+#: ``"ipm"``: the root LP by the interior point, in the null-space coordinates of
+#: :mod:`~blockmpec.solvers.engines.null_space` where the lifting allows (``rlt-full``; the lifted LP otherwise);
+#: ``"ipm-lifted"``: the same on the lifted LP itself (``"ipm"`` before the null-space coordinates);
+#: ``"ipm-rows"``: row generation on the lifted LP
+ROOT_LPS = ("simplex", "ipm", "ipm-rows", "ipm-lifted")
 #: root_lp="ipm-rows": interior-point rounds of the root's row generation at most (each adds the rows violated at
 #: the previous round's point)
 ROOT_ROW_ROUNDS = 30
@@ -134,6 +149,11 @@ ROOT_ROW_TOL = 1e-7
 #: root_lp="ipm": the root is closed when the interior point's dual bound is within this (times max(1, |incumbent|))
 #: of the incumbent (= CERTIFICATE_TOL of milp, which then checks the reported gap against the same tolerance)
 INTERIOR_CLOSE_TOL = 1e-7
+#: root_lp="ipm" in null-space coordinates: HiGHS's primal and dual feasibility tolerances of the interior point.
+#: At HiGHS's default (1e-7) IPX ended "optimal" on the 6x3 running-bond wall's null-space LP with reduced costs
+#: up to 7e-8 on free columns, which give no bound; at 1e-10 the largest was 8e-10 and the bound 0.57533 (86 s
+#: against 83 s CPU)
+NULL_SPACE_IPM_TOL = 1e-10
 #: root_lp="ipm": HiGHS's interior point.  "ipx", not HiGHS's "ipm" (which in 1.15 runs HiPO first and IPX only
 #: after HiPO stalls): one run on each root LP, IPX against "ipm" (CPU s; first run, second run):
 #: 4x3 wall 25.8 / 6.9 s against 42.0 / 16.5 s, dual bound 2.8e-12 against 3.8e-7 below the minimum after the
@@ -407,6 +427,9 @@ class ComplementarityBnB:
         h.passModel(highs_lp(A, c, rl, ru, cl, cu))
         self.h = h
         self.root_lp = root_lp
+        self.static_copies = static_copies
+        #: the root LP was solved in null-space coordinates (root_lp="ipm" with the rlt-full lifting)
+        self.null_space_root = False
         npair = form.n_pairs
         # candidates for dormancy: the copy pair rows G_j x^(i) <= 0 with j != i
         own = np.zeros(A.shape[0], dtype=bool)
@@ -544,32 +567,48 @@ class ComplementarityBnB:
         t0 = time.perf_counter()
         c, rl, ru, cl, cu = self._lp_arrays()
         A = self._A
+        late = self._late_rows
+        to_lifted = None  # the lifted row of each row of the LP solved (None: the lifted LP itself)
+        reduced = self._null_space_lp(c, rl, ru, cl, cu) if self.root_lp == "ipm" else None
+        if reduced is not None:
+            # the same LP in null-space coordinates (its rows (X) hold every moment's product already)
+            A, c, rl, ru, cl, cu = reduced.arrays
+            late = np.zeros(A.shape[0], dtype=bool)
+            to_lifted = reduced.lifted_row
+            self.null_space_root = True
+            self._timing["null_space_build"] = time.perf_counter() - t0
+
+        tolerance = NULL_SPACE_IPM_TOL if reduced is not None else None
 
         def bound_without(drop: np.ndarray) -> float:
             """The dual bound of one interior point on the LP without the rows ``drop`` (a relaxation)."""
             keep = ~drop
             Ar = sp.csc_array(sp.csr_array(A)[keep])
-            return self._interior_bound(Ar, c, rl[keep], ru[keep], cl, cu)[0]
+            return self._interior_bound(Ar, c, rl[keep], ru[keep], cl, cu, tolerance)[0]
 
         def note(value: float) -> None:
             if record is not None and np.isfinite(value):
                 record(value)
 
         bound = -np.inf
-        if self._late_rows.any() and np.isfinite(target):
+        if late.any() and np.isfinite(target):
             # first without the moments' products (rows (X) of the moments: a relaxation, the LP of lifting="rlt"),
             # which closes most walls at a fraction of the cost
-            bound = bound_without(self._late_rows)
+            bound = bound_without(late)
             self._timing["ipm0"] = time.perf_counter() - t0
             note(bound)
         if not _meets(bound, target):
-            full, y = self._interior_bound(A, c, rl, ru, cl, cu)
+            full, y = self._interior_bound(A, c, rl, ru, cl, cu, tolerance)
             if y is not None:
                 bound = max(bound, full)
                 self._timing["ipm1"] = time.perf_counter() - t0
                 note(bound)
                 rows = self._sleep_rows
-                sleep = rows[np.abs(y[rows]) <= DORMANT_DUAL_TOL]
+                y_lifted = y
+                if to_lifted is not None:  # the pair rows are rows of both LPs, one to one
+                    y_lifted = np.zeros(self._A.shape[0])
+                    y_lifted[to_lifted[to_lifted >= 0]] = y[to_lifted >= 0]
+                sleep = rows[np.abs(y_lifted[rows]) <= DORMANT_DUAL_TOL]
                 self.dormant[sleep] = True
                 _checked(self.h.changeRowsBounds(sleep.size, sleep, np.full(sleep.size, -np.inf),
                                                  np.full(sleep.size, np.inf)))
@@ -581,6 +620,22 @@ class ComplementarityBnB:
         self.ipm_time = self._timing["ipm"] = time.perf_counter() - t0
         self.ipm_bound = bound
         return bound
+
+    def _null_space_lp(self, c, rl, ru, cl, cu):
+        """The root LP in the null-space coordinates of :mod:`~blockmpec.solvers.engines.null_space`, or None
+        where the lifting does not allow them (not every force tied, copies without statics) or the structure
+        has no checked spanning-tree basis."""
+        from blockmpec.solvers.engines.null_space import null_space_lp, static_null_space
+
+        lay = self.layout
+        nx = lay.x.stop - lay.x.start
+        if (lay.tied is None or lay.tied.size != nx or lay.v is None or self.static_copies != "all"
+                or len(lay.copies) != self.form.n_pairs):
+            return None
+        space = static_null_space(self.form)
+        if space is None:
+            return None
+        return null_space_lp(self._A, c, rl, ru, cl, cu, lay, space)
 
     def _generated_root(self, target: float = np.inf, record=None) -> float:
         """``root_lp="ipm-rows"``: the root LP (its bounds already applied) by row generation, each round one
@@ -640,7 +695,7 @@ class ComplementarityBnB:
         self.ipm_bound = bound
         return bound
 
-    def _interior_bound(self, A, c, rl, ru, cl, cu) -> tuple:
+    def _interior_bound(self, A, c, rl, ru, cl, cu, tolerance: float | None = None) -> tuple:
         """``(dual bound, row duals)`` of the LP from HiGHS's interior point without crossover, and, when that
         gives no finite bound and time is left, from a second run *with* crossover (``(-inf, None)`` if neither
         gives one).
@@ -651,25 +706,29 @@ class ComplementarityBnB:
         root then went to the dual simplex (12 s in all); with crossover both ended optimal with the minimum as
         their bound (1.0 s and 2.4 s).  A crossover can take long on the large walls, which is why it is only the
         fallback; its basic duals pick more rows dormant (any choice keeps the bound valid)."""
-        y = self._interior_solution(A, c, rl, ru, cl, cu)[0]
+        y = self._interior_solution(A, c, rl, ru, cl, cu, tolerance=tolerance)[0]
         bound = -np.inf if y is None else dual_bound(A, c, rl, ru, cl, cu, y)
         if bound == -np.inf and time.perf_counter() < self.deadline:
             self.crossover_runs += 1
-            y2 = self._interior_solution(A, c, rl, ru, cl, cu, crossover=True)[0]
+            y2 = self._interior_solution(A, c, rl, ru, cl, cu, crossover=True, tolerance=tolerance)[0]
             bound2 = -np.inf if y2 is None else dual_bound(A, c, rl, ru, cl, cu, y2)
             if y is None or bound2 > bound:
                 bound, y = bound2, y2
         return bound, y
 
-    def _interior_solution(self, A, c, rl, ru, cl, cu, crossover: bool = False) -> tuple:
-        """``(row duals, column values)`` of the LP by HiGHS's interior point at its default tolerances, without
-        crossover unless ``crossover`` (``(None, None)`` if it gave no duals; the values None if it gave none)."""
+    def _interior_solution(self, A, c, rl, ru, cl, cu, crossover: bool = False,
+                           tolerance: float | None = None) -> tuple:
+        """``(row duals, column values)`` of the LP by HiGHS's interior point at its default tolerances (primal and
+        dual feasibility ``tolerance`` if given), without crossover unless ``crossover`` (``(None, None)`` if it
+        gave no duals; the values None if it gave none)."""
         import highspy
 
         g = highspy.Highs()
         g.setOptionValue("output_flag", False)
         g.passModel(highs_lp(A, c, rl, ru, cl, cu))
         use_interior_point(g, crossover=crossover, solver=INTERIOR_SOLVER)
+        if tolerance is not None:
+            set_feasibility_tolerances(g, tolerance)
         g.setOptionValue("time_limit", max(self.deadline - time.perf_counter(), 1e-3))
         g.run()
         self.n_lps += 1
@@ -765,12 +824,12 @@ class ComplementarityBnB:
         self._restrict_to_improvements(best_val)
         a0, b0 = self.lam_lower, np.inf
         interior = -np.inf
-        if self.root_lp in ("ipm", "ipm-rows") and a0 <= self.lam_cap:
+        if self.root_lp != "simplex" and a0 <= self.lam_cap:
             # without the cap lam <= incumbent: with it the LP's optimum sits on the cap and the interior point
             # was seen to stop short (4x2 wall: no bound, where the uncapped LP gave the minimum within 1.4e-8)
             cap, self.lam_cap = self.lam_cap, self.lam_upper
             self._apply(self.root, a0, b0)
-            root = self._interior_root if self.root_lp == "ipm" else self._generated_root
+            root = self._generated_root if self.root_lp == "ipm-rows" else self._interior_root
             interior = root(best_val, lambda bnd: tracer.record(max(a0, min(bnd, best_val)), best_val, force=True))
             self.lam_cap = cap
             if best is not None and _meets(interior, best_val):
