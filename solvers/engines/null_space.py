@@ -12,9 +12,12 @@ three forces of each block's tree interface, ``B = E[:, tree]``, block triangula
 
     E x + f_d + lam f_l = 0   <=>   x = x_d + lam x_l + N sigma,
 
-``x_d``, ``x_l`` the tree solutions (zero on the other interfaces) and ``N`` one self-stress per force of a
-non-tree interface: unit on that force, the tree forces of its fundamental cycle (the tree path between the
-interface's two blocks) elsewhere, so ``N`` is sparse.  Kinematic side: ``u = L z`` with
+``x_d``, ``x_l`` the tree solutions (zero on the other interfaces) and ``N`` a sparse basis of self-stresses:
+either one per force of a non-tree interface (unit on that force, the tree forces of its fundamental cycle
+elsewhere) or three per cycle of a short cycle basis of the contact graph (Horton's; the null space of ``E`` on
+the cycle's forces), whichever gives the pair rows ``G N`` fewer entries.  On tall walls the fundamental cycles
+run down to the supports: on the 8x4 wall ``G N`` has 10.2 entries per row (at most 70) with them and 5.3 (at
+most 6) with the short cycles; on the 2x15 wall 5.2 either way.  Kinematic side: ``u = L z`` with
 ``L = -B^{-T} F_tree`` solves the tree rows of compatibility ``E^T u + F z = 0``; the others hold exactly when
 ``C z = 0`` with ``C = (F + E^T L)[non-tree rows] = N^T F``.  With ``c^T = f_l^T L`` (each multiplier's live
 work) the normalisation ``f_l^T u = 1`` is ``c^T z = 1``.
@@ -124,6 +127,82 @@ def _tree_path(a: int, b: int, parent, parent_interface, depth) -> list[int]:
     return path
 
 
+def _short_cycles(ends: list[tuple[int, int]], n_nodes: int) -> list[list[int]] | None:
+    """A short cycle basis of the contact graph (Horton): the candidate cycles ``P(v, a) + k + P(b, v)`` of every node
+    ``v`` (shortest paths of its breadth-first tree) and interface ``k = (a, b)`` off that tree whose two paths
+    meet only at ``v``, shortest first, each kept when it is independent of those kept (Gaussian elimination
+    over GF(2) on their interface sets).  Lists of interfaces; None if they do not span the cycle space."""
+    neighbours = [[] for _ in range(n_nodes)]
+    for k, (a, b) in enumerate(ends):
+        neighbours[a].append((b, k))
+        neighbours[b].append((a, k))
+    rank = len(ends) - n_nodes + 1
+    candidates = []
+    for v in range(n_nodes):
+        parent, via = np.full(n_nodes, -1), np.full(n_nodes, -1)
+        seen = np.zeros(n_nodes, dtype=bool)
+        seen[v] = True
+        queue = deque([v])
+        while queue:
+            a = queue.popleft()
+            for b, k in neighbours[a]:
+                if not seen[b]:
+                    seen[b], parent[b], via[b] = True, a, k
+                    queue.append(b)
+
+        def path(a, _parent=parent, _via=via):
+            nodes, edges = [a], []
+            while _parent[a] >= 0:
+                edges.append(int(_via[a]))
+                a = _parent[a]
+                nodes.append(a)
+            return nodes, edges
+
+        for k, (a, b) in enumerate(ends):
+            if via[a] == k or via[b] == k:
+                continue
+            (nodes_a, edges_a), (nodes_b, edges_b) = path(a), path(b)
+            if set(nodes_a) & set(nodes_b) != {v}:
+                continue
+            candidates.append((len(edges_a) + len(edges_b) + 1, edges_a + [k] + edges_b))
+    candidates.sort(key=lambda item: item[0])
+    basis, pivots = [], {}  # GF(2) elimination: reduced bit set -> its leading bit
+    for _, edges in candidates:
+        bits = 0
+        for e in edges:
+            bits ^= 1 << e
+        reduced = bits
+        while reduced:
+            lead = reduced.bit_length() - 1
+            if lead not in pivots:
+                pivots[lead] = reduced
+                basis.append(edges)
+                break
+            reduced ^= pivots[lead]
+        if len(basis) == rank:
+            return basis
+    return None
+
+
+def _cycle_self_stresses(Ed: np.ndarray, groups: np.ndarray, cycles: list[list[int]]) -> sp.csr_array | None:
+    """Three self-stresses per cycle (the null space of ``E`` on the cycle's forces, by SVD), as the columns of a
+    sparse ``N``; None if a cycle does not carry exactly three."""
+    from scipy.linalg import null_space
+
+    rows, cols, vals = [], [], []
+    for j, cycle in enumerate(cycles):
+        forces = groups[cycle].ravel()
+        local = null_space(Ed[:, forces])
+        if local.shape[1] != 3:
+            return None
+        local[np.abs(local) <= 1e-14] = 0.0
+        r, c = np.nonzero(local)
+        rows += forces[r].tolist()
+        cols += (3 * j + c).tolist()
+        vals += local[r, c].tolist()
+    return sp.csr_array((vals, (rows, cols)), shape=(Ed.shape[1], 3 * len(cycles)))
+
+
 def static_null_space(form) -> StaticNullSpace | None:
     """The spanning-tree null space of ``form``'s equilibrium (module docstring); None when the structure does not
     allow it (an interface without three forces, a block with no path to the supports, a singular tree block) or
@@ -177,6 +256,13 @@ def static_null_space(form) -> StaticNullSpace | None:
             vals += [1.0, *kept.tolist()]
     N = sp.csr_array((vals, (rows, cols)), shape=(nx, q))
     N.eliminate_zeros()
+    # a basis of short cycles gives sparser pair rows G N on tall walls (8x4: 10.2 against 5.x entries per row)
+    cycles = _short_cycles(ends, n_blocks + 1)
+    N_cycles = None if cycles is None else _cycle_self_stresses(Ed, groups, cycles)
+    if N_cycles is not None and np.linalg.matrix_rank(N_cycles.toarray()) == q:
+        G = sp.csr_array(form.pair_matrix)
+        if (G @ N_cycles).nnz < (G @ N).nnz:
+            N = N_cycles
     Fz = sp.csr_array(form.block(form.compatibility, form.z))
     Et = sp.csr_array(form.block(form.compatibility, form.u))
     if Et.shape != (nx, E.shape[0]) or abs(Et - E.T).max() > 0:  # compatibility row r is force r's
