@@ -197,6 +197,8 @@ TARGETS = (("2x4", 60.0), ("4x3", 60.0), ("5x2", 60.0), ("2x15", 600.0), ("8x4",
 
 FAMILIES = {
     "running": ["2x2", "3x2", "2x3", "4x2", "2x4", "5x2", "4x3", "3x4", "6x3", "5x4", "6x4", "6x5", "8x4", "6x6"],
+    # two-course running-bond walls, whose root LP alone certifies them: how far the root LP reaches
+    "two-course": ["2x4", "2x6", "2x8", "2x10", "2x12", "2x15", "2x18", "2x21", "2x25"],
     "stack": ["3x2s", "4x2s", "6x2s", "4x3s", "8x2s", "6x3s", "5x4s", "6x4s", "8x4s", "6x6s", "8x6s"],
     "arch": ["arch:10", "arch:20", "arch:40", "arch:80", "arch:160", "arch:320", "arch:640"],
 }

@@ -45,16 +45,18 @@ def _root(case_id: str, root_lp: str = "ipm"):
     return solver, bnb
 
 
+@pytest.mark.parametrize("basis", ["tree", "cycles"])
 @pytest.mark.parametrize("case_id", list(CASES))
-def test_the_basis_solves_equilibrium_and_compatibility(case_id):
-    """``E N = 0`` with ``N`` of full column rank ``nx - 3 (blocks)``, ``E x_d = -f_d``, ``E x_l = -f_l``, and
-    ``u = L z`` is compatible (``E^T u + F z = 0``) for every ``z`` with ``C z = 0``, and only for those."""
+def test_the_basis_solves_equilibrium_and_compatibility(case_id, basis):
+    """``E N = 0`` with ``N`` of full column rank ``nx - 3 (blocks)`` (either basis), ``E x_d = -f_d``,
+    ``E x_l = -f_l``, and ``u = L z`` is compatible (``E^T u + F z = 0``) for every ``z`` with ``C z = 0``, and
+    only for those."""
     from blockmpec.solvers.milp import MILPSolver
 
     solver = MILPSolver(engine="bnb")
     solver.setup(bm.operators.assemble(CASES[case_id]()))
     form = solver.form
-    space = static_null_space(form)
+    space = static_null_space(form, basis)
     assert space is not None
     E = form.block(form.equilibrium, form.x).toarray()
     F = form.block(form.compatibility, form.z).toarray()
@@ -144,3 +146,12 @@ def test_root_lp_ipm_lifted_certifies_the_same_minimum():
     res = bm.solve(CASES["wall-3x2-opening"](), "milp", root_lp="ipm-lifted")
     assert_certified(res)
     assert res.multiplier == pytest.approx(certified("wall-3x2-opening").multiplier, abs=1e-7)
+
+
+def test_an_unknown_basis_is_one_clear_error():
+    from blockmpec.solvers.milp import MILPSolver
+
+    solver = MILPSolver(engine="bnb")
+    solver.setup(bm.operators.assemble(CASES["wall-2x2"]()))
+    with pytest.raises(ValueError, match="unknown basis 'loops'; use one of tree, cycles"):
+        static_null_space(solver.form, "loops")

@@ -12,12 +12,13 @@ three forces of each block's tree interface, ``B = E[:, tree]``, block triangula
 
     E x + f_d + lam f_l = 0   <=>   x = x_d + lam x_l + N sigma,
 
-``x_d``, ``x_l`` the tree solutions (zero on the other interfaces) and ``N`` a sparse basis of self-stresses:
-either one per force of a non-tree interface (unit on that force, the tree forces of its fundamental cycle
-elsewhere) or three per cycle of a short cycle basis of the contact graph (Horton's; the null space of ``E`` on
-the cycle's forces), whichever gives the pair rows ``G N`` fewer entries.  On tall walls the fundamental cycles
-run down to the supports: on the 8x4 wall ``G N`` has 10.2 entries per row (at most 70) with them and 5.3 (at
-most 6) with the short cycles; on the 2x15 wall 5.2 either way.  Kinematic side: ``u = L z`` with
+``x_d``, ``x_l`` the tree solutions (zero on the other interfaces) and ``N`` a sparse basis of self-stresses,
+one per force of a non-tree interface: unit on that force, the tree forces of its fundamental cycle elsewhere.
+(``basis="cycles"``: three per cycle of a short cycle basis of the contact graph, Horton's, unit on the forces of
+one interface of the cycle.  Its pair rows ``G N`` are sparser, 3.5-3.9 entries per row against 5.2-10.2 on the
+5x2, 4x3, 2x8, 6x3 and 8x4 walls, yet IPX was not faster: 5x2 3.4 against 2.8 s, 4x3 8.2 against 7.4 s, 2x8 8.0
+against 8.5 s, with bounds up to 7e-8 below the minimum against 3e-9; one run each, ``/tmp`` script in the
+closing note.)  Kinematic side: ``u = L z`` with
 ``L = -B^{-T} F_tree`` solves the tree rows of compatibility ``E^T u + F z = 0``; the others hold exactly when
 ``C z = 0`` with ``C = (F + E^T L)[non-tree rows] = N^T F``.  With ``c^T = f_l^T L`` (each multiplier's live
 work) the normalisation ``f_l^T u = 1`` is ``c^T z = 1``.
@@ -195,7 +196,12 @@ def _cycle_self_stresses(Ed: np.ndarray, groups: np.ndarray, cycles: list[list[i
         local = null_space(Ed[:, forces])
         if local.shape[1] != 3:
             return None
-        local[np.abs(local) <= 1e-14] = 0.0
+        # in force units, as the tree's: unit on the three forces of the cycle's interface whose block of the
+        # basis is best conditioned (an orthonormal basis mixes forces and moments)
+        blocks = [local[3 * i:3 * i + 3] for i in range(len(cycle))]
+        best = max(range(len(cycle)), key=lambda i: abs(np.linalg.det(blocks[i])) / max(np.abs(blocks[i]).max(), 1e-300) ** 3)
+        local = local @ np.linalg.inv(blocks[best])
+        local[np.abs(local) <= 1e-14 * np.abs(local).max()] = 0.0
         r, c = np.nonzero(local)
         rows += forces[r].tolist()
         cols += (3 * j + c).tolist()
@@ -203,10 +209,17 @@ def _cycle_self_stresses(Ed: np.ndarray, groups: np.ndarray, cycles: list[list[i
     return sp.csr_array((vals, (rows, cols)), shape=(Ed.shape[1], 3 * len(cycles)))
 
 
-def static_null_space(form) -> StaticNullSpace | None:
+#: self-stress bases of :func:`static_null_space`
+BASES = ("tree", "cycles")
+
+
+def static_null_space(form, basis: str = "tree") -> StaticNullSpace | None:
     """The spanning-tree null space of ``form``'s equilibrium (module docstring); None when the structure does not
     allow it (an interface without three forces, a block with no path to the supports, a singular tree block) or
-    the residuals exceed :data:`NULL_SPACE_TOL`."""
+    the residuals exceed :data:`NULL_SPACE_TOL`.  ``basis``: the self-stresses of the tree's fundamental cycles
+    (``"tree"``) or of a short cycle basis (``"cycles"``; the tree's where it fails)."""
+    if basis not in BASES:
+        raise ValueError(f"null space: unknown basis {basis!r}; use one of {', '.join(BASES)}")
     from scipy.sparse.linalg import splu
 
     nx = form.x.stop - form.x.start
@@ -257,11 +270,10 @@ def static_null_space(form) -> StaticNullSpace | None:
     N = sp.csr_array((vals, (rows, cols)), shape=(nx, q))
     N.eliminate_zeros()
     # a basis of short cycles gives sparser pair rows G N on tall walls (8x4: 10.2 against 5.x entries per row)
-    cycles = _short_cycles(ends, n_blocks + 1)
-    N_cycles = None if cycles is None else _cycle_self_stresses(Ed, groups, cycles)
-    if N_cycles is not None and np.linalg.matrix_rank(N_cycles.toarray()) == q:
-        G = sp.csr_array(form.pair_matrix)
-        if (G @ N_cycles).nnz < (G @ N).nnz:
+    if basis == "cycles":
+        cycles = _short_cycles(ends, n_blocks + 1)
+        N_cycles = None if cycles is None else _cycle_self_stresses(Ed, groups, cycles)
+        if N_cycles is not None and np.linalg.matrix_rank(N_cycles.toarray()) == q:
             N = N_cycles
     Fz = sp.csr_array(form.block(form.compatibility, form.z))
     Et = sp.csr_array(form.block(form.compatibility, form.u))
