@@ -13,7 +13,8 @@ its row duals (the bound ``milp`` would use; ``-inf``: none).  Engines:
   coordinates (``root_lp="ipm-lifted"`` now);
 * ``ipx-null-space``: the same LP in null-space coordinates (:mod:`blockmpec.solvers.engines.null_space`:
   equilibrium and compatibility solved once, ``W = x u^T`` and every copy's equilibrium rows gone), by IPX
-  without crossover at feasibility tolerances ``NULL_SPACE_IPM_TOL``: what ``root_lp="ipm"`` runs now.  Measured
+  without crossover at feasibility tolerances ``NULL_SPACE_IPM_TOL``: what ``root_lp="ipm"`` runs now;
+  ``ipx-null-space-cycles``: the same with the short-cycle basis of self-stresses (``basis="cycles"``).  Measured
   (``--engines 2x4,5x2,4x3,2x8 --only ipx,ipx-null-space``, one run, CPU s, lifted against null-space):
   see the README's root-LP section;
 * ``ipx-presolve-off``, ``ipx-tol-1e-4``: IPX with HiGHS's presolve off / ``ipm_optimality_tolerance=1e-4``;
@@ -59,7 +60,7 @@ import scipy.sparse as sp
 import blockmpec as bm
 
 OUT = Path(__file__).parent / "output" / "root_lp_engines"
-ENGINES = ("ipx", "ipx-null-space", "ipx-presolve-off", "ipx-tol-1e-4", "ipx-primal", "ipx-filippo", "hipo",
+ENGINES = ("ipx", "ipx-null-space", "ipx-null-space-cycles", "ipx-presolve-off", "ipx-tol-1e-4", "ipx-primal", "ipx-filippo", "hipo",
            "hipo-augmented", "hipo-normaleq", "clarabel", "clarabel-faer")
 #: HiGHS options of each HiGHS engine (the interior point without crossover in every case)
 HIGHS_ENGINES = {"ipx": ("ipx", {}), "ipx-presolve-off": ("ipx", {"presolve": "off"}),
@@ -87,10 +88,11 @@ def _emit(rows: list[dict], row: dict) -> None:
     rows.append(row)
 
 
-def root_lp(spec: str, lifting: str = "rlt-full", null_space: bool = False):
+def root_lp(spec: str, lifting: str = "rlt-full", null_space: str | None = None):
     """``(A, c, row_lower, row_upper, col_lower, col_upper)`` of the root's lifted LP of the wall ``spec``; with
-    ``null_space`` the same LP in the null-space coordinates that ``root_lp="ipm"`` solves
-    (:mod:`blockmpec.solvers.engines.null_space`)."""
+    ``null_space`` (a basis of :data:`~blockmpec.solvers.engines.null_space.BASES`) the same LP in the null-space
+    coordinates that ``root_lp="ipm"`` solves (:mod:`blockmpec.solvers.engines.null_space`, basis ``"tree"``)."""
+    from blockmpec.solvers.engines.null_space import null_space_lp, static_null_space
     from blockmpec.solvers.milp import MILPSolver
 
     solver = MILPSolver(engine="bnb", lifting=lifting, root_lp="ipm")
@@ -99,10 +101,10 @@ def root_lp(spec: str, lifting: str = "rlt-full", null_space: bool = False):
     bnb._apply(bnb.root, bnb.lam_lower, bnb.lam_cap)
     c, rl, ru, cl, cu = bnb._lp_arrays()
     if null_space:
-        reduced = bnb._null_space_lp(c, rl, ru, cl, cu)
-        if reduced is None:
+        space = static_null_space(solver.form, null_space)
+        if bnb._null_space_lp(c, rl, ru, cl, cu) is None or space is None:
             raise SystemExit(f"{spec}: no null-space coordinates for lifting {lifting!r} (needs rlt-full)")
-        return reduced.arrays
+        return null_space_lp(bnb._A, c, rl, ru, cl, cu, bnb.layout, space).arrays
     return sp.csc_array(bnb._A), c, rl, ru, cl, cu
 
 
@@ -174,12 +176,12 @@ def engines(walls: list[str], names: list[str], time_limit: float) -> list[dict]
         lifted = root_lp(spec)
         for name in names:
             lp = lifted
-            if name == "ipx-null-space":  # not timed: its construction is part of milp's root (well under 1 s)
-                lp = root_lp(spec, null_space=True)
+            if name.startswith("ipx-null-space"):  # not timed: its construction is part of milp's root (< 1 s)
+                lp = root_lp(spec, null_space="cycles" if name.endswith("cycles") else "tree")
             cpu = time.process_time()
             if name in CLARABEL_ENGINES:
                 y, status = clarabel_duals(lp, time_limit, CLARABEL_ENGINES[name])
-            elif name == "ipx-null-space":
+            elif name.startswith("ipx-null-space"):
                 tolerances = {"primal_feasibility_tolerance": NULL_SPACE_IPM_TOL,
                               "dual_feasibility_tolerance": NULL_SPACE_IPM_TOL}
                 y, status = highs_duals(lp, "ipx", tolerances, time_limit)
