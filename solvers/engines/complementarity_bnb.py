@@ -80,9 +80,10 @@ the static field, every copy and the products with ``u`` are static or kinematic
 :mod:`~blockmpec.solvers.engines.null_space` solves equilibrium and compatibility once (a spanning tree of the
 contact graph gives a sparse basis of self-stresses) and writes the root LP in the remaining coordinates: the same
 LP, the same minimum, with every copy's equilibrium rows and all of ``W = x u^T`` gone (2x15 running-bond wall:
-166,078 x 87,359 -> 105,535 x 38,906).  IPX solves it 3-4x faster (CPU s, lifted -> null-space, same bound to
-1e-9: 2x4 1.6 -> 0.4, 5x2 8.6 -> 3.0, 4x3 27.0 -> 7.7, 2x8 36.6 -> 8.5), and the 2x13 and 2x15 walls, whose lifted
-root LP gave no bound in 1,500 s, in 61 s and 117 s.  Its pair rows are rows of the lifted LP, one to one, so their
+166,078 x 87,359 -> 105,535 x 38,906).  IPX solves it 3-4x faster (``python studies/root_lp_engines.py --engines
+2x4,5x2,4x3,2x8 --only ipx,ipx-null-space``, CPU s, lifted -> null-space, same bound to 1e-9: 2x4 1.59 -> 0.40, 5x2
+8.32 -> 2.85, 4x3 26.6 -> 6.92, 2x8 38.2 -> 8.55), and the 2x13 and 2x15 walls, whose lifted root LP gave no bound
+in 1,500 s, in 61 s and 123 s.  Its pair rows are rows of the lifted LP, one to one, so their
 duals pick the dormant rows as before; the node LPs stay on the lifted LP.  ``root_lp="ipm-lifted"`` solves the
 lifted LP (``"ipm"`` before).
 
