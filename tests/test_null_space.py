@@ -155,3 +155,19 @@ def test_an_unknown_basis_is_one_clear_error():
     solver.setup(bm.operators.assemble(CASES["wall-2x2"]()))
     with pytest.raises(ValueError, match="unknown basis 'loops'; use one of tree, cycles"):
         static_null_space(solver.form, "loops")
+
+
+def test_a_null_space_lp_that_fails_its_check_leaves_the_lifted_root(monkeypatch):
+    """If a row that should vanish on the null space did not hold (``null_space_lp`` raises), the root keeps the
+    lifted LP and still gives its bound: the reformulation is an acceleration, never a source of wrong bounds."""
+    import blockmpec.solvers.engines.null_space as ns
+
+    def broken(*args, **kwargs):
+        raise ValueError("null-space LP: a row of equilibrium or compatibility does not hold on the null space")
+
+    monkeypatch.setattr(ns, "null_space_lp", broken)
+    minimum = certified("wall-2x2").multiplier
+    _, bnb = _root("wall-2x2")
+    bound = bnb._interior_root()
+    assert not bnb.null_space_root
+    assert minimum - margin(CERTIFIED_TOL, minimum) <= bound <= minimum + margin(CERTIFIED_TOL, minimum)

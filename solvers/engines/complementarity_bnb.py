@@ -644,7 +644,10 @@ class ComplementarityBnB:
         space = static_null_space(self.form)
         if space is None:
             return None
-        return null_space_lp(self._A, c, rl, ru, cl, cu, lay, space)
+        try:
+            return null_space_lp(self._A, c, rl, ru, cl, cu, lay, space)
+        except ValueError:  # a row that should vanish on the null space does not hold: keep the lifted LP
+            return None
 
     def _generated_root(self, target: float = np.inf, record=None) -> float:
         """``root_lp="ipm-rows"``: the root LP (its bounds already applied) by row generation, each round one

@@ -202,7 +202,10 @@ def _cycle_self_stresses(Ed: np.ndarray, groups: np.ndarray, cycles: list[list[i
         # basis is best conditioned (an orthonormal basis mixes forces and moments)
         blocks = [local[3 * i:3 * i + 3] for i in range(len(cycle))]
         best = max(range(len(cycle)), key=lambda i: abs(np.linalg.det(blocks[i])) / max(np.abs(blocks[i]).max(), 1e-300) ** 3)
-        local = local @ np.linalg.inv(blocks[best])
+        try:
+            local = local @ np.linalg.inv(blocks[best])
+        except np.linalg.LinAlgError:
+            return None
         local[np.abs(local) <= 1e-14 * np.abs(local).max()] = 0.0
         r, c = np.nonzero(local)
         rows += forces[r].tolist()
