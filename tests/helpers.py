@@ -108,3 +108,14 @@ def assert_certified(res: bm.Result, sense: str = "min") -> None:
         assert res.extra["bound"] >= res.multiplier - 1e-7
         assert "maximum" in res.message and "minimum" not in res.message
     assert max(res.residuals.values()) <= CERTIFIED_TOL, res.residuals
+
+
+#: small structures and their certified minima; the opening wall and the two-block case have a minimum
+#: below the associative multiplier (a bound at the associative value there would be wrong)
+LIFTING_CASES = {
+    "wall-2x2": lambda: bm.cases.wall(2, 2),
+    "two-blocks": lambda: bm.cases.two_blocks(eta=3, mu=0.65),
+    "wall-3x2-opening": lambda: bm.cases.wall(3, 2, openings=[[0.5, 0.5, 1.5, 1.0]]),
+    "wall-4x2-stack-mu0.4": lambda: bm.cases.wall(4, 2, bond="stack", mu=0.4),
+    "arch-6": lambda: bm.cases.round_arch(n_voussoirs=6, thickness=0.15),
+}

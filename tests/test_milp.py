@@ -20,7 +20,7 @@ import pytest
 
 import blockmpec as bm
 from blockmpec.result import Status
-from helpers import assert_certified, two_block_associative, two_block_nonassociative_min
+from helpers import LIFTING_CASES, assert_certified, two_block_associative, two_block_nonassociative_min
 
 ETAS = [1, 2, 3, 4, 5]
 MUS = [0.3, 0.5, 0.65, 0.8, 1.0, 1.2, 1.5]
@@ -499,17 +499,6 @@ def test_huge_dead_point_loads_are_certified_in_the_problems_units(engine):
 # ----------------------------------------------------------------------------- issue 12: liftings of the bnb engine
 
 LIFTINGS = ["friction", "mechanism", "all", "rlt", "rlt-full"]
-
-#: small structures and their certified minima; the opening wall and the two-block case have a minimum
-#: below the associative multiplier (a bound at the associative value there would be wrong)
-LIFTING_CASES = {
-    "wall-2x2": lambda: bm.cases.wall(2, 2),
-    "two-blocks": lambda: bm.cases.two_blocks(eta=3, mu=0.65),
-    "wall-3x2-opening": lambda: bm.cases.wall(3, 2, openings=[[0.5, 0.5, 1.5, 1.0]]),
-    "wall-4x2-stack-mu0.4": lambda: bm.cases.wall(4, 2, bond="stack", mu=0.4),
-    "arch-6": lambda: bm.cases.round_arch(n_voussoirs=6, thickness=0.15),
-}
-
 
 def _lifted(structure, lifting: str):
     """(solver in per-block units, ComplementarityBnB with no incumbent) for ``lifting``."""

@@ -14,16 +14,10 @@ import scipy.linalg as sla
 
 import blockmpec as bm
 from blockmpec.solvers.engines.null_space import null_space_lp, static_null_space
-from helpers import CERTIFIED_TOL, assert_certified, margin
+from helpers import CERTIFIED_TOL, LIFTING_CASES, assert_certified, margin
 
 #: small structures of every family, two with a minimum below the associative multiplier
-CASES = {
-    "wall-2x2": lambda: bm.cases.wall(2, 2),
-    "two-blocks": lambda: bm.cases.two_blocks(eta=3, mu=0.65),
-    "wall-3x2-opening": lambda: bm.cases.wall(3, 2, openings=[[0.5, 0.5, 1.5, 1.0]]),
-    "wall-4x2-stack-mu0.4": lambda: bm.cases.wall(4, 2, bond="stack", mu=0.4),
-    "arch-6": lambda: bm.cases.round_arch(n_voussoirs=6, thickness=0.15),
-}
+CASES = LIFTING_CASES
 
 
 @functools.cache
