@@ -92,7 +92,6 @@ def root_lp(spec: str, lifting: str = "rlt-full", null_space: str | None = None)
     """``(A, c, row_lower, row_upper, col_lower, col_upper)`` of the root's lifted LP of the wall ``spec``; with
     ``null_space`` (a basis of :data:`~blockmpec.solvers.engines.null_space.BASES`) the same LP in the null-space
     coordinates that ``root_lp="ipm"`` solves (:mod:`blockmpec.solvers.engines.null_space`, basis ``"tree"``)."""
-    from blockmpec.solvers.engines.null_space import null_space_lp, static_null_space
     from blockmpec.solvers.milp import MILPSolver
 
     solver = MILPSolver(engine="bnb", lifting=lifting, root_lp="ipm")
@@ -101,10 +100,10 @@ def root_lp(spec: str, lifting: str = "rlt-full", null_space: str | None = None)
     bnb._apply(bnb.root, bnb.lam_lower, bnb.lam_cap)
     c, rl, ru, cl, cu = bnb._lp_arrays()
     if null_space:
-        space = static_null_space(solver.form, null_space)
-        if bnb._null_space_lp(c, rl, ru, cl, cu) is None or space is None:
+        reduced = bnb._null_space_lp(c, rl, ru, cl, cu, basis=null_space)
+        if reduced is None:
             raise SystemExit(f"{spec}: no null-space coordinates for lifting {lifting!r} (needs rlt-full)")
-        return null_space_lp(bnb._A, c, rl, ru, cl, cu, bnb.layout, space).arrays
+        return reduced.arrays
     return sp.csc_array(bnb._A), c, rl, ru, cl, cu
 
 

@@ -630,18 +630,16 @@ class ComplementarityBnB:
         self.ipm_bound = bound
         return bound
 
-    def _null_space_lp(self, c, rl, ru, cl, cu):
-        """The root LP in the null-space coordinates of :mod:`~blockmpec.solvers.engines.null_space`, or None
-        where the lifting does not allow them (not every force tied, copies without statics) or the structure
-        has no checked spanning-tree basis."""
-        from blockmpec.solvers.engines.null_space import null_space_lp, static_null_space
+    def _null_space_lp(self, c, rl, ru, cl, cu, basis: str = "tree"):
+        """The root LP in the null-space coordinates of :mod:`~blockmpec.solvers.engines.null_space` (self-stress
+        ``basis``), or None where the lifting does not allow them (not every force tied, copies without statics) or
+        the structure has no checked basis."""
+        from blockmpec.solvers.engines.null_space import layout_allows, null_space_lp, static_null_space
 
         lay = self.layout
-        nx = lay.x.stop - lay.x.start
-        if (lay.tied is None or lay.tied.size != nx or lay.v is None or self.static_copies != "all"
-                or len(lay.copies) != self.form.n_pairs):
+        if self.static_copies != "all" or not layout_allows(lay, self.form.n_pairs):
             return None
-        space = static_null_space(self.form)
+        space = static_null_space(self.form, basis)
         if space is None:
             return None
         try:
