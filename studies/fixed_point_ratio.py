@@ -1,6 +1,7 @@
 """The fixed point's total time against one cold associative LP solve (issue 6's ratio; issue 14's target).
 
-For each running-bond wall size, in one process and one run:
+For each running-bond wall size, in one run, each solve in a fresh process of its own (so that its peak
+resident memory, ``*_peak_memory_mb``, is its own: imports, assembly, model and solve):
 
 * ``cold LP``: ``static-lp`` with each algorithm of ``--lp-algorithms`` (solve time only;
   set-up, i.e. Pyomo build + compile + load, is reported apart; ``--lp-algorithms block-ipm``
@@ -31,6 +32,8 @@ from __future__ import annotations
 
 import argparse
 import math
+import multiprocessing
+import resource
 import sys
 from pathlib import Path
 
@@ -85,36 +88,61 @@ def parse_options(text: str) -> dict:
     return out
 
 
-def measure(wall: str, lp_algorithms: list[str], fixed_points: list[str], time_limit: float) -> list[dict]:
+def _structure(wall: str) -> bm.Structure:
     if "x" in wall:
         courses, per = (int(v) for v in wall.split("x"))
-        structure = bm.cases.wall(courses=courses, blocks_per_course=per)
-    else:
-        structure = wall_for(int(wall))
-    ops = bm.assemble(structure)
-    base: dict = {"blocks": ops.n_free_blocks, "wall": wall}
+        return bm.cases.wall(courses=courses, blocks_per_course=per)
+    return wall_for(int(wall))
+
+
+def _peak_memory_mb() -> float:
+    """Peak resident memory of this process (Linux: ``ru_maxrss`` in KiB)."""
+    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
+
+
+def solve_in_child(wall: str, method: str, options: dict, time_limit: float) -> dict:
+    """One solve of ``wall`` (run in a fresh process): what the tables need, and the process's peak memory."""
+    ops = bm.assemble(_structure(wall))
+    res, cpu = timed_solve(ops, method, time_limit=time_limit, **options)
+    return {"blocks": ops.n_free_blocks, "s": res.solve_time_s, "cpu_s": cpu, "setup_s": res.build_time_s,
+            "status": res.status.value, "verified": bool(res.success), "multiplier": res.multiplier,
+            "iterations": res.iterations, "engine": res.extra.get("engine"),
+            "lp_time_s": dict(res.extra.get("lp_time_s", {})), "peak_memory_mb": _peak_memory_mb()}
+
+
+def _fresh(*args) -> dict:
+    context = multiprocessing.get_context("spawn")
+    with context.Pool(1, maxtasksperchild=1) as pool:
+        return pool.apply(solve_in_child, args)
+
+
+def measure(wall: str, lp_algorithms: list[str], fixed_points: list[str], time_limit: float) -> list[dict]:
+    base: dict = {"wall": wall}
     for algorithm in lp_algorithms:
-        res, cpu = timed_solve(ops, "static-lp", algorithm=algorithm, time_limit=time_limit)
-        base[f"lp_{algorithm}_s"] = res.solve_time_s
-        base[f"lp_{algorithm}_cpu_s"] = cpu
-        base[f"lp_{algorithm}_setup_s"] = res.build_time_s
-        base[f"lp_{algorithm}_status"] = res.status.value
-        base[f"lp_{algorithm}_multiplier"] = res.multiplier
-        print(f"{wall}: static-lp {algorithm} {res.status.value} {res.solve_time_s:.3g} s (CPU {cpu:.3g} s)", flush=True)
+        lp = _fresh(wall, "static-lp", {"algorithm": algorithm}, time_limit)
+        base["blocks"] = lp["blocks"]
+        base[f"lp_{algorithm}_s"] = lp["s"]
+        base[f"lp_{algorithm}_cpu_s"] = lp["cpu_s"]
+        base[f"lp_{algorithm}_setup_s"] = lp["setup_s"]
+        base[f"lp_{algorithm}_status"] = lp["status"]
+        base[f"lp_{algorithm}_multiplier"] = lp["multiplier"]
+        base[f"lp_{algorithm}_peak_memory_mb"] = lp["peak_memory_mb"]
+        print(f"{wall}: static-lp {algorithm} {lp['status']} {lp['s']:.3g} s (CPU {lp['cpu_s']:.3g} s), "
+              f"peak {lp['peak_memory_mb']:.0f} MB", flush=True)
     rows = []
     for text in fixed_points:
-        fp, cpu = timed_solve(ops, "fixed-point", time_limit=time_limit, **parse_options(text))
-        row = {**base, "fixed_point": text, "fp_s": fp.solve_time_s, "fp_cpu_s": cpu, "fp_setup_s": fp.build_time_s,
-               "fp_status": fp.status.value, "fp_verified": bool(fp.success), "fp_engine": fp.extra.get("engine"),
-               "fp_iterations": fp.iterations, "fp_multiplier": fp.multiplier,
-               **{f"fp_{k}_s": v for k, v in fp.extra.get("lp_time_s", {}).items()}}
+        fp = _fresh(wall, "fixed-point", parse_options(text), time_limit)
+        row = {**base, "blocks": fp["blocks"], "fixed_point": text, "fp_s": fp["s"], "fp_cpu_s": fp["cpu_s"],
+               "fp_setup_s": fp["setup_s"], "fp_status": fp["status"], "fp_verified": fp["verified"],
+               "fp_engine": fp["engine"], "fp_iterations": fp["iterations"], "fp_multiplier": fp["multiplier"],
+               "fp_peak_memory_mb": fp["peak_memory_mb"], **{f"fp_{k}_s": v for k, v in fp["lp_time_s"].items()}}
         for algorithm in lp_algorithms:
             lp = base[f"lp_{algorithm}_s"]
-            row[f"ratio_vs_{algorithm}"] = fp.solve_time_s / lp if lp else math.nan
+            row[f"ratio_vs_{algorithm}"] = fp["s"] / lp if lp else math.nan
             lp_cpu = base[f"lp_{algorithm}_cpu_s"]
-            row[f"cpu_ratio_vs_{algorithm}"] = cpu / lp_cpu if lp_cpu else math.nan
-        print(f"{wall}: fixed-point {text}: {fp.status.value} (verified {bool(fp.success)}) lam={fp.multiplier} "
-              f"{fp.solve_time_s:.3g} s (CPU {cpu:.3g} s)", flush=True)
+            row[f"cpu_ratio_vs_{algorithm}"] = fp["cpu_s"] / lp_cpu if lp_cpu else math.nan
+        print(f"{wall}: fixed-point {text}: {fp['status']} (verified {fp['verified']}) lam={fp['multiplier']} "
+              f"{fp['s']:.3g} s (CPU {fp['cpu_s']:.3g} s), peak {fp['peak_memory_mb']:.0f} MB", flush=True)
         rows.append(row)
     return rows
 
@@ -131,8 +159,9 @@ def main(argv: list[str] | None = None) -> list[dict]:
     algorithms = args.lp_algorithms.split(",")
     walls = args.walls.split(",") if args.walls else args.sizes.split(",")
     rows = [r for w in walls for r in measure(w, algorithms, args.fixed_point.split(";"), args.time_limit)]
-    keys = ["blocks", *[f"lp_{a}_cpu_s" for a in algorithms], "fixed_point", "fp_engine", "fp_cpu_s", "fp_iterations",
-            "fp_status", "fp_verified", "fp_multiplier", *[f"ratio_vs_{a}" for a in algorithms],
+    keys = ["blocks", *[f"lp_{a}_cpu_s" for a in algorithms], *[f"lp_{a}_peak_memory_mb" for a in algorithms],
+            "fixed_point", "fp_engine", "fp_cpu_s", "fp_iterations", "fp_status", "fp_verified", "fp_multiplier",
+            "fp_peak_memory_mb", *[f"ratio_vs_{a}" for a in algorithms],
             *[f"cpu_ratio_vs_{a}" for a in algorithms]]
     text_keys = ("fp_status", "fixed_point", "fp_engine", "fp_verified")
     print(markdown(rows, [(k, k, "{}" if k in text_keys else "{:.5g}" if k == "fp_multiplier" else "{:.3g}")

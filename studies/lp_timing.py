@@ -14,11 +14,14 @@ Algorithms are those of ``static-lp`` (``blockmpec.solvers.engines.lp_engine.ALG
 HiGHS's ``dual-simplex``, ``primal-simplex``, ``ipm`` (with crossover), the
 ``block-ipm``, or ``auto``; and, for a side-by-side measurement of the library
 alternative, HiGHS's new interior-point solver HiPO (``hipo``: without crossover,
-``hipo-crossover``: with), which needs the ``highspy-extras`` wheel.  Usage::
+``hipo-crossover``: with), which needs the ``highspy-extras`` wheel, and Clarabel (pip ``clarabel``,
+Apache-2.0, not a dependency of blockmpec: ``clarabel`` with its default tolerances 1e-8, ``clarabel-1e-10``
+with gap and feasibility tolerances 1e-10; :class:`ClarabelLP`).  Usage::
 
     python studies/lp_timing.py [--sizes 100,1000,10000] [--algorithms auto] [--time-limit 600]
                                 [--walls 100x100,316x316] [--orderings auto,mmd] [--ipm-settings previous,default]
                                 [--factorisations superlu,supernodal] [--algorithms block-ipm,hipo,hipo-crossover]
+                                [--algorithms block-ipm,clarabel,clarabel-1e-10]
 
 ``--walls CxB`` gives walls of ``courses=C, blocks_per_course=B`` instead of sizes.
 
@@ -41,6 +44,8 @@ import numpy as np
 import blockmpec as bm
 from blockmpec.formulations import compile_linear, static_lp
 from blockmpec.formulations._pyomo import pause_gc
+from blockmpec.result import Status
+from blockmpec.solvers.engines.highs import LPOutcome
 from blockmpec.solvers.engines.lp_engine import cold_lp_engine
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
@@ -72,6 +77,68 @@ def hipo_engine(lp, ops, time_limit: float, crossover: bool):
     return engine
 
 
+#: Clarabel's outcome -> :class:`Status` (any other: numerical)
+CLARABEL_STATUS = {"Solved": Status.OPTIMAL, "AlmostSolved": Status.ACCEPTABLE, "MaxTime": Status.TIME_LIMIT,
+                   "MaxIterations": Status.ITERATION_LIMIT, "PrimalInfeasible": Status.INFEASIBLE,
+                   "DualInfeasible": Status.UNBOUNDED}
+
+
+class ClarabelLP:
+    """Clarabel on the static LP in the same load units as the other engines (``R A C``, ``R b``, ``C c``).
+
+    Clarabel's form is ``min c^T v`` s.t. ``M v + s = q``, ``s`` in (zero cone of the equality rows) x
+    (nonnegative cone of the one-sided rows): a ``<=`` row is ``a v + s = u``, a ``>=`` row ``-a v + s = -l``.
+    The answer comes back in the compiled LP's units with HiGHS's row-dual signs (``-z`` on the rows written
+    ``a v + s = u``, ``+z`` on the negated ones), which :func:`static_lp_solution` reads.
+    """
+
+    def __init__(self, lp, ops, time_limit: float, tolerance: float | None) -> None:
+        from blockmpec.solvers.engines.scaling import load_scaling
+
+        try:
+            import clarabel
+        except ImportError:
+            raise SystemExit("clarabel is not installed (pip install clarabel): it is not a dependency of blockmpec")
+        import scipy.sparse as sp
+
+        if np.any(np.isfinite(lp.col_lower)) or np.any(np.isfinite(lp.col_upper)):
+            raise ValueError("ClarabelLP: the static LP's columns are free")
+        self.lp, self.clarabel = lp, clarabel
+        row_scale, self.column_scale = load_scaling(lp, ops)
+        A = sp.csr_array(sp.diags(row_scale) @ lp.A @ sp.diags(self.column_scale))
+        rl, ru = row_scale * lp.row_lower, row_scale * lp.row_upper
+        eq = np.isfinite(rl) & np.isfinite(ru) & (rl == ru)
+        self.masks = (eq, np.isfinite(ru) & ~eq, np.isfinite(rl) & ~eq)  # equalities, <=, >=
+        self.row_scale = row_scale
+        self.M = sp.csc_matrix(sp.vstack([A[eq], A[self.masks[1]], -A[self.masks[2]]]))
+        self.q = np.concatenate([rl[eq], ru[self.masks[1]], -rl[self.masks[2]]])
+        self.c = self.column_scale * lp.c
+        self.cones = [clarabel.ZeroConeT(int(eq.sum())), clarabel.NonnegativeConeT(int(self.masks[1].sum() + self.masks[2].sum()))]
+        self.settings = clarabel.DefaultSettings()
+        self.settings.verbose = False
+        self.settings.time_limit = time_limit if np.isfinite(time_limit) else 1e9
+        if tolerance is not None:
+            self.settings.tol_gap_abs = self.settings.tol_gap_rel = self.settings.tol_feas = tolerance
+
+    def solve(self) -> LPOutcome:
+        import scipy.sparse as sp
+
+        n = self.c.size
+        sol = self.clarabel.DefaultSolver(sp.csc_matrix((n, n)), self.c, self.M, self.q, self.cones, self.settings).solve()
+        raw = str(sol.status)
+        status = CLARABEL_STATUS.get(raw, Status.NUMERICAL)
+        z = np.asarray(sol.z)
+        row_dual = np.zeros(self.row_scale.size)
+        start = 0
+        for mask, sign in zip(self.masks, (-1.0, -1.0, 1.0)):
+            count = int(mask.sum())
+            row_dual[mask] = sign * z[start:start + count]
+            start += count
+        v = self.column_scale * np.asarray(sol.x)
+        return LPOutcome(status, f"clarabel: {raw}", float(self.lp.c @ v), v, self.row_scale * row_dual,
+                         int(sol.iterations), raw)
+
+
 def time_one(wall: str, algorithm: str, time_limit: float = float("inf"), ordering: str = "auto",
              max_iterations: int | None = None, ipm_settings: str = "default", factorisation: str = "auto") -> dict:
     """One cold solve of the static LP of ``wall`` (a size ``"1000"`` or ``"CxB"`` courses x blocks per course)."""
@@ -93,6 +160,8 @@ def time_one(wall: str, algorithm: str, time_limit: float = float("inf"), orderi
     t4, c4 = time.perf_counter(), time.process_time()
     if algorithm.startswith("hipo"):
         engine = hipo_engine(lp, ops, time_limit, crossover=algorithm == "hipo-crossover")
+    elif algorithm.startswith("clarabel"):
+        engine = ClarabelLP(lp, ops, time_limit, tolerance=1e-10 if algorithm == "clarabel-1e-10" else None)
     else:
         engine = cold_lp_engine(lp, algorithm, time_limit, ops=ops)  # as static-lp runs it: in load units
     if isinstance(engine, BlockIPM):
@@ -177,7 +246,8 @@ def main(argv: list[str] | None = None) -> list[dict]:
           "| factorisations, solves with K (CPU) | build + compile / solve | peak memory | verified 1e-8 | λ |")
     print("| ---: | --- | --- | --- | --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | --- | ---: |")
     for r in rows:
-        engine = "block IPM" if r["engine"] == "BlockIPM" else f"HiGHS {r['algorithm']}"
+        engine = ("block IPM" if r["engine"] == "BlockIPM" else r["algorithm"] if r["engine"] == "ClarabelLP"
+                  else f"HiGHS {r['algorithm']}")
         kind = {"SupernodalCholesky": "supernodal Cholesky", "SymmetricFactoriser": "SuperLU"}.get(r["factorisation"], "–")
         print(f"| {r['blocks']:,} | {engine} | {r['ordering'] or '–'} | {kind} | {r['ipm_settings'] or '–'} "
               f"| {r['pyomo_build_cpu_s']:.2g} s | {r['compile_cpu_s']:.2g} s | **{r['solve_cpu_s']:.3g} s** ({r['solve_s']:.3g} s) "
