@@ -10,7 +10,8 @@ Exit codes
 2 = bad input or usage; 3 = internal error.  ``compare``: 0 when every run finished,
 whatever the statuses; 2 = bad input (every value, including the output folder, is
 checked before any solve runs); 130 after Ctrl-C (143 after SIGTERM), once the finished
-rows are saved.  ``export``, ``cases``, ``methods``: 0, 2 or 3.
+rows are saved.  ``export``, ``cases``, ``methods``: 0, 2 or 3.  Any command whose output's reader
+has gone (``blockmpec methods | head``) stops quietly with 141, the shell's code for a SIGPIPE.
 """
 
 from __future__ import annotations
@@ -471,6 +472,15 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+def _detach_stdout() -> None:
+    """Point stdout at /dev/null, so that the interpreter's last flush at exit does not fail once more."""
+    try:
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+    except (AttributeError, OSError, ValueError):  # stdout is not a file (replaced, closed)
+        pass
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
@@ -479,6 +489,10 @@ def main(argv: list[str] | None = None) -> int:
     except BlockmpecError as exc:
         print(f"blockmpec: error: {exc}", file=sys.stderr)
         return 2
+    except BrokenPipeError:
+        # the reader of stdout has gone: nothing is wrong with the run, so no message
+        _detach_stdout()
+        return 141
     except Exception as exc:  # pragma: no cover - last resort, still no traceback by default
         if args.debug:
             raise

@@ -255,3 +255,15 @@ def test_sigterm_is_handled_like_ctrl_c(tmp_path):
     _, stderr = proc.communicate(timeout=60)
     assert proc.returncode == 143, stderr
     assert "interrupted (SIGTERM): 1 finished row(s) saved" in stderr and "Traceback" not in stderr
+
+
+@pytest.mark.parametrize("module", ["blockmpec", "blockmpec.cli"])
+def test_closed_output_pipe_stops_quietly(module):
+    """``blockmpec methods | head``: the reader leaves before the output is written; no error message,
+    exit code 141 (the shell's code for SIGPIPE), and ``python -m blockmpec`` is the same command."""
+    proc = subprocess.Popen([sys.executable, "-m", module, "methods"], stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True)
+    proc.stdout.close()  # before the child has imported anything, so its first write meets a closed pipe
+    _, stderr = proc.communicate(timeout=120)
+    assert proc.returncode == 141, stderr
+    assert stderr == ""
