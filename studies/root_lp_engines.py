@@ -7,14 +7,18 @@ asks whether another interior point, an IPX setting or a smaller lifting would d
 
 Part 1 (``--engines``): the same root LP (the root's bounds applied, every row) by each engine, one after the other in
 one process: CPU seconds and the dual bound of :func:`~blockmpec.solvers.engines.complementarity_bnb.dual_bound` from
-its row duals (the bound ``milp`` would use; ``-inf``: none).  Engines:
+its row duals (the bound ``milp`` would use; ``-inf``: none), and ``open_reduced_cost``, the largest reduced cost
+those duals leave towards an open column bound (:func:`~blockmpec.solvers.engines.complementarity_bnb.open_reduced_cost`:
+above ``LP_TOL`` = 1e-9 the bound is ``-inf`` unless its least-squares correction repairs it).  Engines:
 
 * ``ipx``: HiGHS's IPX without crossover on the lifted LP, what ``root_lp="ipm"`` ran before the null-space
   coordinates (``root_lp="ipm-lifted"`` now);
 * ``ipx-null-space``: the same LP in null-space coordinates (:mod:`blockmpec.solvers.engines.null_space`:
   equilibrium and compatibility solved once, ``W = x u^T`` and every copy's equilibrium rows gone), by IPX
   without crossover at feasibility tolerances ``NULL_SPACE_IPM_TOL``: what ``root_lp="ipm"`` runs now;
-  ``ipx-null-space-cycles``: the same with the short-cycle basis of self-stresses (``basis="cycles"``).  Measured
+  ``ipx-null-space-cycles``: the same with the short-cycle basis of self-stresses (``basis="cycles"``);
+  ``ipx-null-space-crossover``: the null-space LP by IPX *with* crossover, the optimal basis a search by warm dual
+  simplex node LPs would start from (its cost is the question; 6x3 wall: see the README's taller walls).  Measured
   (``--engines 2x4,5x2,4x3,2x8 --only ipx,ipx-null-space``, one run, CPU s, lifted against null-space):
   see the README's root-LP section;
 * ``ipx-presolve-off``, ``ipx-tol-1e-4``: IPX with HiGHS's presolve off / ``ipm_optimality_tolerance=1e-4``;
@@ -60,7 +64,7 @@ import scipy.sparse as sp
 import blockmpec as bm
 
 OUT = Path(__file__).parent / "output" / "root_lp_engines"
-ENGINES = ("ipx", "ipx-null-space", "ipx-null-space-cycles", "ipx-presolve-off", "ipx-tol-1e-4", "ipx-primal", "ipx-filippo", "hipo",
+ENGINES = ("ipx", "ipx-null-space", "ipx-null-space-cycles", "ipx-null-space-crossover", "ipx-presolve-off", "ipx-tol-1e-4", "ipx-primal", "ipx-filippo", "hipo",
            "hipo-augmented", "hipo-normaleq", "clarabel", "clarabel-faer")
 #: HiGHS options of each HiGHS engine (the interior point without crossover in every case)
 HIGHS_ENGINES = {"ipx": ("ipx", {}), "ipx-presolve-off": ("ipx", {"presolve": "off"}),
@@ -107,8 +111,9 @@ def root_lp(spec: str, lifting: str = "rlt-full", null_space: str | None = None)
     return sp.csc_array(bnb._A), c, rl, ru, cl, cu
 
 
-def highs_duals(lp, solver: str, options: dict, time_limit: float):
-    """Row duals of the LP by one of HiGHS's interior points without crossover (None if it gave none)."""
+def highs_duals(lp, solver: str, options: dict, time_limit: float, crossover: bool = False):
+    """Row duals of the LP by one of HiGHS's interior points, without crossover unless ``crossover`` (None if it
+    gave none)."""
     import highspy
 
     from blockmpec.solvers.engines.highs import highs_lp, use_interior_point
@@ -122,7 +127,7 @@ def highs_duals(lp, solver: str, options: dict, time_limit: float):
             import highspy_extras  # noqa: F401
         except ImportError:
             raise SystemExit("hipo needs the wheel highspy-extras (without it HiGHS silently runs another solver)")
-    use_interior_point(h, crossover=False, solver=solver)
+    use_interior_point(h, crossover=crossover, solver=solver)
     h.setOptionValue("time_limit", time_limit)
     for name, value in options.items():
         h.setOptionValue(name, value)
@@ -168,7 +173,7 @@ def clarabel_duals(lp, time_limit: float, direct_solve_method: str = "auto"):
 
 
 def engines(walls: list[str], names: list[str], time_limit: float) -> list[dict]:
-    from blockmpec.solvers.engines.complementarity_bnb import NULL_SPACE_IPM_TOL, dual_bound
+    from blockmpec.solvers.engines.complementarity_bnb import NULL_SPACE_IPM_TOL, dual_bound, open_reduced_cost
 
     rows = []
     for spec in walls:
@@ -183,14 +188,14 @@ def engines(walls: list[str], names: list[str], time_limit: float) -> list[dict]
             elif name.startswith("ipx-null-space"):
                 tolerances = {"primal_feasibility_tolerance": NULL_SPACE_IPM_TOL,
                               "dual_feasibility_tolerance": NULL_SPACE_IPM_TOL}
-                y, status = highs_duals(lp, "ipx", tolerances, time_limit)
+                y, status = highs_duals(lp, "ipx", tolerances, time_limit, crossover=name.endswith("crossover"))
             else:
                 solver, options = HIGHS_ENGINES[name]
                 y, status = highs_duals(lp, solver, options, time_limit)
             cpu = time.process_time() - cpu
             bound = -np.inf if y is None else dual_bound(*lp, y)
             row = {"wall": spec, "rows": int(lp[0].shape[0]), "engine": name, "status": status, "cpu_s": cpu,
-                   "bound": bound}
+                   "bound": bound, "open_reduced_cost": None if y is None else open_reduced_cost(*lp, y)}
             _emit(rows, row)
     return rows
 

@@ -610,6 +610,21 @@ def test_dual_bound_is_weak_duality():
     assert dual_bound(A, c, rl, ru, cl, cu, np.array([-1.0, 1.0]), correct=False) == pytest.approx(0.0, abs=1e-15)
 
 
+def test_open_reduced_cost_is_what_makes_the_bound_infinite():
+    """The LP of the test above: y = (2, 0) leaves d = (-1, -1), towards w0's open upper bound (1) and w1's finite
+    one; y = (1, 0) leaves none; a wrong-signed dual is cleaned first, as the bound does: y = (-1, 0) -> (0, 0), d = c."""
+    import scipy.sparse as sp
+
+    from blockmpec.solvers.engines.complementarity_bnb import open_reduced_cost
+
+    A = sp.csc_array(np.array([[1.0, 1.0], [1.0, -1.0]]))
+    c, rl, ru = np.array([1.0, 1.0]), np.array([1.0, 0.0]), np.array([np.inf, 0.0])
+    cl, cu = np.array([-np.inf, 0.0]), np.array([np.inf, 3.0])
+    assert open_reduced_cost(A, c, rl, ru, cl, cu, np.array([2.0, 0.0])) == pytest.approx(1.0, abs=1e-15)
+    assert open_reduced_cost(A, c, rl, ru, cl, cu, np.array([1.0, 0.0])) == 0.0
+    assert open_reduced_cost(A, c, rl, ru, cl, cu, np.array([-1.0, 0.0])) == pytest.approx(1.0, abs=1e-15)
+
+
 @pytest.mark.parametrize("lifting", ["friction", "rlt"])
 @pytest.mark.parametrize("case_id", ["wall-2x2", "wall-3x2-opening"])
 def test_dormant_rows_give_a_relaxation(lifting, case_id):

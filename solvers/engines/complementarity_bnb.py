@@ -354,6 +354,27 @@ def lifted_lp(form, B: sp.coo_array, lam_lower: float, lam_upper: float, slack_m
     return A, np.concatenate(lo), np.concatenate(hi), col_lower, col_upper, c, layout
 
 
+def _sign_cleaned(A, c, row_lower, row_upper, col_lower, col_upper, y) -> tuple:
+    """``(y, d, open)``: the row duals with every entry of the wrong sign for its row set to 0 (a one-sided row's,
+    a free row's), the reduced costs ``d = c - A^T y`` and the columns whose ``d`` points at an open bound (a
+    positive ``d`` on a column without lower bound, a negative one without upper bound)."""
+    lower_open, upper_open = ~np.isfinite(row_lower), ~np.isfinite(row_upper)
+    y = np.array(y, dtype=float)
+    y[lower_open & (y > 0)] = 0.0
+    y[upper_open & (y < 0)] = 0.0
+    y[lower_open & upper_open] = 0.0
+    d = c - A.T @ y
+    unbounded = ((d > 0) & ~np.isfinite(col_lower)) | ((d < 0) & ~np.isfinite(col_upper))
+    return y, d, unbounded
+
+
+def open_reduced_cost(A, c, row_lower, row_upper, col_lower, col_upper, y) -> float:
+    """The largest reduced cost towards an open column bound left by the row duals ``y`` (signs cleaned as in
+    :func:`dual_bound`): above ``LP_TOL`` the uncorrected dual bound is ``-inf``."""
+    _, d, unbounded = _sign_cleaned(sp.csc_array(A), c, row_lower, row_upper, col_lower, col_upper, y)
+    return float(np.abs(d[unbounded]).max(initial=0.0))
+
+
 def dual_bound(A, c, row_lower, row_upper, col_lower, col_upper, y, tol: float = LP_TOL,
                correct: bool = True) -> float:
     r"""A lower bound on ``min c^T w`` s.t. ``row_lower <= A w <= row_upper``, ``col_lower <= w <= col_upper``
@@ -374,12 +395,7 @@ def dual_bound(A, c, row_lower, row_upper, col_lower, col_upper, y, tol: float =
     col_lower_open, col_upper_open = ~np.isfinite(col_lower), ~np.isfinite(col_upper)
 
     def value(y):
-        y = y.copy()
-        y[lower_open & (y > 0)] = 0.0
-        y[upper_open & (y < 0)] = 0.0
-        y[lower_open & upper_open] = 0.0
-        d = c - A.T @ y
-        unbounded = ((d > 0) & col_lower_open) | ((d < 0) & col_upper_open)
+        y, d, unbounded = _sign_cleaned(A, c, row_lower, row_upper, col_lower, col_upper, y)
         if np.abs(d[unbounded]).max(initial=0.0) > tol:
             return -np.inf, y, d
         with np.errstate(invalid="ignore"):
