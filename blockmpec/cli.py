@@ -485,7 +485,9 @@ def main(argv: list[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
     try:
-        return int(args.func(args))
+        code = int(args.func(args))
+        sys.stdout.flush()  # here, so that a reader gone by now is the BrokenPipeError below, not one at exit
+        return code
     except BlockmpecError as exc:
         print(f"blockmpec: error: {exc}", file=sys.stderr)
         return 2
