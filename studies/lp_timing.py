@@ -40,6 +40,7 @@ import time
 from pathlib import Path
 
 import numpy as np
+import scipy.sparse as sp
 
 import blockmpec as bm
 from blockmpec.formulations import compile_linear, static_lp
@@ -49,6 +50,7 @@ from blockmpec.solvers.engines.highs import LPOutcome
 from blockmpec.solvers.engines.lp_engine import cold_lp_engine
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
+from _clarabel import ClarabelProblem  # noqa: E402
 from _tables import write_csv  # noqa: E402
 
 OUT = Path(__file__).parent / "output" / "lp_timing"
@@ -84,59 +86,30 @@ CLARABEL_STATUS = {"Solved": Status.OPTIMAL, "AlmostSolved": Status.ACCEPTABLE, 
 
 
 class ClarabelLP:
-    """Clarabel on the static LP in the same load units as the other engines (``R A C``, ``R b``, ``C c``).
-
-    Clarabel's form is ``min c^T v`` s.t. ``M v + s = q``, ``s`` in (zero cone of the equality rows) x
-    (nonnegative cone of the one-sided rows): a ``<=`` row is ``a v + s = u``, a ``>=`` row ``-a v + s = -l``.
-    The answer comes back in the compiled LP's units with HiGHS's row-dual signs (``-z`` on the rows written
-    ``a v + s = u``, ``+z`` on the negated ones), which :func:`static_lp_solution` reads.
-    """
+    """Clarabel (:class:`_clarabel.ClarabelProblem`) on the static LP in the same load units as the other engines
+    (``R A C``, ``R b``, ``C c``; its columns are free); the answer in the compiled LP's units with HiGHS's row-dual
+    signs, which :func:`static_lp_solution` reads.  ``tolerance``: Clarabel's gap and feasibility tolerances (None:
+    its defaults)."""
 
     def __init__(self, lp, ops, time_limit: float, tolerance: float | None) -> None:
         from blockmpec.solvers.engines.scaling import load_scaling
 
-        try:
-            import clarabel
-        except ImportError:
-            raise SystemExit("clarabel is not installed (pip install clarabel): it is not a dependency of blockmpec")
-        import scipy.sparse as sp
-
         if np.any(np.isfinite(lp.col_lower)) or np.any(np.isfinite(lp.col_upper)):
             raise ValueError("ClarabelLP: the static LP's columns are free")
-        self.lp, self.clarabel = lp, clarabel
-        row_scale, self.column_scale = load_scaling(lp, ops)
-        A = sp.csr_array(sp.diags(row_scale) @ lp.A @ sp.diags(self.column_scale))
-        rl, ru = row_scale * lp.row_lower, row_scale * lp.row_upper
-        eq = np.isfinite(rl) & np.isfinite(ru) & (rl == ru)
-        self.masks = (eq, np.isfinite(ru) & ~eq, np.isfinite(rl) & ~eq)  # equalities, <=, >=
-        self.row_scale = row_scale
-        self.M = sp.csc_matrix(sp.vstack([A[eq], A[self.masks[1]], -A[self.masks[2]]]))
-        self.q = np.concatenate([rl[eq], ru[self.masks[1]], -rl[self.masks[2]]])
-        self.c = self.column_scale * lp.c
-        self.cones = [clarabel.ZeroConeT(int(eq.sum())), clarabel.NonnegativeConeT(int(self.masks[1].sum() + self.masks[2].sum()))]
-        self.settings = clarabel.DefaultSettings()
-        self.settings.verbose = False
-        self.settings.time_limit = time_limit if np.isfinite(time_limit) else 1e9
+        self.lp = lp
+        self.row_scale, self.column_scale = load_scaling(lp, ops)
+        A = sp.diags(self.row_scale) @ lp.A @ sp.diags(self.column_scale)
+        self.problem = ClarabelProblem(A, self.column_scale * lp.c, self.row_scale * lp.row_lower,
+                                       self.row_scale * lp.row_upper, lp.col_lower, lp.col_upper)
+        self.settings = {"time_limit": time_limit if np.isfinite(time_limit) else 1e9}
         if tolerance is not None:
-            self.settings.tol_gap_abs = self.settings.tol_gap_rel = self.settings.tol_feas = tolerance
+            self.settings.update(tol_gap_abs=tolerance, tol_gap_rel=tolerance, tol_feas=tolerance)
 
     def solve(self) -> LPOutcome:
-        import scipy.sparse as sp
-
-        n = self.c.size
-        sol = self.clarabel.DefaultSolver(sp.csc_matrix((n, n)), self.c, self.M, self.q, self.cones, self.settings).solve()
-        raw = str(sol.status)
-        status = CLARABEL_STATUS.get(raw, Status.NUMERICAL)
-        z = np.asarray(sol.z)
-        row_dual = np.zeros(self.row_scale.size)
-        start = 0
-        for mask, sign in zip(self.masks, (-1.0, -1.0, 1.0)):
-            count = int(mask.sum())
-            row_dual[mask] = sign * z[start:start + count]
-            start += count
-        v = self.column_scale * np.asarray(sol.x)
-        return LPOutcome(status, f"clarabel: {raw}", float(self.lp.c @ v), v, self.row_scale * row_dual,
-                         int(sol.iterations), raw)
+        x, row_dual, raw, iterations = self.problem.solve(**self.settings)
+        v = self.column_scale * x
+        return LPOutcome(CLARABEL_STATUS.get(raw, Status.NUMERICAL), f"clarabel: {raw}", float(self.lp.c @ v), v,
+                         self.row_scale * row_dual, iterations, raw)
 
 
 def time_one(wall: str, algorithm: str, time_limit: float = float("inf"), ordering: str = "auto",

@@ -55,6 +55,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import sys
 import time
 from pathlib import Path
 
@@ -62,6 +63,9 @@ import numpy as np
 import scipy.sparse as sp
 
 import blockmpec as bm
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from _clarabel import ClarabelProblem  # noqa: E402
 
 OUT = Path(__file__).parent / "output" / "root_lp_engines"
 ENGINES = ("ipx", "ipx-null-space", "ipx-null-space-cycles", "ipx-null-space-crossover", "ipx-presolve-off", "ipx-tol-1e-4", "ipx-primal", "ipx-filippo", "hipo",
@@ -137,39 +141,13 @@ def highs_duals(lp, solver: str, options: dict, time_limit: float, crossover: bo
 
 
 def clarabel_duals(lp, time_limit: float, direct_solve_method: str = "auto"):
-    """Row duals of the LP by Clarabel: ``min c^T w`` s.t. ``M w + s = b``, ``s`` in (zero cone of the equality
-    rows) x (nonnegative cone of the one-sided rows and column bounds); HiGHS's row dual is ``-z`` on the rows
-    written ``A w + s = b`` and ``+z`` on those written ``-A w + s = -b``."""
-    try:
-        import clarabel
-    except ImportError:
-        raise SystemExit("clarabel is not installed (pip install clarabel): it is not a dependency of blockmpec")
-    A, c, rl, ru, cl, cu = lp
-    A = sp.csr_array(A)
-    eq = np.isfinite(rl) & np.isfinite(ru) & (rl == ru)
-    lo, up = np.isfinite(rl) & ~eq, np.isfinite(ru) & ~eq
-    n = A.shape[1]
-    eye = sp.identity(n, format="csr")
-    has_lower, has_upper = np.isfinite(cl), np.isfinite(cu)
-    M = sp.csc_matrix(sp.vstack([A[eq], -A[lo], A[up], -eye[has_lower], eye[has_upper]]))
-    b = np.concatenate([rl[eq], -rl[lo], ru[up], -cl[has_lower], cu[has_upper]])
-    cones = [clarabel.ZeroConeT(int(eq.sum())),
-             clarabel.NonnegativeConeT(int(lo.sum() + up.sum() + has_lower.sum() + has_upper.sum()))]
-    settings = clarabel.DefaultSettings()
-    settings.verbose = False
-    settings.time_limit = time_limit
-    settings.tol_gap_abs = settings.tol_gap_rel = settings.tol_feas = 1e-10
-    settings.static_regularization_constant = 1e-7
-    settings.direct_solve_method = direct_solve_method  # "faer": a supernodal LDL^T (Rust), on max_threads threads
-    sol = clarabel.DefaultSolver(sp.csc_matrix((n, n)), c, M, b, cones, settings).solve()
-    z = np.asarray(sol.z)
-    y = np.zeros(A.shape[0])
-    start = 0
-    for mask, sign in ((eq, -1.0), (lo, 1.0), (up, -1.0)):
-        k = int(mask.sum())
-        y[mask] = sign * z[start:start + k]
-        start += k
-    return y, str(sol.status)
+    """Row duals of the LP by Clarabel (:class:`_clarabel.ClarabelProblem`, HiGHS's signs) at tolerances 1e-10 with
+    static regularisation 1e-7, and its status name."""
+    _, y, status, _ = ClarabelProblem(*lp).solve(
+        time_limit=time_limit, tol_gap_abs=1e-10, tol_gap_rel=1e-10, tol_feas=1e-10,
+        static_regularization_constant=1e-7,
+        direct_solve_method=direct_solve_method)  # "faer": a supernodal LDL^T (Rust), on max_threads threads
+    return y, status
 
 
 def engines(walls: list[str], names: list[str], time_limit: float) -> list[dict]:
