@@ -1,4 +1,4 @@
-"""Table helpers shared by the study scripts: one CSV writer and one markdown formatter.
+"""Helpers shared by the study scripts: one CSV writer, one markdown formatter and the process's peak memory.
 
 Imported by path (``sys.path`` holds ``studies/`` when a script runs), with no
 dependency on any study, so every study can use it without import cycles.
@@ -9,7 +9,15 @@ from __future__ import annotations
 import contextlib
 import csv
 import math
+import resource
+import sys
 from pathlib import Path
+
+
+def peak_memory_mb() -> float:
+    """Peak resident memory of this process so far, in MB (``ru_maxrss``: bytes on macOS, KiB on Linux)."""
+    peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+    return peak / 2**20 if sys.platform == "darwin" else peak / 1024
 
 
 def write_csv(path: Path, rows: list[dict], columns: list[str] | None = None) -> Path:

@@ -64,7 +64,7 @@ import blockmpec as bm
 # sibling studies (this script's folder is sys.path[0] when run as a script)
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _tables import fmt as _fmt  # noqa: E402
-from _tables import markdown, write_csv  # noqa: E402
+from _tables import markdown, peak_memory_mb, write_csv  # noqa: E402
 from lp_timing import wall_for  # noqa: E402
 from milp_scaling import run_case  # noqa: E402
 
@@ -135,13 +135,6 @@ def structure_for(family: str, n_blocks: int) -> bm.Structure:
 # --------------------------------------------------------------------------- subprocess side
 
 
-def _peak_memory_mb() -> float:
-    import resource
-
-    peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
-    return peak / 2**20 if sys.platform == "darwin" else peak / 1024  # bytes on macOS, KiB on Linux
-
-
 def _with_time_limit(method: str, options: dict, time_limit: float) -> dict:
     """``options`` plus ``time_limit`` when the method has that option."""
     names = [f[0] for f in bm.solver.option_fields(bm.get_solver(method))]
@@ -160,14 +153,14 @@ def child_scaling(spec: dict) -> None:
     from blockmpec.formulations import compile_linear, static_lp
     from blockmpec.formulations._pyomo import pause_gc
 
-    row: dict = {"family": spec["family"], "target_blocks": spec["n"], "baseline_memory_mb": _peak_memory_mb()}
+    row: dict = {"family": spec["family"], "target_blocks": spec["n"], "baseline_memory_mb": peak_memory_mb()}
     t0 = time.perf_counter()
     structure = structure_for(spec["family"], spec["n"])
     t1 = time.perf_counter()
     ops = bm.assemble(structure)
     t2 = time.perf_counter()
     row.update(blocks=structure.n_free, interfaces=len(structure.interfaces), generate_s=t1 - t0, assemble_s=t2 - t1,
-               peak_memory_mb=_peak_memory_mb())
+               peak_memory_mb=peak_memory_mb())
     _emit(row)
 
     t0 = time.perf_counter()
@@ -176,7 +169,7 @@ def child_scaling(spec: dict) -> None:
     lp = compile_linear(problem)
     t2 = time.perf_counter()
     row.update(pyomo_build_s=t1 - t0, compile_s=t2 - t1, lp_rows=lp.A.shape[0], lp_columns=lp.A.shape[1],
-               peak_memory_mb=_peak_memory_mb())
+               peak_memory_mb=peak_memory_mb())
     del problem, lp
     gc.collect()
     _emit(row)
@@ -184,7 +177,7 @@ def child_scaling(spec: dict) -> None:
     res = bm.solve(ops, spec["lp_method"], **_with_time_limit(spec["lp_method"], spec["lp_options"], spec["time_limit"]))
     row.update(lp_setup_s=res.build_time_s, lp_solve_s=res.solve_time_s, lp_status=res.status.value,
                lp_multiplier=res.multiplier, lp_iterations=res.iterations, lp_max_residual=res.max_residual,
-               lp_message=res.message[:200], peak_memory_mb=_peak_memory_mb())
+               lp_message=res.message[:200], peak_memory_mb=peak_memory_mb())
     del res
     gc.collect()
     _emit(row)
@@ -199,7 +192,7 @@ def child_scaling(spec: dict) -> None:
                    fp_total_s=res.build_time_s + res.solve_time_s, fp_status=res.status.value,
                    fp_multiplier=res.multiplier, fp_lp_solves=res.extra.get("lp_solves"),
                    fp_max_residual=res.max_residual, fp_message=res.message[:200])
-    row.update(peak_memory_mb=_peak_memory_mb())
+    row.update(peak_memory_mb=peak_memory_mb())
     row["memory_above_baseline_mb"] = row["peak_memory_mb"] - row["baseline_memory_mb"]
     _emit(row)
 

@@ -33,14 +33,13 @@ from __future__ import annotations
 import argparse
 import math
 import multiprocessing
-import resource
 import sys
 from pathlib import Path
 
 import blockmpec as bm
 
 sys.path.insert(0, str(Path(__file__).parent))
-from _tables import markdown, write_csv  # noqa: E402
+from _tables import markdown, peak_memory_mb, write_csv  # noqa: E402
 from lp_timing import wall_for  # noqa: E402
 
 OUT = Path(__file__).parent / "output" / "fixed_point_ratio"
@@ -95,11 +94,6 @@ def _structure(wall: str) -> bm.Structure:
     return wall_for(int(wall))
 
 
-def _peak_memory_mb() -> float:
-    """Peak resident memory of this process (Linux: ``ru_maxrss`` in KiB)."""
-    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
-
-
 def solve_in_child(wall: str, method: str, options: dict, time_limit: float) -> dict:
     """One solve of ``wall`` (run in a fresh process): what the tables need, and the process's peak memory."""
     ops = bm.assemble(_structure(wall))
@@ -107,7 +101,7 @@ def solve_in_child(wall: str, method: str, options: dict, time_limit: float) -> 
     return {"blocks": ops.n_free_blocks, "s": res.solve_time_s, "cpu_s": cpu, "setup_s": res.build_time_s,
             "status": res.status.value, "verified": bool(res.success), "multiplier": res.multiplier,
             "iterations": res.iterations, "engine": res.extra.get("engine"),
-            "lp_time_s": dict(res.extra.get("lp_time_s", {})), "peak_memory_mb": _peak_memory_mb()}
+            "lp_time_s": dict(res.extra.get("lp_time_s", {})), "peak_memory_mb": peak_memory_mb()}
 
 
 def _fresh(*args) -> dict:

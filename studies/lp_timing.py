@@ -34,7 +34,6 @@ from __future__ import annotations
 import argparse
 import math
 import multiprocessing
-import resource
 import sys
 import time
 from pathlib import Path
@@ -51,7 +50,7 @@ from blockmpec.solvers.engines.lp_engine import cold_lp_engine
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _clarabel import ClarabelProblem  # noqa: E402
-from _tables import write_csv  # noqa: E402
+from _tables import peak_memory_mb, write_csv  # noqa: E402
 
 OUT = Path(__file__).parent / "output" / "lp_timing"
 
@@ -174,7 +173,7 @@ def time_one(wall: str, algorithm: str, time_limit: float = float("inf"), orderi
         "k_solves": factoriser.solves if factoriser else 0,
         "krylov_steps": engine.krylov_steps if isinstance(engine, BlockIPM) else 0,
         "factorise_s": factoriser.factorise_s if factoriser else 0.0, "factor_nnz": factoriser.factor_nnz if factoriser else 0,
-        "peak_memory_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0,
+        "peak_memory_mb": peak_memory_mb(),
     }
 
 
