@@ -40,7 +40,7 @@ import blockmpec as bm
 
 sys.path.insert(0, str(Path(__file__).parent))
 from _tables import markdown, peak_memory_mb, write_csv  # noqa: E402
-from lp_timing import wall_for  # noqa: E402
+from lp_timing import named_wall  # noqa: E402
 
 OUT = Path(__file__).parent / "output" / "fixed_point_ratio"
 
@@ -87,16 +87,9 @@ def parse_options(text: str) -> dict:
     return out
 
 
-def _structure(wall: str) -> bm.Structure:
-    if "x" in wall:
-        courses, per = (int(v) for v in wall.split("x"))
-        return bm.cases.wall(courses=courses, blocks_per_course=per)
-    return wall_for(int(wall))
-
-
 def solve_in_child(wall: str, method: str, options: dict, time_limit: float) -> dict:
     """One solve of ``wall`` (run in a fresh process): what the tables need, and the process's peak memory."""
-    ops = bm.assemble(_structure(wall))
+    ops = bm.assemble(named_wall(wall))
     res, cpu = timed_solve(ops, method, time_limit=time_limit, **options)
     return {"blocks": ops.n_free_blocks, "s": res.solve_time_s, "cpu_s": cpu, "setup_s": res.build_time_s,
             "status": res.status.value, "verified": bool(res.success), "multiplier": res.multiplier,

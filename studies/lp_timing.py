@@ -62,6 +62,14 @@ def wall_for(n_blocks: int) -> bm.Structure:
     return bm.cases.wall(courses=courses, blocks_per_course=per)
 
 
+def named_wall(wall: str) -> bm.Structure:
+    """The running-bond wall ``"CxB"`` (courses x blocks per course), or :func:`wall_for` a size ``"1000"``."""
+    if "x" in wall:
+        courses, per = (int(v) for v in wall.split("x"))
+        return bm.cases.wall(courses=courses, blocks_per_course=per)
+    return wall_for(int(wall))
+
+
 def hipo_engine(lp, ops, time_limit: float, crossover: bool):
     """HiGHS's HiPO (``highspy-extras``) on the static LP in the same load units as the other engines."""
     from blockmpec.solvers.engines.highs import HighsLP
@@ -118,11 +126,7 @@ def time_one(wall: str, algorithm: str, time_limit: float = float("inf"), orderi
     from blockmpec.solvers.engines.highs import static_lp_solution
 
     t0 = time.perf_counter()
-    if "x" in wall:
-        courses, per = (int(v) for v in wall.split("x"))
-        s = bm.cases.wall(courses=courses, blocks_per_course=per)
-    else:
-        s = wall_for(int(wall))
+    s = named_wall(wall)
     t1 = time.perf_counter()
     ops = bm.assemble(s)
     t2, c2 = time.perf_counter(), time.process_time()
