@@ -176,8 +176,8 @@ class FixedPointOptions:
                 "(steps count as iterations)"})
     time_limit: float = field(default=600.0, metadata={
         "help": "seconds for the whole iteration, every start of a multistart included (each LP gets the time "
-                "left; the loop checks the clock); default 600: finite, ~1.8x the 1,000-block wall's 337 s, "
-                "as mcp-newton; inf for none"})
+                "left; the loop checks the clock); default 600: finite, ~1.8x the 1,000-block wall's 337 s by the "
+                "simplex engine (the interior engine, auto's choice there, takes ~1 s), as mcp-newton; inf for none"})
 
     def __post_init__(self) -> None:
         from blockmpec.solvers.engines.lp_engine import BASIS_ALGORITHMS

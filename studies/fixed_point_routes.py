@@ -29,6 +29,9 @@ Routes (subcommands):
 * ``active-set``: from the interior engine's answer, a primal-dual active-set method (semismooth
   Newton on ``min(s, y) = 0``): each step one factorisation of ``K`` at ``(s, y) = (delta, 1)`` on the
   active rows and ``(1, delta)`` on the others.
+* ``pieces``: from the interior engine's stalled point (aim ``--fold``, no continuation) straight to ``nlp``'s
+  split piece LPs, which turn any solution of (3) into a certified local minimum of (4) (they solve the
+  2,032-block wall from the fixed point's answer): can they round a stalled point onto a solution of (3)?
 
 Measured (2 shared cores, CPU seconds; one cold block-IPM LP: 1,010 blocks 0.9 s / 21 iterations,
 10,050 blocks 24.7 s / 53 iterations; budget of the target: ~3x those iterations):
@@ -48,6 +51,8 @@ Measured (2 shared cores, CPU seconds; one cold block-IPM LP: 1,010 blocks 0.9 s
 | ``trust``, radius 0.1 / 0.02 | 20x50 | ``NUMERICAL`` (friction complementarity 0.38 / 0.28), where Newton on (3) converges in 20 |
 | ``mixed``, theta 0.7 / 0.4 | 20x50 | ``NUMERICAL``: stalls at 2.7e-5 / 1.7e-4 (27 / 49 iterations); theta 1 converges in 18 |
 | ``active-set`` | 20x50 | diverges from the converged interior answer (1,074 of 11,760 rows switch at once; the piece systems are singular: degenerate forces) |
+| ``pieces``, aim 0.1 | 40x60 | the stalled point (49 iterations; worst residual of (3) 1.3e-2) gives mechanisms (supports of 1,906 and 120 pairs) whose static pieces the block IPM ends ``NUMERICAL`` (18 s); with ``--static-engine dual-simplex --time-limit 1500`` HiGHS proves the first one infeasible and the second runs out of time (1,480 s CPU) |
+| ``pieces``, aim 0.1 | 70x70 (4,935) | stalled point 0.32 from (3) (34 iterations); three piece LPs, no solution of (3) within the 300 s limit |
 
 The classic fixed point's steps are cheap once warm (5-7 iterations of a symmetric ``K``), but the
 analytic-centre answers of the step LPs converge only linearly, and slowly, even with the fold
@@ -65,6 +70,7 @@ Usage::
     python studies/fixed_point_routes.py gap --wall 100x100 --fractions 0.77,0.46,0 --mode homotopy
     python studies/fixed_point_routes.py trust --wall 20x50 --radius 0.1
     python studies/fixed_point_routes.py active-set --wall 20x50
+    python studies/fixed_point_routes.py pieces --wall 40x60 --fold 0.1 [--static-engine dual-simplex]
 """
 
 from __future__ import annotations
@@ -368,8 +374,39 @@ def route_mixed(ops, args) -> list[dict]:
                        out.status.value)]
 
 
+def route_pieces(ops, args) -> list[dict]:
+    """From the interior engine's best iterate (its stalled point, aim ``--fold``, no continuation) straight to
+    ``nlp``'s split piece LPs (:func:`~blockmpec.solvers.engines.piece_lp.piece_descent`): a mechanism on the
+    pairs whose slack is (relatively) the smaller side, then the static LP with ``G_i x = 0`` on its support.
+    ``--static-engine``: the static halves' engine (``auto``: the block IPM from 4,000 pairs)."""
+    from blockmpec.formulations import compile_mcp
+    from blockmpec.solvers.engines.highs import static_lp_solution
+    from blockmpec.solvers.engines.interior_fixed_point import InteriorFixedPoint
+    from blockmpec.solvers.engines.piece_lp import piece_descent
+    from blockmpec.solvers.nlp import nlp_scaling
+
+    lp = step_lp(ops)
+    t0 = time.process_time()
+    engine = InteriorFixedPoint(lp, ops, fold_weight=args.fold, tol=1e-9, max_iterations=args.iterations,
+                                time_limit=args.time_limit)
+    out = engine.solve()
+    engine.set_fold(0.0)
+    start = static_lp_solution(lp, engine.outcome_at(engine.best_iterate))
+    rows = [result_row("pieces", f"interior start, aim {args.fold:g}", ops, start, out.iterations,
+                       time.process_time() - t0, out.status.value)]
+    form = compile_mcp(ops)
+    t1 = time.process_time()
+    descent = piece_descent(form, nlp_scaling(form, ops), form.pack(start), time_limit=args.time_limit,
+                            static_engine=args.static_engine)
+    first = "; ".join(f"{r['lp']} {r['status']} (support {r.get('support', '-')})" for r in descent.trace[:3])
+    sol = form.unpack(descent.w) if descent.w is not None else bm.Solution()
+    rows.append(result_row("pieces", f"piece LPs, static {args.static_engine}", ops, sol, descent.lp_solves,
+                           time.process_time() - t1, descent.status.value, first_lps=first))
+    return rows
+
+
 ROUTES = {"steps": route_steps, "mixed": route_mixed, "path": route_path, "gap": route_gap, "trust": route_trust,
-          "active-set": route_active_set}
+          "active-set": route_active_set, "pieces": route_pieces}
 
 
 def main(argv: list[str] | None = None) -> list[dict]:
@@ -400,6 +437,8 @@ def main(argv: list[str] | None = None) -> list[dict]:
     parser.add_argument("--theta", type=float, default=0.7)
     # active set
     parser.add_argument("--delta", type=float, default=1e-12)
+    # pieces
+    parser.add_argument("--static-engine", choices=("auto", "dual-simplex", "block-ipm"), default="auto")
     args = parser.parse_args(argv)
     courses, per = (int(v) for v in args.wall.split("x"))
     ops = bm.assemble(bm.cases.wall(courses=courses, blocks_per_course=per))
