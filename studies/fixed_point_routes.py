@@ -83,6 +83,7 @@ from pathlib import Path
 import numpy as np
 
 import blockmpec as bm
+from blockmpec.solvers.engines.piece_lp import STATIC_ENGINES
 
 sys.path.insert(0, str(Path(__file__).parent))
 from _tables import markdown, write_csv  # noqa: E402
@@ -415,7 +416,7 @@ def main(argv: list[str] | None = None) -> list[dict]:
     parser.add_argument("--wall", default="20x50", help="CxB: courses x blocks per course")
     parser.add_argument("--cold", action="store_true", help="first time one cold static-lp")
     parser.add_argument("--time-limit", type=float, default=300.0)
-    parser.add_argument("--iterations", type=int, default=150, help="path, trust, active-set: most iterations")
+    parser.add_argument("--iterations", type=int, default=150, help="path, trust, active-set, pieces: most iterations")
     # steps
     parser.add_argument("--fold", type=float, default=0.0)
     parser.add_argument("--mu-target", type=float, default=1e-7)
@@ -438,7 +439,8 @@ def main(argv: list[str] | None = None) -> list[dict]:
     # active set
     parser.add_argument("--delta", type=float, default=1e-12)
     # pieces
-    parser.add_argument("--static-engine", choices=("auto", "dual-simplex", "block-ipm"), default="auto")
+    parser.add_argument("--static-engine", choices=STATIC_ENGINES, default="auto",
+                        help="pieces: the static halves' engine (auto: the block IPM from 4,000 pairs)")
     args = parser.parse_args(argv)
     courses, per = (int(v) for v in args.wall.split("x"))
     ops = bm.assemble(bm.cases.wall(courses=courses, blocks_per_course=per))
