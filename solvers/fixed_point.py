@@ -206,7 +206,8 @@ class FixedPoint(SolverBase):
 
     name = "fixed-point"
     problem = "non-associative"
-    summary = "fixed point on interface normal forces; each step a warm modified associative LP (5)"
+    summary = ("fixed point on interface normal forces: warm modified associative LPs (5), or (engine auto, from "
+               "500 free blocks) one interior-point run on (3)")
     requires = ("highspy", "pyomo")
     Options = FixedPointOptions
 
