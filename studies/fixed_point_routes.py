@@ -32,6 +32,9 @@ Routes (subcommands):
 * ``pieces``: from the interior engine's stalled point (aim ``--fold``, no continuation) straight to ``nlp``'s
   split piece LPs, which turn any solution of (3) into a certified local minimum of (4) (they solve the
   2,032-block wall from the fixed point's answer): can they round a stalled point onto a solution of (3)?
+* ``ties``: the interior engine's aimed run (no continuation) with other aim weights (``--aims``), or on the wall
+  with every interface's friction lowered at random by up to a fraction ``--eps``: is the stall the aim's, or the
+  running bond's ties between equal interfaces?
 
 Measured (2 shared cores, CPU seconds; one cold block-IPM LP: 1,010 blocks 0.9 s / 21 iterations,
 10,050 blocks 24.7 s / 53 iterations; budget of the target: ~3x those iterations):
@@ -53,6 +56,8 @@ Measured (2 shared cores, CPU seconds; one cold block-IPM LP: 1,010 blocks 0.9 s
 | ``active-set`` | 20x50 | diverges from the converged interior answer (1,074 of 11,760 rows switch at once; the piece systems are singular: degenerate forces) |
 | ``pieces``, aim 0.1 | 40x60 | the stalled point (49 iterations; worst residual of (3) 1.3e-2) gives mechanisms (supports of 1,906 and 120 pairs) whose static pieces the block IPM ends ``NUMERICAL`` (18 s); with ``--static-engine dual-simplex --time-limit 1500`` HiGHS proves the first one infeasible and the second runs out of time (1,480 s CPU) |
 | ``pieces``, aim 0.1 | 70x70 (4,935) | stalled point 0.32 from (3) (34 iterations); three piece LPs, no solution of (3) within the 300 s limit |
+| ``ties``, aims 0, 0.01, 0.03, 0.3, 1, 3 | 40x60 | every run ``NUMERICAL``: 46-85 iterations, worst residual of (3) 7e-5 to 1.7e-2 |
+| ``ties``, friction lowered by up to 1e-6 / 1e-4 / 1e-2, aim 0.1 | 40x60 | ``NUMERICAL``: 45 / 46 / 32 iterations, 4.7e-3 / 1.1e-2 / 7.5e-3 (unperturbed: 49, 1.3e-2) |
 
 The classic fixed point's steps are cheap once warm (5-7 iterations of a symmetric ``K``), but the
 analytic-centre answers of the step LPs converge only linearly, and slowly, even with the fold
@@ -71,6 +76,8 @@ Usage::
     python studies/fixed_point_routes.py trust --wall 20x50 --radius 0.1
     python studies/fixed_point_routes.py active-set --wall 20x50
     python studies/fixed_point_routes.py pieces --wall 40x60 --fold 0.1 [--static-engine dual-simplex]
+    python studies/fixed_point_routes.py ties --wall 40x60 --fold 0.1 --eps 0,1e-6,1e-4,1e-2
+    python studies/fixed_point_routes.py ties --wall 40x60 --eps 0 --aims 0,0.01,0.03,0.3,1,3
 """
 
 from __future__ import annotations
@@ -406,8 +413,42 @@ def route_pieces(ops, args) -> list[dict]:
     return rows
 
 
+def route_ties(ops, args) -> list[dict]:
+    """The interior engine (aim ``--fold``, or each of ``--aims``; no continuation) on the wall with every interface's friction
+    coefficient lowered at random (seed 1) by up to the fraction ``eps`` of ``--eps`` (0: the wall itself), to
+    break the running bond's ties.  Lowered friction keeps a solution of the perturbed (3) statically
+    admissible for the wall itself, so the worst residual of (3) is measured on the wall itself (about ``eps``
+    where a perturbed friction row is active)."""
+    import dataclasses
+
+    from blockmpec.solvers.engines.highs import static_lp_solution
+    from blockmpec.solvers.engines.interior_fixed_point import InteriorFixedPoint
+
+    courses, per = (int(v) for v in args.wall.split("x"))
+    wall = bm.cases.wall(courses=courses, blocks_per_course=per)
+    interfaces = wall.interfaces
+    friction = np.where(np.isnan(interfaces.friction), wall.friction, interfaces.friction)
+    rows = []
+    aims = [float(v) for v in args.aims.split(",")] if args.aims else [args.fold]
+    for eps, aim in ((float(e), a) for e in args.eps.split(",") for a in aims):
+        lowered = friction * (1.0 - eps * np.random.default_rng(1).uniform(0.0, 1.0, friction.size))
+        perturbed = dataclasses.replace(wall, interfaces=dataclasses.replace(interfaces, friction=lowered))
+        perturbed_ops = bm.assemble(perturbed)
+        lp = step_lp(perturbed_ops)
+        t0 = time.process_time()
+        engine = InteriorFixedPoint(lp, perturbed_ops, fold_weight=aim, tol=1e-9,
+                                    max_iterations=args.iterations, time_limit=args.time_limit)
+        out = engine.solve()
+        engine.set_fold(0.0)
+        sol = static_lp_solution(lp, engine.outcome_at(engine.best_iterate))
+        rows.append(result_row("ties", f"friction lowered by up to {eps:g}, aim {aim:g}", ops, sol,
+                               out.iterations, time.process_time() - t0, out.status.value))
+    return rows
+
+
 ROUTES = {"steps": route_steps, "mixed": route_mixed, "path": route_path, "gap": route_gap, "trust": route_trust,
-          "active-set": route_active_set, "pieces": route_pieces}
+          "active-set": route_active_set, "pieces": route_pieces,
+          "ties": route_ties}
 
 
 def main(argv: list[str] | None = None) -> list[dict]:
@@ -441,6 +482,10 @@ def main(argv: list[str] | None = None) -> list[dict]:
     # pieces
     parser.add_argument("--static-engine", choices=STATIC_ENGINES, default="auto",
                         help="pieces: the static halves' engine (auto: the block IPM from 4,000 pairs)")
+    # ties
+    parser.add_argument("--eps", default="0,1e-6,1e-4,1e-2",
+                        help="ties: fractions by which each interface's friction is lowered at most (0: none)")
+    parser.add_argument("--aims", default="", help="ties: comma-separated aim weights (default: --fold)")
     args = parser.parse_args(argv)
     courses, per = (int(v) for v in args.wall.split("x"))
     ops = bm.assemble(bm.cases.wall(courses=courses, blocks_per_course=per))
