@@ -179,8 +179,11 @@ def test_early_switch_to_gmres_saves_solves_and_meets_the_target(mild_wall_ipm):
 
 def test_gmres_direction_equals_the_direct_one(mild_wall_ipm):
     """GMRES from the first reduced solve (no stationary correction) and the stationary refinement with
-    exact factors solve the same Newton system: the same direction, to the refinement's target."""
+    exact factors solve the same Newton system: the same direction, to the refinement's target.  The factors
+    are those of ``K + 1e-12 diag(K)`` (the former diagonal shift), whose first reduced solve misses the target,
+    so that GMRES runs."""
     ipm, it = mild_wall_ipm
+    ipm.settings(diagonal_shift=1e-12)
     factors = ipm._factorise(it)
     r_b, r_h, r_c = ipm.residuals(it)
     r_mu = 0.1 * float(it.s @ it.y) / it.s.size - it.s * it.y
@@ -263,7 +266,7 @@ def test_solve_runs_blas_on_one_thread_and_restores_it():
 
 def test_reduced_values_on_the_pattern_equal_the_sparse_product(wall_ipm):
     """K assembled on its structural pattern by the precomputed scatter (what the iteration factorises)
-    equals A_B H^{-1} A_B^T + 1e-12 diag(K) by sparse products, to round-off, entry by entry."""
+    equals A_B H^{-1} A_B^T + delta diag(K) (delta: diagonal_shift) by sparse products, to round-off, entry by entry."""
     ipm, it = wall_ipm
     K_product, _ = ipm.reduced_matrix(it)
     Hinv, _ = ipm._inverse_blocks(it)
@@ -282,3 +285,29 @@ def test_settings_sets_are_found_by_name():
     assert named_settings("exact_inner") is EXACT_INNER_SETTINGS
     with pytest.raises(ValueError, match="unknown settings set 'nonsense'.*exact_inner"):
         named_settings("nonsense")
+
+
+def test_diagonal_shift_changes_the_path_never_the_optimum():
+    """The diagonal shift of ``K`` only changes how well its factors precondition the refinement: with the default
+    (round-off level) and the former 1e-12 the LP ends optimal at the same lambda, and ``K``'s diagonal carries the
+    shift (relative to the unshifted product)."""
+    from blockmpec.solvers.engines.block_ipm import WIDE_SHIFT_SETTINGS
+
+    ops = bm.assemble(bm.cases.wall(10, 20))
+    lp = compile_linear(static_lp(ops))
+    lams = []
+    for settings in (DEFAULT_SETTINGS, WIDE_SHIFT_SETTINGS):
+        ipm = cold_lp_engine(lp, "block-ipm", ops=ops)
+        ipm.settings(**settings)
+        out = ipm.solve()
+        assert out.status.value == "optimal"
+        lams.append(-out.objective)
+        it = ipm.initial_point()
+        Hinv, _ = ipm._inverse_blocks(it)
+        shifted = ipm._reduced_values(Hinv)[ipm._K_diagonal]
+        ipm.settings(diagonal_shift=0.0)
+        plain = ipm._reduced_values(Hinv)[ipm._K_diagonal]
+        # the shift added, to within one rounding of K_ii (the default's shift is itself of round-off size)
+        error = np.abs((shifted - plain) - settings["diagonal_shift"] * plain)
+        assert np.all(error <= np.finfo(float).eps * np.abs(plain) + 1e-280)
+    assert abs(lams[0] - lams[1]) <= 1e-9 * abs(lams[1])

@@ -20,8 +20,8 @@ Mehrotra's predictor-corrector method reduces to
   (a 2D mesh for walls).  It is assembled on its fixed *structural* pattern: each
   interface's dense ``a_i H_i^{-1} a_i^T`` (``a_i``: its columns of ``A_B`` on the few
   rows they touch) is scattered into the pattern's data array by a precomputed index,
-  without sparse products.  After a relative diagonal shift of 1e-12 it is factorised
-  once per iteration by a supernodal multifrontal Cholesky (dense BLAS-3 on fronts;
+  without sparse products.  After a relative diagonal shift (``diagonal_shift``: 1e-16, round-off
+  level; 1e-12 before) it is factorised once per iteration by a supernodal multifrontal Cholesky (dense BLAS-3 on fronts;
   SuperLU's ``L D L^T`` when ``K`` is not symmetric, as in the interior fixed point,
   or when a pivot is not positive), with a fill-reducing ordering (METIS nested
   dissection, or minimum degree without pymetis) computed once from that pattern
@@ -117,10 +117,13 @@ from blockmpec.solvers.engines.highs import LPOutcome
 DEFAULT_SETTINGS = {"refinements": 8, "lazy_refinement": True, "inner_refinements": 1, "inner_tolerance": 1e-6,
                     "final_sweeps": 4, "correctors": 2, "gondzio_accept": 1.01, "gondzio_factor": 1.5,
                     "gondzio_delta": 0.1, "step_fraction": 0.995, "sigma_power": 3.0, "sigma_min": 0.0,
-                    "krylov_iterations": 40, "krylov_switch": 0.1}
+                    "krylov_iterations": 40, "krylov_switch": 0.1, "diagonal_shift": 1e-16}
 #: every inner direction corrected to the absolute target: the default before ``inner_tolerance`` 1e-6, what the
-#: interior fixed point runs, and the base of the comparison sets below (each measured with it)
-EXACT_INNER_SETTINGS = {**DEFAULT_SETTINGS, "inner_tolerance": 0.0}
+#: interior fixed point runs, and the base of the comparison sets below (each measured with it, and with the
+#: former diagonal shift 1e-12)
+EXACT_INNER_SETTINGS = {**DEFAULT_SETTINGS, "inner_tolerance": 0.0, "diagonal_shift": 1e-12}
+#: the default before ``diagonal_shift`` 1e-16 (for ``--ipm-settings wide_shift,default`` comparisons)
+WIDE_SHIFT_SETTINGS = {**DEFAULT_SETTINGS, "diagonal_shift": 1e-12}
 #: Near the optimum of large walls the reduced refinement converges slowly (``K`` very ill-conditioned):
 #: with 3 corrections and 2 sweeps (:data:`SHORT_REFINEMENT_SETTINGS`) the step's equality-row error
 #: reached the primal residual (1e-12 -> 4e-7) on a 32,580-block wall, which stalled ``ACCEPTABLE`` after
@@ -419,16 +422,19 @@ class BlockIPM:
         return Hinv, (M_inv, sqrt_d, top_left)
 
     def _reduced_values(self, Hinv: np.ndarray) -> np.ndarray:
-        """Values of ``K = A_B H^{-1} A_B^T + 1e-12 diag(K)`` on its structural pattern (``pattern.data`` order)."""
+        """Values of ``K = A_B H^{-1} A_B^T + delta diag(K)`` (``delta``: ``diagonal_shift``) on its structural
+        pattern (``pattern.data`` order)."""
         a = self._K_slots
         products = np.matmul(np.matmul(a, Hinv), np.swapaxes(a, 1, 2))
         values = np.bincount(self._K_targets, weights=products.reshape(-1), minlength=self._K_pattern.nnz + 1)
         values = values[:-1]
-        # a relative diagonal shift (1e-12 K_ii) keeps the pivots nonzero where a
-        # block's forces are all fixed by active rows; iterative refinement against the
-        # exact block solves removes its effect on the direction
+        # a relative diagonal shift (diagonal_shift K_ii, plus 1e-300) keeps the pivots nonzero where a
+        # block's forces are all fixed by active rows; iterative refinement against the exact block solves
+        # removes its effect on the direction.  The larger the shift, the less accurate the factors as a
+        # preconditioner where K is ill-conditioned (late iterations of large walls), and the more solves the
+        # refinement needs: hence round-off level by default (a nonpositive pivot goes to SuperLU's LDL^T)
         diagonal = self._K_diagonal
-        values[diagonal] += 1e-12 * np.abs(values[diagonal]) + 1e-300
+        values[diagonal] += self.diagonal_shift * np.abs(values[diagonal]) + 1e-300
         return values
 
     def _reduced_csc(self, values: np.ndarray) -> sp.csc_array:
@@ -436,7 +442,7 @@ class BlockIPM:
         return sp.csc_array((values, P.indices, P.indptr), shape=P.shape)
 
     def reduced_matrix(self, it: IPMIterate):
-        """``(K, blocks)``: ``K = A_B H^{-1} A_B^T + 1e-12 diag(K)`` at ``it`` by sparse products (scipy
+        """``(K, blocks)``: ``K = A_B H^{-1} A_B^T + delta diag(K)`` at ``it`` by sparse products (scipy
         drops the exact zeros, e.g. at the starting point) and the block factors ``(M^{-1}, sqrt(d))``.
 
         For studies and tests: the iteration assembles the same matrix on its fixed structural
@@ -448,7 +454,7 @@ class BlockIPM:
         indices = (np.arange(nb)[:, None, None] * k + np.arange(k)[None, None, :]).repeat(k, axis=1).ravel()
         Hinv_mat = sp.csr_array((Hinv.ravel(), indices, indptr), shape=(nb * k, nb * k))
         K = (self.A_B @ Hinv_mat @ self.A_B.T).tocsc()
-        K = K + sp.diags(1e-12 * np.abs(K.diagonal()) + 1e-300, format="csc")
+        K = K + sp.diags(self.diagonal_shift * np.abs(K.diagonal()) + 1e-300, format="csc")
         return K, blocks
 
     @property

@@ -1,6 +1,6 @@
 r"""Repeated sparse factorisations of one symmetric positive definite pattern (the block IPM's ``K``).
 
-``K = A_B H^{-1} A_B^T + 1e-12 diag(K)`` changes its values at every interior-point
+``K = A_B H^{-1} A_B^T + delta diag(K)`` changes its values at every interior-point
 iteration but never its *structural* pattern: entry ``(i, j)`` can be nonzero only if
 rows ``i`` and ``j`` of ``A_B`` share a block of ``H^{-1}``, i.e. ``pattern(K) =
 pattern(|A_B| E |A_B|^T)`` with ``E`` the block-diagonal matrix of ones.  The fill-reducing
@@ -222,7 +222,7 @@ class SupernodalCholesky:
     Solves: forward and backward substitution by supernodes, ``L11`` by ``trsv`` and ``L21`` by a
     matrix-vector product with the rows below (BLAS-2 per supernode, like SuperLU's own solve).
 
-    ``K`` must be symmetric positive definite: a nonpositive pivot (a matrix the 1e-12 shift does not
+    ``K`` must be symmetric positive definite: a nonpositive pivot (a matrix the diagonal shift does not
     keep definite in floating point) makes :meth:`factorise_values` return ``None``.
     """
 
