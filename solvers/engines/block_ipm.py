@@ -21,8 +21,9 @@ Mehrotra's predictor-corrector method reduces to
   interface's dense ``a_i H_i^{-1} a_i^T`` (``a_i``: its columns of ``A_B`` on the few
   rows they touch) is scattered into the pattern's data array by a precomputed index,
   without sparse products.  After a relative diagonal shift (``diagonal_shift``: 1e-16, round-off
-  level; 1e-12 before) it is factorised once per iteration by a supernodal multifrontal Cholesky (dense BLAS-3 on fronts;
-  SuperLU's ``L D L^T`` when ``K`` is not symmetric, as in the interior fixed point,
+  level; 1e-12 before) it is factorised once per iteration by a supernodal multifrontal
+  Cholesky (dense BLAS-3 on fronts; SuperLU's ``L D L^T`` when ``K`` is not symmetric, as in the
+  interior fixed point,
   or when a pivot is not positive), with a fill-reducing ordering (METIS nested
   dissection, or minimum degree without pymetis) computed once from that pattern
   (:mod:`blockmpec.solvers.engines.cholesky`);
@@ -108,12 +109,21 @@ from blockmpec.solvers.engines.highs import LPOutcome
 #: 1e-6 relative to ``|A| |dv|``; the step taken is still refined to the absolute target) is the default since it
 #: saves solves with ``K`` at every size measured, with the same lam and verifier residuals at round-off
 #: (``python studies/lp_timing.py --walls 20x50,40x60,70x70,50x200,100x100,180x181 --algorithms block-ipm
-#: --ipm-settings exact_inner,default``, CPU s, iterations, solves with K, one run each pair): 1,010 blocks 0.61 ->
+#: --ipm-settings exact_inner,wide_shift`` -- the default then had the diagonal shift 1e-12 --, CPU s,
+#: iterations, solves with K, one run each pair): 1,010 blocks 0.61 ->
 #: 0.57 s (21 -> 21, 193 -> 142); 2,420 2.79 -> 2.34 s (32 -> 30, 278 -> 184); 4,935 8.9 -> 7.8 s (44 -> 43,
 #: 395 -> 288); 10,025 12.0 -> 10.4 s (38 -> 37, 349 -> 243); 10,050 19.1 -> 14.8 s (53 -> 49, 516 -> 356);
 #: 32,670 85.1 -> 78.4 s (64 -> 66, 778 -> 675); 100,014 480 -> 438 s (82 -> 79, 1,306 -> 1,242; ``--walls 316x316``).
 #: The interior fixed point (:class:`~blockmpec.solvers.engines.interior_fixed_point.InteriorFixedPoint`),
 #: measured with 0, keeps 0 (:data:`EXACT_INNER_SETTINGS`).
+#: ``diagonal_shift``: ``K + delta diag(K)`` is what is factorised.  At 1e-12 (the value before) the factors were
+#: too inaccurate a preconditioner late on large walls, where ``K`` is very ill-conditioned: the refinement took
+#: up to 16 solves with ``K`` per iteration and GMRES.  At round-off level (1e-16) the 100,014-block LP took
+#: 312 s instead of 457 s CPU (77 / 79 iterations, 541 / 1,242 solves, the same lam), and 32,670 blocks 68 s
+#: instead of 100 s; up to 10,050 blocks the times stay within +-10 % and the iteration
+#: counts within the round-off spread (``python studies/lp_timing.py --walls 20x50,40x60,70x70,50x200,100x100,
+#: 180x181 --algorithms block-ipm --ipm-settings wide_shift,default``, and ``--walls 316x316``; README).  The
+#: interior fixed point keeps 1e-12: its stall at 2,420 blocks stays with 1e-16 too (85 iterations, 2.4e-3).
 DEFAULT_SETTINGS = {"refinements": 8, "lazy_refinement": True, "inner_refinements": 1, "inner_tolerance": 1e-6,
                     "final_sweeps": 4, "correctors": 2, "gondzio_accept": 1.01, "gondzio_factor": 1.5,
                     "gondzio_delta": 0.1, "step_fraction": 0.995, "sigma_power": 3.0, "sigma_min": 0.0,
@@ -171,7 +181,7 @@ def named_settings(name: str) -> dict:
     return settings
 
 
-#: seconds per solve when none is given: a 100,000-block wall takes about 14 minutes (studies/lp_timing.py)
+#: seconds per solve when none is given: a 100,000-block wall takes about 5 minutes (studies/lp_timing.py)
 DEFAULT_TIME_LIMIT = 3600.0
 
 #: smallest s/y in the block systems (a primal regularisation of fully active blocks)
