@@ -152,6 +152,25 @@ def step_lp(ops):
     return compiled_linear(modified_lp, ops, np.zeros(ops.n_interfaces), slope=ops.dilatancy)
 
 
+def named_wall(spec: str) -> bm.Structure:
+    """The running-bond wall ``CxB`` (courses x blocks per course)."""
+    courses, per = (int(v) for v in spec.split("x"))
+    return bm.cases.wall(courses=courses, blocks_per_course=per)
+
+
+def stalled_point(lp, ops, aim: float, args):
+    """The interior engine's run on the step LP ``lp`` (aim ``aim``, no continuation, ``--iterations``,
+    ``--time-limit``) and its best iterate as a solution, the aim switched off: ``(outcome, solution)``."""
+    from blockmpec.solvers.engines.highs import static_lp_solution
+    from blockmpec.solvers.engines.interior_fixed_point import InteriorFixedPoint
+
+    engine = InteriorFixedPoint(lp, ops, fold_weight=aim, tol=1e-9, max_iterations=args.iterations,
+                                time_limit=args.time_limit)
+    out = engine.solve()
+    engine.set_fold(0.0)
+    return out, static_lp_solution(lp, engine.outcome_at(engine.best_iterate))
+
+
 # ---------------------------------------------------------------------------------------------- routes
 def route_steps(ops, args) -> list[dict]:
     from blockmpec.solvers.engines.highs import static_lp_solution
@@ -388,18 +407,12 @@ def route_pieces(ops, args) -> list[dict]:
     pairs whose slack is (relatively) the smaller side, then the static LP with ``G_i x = 0`` on its support.
     ``--static-engine``: the static halves' engine (``auto``: the block IPM from 4,000 pairs)."""
     from blockmpec.formulations import compile_mcp
-    from blockmpec.solvers.engines.highs import static_lp_solution
-    from blockmpec.solvers.engines.interior_fixed_point import InteriorFixedPoint
     from blockmpec.solvers.engines.piece_lp import piece_descent
     from blockmpec.solvers.nlp import nlp_scaling
 
     lp = step_lp(ops)
     t0 = time.process_time()
-    engine = InteriorFixedPoint(lp, ops, fold_weight=args.fold, tol=1e-9, max_iterations=args.iterations,
-                                time_limit=args.time_limit)
-    out = engine.solve()
-    engine.set_fold(0.0)
-    start = static_lp_solution(lp, engine.outcome_at(engine.best_iterate))
+    out, start = stalled_point(lp, ops, args.fold, args)
     rows = [result_row("pieces", f"interior start, aim {args.fold:g}", ops, start, out.iterations,
                        time.process_time() - t0, out.status.value)]
     form = compile_mcp(ops)
@@ -421,34 +434,26 @@ def route_ties(ops, args) -> list[dict]:
     where a perturbed friction row is active)."""
     import dataclasses
 
-    from blockmpec.solvers.engines.highs import static_lp_solution
-    from blockmpec.solvers.engines.interior_fixed_point import InteriorFixedPoint
-
-    courses, per = (int(v) for v in args.wall.split("x"))
-    wall = bm.cases.wall(courses=courses, blocks_per_course=per)
-    interfaces = wall.interfaces
-    friction = np.where(np.isnan(interfaces.friction), wall.friction, interfaces.friction)
-    rows = []
+    wall = named_wall(args.wall)
+    friction = wall.interface_friction()
+    draws = np.random.default_rng(1).uniform(0.0, 1.0, friction.size)
     aims = [float(v) for v in args.aims.split(",")] if args.aims else [args.fold]
-    for eps, aim in ((float(e), a) for e in args.eps.split(",") for a in aims):
-        lowered = friction * (1.0 - eps * np.random.default_rng(1).uniform(0.0, 1.0, friction.size))
-        perturbed = dataclasses.replace(wall, interfaces=dataclasses.replace(interfaces, friction=lowered))
-        perturbed_ops = bm.assemble(perturbed)
+    rows = []
+    for eps in (float(v) for v in args.eps.split(",")):
+        lowered = friction * (1.0 - eps * draws)
+        perturbed_ops = bm.assemble(dataclasses.replace(
+            wall, interfaces=dataclasses.replace(wall.interfaces, friction=lowered)))
         lp = step_lp(perturbed_ops)
-        t0 = time.process_time()
-        engine = InteriorFixedPoint(lp, perturbed_ops, fold_weight=aim, tol=1e-9,
-                                    max_iterations=args.iterations, time_limit=args.time_limit)
-        out = engine.solve()
-        engine.set_fold(0.0)
-        sol = static_lp_solution(lp, engine.outcome_at(engine.best_iterate))
-        rows.append(result_row("ties", f"friction lowered by up to {eps:g}, aim {aim:g}", ops, sol,
-                               out.iterations, time.process_time() - t0, out.status.value))
+        for aim in aims:
+            t0 = time.process_time()
+            out, sol = stalled_point(lp, perturbed_ops, aim, args)
+            rows.append(result_row("ties", f"friction lowered by up to {eps:g}, aim {aim:g}", ops, sol,
+                                   out.iterations, time.process_time() - t0, out.status.value))
     return rows
 
 
 ROUTES = {"steps": route_steps, "mixed": route_mixed, "path": route_path, "gap": route_gap, "trust": route_trust,
-          "active-set": route_active_set, "pieces": route_pieces,
-          "ties": route_ties}
+          "active-set": route_active_set, "pieces": route_pieces, "ties": route_ties}
 
 
 def main(argv: list[str] | None = None) -> list[dict]:
@@ -487,8 +492,7 @@ def main(argv: list[str] | None = None) -> list[dict]:
                         help="ties: fractions by which each interface's friction is lowered at most (0: none)")
     parser.add_argument("--aims", default="", help="ties: comma-separated aim weights (default: --fold)")
     args = parser.parse_args(argv)
-    courses, per = (int(v) for v in args.wall.split("x"))
-    ops = bm.assemble(bm.cases.wall(courses=courses, blocks_per_course=per))
+    ops = bm.assemble(named_wall(args.wall))
     rows = []
     if args.cold:
         from fixed_point_ratio import timed_solve
