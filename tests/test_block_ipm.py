@@ -182,8 +182,10 @@ def test_gmres_direction_equals_the_direct_one(mild_wall_ipm):
     exact factors solve the same Newton system: the same direction, to the refinement's target.  The factors
     are those of ``K + 1e-12 diag(K)`` (the former diagonal shift), whose first reduced solve misses the target,
     so that GMRES runs."""
+    from blockmpec.solvers.engines.block_ipm import WIDE_DIAGONAL_SHIFT
+
     ipm, it = mild_wall_ipm
-    ipm.settings(diagonal_shift=1e-12)
+    ipm.settings(diagonal_shift=WIDE_DIAGONAL_SHIFT)
     factors = ipm._factorise(it)
     r_b, r_h, r_c = ipm.residuals(it)
     r_mu = 0.1 * float(it.s @ it.y) / it.s.size - it.s * it.y
@@ -300,7 +302,7 @@ def test_diagonal_shift_changes_the_path_never_the_optimum():
         ipm = cold_lp_engine(lp, "block-ipm", ops=ops)
         ipm.settings(**settings)
         out = ipm.solve()
-        assert out.status.value == "optimal"
+        assert out.status is bm.Status.OPTIMAL
         lams.append(-out.objective)
         it = ipm.initial_point()
         Hinv, _ = ipm._inverse_blocks(it)

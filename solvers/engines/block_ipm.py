@@ -128,12 +128,14 @@ DEFAULT_SETTINGS = {"refinements": 8, "lazy_refinement": True, "inner_refinement
                     "final_sweeps": 4, "correctors": 2, "gondzio_accept": 1.01, "gondzio_factor": 1.5,
                     "gondzio_delta": 0.1, "step_fraction": 0.995, "sigma_power": 3.0, "sigma_min": 0.0,
                     "krylov_iterations": 40, "krylov_switch": 0.1, "diagonal_shift": 1e-16}
+#: the diagonal shift before 1e-16: what the interior fixed point and the comparison sets below were measured with
+WIDE_DIAGONAL_SHIFT = 1e-12
 #: every inner direction corrected to the absolute target: the default before ``inner_tolerance`` 1e-6, what the
 #: interior fixed point runs, and the base of the comparison sets below (each measured with it, and with the
-#: former diagonal shift 1e-12)
-EXACT_INNER_SETTINGS = {**DEFAULT_SETTINGS, "inner_tolerance": 0.0, "diagonal_shift": 1e-12}
+#: former diagonal shift)
+EXACT_INNER_SETTINGS = {**DEFAULT_SETTINGS, "inner_tolerance": 0.0, "diagonal_shift": WIDE_DIAGONAL_SHIFT}
 #: the default before ``diagonal_shift`` 1e-16 (for ``--ipm-settings wide_shift,default`` comparisons)
-WIDE_SHIFT_SETTINGS = {**DEFAULT_SETTINGS, "diagonal_shift": 1e-12}
+WIDE_SHIFT_SETTINGS = {**DEFAULT_SETTINGS, "diagonal_shift": WIDE_DIAGONAL_SHIFT}
 #: Near the optimum of large walls the reduced refinement converges slowly (``K`` very ill-conditioned):
 #: with 3 corrections and 2 sweeps (:data:`SHORT_REFINEMENT_SETTINGS`) the step's equality-row error
 #: reached the primal residual (1e-12 -> 4e-7) on a 32,580-block wall, which stalled ``ACCEPTABLE`` after
