@@ -188,6 +188,7 @@ def run(lp, ops, weights: np.ndarray | None = None, diagnose: bool = False, rule
     engine.path_weights = weights
     if block_product is not None:
         engine._block_product = block_product
+        engine.settings(kernels="numpy")  # the compiled kernels (numba installed) would bypass the override
     recorder = Recorder(engine, diagnose=diagnose, rule=rule, clip=clip)
     cpu = time.process_time()
     out = engine.solve()

@@ -8,7 +8,8 @@ and the peak resident memory.  Each case runs in a fresh process, so its peak me
 is its own.  Times are wall-clock (``*_s``) and CPU time of the process (``*_cpu_s``):
 on a shared, loaded machine the CPU times are the ones to compare (the solve is
 single-threaded apart from small BLAS calls).  For the block IPM also the fill-reducing ordering of ``K``, its
-factorisation (``--factorisations``: ``auto``, ``supernodal``, ``superlu``), the number of factorisations and
+factorisation (``--factorisations``: ``auto``, ``supernodal``, ``superlu``), its per-interface kernels
+(``--kernels``: ``auto``, ``numpy``, ``compiled``, the last needing numba), the number of factorisations and
 solves with ``K`` and their CPU time.
 Algorithms are those of ``static-lp`` (``blockmpec.solvers.engines.lp_engine.ALGORITHMS``):
 HiGHS's ``dual-simplex``, ``primal-simplex``, ``ipm`` (with crossover), the
@@ -20,7 +21,8 @@ with gap and feasibility tolerances 1e-10; :class:`ClarabelLP`).  Usage::
 
     python studies/lp_timing.py [--sizes 100,1000,10000] [--algorithms auto] [--time-limit 600]
                                 [--walls 100x100,316x316] [--orderings auto,mmd] [--ipm-settings previous,default]
-                                [--factorisations superlu,supernodal] [--algorithms block-ipm,hipo,hipo-crossover]
+                                [--factorisations superlu,supernodal] [--kernels numpy,compiled]
+                                [--algorithms block-ipm,hipo,hipo-crossover]
                                 [--algorithms block-ipm,clarabel,clarabel-1e-10]
 
 ``--walls CxB`` gives walls of ``courses=C, blocks_per_course=B`` instead of sizes.
@@ -120,7 +122,8 @@ class ClarabelLP:
 
 
 def time_one(wall: str, algorithm: str, time_limit: float = float("inf"), ordering: str = "auto",
-             max_iterations: int | None = None, ipm_settings: str = "default", factorisation: str = "auto") -> dict:
+             max_iterations: int | None = None, ipm_settings: str = "default", factorisation: str = "auto",
+             kernels: str = "auto") -> dict:
     """One cold solve of the static LP of ``wall`` (a size ``"1000"`` or ``"CxB"`` courses x blocks per course)."""
     from blockmpec.solvers.engines.block_ipm import BlockIPM
     from blockmpec.solvers.engines.highs import static_lp_solution
@@ -145,7 +148,7 @@ def time_one(wall: str, algorithm: str, time_limit: float = float("inf"), orderi
         engine.factorisation = factorisation
         from blockmpec.solvers.engines import block_ipm
 
-        engine.settings(**block_ipm.named_settings(ipm_settings))
+        engine.settings(**{**block_ipm.named_settings(ipm_settings), "kernels": kernels})
         if max_iterations is not None:  # a per-iteration cost measurement (status: iteration limit)
             engine.max_iterations = max_iterations
     t5, c5 = time.perf_counter(), time.process_time()
@@ -158,7 +161,7 @@ def time_one(wall: str, algorithm: str, time_limit: float = float("inf"), orderi
                 if has_point else math.nan)
     factoriser = engine.factoriser if isinstance(engine, BlockIPM) else None
     if isinstance(engine, BlockIPM) and engine.trace:  # mu, steps, centrality, solves per iteration
-        write_csv(OUT / f"trace_{wall}_{ipm_settings}_{factorisation}.csv", engine.trace)
+        write_csv(OUT / f"trace_{wall}_{ipm_settings}_{factorisation}_{kernels}.csv", engine.trace)
     return {
         "blocks": s.n_free, "interfaces": len(s.interfaces), "rows": lp.A.shape[0], "columns": lp.A.shape[1],
         "generate_s": t1 - t0, "assemble_s": t2 - t1, "pyomo_build_s": t3 - t2, "compile_s": t4 - t3,
@@ -166,7 +169,9 @@ def time_one(wall: str, algorithm: str, time_limit: float = float("inf"), orderi
         "pyomo_build_cpu_s": c3 - c2, "compile_cpu_s": c4 - c3, "solve_cpu_s": c6 - c5,
         "build_over_solve_cpu": (c4 - c2) / (c6 - c5),
         "algorithm": algorithm, "engine": type(engine).__name__,
-        "ipm_settings": ipm_settings if isinstance(engine, BlockIPM) else "", "status": out.status.value,
+        "ipm_settings": ipm_settings if isinstance(engine, BlockIPM) else "",
+        "kernels": ("numpy" if engine.block_kernels is None else "compiled") if isinstance(engine, BlockIPM) else "",
+        "status": out.status.value,
         "multiplier": lam, "lp_iterations": out.iterations, "max_residual": residual, "message": out.message,
         "solve_cpu_s_per_iteration": (c6 - c5) / max(out.iterations, 1),
         "verified_1e-8": bool(out.status.is_success and residual <= 1e-8),
@@ -195,22 +200,25 @@ def main(argv: list[str] | None = None) -> list[dict]:
                         help="comma-separated block IPM settings: default, stationary, short_refinement, previous, ... (block_ipm.*_SETTINGS)")
     parser.add_argument("--factorisations", default="auto",
                         help="comma-separated block IPM factorisations of K: auto, supernodal, superlu")
+    parser.add_argument("--kernels", default="auto",
+                        help="comma-separated block IPM per-interface kernels: auto, numpy, compiled (needs numba)")
     parser.add_argument("--time-limit", type=float, default=float("inf"), help="seconds per solve")
     parser.add_argument("--max-iterations", type=int, default=None,
                         help="block IPM iteration cap: measures the cost per iteration of a size too slow to finish")
     args = parser.parse_args(argv)
     walls = args.walls.split(",") if args.walls else args.sizes.split(",")
     block = ("auto", "block-ipm")
-    cases = [(w, a, args.time_limit, o, args.max_iterations, st, fa) for w in walls for a in args.algorithms.split(",")
+    cases = [(w, a, args.time_limit, o, args.max_iterations, st, fa, ke) for w in walls for a in args.algorithms.split(",")
              for o in (args.orderings.split(",") if a in block else ["auto"])
              for st in (args.ipm_settings.split(",") if a in block else ["default"])
-             for fa in (args.factorisations.split(",") if a in block else ["auto"])]
+             for fa in (args.factorisations.split(",") if a in block else ["auto"])
+             for ke in (args.kernels.split(",") if a in block else ["auto"])]
     context = multiprocessing.get_context("spawn")  # a fresh process per case: its own peak memory
     rows = []
     for case in cases:
         with context.Pool(1, maxtasksperchild=1) as pool:
             rows.append(pool.apply(_run_in_child, (case,)))
-    keys = ["blocks", "algorithm", "ordering", "factorisation", "ipm_settings", "k_solves", "factorise_s", "solve_k_cpu_s", "krylov_steps", "pyomo_build_cpu_s", "compile_cpu_s", "solve_cpu_s", "solve_s",
+    keys = ["blocks", "algorithm", "ordering", "factorisation", "ipm_settings", "kernels", "k_solves", "factorise_s", "solve_k_cpu_s", "krylov_steps", "pyomo_build_cpu_s", "compile_cpu_s", "solve_cpu_s", "solve_s",
             "build_over_solve_cpu", "lp_iterations", "factorise_s", "peak_memory_mb", "status", "max_residual",
             "multiplier"]
     print(" ".join(f"{k:>13s}" for k in keys), flush=True)
@@ -218,14 +226,14 @@ def main(argv: list[str] | None = None) -> list[dict]:
         print(" ".join(f"{r[k]:>13.4g}" if isinstance(r[k], float) else f"{r[k]!s:>13s}" for k in keys))
     print()
     print("CPU times of the process (wall-clock solve in brackets):")
-    print("| free blocks | engine | ordering | factorisation of K | IPM settings | Pyomo build | compile | solve | iterations "
+    print("| free blocks | engine | ordering | factorisation of K | IPM settings | kernels | Pyomo build | compile | solve | iterations "
           "| factorisations, solves with K (CPU) | build + compile / solve | peak memory | verified 1e-8 | λ |")
-    print("| ---: | --- | --- | --- | --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | --- | ---: |")
+    print("| ---: | --- | --- | --- | --- | --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | --- | ---: |")
     for r in rows:
         engine = ("block IPM" if r["engine"] == "BlockIPM" else r["algorithm"] if r["engine"] == "ClarabelLP"
                   else f"HiGHS {r['algorithm']}")
         kind = {"SupernodalCholesky": "supernodal Cholesky", "SymmetricFactoriser": "SuperLU"}.get(r["factorisation"], "–")
-        print(f"| {r['blocks']:,} | {engine} | {r['ordering'] or '–'} | {kind} | {r['ipm_settings'] or '–'} "
+        print(f"| {r['blocks']:,} | {engine} | {r['ordering'] or '–'} | {kind} | {r['ipm_settings'] or '–'} | {r['kernels'] or '–'} "
               f"| {r['pyomo_build_cpu_s']:.2g} s | {r['compile_cpu_s']:.2g} s | **{r['solve_cpu_s']:.3g} s** ({r['solve_s']:.3g} s) "
               f"| {r['lp_iterations']} | {r['factorise_s']:.3g} s, {r['k_solves']} in {r['solve_k_cpu_s']:.3g} s "
               f"| {r['build_over_solve_cpu']:.2f} "

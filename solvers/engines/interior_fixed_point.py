@@ -187,6 +187,9 @@ class InteriorFixedPoint(BlockIPM):
     #: (with the continuation) default 316 instead of 258 iterations (42.4 s against 37.8 s), no aim 242 instead
     #: of 208: mixed, so the engine keeps the setting it was measured with
     default_settings = EXACT_INNER_SETTINGS
+    #: a run takes hundreds of iterations, so the compiled kernels (numba installed) pay from ~2,000 free blocks:
+    #: 2,420 blocks 50-53 s against 62-73 s with numpy (two runs each, bm.solve(wall, "fixed-point"))
+    compiled_kernel_blocks = 4_000
 
     def __init__(self, lp, ops, coupling: str = "exact", fold_weight: float = 0.0, fold_off: float = FOLD_OFF,
                  fold_knee: float = FOLD_KNEE, **ipm) -> None:

@@ -1,0 +1,171 @@
+"""The block IPM's compiled per-interface kernels (:mod:`blockmpec.solvers.engines.block_kernels`, numba).
+
+Each kernel is checked against the numpy expression it replaces, on the engine's own blocks at an iterate whose
+``y/s`` spans many decades (as near the optimum), and whole solves with each choice of kernels must end at the
+same optimum: the static LP (symmetric ``K``) and the interior fixed point (``G_dual != G``).  The choice itself:
+``"auto"`` keeps numpy below :data:`COMPILED_KERNEL_BLOCKS`, and ``"compiled"`` without numba is one clear error.
+"""
+
+import numpy as np
+import pytest
+
+import blockmpec as bm
+from blockmpec.formulations import compile_linear, static_lp
+from blockmpec.solvers.engines import block_ipm
+from blockmpec.solvers.engines.block_ipm import COMPILED_KERNEL_BLOCKS, BlockIPM
+from blockmpec.solvers.engines.lp_engine import cold_lp_engine
+
+pytest.importorskip("numba")
+from blockmpec.solvers.engines import block_kernels  # noqa: E402
+
+
+@pytest.fixture(scope="module")
+def wall_ipm():
+    """The block IPM on a 10x20 wall's static LP with an iterate whose products s y spread over ~8 decades."""
+    ops = bm.assemble(bm.cases.wall(10, 20))
+    lp = compile_linear(static_lp(ops))
+    ipm = cold_lp_engine(lp, "block-ipm", ops=ops)
+    assert isinstance(ipm, BlockIPM)
+    it = ipm.initial_point()
+    rng = np.random.default_rng(3)
+    it.s *= np.exp(rng.normal(0.0, 4.0, it.s.size))
+    it.y *= np.exp(rng.normal(0.0, 4.0, it.y.size))
+    return ipm, it
+
+
+def test_inverse_blocks_as_accurate_as_lapack(wall_ipm):
+    """Gauss-Jordan with partial pivoting inverts every augmented block as accurately as LAPACK's LU (numpy):
+    the residual ``M X - I`` of each block is within a small factor of LAPACK's, relative to ``|M| |X|``."""
+    ipm, it = wall_ipm
+    M, _ = ipm._block_systems(it)
+    assert np.ptp(np.log10(np.abs(M[M != 0]))) > 6  # the blocks are badly scaled
+    compiled, lapack = block_kernels.inverse_blocks(M), np.linalg.inv(M)
+
+    def residual(X):
+        scale = np.matmul(np.abs(M), np.abs(X)).max(axis=(1, 2))
+        return np.abs(np.matmul(M, X) - np.eye(M.shape[1])).max(axis=(1, 2)) / scale
+
+    eps = np.finfo(float).eps
+    assert residual(compiled).max() <= 50 * eps
+    assert residual(compiled).max() <= 10 * max(residual(lapack).max(), eps)
+
+
+def test_inverse_blocks_raises_on_a_singular_block_as_numpy_does():
+    M = np.stack([np.eye(3), np.zeros((3, 3)), np.eye(3)])
+    with pytest.raises(np.linalg.LinAlgError, match="block 1"):
+        block_kernels.inverse_blocks(M)
+    with pytest.raises(np.linalg.LinAlgError):
+        np.linalg.inv(M)
+
+
+def test_block_product_and_reduced_values_match_numpy(wall_ipm):
+    ipm, it = wall_ipm
+    ipm.settings(kernels="numpy")
+    Hinv, (M_inv, sqrt_d, top_left) = ipm._inverse_blocks(it)
+    rng = np.random.default_rng(5)
+    rhs = rng.normal(size=(ipm.n_blocks, M_inv.shape[1]))
+    expected = np.matmul(M_inv, rhs[:, :, None])[:, :, 0]
+    assert np.allclose(block_kernels.block_product(M_inv, rhs), expected, rtol=1e-13,
+                       atol=1e-13 * np.abs(M_inv).max() * np.abs(rhs).max())
+    # the 3-by-3 products of the dual block solves go through the same kernel
+    small = rhs[:, :ipm.k]
+    assert np.allclose(block_kernels.block_product(top_left, small), np.einsum("bij,bj->bi", top_left, small),
+                       rtol=1e-13, atol=1e-13 * np.abs(top_left).max() * np.abs(small).max())
+    # the fused block solve against the numpy path's gathers, products and scatters
+    blocks = (M_inv, sqrt_d, top_left)
+    rhs_dual, rhs_primal = rng.normal(size=ipm.n_blocks * ipm.k), rng.normal(size=ipm.h.size)
+    numpy_dv, numpy_dy = ipm._block_solve(blocks, rhs_dual, rhs_primal)
+    compiled_dv, compiled_dy = block_kernels.block_solve(M_inv, blocks[1], rhs_dual, rhs_primal, ipm.block_rows)
+    for compiled, expected in ((compiled_dv, numpy_dv), (compiled_dy, numpy_dy)):
+        assert np.abs(compiled - expected).max() <= 1e-13 * np.abs(expected).max()
+    numpy_values = ipm._reduced_values(Hinv)
+    ipm.settings(kernels="compiled")
+    compiled_values = ipm._reduced_values(Hinv)
+    scale = np.abs(numpy_values).max()
+    assert np.abs(compiled_values - numpy_values).max() <= 1e-13 * scale
+    ipm.settings(kernels="auto")
+
+
+def _solve(lp, ops, kernels, engine=None):
+    ipm = engine or cold_lp_engine(lp, "block-ipm", ops=ops)
+    ipm.settings(kernels=kernels)
+    assert (ipm.block_kernels is None) == (kernels == "numpy")
+    return ipm.solve()
+
+
+def test_static_lp_same_optimum_with_either_kernels():
+    ops = bm.assemble(bm.cases.wall(10, 20))
+    lp = compile_linear(static_lp(ops))
+    outs = [_solve(lp, ops, kernels) for kernels in ("numpy", "compiled")]
+    assert all(out.status is bm.Status.OPTIMAL for out in outs)
+    assert outs[1].objective == pytest.approx(outs[0].objective, rel=1e-8)
+    lam = [float(lp.values("lam", out.v)[0]) for out in outs]
+    assoc = bm.solve(ops, "static-lp").multiplier  # HiGHS, independent of both
+    assert lam == pytest.approx([assoc, assoc], rel=1e-7)
+
+
+def test_interior_fixed_point_same_solution_with_either_kernels():
+    """The non-symmetric blocks of (3) (``G_dual != G``) through the compiled inverse: the same solution."""
+    from blockmpec.formulations import modified_lp
+    from blockmpec.formulations._pyomo import compiled_linear
+    from blockmpec.solvers.engines.interior_fixed_point import InteriorFixedPoint
+
+    ops = bm.assemble(bm.cases.wall(4, 5))
+    lp = compiled_linear(modified_lp, ops, np.zeros(ops.n_interfaces), slope=ops.dilatancy)
+    outs = [_solve(lp, ops, kernels, engine=InteriorFixedPoint(lp, ops)) for kernels in ("numpy", "compiled")]
+    assert all(out.status is bm.Status.OPTIMAL for out in outs)
+    assert outs[1].objective == pytest.approx(outs[0].objective, rel=1e-7)
+    assert np.allclose(outs[1].v, outs[0].v, rtol=1e-6, atol=1e-6 * np.abs(outs[0].v).max())
+
+
+def test_auto_compiles_from_the_threshold_on(wall_ipm, monkeypatch):
+    ipm, _ = wall_ipm
+    assert ipm.n_blocks < COMPILED_KERNEL_BLOCKS
+    ipm.settings(kernels="auto")
+    assert ipm.block_kernels is None
+    monkeypatch.setattr(block_ipm, "COMPILED_KERNEL_BLOCKS", ipm.n_blocks)
+    assert ipm.block_kernels is block_kernels
+    ipm.settings(kernels="numpy")
+    assert ipm.block_kernels is None
+    ipm.settings(kernels="compiled")
+    assert ipm.block_kernels is block_kernels
+    ipm.settings(kernels="auto")
+
+
+def test_unknown_or_unavailable_kernels_are_one_clear_error(wall_ipm, monkeypatch):
+    ipm, _ = wall_ipm
+    with pytest.raises(ValueError, match="unknown kernels 'fortran'"):
+        ipm.settings(kernels="fortran")
+    monkeypatch.setattr(block_ipm, "compiled_kernels_available", lambda: False)
+    with pytest.raises(ValueError, match=r"needs numba .*blockmpec\[fast\]"):
+        ipm.settings(kernels="compiled")
+    monkeypatch.setattr(block_ipm, "COMPILED_KERNEL_BLOCKS", 0)
+    ipm.settings(kernels="auto")
+    assert ipm.block_kernels is None  # auto without numba: numpy, whatever the size
+
+
+def test_scatter_add_is_np_add_at_bit_for_bit_in_the_supernodal_cholesky():
+    """The extend-add through the compiled scatter gives the supernodal factors of ``np.add.at``, bit for bit."""
+    from blockmpec.solvers.engines.cholesky import SupernodalCholesky
+
+    rng = np.random.default_rng(11)
+    target, index = rng.normal(size=50), rng.permutation(50)[:30].astype(np.int32)
+    values = rng.normal(size=30)
+    expected = target.copy()
+    np.add.at(expected, index, values)
+    block_kernels.scatter_add(target, index, values)
+    assert np.array_equal(target, expected)
+
+    ops = bm.assemble(bm.cases.wall(12, 20))
+    lp = compile_linear(static_lp(ops))
+    ipm = cold_lp_engine(lp, "block-ipm", ops=ops)
+    Hinv, _ = ipm._inverse_blocks(ipm.initial_point())
+    values = ipm._reduced_values(Hinv)
+    chol = SupernodalCholesky(ipm._K_pattern, extend_add_runs=0)  # every child by the flat index
+    rhs = rng.normal(size=chol.n)
+    x_numpy = chol.factorise_values(values)(rhs)
+    chol.scatter_add = block_kernels.scatter_add
+    x_compiled = chol.factorise_values(values)(rhs)
+    assert np.array_equal(x_compiled, x_numpy)
+    K = ipm._reduced_csc(values)
+    assert np.abs(K @ x_compiled - rhs).max() <= 1e-8 * np.abs(rhs).max()
