@@ -14,7 +14,9 @@ Mehrotra's predictor-corrector method reduces to
 * ``H = G^T D G`` with ``D = diag(y / s)``: block diagonal (one small SPD block per
   interface).  ``H^{-1}`` is read off the inverse of each block's scaled augmented
   matrix ``[[0, B^T], [B, -I]]``, ``B = D^{1/2} G`` (never by forming ``H``: near the
-  optimum ``d`` spans 1e-10..1e10 within one interface);
+  optimum ``d`` spans 1e-10..1e10 within one interface); these per-interface inverses and products run
+  as numpy gufuncs or, with the optional numba, as compiled loops (``kernels`` setting,
+  :mod:`blockmpec.solvers.engines.block_kernels`);
 * ``K = A_B H^{-1} A_B^T``: sparse, symmetric positive definite, of the size of
   the equilibrium rows (3 per block), with the sparsity of the block contact graph
   (a 2D mesh for walls).  It is assembled on its fixed *structural* pattern: each
@@ -179,7 +181,7 @@ AUTO_SUPERNODAL_ROWS = 30_000
 #: numba is installed and the LP has at least :data:`COMPILED_KERNEL_BLOCKS` interface blocks, numpy otherwise
 KERNELS = ("auto", "numpy", "compiled")
 #: Below this many interface blocks (about 4,000 free blocks on a wall; an LP of ~8 s) ``"auto"`` keeps numpy:
-#: the kernels save 15-30 % of the per-interface work per iteration, and importing numba and loading the cached
+#: the kernels save 22-43 % of the per-interface work per iteration, and importing numba and loading the cached
 #: kernels costs 0.5-1 s and ~100 MB (their first compilation on a machine, a few seconds more); at 2,420 blocks
 #: the LP took 3.3 s compiled against 2.8 s with numpy (studies/lp_timing.py --kernels numpy,compiled)
 COMPILED_KERNEL_BLOCKS = 8_000
@@ -191,6 +193,7 @@ def compiled_kernels_available() -> bool:
     import importlib.util
 
     return importlib.util.find_spec("numba") is not None
+
 
 def named_settings(name: str) -> dict:
     """The settings set ``<NAME>_SETTINGS`` of this module by its lower-case name (``"default"``, ``"exact_inner"``,
@@ -379,7 +382,7 @@ class BlockIPM:
     @property
     def block_kernels(self):
         """The compiled kernels module (:mod:`blockmpec.solvers.engines.block_kernels`) when the ``kernels`` setting
-        chooses them for this LP (``"auto"``: numba installed and at least :data:`COMPILED_KERNEL_BLOCKS` interface
+        chooses them for this LP (``"auto"``: numba installed and at least :attr:`compiled_kernel_blocks` interface
         blocks), else None (numpy)."""
         threshold = COMPILED_KERNEL_BLOCKS if self.compiled_kernel_blocks is None else self.compiled_kernel_blocks
         compiled = self.kernels == "compiled" or (
