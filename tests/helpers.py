@@ -119,3 +119,22 @@ LIFTING_CASES = {
     "wall-4x2-stack-mu0.4": lambda: bm.cases.wall(4, 2, bond="stack", mu=0.4),
     "arch-6": lambda: bm.cases.round_arch(n_voussoirs=6, thickness=0.15),
 }
+
+
+def wall_block_ipm_off_path(spread: float, seed: int, courses: int = 10, blocks_per_course: int = 20):
+    """The block IPM on the static LP of a running-bond wall (load units) and an iterate off the central path:
+    Mehrotra's starting point with ``s`` and ``y`` each multiplied by ``exp(N(0, spread))``, so the products
+    ``s y`` spread over many decades, as near the optimum."""
+    from blockmpec.formulations import compile_linear, static_lp
+    from blockmpec.solvers.engines.block_ipm import BlockIPM
+    from blockmpec.solvers.engines.lp_engine import cold_lp_engine
+
+    ops = bm.assemble(bm.cases.wall(courses, blocks_per_course))
+    lp = compile_linear(static_lp(ops))
+    ipm = cold_lp_engine(lp, "block-ipm", ops=ops)
+    assert isinstance(ipm, BlockIPM)
+    it = ipm.initial_point()
+    rng = np.random.default_rng(seed)
+    it.s *= np.exp(rng.normal(0.0, spread, it.s.size))
+    it.y *= np.exp(rng.normal(0.0, spread, it.y.size))
+    return ipm, it

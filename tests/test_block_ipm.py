@@ -14,21 +14,14 @@ import blockmpec as bm
 from blockmpec.formulations import compile_linear, static_lp
 from blockmpec.solvers.engines.block_ipm import DEFAULT_SETTINGS, EXACT_INNER_SETTINGS, BlockIPM, interface_blocks
 from blockmpec.solvers.engines.lp_engine import cold_lp_engine
+from helpers import wall_block_ipm_off_path
 
 
 @pytest.fixture(scope="module")
 def wall_ipm():
-    """The block IPM on the static LP of a 10x20 wall in load units, with an iterate off the central path."""
-    ops = bm.assemble(bm.cases.wall(10, 20))
-    lp = compile_linear(static_lp(ops))
-    ipm = cold_lp_engine(lp, "block-ipm", ops=ops)
-    assert isinstance(ipm, BlockIPM)
-    it = ipm.initial_point()
-    rng = np.random.default_rng(7)
-    # products s y spread over ~8 decades, as near the optimum
-    it.s *= np.exp(rng.normal(0.0, 3.0, it.s.size))
-    it.y *= np.exp(rng.normal(0.0, 3.0, it.y.size))
-    return ipm, it
+    """The block IPM on the static LP of a 10x20 wall in load units, with an iterate off the central path
+    (products s y spread over ~8 decades, as near the optimum)."""
+    return wall_block_ipm_off_path(spread=3.0, seed=7)
 
 
 def _newton_residuals(ipm, it, direction, r_b, r_h, r_c, r_mu):

@@ -12,8 +12,9 @@ import pytest
 import blockmpec as bm
 from blockmpec.formulations import compile_linear, static_lp
 from blockmpec.solvers.engines import block_ipm
-from blockmpec.solvers.engines.block_ipm import COMPILED_KERNEL_BLOCKS, BlockIPM
+from blockmpec.solvers.engines.block_ipm import COMPILED_KERNEL_BLOCKS
 from blockmpec.solvers.engines.lp_engine import cold_lp_engine
+from helpers import wall_block_ipm_off_path
 
 pytest.importorskip("numba")
 from blockmpec.solvers.engines import block_kernels  # noqa: E402
@@ -21,16 +22,8 @@ from blockmpec.solvers.engines import block_kernels  # noqa: E402
 
 @pytest.fixture(scope="module")
 def wall_ipm():
-    """The block IPM on a 10x20 wall's static LP with an iterate whose products s y spread over ~8 decades."""
-    ops = bm.assemble(bm.cases.wall(10, 20))
-    lp = compile_linear(static_lp(ops))
-    ipm = cold_lp_engine(lp, "block-ipm", ops=ops)
-    assert isinstance(ipm, BlockIPM)
-    it = ipm.initial_point()
-    rng = np.random.default_rng(3)
-    it.s *= np.exp(rng.normal(0.0, 4.0, it.s.size))
-    it.y *= np.exp(rng.normal(0.0, 4.0, it.y.size))
-    return ipm, it
+    """The block IPM on a 10x20 wall's static LP with an iterate whose products s y spread over ~11 decades."""
+    return wall_block_ipm_off_path(spread=4.0, seed=3)
 
 
 def test_inverse_blocks_as_accurate_as_lapack(wall_ipm):
