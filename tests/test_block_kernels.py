@@ -136,29 +136,3 @@ def test_unknown_or_unavailable_kernels_are_one_clear_error(wall_ipm, monkeypatc
     ipm.settings(kernels="auto")
     assert ipm.block_kernels is None  # auto without numba: numpy, whatever the size
 
-
-def test_scatter_add_is_np_add_at_bit_for_bit_in_the_supernodal_cholesky():
-    """The extend-add through the compiled scatter gives the supernodal factors of ``np.add.at``, bit for bit."""
-    from blockmpec.solvers.engines.cholesky import SupernodalCholesky
-
-    rng = np.random.default_rng(11)
-    target, index = rng.normal(size=50), rng.permutation(50)[:30].astype(np.int32)
-    values = rng.normal(size=30)
-    expected = target.copy()
-    np.add.at(expected, index, values)
-    block_kernels.scatter_add(target, index, values)
-    assert np.array_equal(target, expected)
-
-    ops = bm.assemble(bm.cases.wall(12, 20))
-    lp = compile_linear(static_lp(ops))
-    ipm = cold_lp_engine(lp, "block-ipm", ops=ops)
-    Hinv, _ = ipm._inverse_blocks(ipm.initial_point())
-    values = ipm._reduced_values(Hinv)
-    chol = SupernodalCholesky(ipm._K_pattern, extend_add_runs=0)  # every child by the flat index
-    rhs = rng.normal(size=chol.n)
-    x_numpy = chol.factorise_values(values)(rhs)
-    chol.scatter_add = block_kernels.scatter_add
-    x_compiled = chol.factorise_values(values)(rhs)
-    assert np.array_equal(x_compiled, x_numpy)
-    K = ipm._reduced_csc(values)
-    assert np.abs(K @ x_compiled - rhs).max() <= 1e-8 * np.abs(rhs).max()

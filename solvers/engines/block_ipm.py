@@ -545,8 +545,6 @@ class BlockIPM:
         factoriser = self.factoriser
         solve_K = None
         if isinstance(factoriser, SupernodalCholesky):
-            kernels = self.block_kernels
-            factoriser.scatter_add = np.add.at if kernels is None else kernels.scatter_add
             solve_K = factoriser.factorise_values(values)
             if solve_K is None:
                 # a pivot lost definiteness in floating point: SuperLU's LDL^T (same ordering), which

@@ -13,10 +13,10 @@ per-call overhead dominates: on 20,100 interfaces ``np.linalg.inv`` takes ~28 ms
 * :func:`block_solve`: the block solves of a Newton step in one pass (the right-hand side gathered from the
   inequality rows, scaled, multiplied by ``M_i^{-1}``, and ``dy`` scattered back);
 * :func:`reduced_values`: ``a_i H_i^{-1} a_i^T`` summed into ``K``'s data array by the scatter index, in the same
-  order as ``np.bincount`` adds them;
-* :func:`scatter_add`: ``np.add.at`` as one loop, for the supernodal Cholesky's extend-add
-  (:class:`~blockmpec.solvers.engines.cholesky.SupernodalCholesky`), where ``np.add.at``'s per-call overhead adds
-  up over ~10^5 small children per factorisation on a 30,000-block wall.
+  order as ``np.bincount`` adds them.
+
+(A compiled ``np.add.at`` for the supernodal Cholesky's extend-add was measured and dropped: it saved no time
+measurably, 2.11-2.18 s for one factorisation at 100,014 blocks with either, three of each in one process.)
 
 They compute the same quantities as the numpy expressions they replace, with another rounding (Gauss--Jordan
 instead of LU plus triangular solves): the results agree to round-off, so iterates may differ in late digits.
@@ -170,14 +170,3 @@ def block_solve(M_inv: np.ndarray, sqrt_d: np.ndarray, rhs_dual: np.ndarray, rhs
     return _block_solve(M_inv, sqrt_d, np.ascontiguousarray(rhs_dual, dtype=np.float64),
                         np.ascontiguousarray(rhs_primal, dtype=np.float64), block_rows)
 
-
-@njit(**_JIT)
-def _scatter_add(target, index, values):  # pragma: no cover - compiled
-    for i in range(index.size):
-        target[index[i]] += values[i]
-
-
-def scatter_add(target: np.ndarray, index: np.ndarray, values: np.ndarray) -> None:
-    """``target[index] += values`` in place, one addition per entry in order (``np.add.at``'s sums, bit for bit):
-    the supernodal Cholesky's extend-add of a child's update matrix into its parent's front."""
-    _scatter_add(target, index, values)

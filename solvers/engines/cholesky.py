@@ -345,10 +345,6 @@ class SupernodalCholesky:
         #: nonzeros of L (structural, without amalgamation zeros) + U, as SuperLU counts its L + U
         self.factor_nnz = 2 * int(counts.sum())
         self.analyse_s = time.process_time() - t0
-        #: ``scatter_add(target, index, values)``: ``target[index] += values`` for the extend-add of children
-        #: whose rows are not a few runs of their parent's (``np.add.at``; the block IPM swaps in its compiled
-        #: kernel, :func:`blockmpec.solvers.engines.block_kernels.scatter_add`, the same sums bit for bit)
-        self.scatter_add = np.add.at
         self.factorisations = 0
         self.factorise_s = 0.0
         #: wall-clock time of the factorisations (below their CPU time when ``front_threads`` > 1 pays)
@@ -415,7 +411,7 @@ class SupernodalCholesky:
                 if index is not None:
                     # unbuffered (the indices are distinct): 3-4x faster than `flat[index] += ...`
                     # on numpy >= 1.25, the same sums bit for bit
-                    self.scatter_add(flat, index, update.T.reshape(-1))
+                    np.add.at(flat, index, update.T.reshape(-1))
                 else:
                     for i, (u0, u1, f0, f1) in enumerate(runs):
                         for v0, v1, g0, g1 in runs[:i + 1]:
