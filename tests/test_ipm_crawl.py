@@ -100,3 +100,30 @@ def test_einsum_block_products_are_the_engine_block_solve_to_round_off(crawl):
     rows = crawl.roundoff("8x10")
     assert [row["status"] for row in rows] == ["optimal", "optimal"]
     assert rows[1]["lam"] == pytest.approx(rows[0]["lam"], rel=1e-8)
+
+
+def test_projection_onto_the_final_face_keeps_the_optimum_and_rejects_the_start(crawl):
+    """``face_projection`` (the study's ``--polish``): the optimal iterate projected onto its own partition's face
+    stays feasible at the optimum; the starting point projected onto that face violates the rows it keeps free
+    (an early finish with the right partition still fails)."""
+    lp, ops = crawl.wall_lp("8x10")
+    plain, recorder = crawl.run(lp, ops)
+    engine, final = recorder.engine, recorder.previous
+    active = final.y > final.s
+    assert 0 < active.sum() < active.size
+    optimum = float(engine.c @ final.v)
+    violation, objective = crawl.face_projection(engine, final, active)
+    assert violation <= 1e-9
+    assert abs(objective - optimum) <= 1e-9 * (1 + abs(optimum))
+    start_violation, _ = crawl.face_projection(engine, engine.initial_point(), active)
+    assert start_violation > 1e-3
+
+
+def test_polish_summary_counts_within_the_run(crawl):
+    rows, summary = crawl.polish("8x10", kappas=(100.0,))
+    assert summary["status"] == "optimal" and summary["probe_iterations"] == len(rows) == summary["iterations"] + 1
+    for tol in ("1e-08", "1e-09"):
+        for name in ("oracle", "s<100y"):
+            assert 0 <= summary[f"{name}_saves_at_{tol}"] < len(rows)
+    # the last iterate is optimal: every guess there is the final partition, whose projection is feasible
+    assert rows[-1]["oracle_violation"] <= 1e-8 and rows[-1]["oracle_objective_error"] <= 1e-8
