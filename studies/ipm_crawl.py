@@ -32,6 +32,10 @@ small and only the relative gap, a few units, is left.  After that, steps are 0.
   ``kappa`` of ``--kappas``.  The summary counts, per guess and tolerance (1e-8, the verifier's; 1e-9, the
   engine's), the iterations after which every projection is feasible and its objective within the tolerance of
   the optimum: an upper bound on what a finish could save (a real finish also needs the dual projection).
+* ``--ties CxB,... --eps A,B``: the same LP with every interface's friction coefficient lowered at random (seed 1)
+  by up to the fraction ``A``, ``B`` (0: the wall itself).  A running-bond wall is periodic, so several
+  mechanisms may tie for the optimum, and an interior point converges to the centre of all of them.  If ties
+  made the crawl, breaking them would shorten it.
 * ``--oracle CxB --coarse DxE``: also weights from a coarser wall's solution, each row taking the
   weight of the same row (same orientation and row of its interface) of the nearest coarse interface,
   positions scaled to the unit square (:func:`mapped_weights`).
@@ -49,6 +53,7 @@ Usage::
     python studies/ipm_crawl.py --oracle 100x100 --clips "" --rules "" --coarse 50x50
     python studies/ipm_crawl.py --transfer 100x100 --mu 0.65 --to 0.5,0.6,0.7
     python studies/ipm_crawl.py --roundoff 20x50,100x100
+    python studies/ipm_crawl.py --ties 20x50,100x100 --eps 0,1e-6,1e-4,1e-2 --ipm-settings default
     python studies/ipm_crawl.py --polish 20x50,100x100 --kappas 100,1e4 --ipm-settings default
 
 Every run uses the block IPM with every inner direction corrected to the absolute target
@@ -57,7 +62,7 @@ all of this study's tables were measured with, the LP default before ``inner_tol
 how many iterations the central path takes, does not depend on it; ``--ipm-settings default`` runs the present
 default (1,010 / 10,050 / 100,014 blocks: 21 / 49 / 79 iterations against 21 / 53 / 82, ``studies/lp_timing.py``).
 
-Writes ``studies/output/ipm_crawl/{diagnose,oracle,transfer,roundoff,polish}.csv``.
+Writes ``studies/output/ipm_crawl/{diagnose,oracle,transfer,roundoff,polish,ties}.csv``.
 """
 
 from __future__ import annotations
@@ -281,6 +286,23 @@ def roundoff(spec: str) -> list[dict]:
             for name, product in (("matmul (the engine's)", None), ("einsum", einsum_block_product))]
 
 
+def ties(spec: str, fractions: list[float]) -> list[dict]:
+    """The wall's LP with every interface's friction lowered at random (seed 1) by up to each fraction."""
+    import dataclasses
+
+    wall = _wall(spec)
+    friction = wall.interface_friction()
+    draws = np.random.default_rng(1).uniform(0.0, 1.0, friction.size)
+    rows = []
+    for fraction in fractions:
+        perturbed = dataclasses.replace(wall, interfaces=dataclasses.replace(
+            wall.interfaces, friction=friction * (1.0 - fraction * draws)))
+        ops = bm.assemble(perturbed)
+        summary, _ = run(compile_linear(static_lp(ops)), ops)
+        rows.append({"wall": spec, "friction_lowered_by_up_to": fraction, **summary})
+    return rows
+
+
 def face_projection(engine: BlockIPM, it: IPMIterate, active: np.ndarray, ratio: float = 1e8) -> tuple[float, float]:
     r"""Project the primal iterate onto the face where the ``active`` rows hold with equality.
 
@@ -350,6 +372,8 @@ def main(argv: list[str] | None = None) -> list[dict]:
     parser.add_argument("--transfer", default="", help="a wall CxB: weights from --mu used at --to")
     parser.add_argument("--roundoff", default="", help="comma-separated walls CxB: block products by matmul and einsum")
     parser.add_argument("--polish", default="", help="comma-separated walls CxB: projections onto the optimal face per iteration")
+    parser.add_argument("--ties", default="", help="comma-separated walls CxB: friction lowered at random by up to --eps")
+    parser.add_argument("--eps", default="0,1e-6,1e-4,1e-2", help="--ties: largest fractions of the friction removed")
     parser.add_argument("--kappas", default="1,100", help="--polish: guesses s_i < kappa y_i of the active rows")
     parser.add_argument("--clips", default="10,100", help="--oracle: clips of the weights from the solution")
     parser.add_argument("--rules", default="current,running", help="--oracle: rules without the solution ('' for none)")
@@ -390,8 +414,11 @@ def main(argv: list[str] | None = None) -> list[dict]:
         _emit(rows, "polish")
         for summary in summaries:
             print(json.dumps(summary), flush=True)
-    if not (args.diagnose or args.oracle or args.transfer or args.roundoff or args.polish):
-        parser.error("give --diagnose, --oracle, --transfer, --roundoff or --polish")
+    if args.ties:
+        rows = [row for spec in args.ties.split(",") for row in ties(spec, [float(v) for v in args.eps.split(",")])]
+        _emit(rows, "ties")
+    if not (args.diagnose or args.oracle or args.transfer or args.roundoff or args.polish or args.ties):
+        parser.error("give --diagnose, --oracle, --transfer, --roundoff, --polish or --ties")
     return rows
 
 

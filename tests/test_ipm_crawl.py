@@ -127,3 +127,10 @@ def test_polish_summary_counts_within_the_run(crawl):
             assert 0 <= summary[f"{name}_saves_at_{tol}"] < len(rows)
     # the last iterate is optimal: every guess there is the final partition, whose projection is feasible
     assert rows[-1]["oracle_violation"] <= 1e-8 and rows[-1]["oracle_objective_error"] <= 1e-8
+
+
+def test_ties_lowers_friction_and_so_lambda(crawl):
+    """``--ties``: lowering the friction (up to 1e-2 of it) can only lower the associative optimum, never raise it."""
+    rows = crawl.ties("8x10", [0.0, 1e-2])
+    assert [row["status"] for row in rows] == ["optimal", "optimal"]
+    assert rows[1]["lam"] <= rows[0]["lam"] + 1e-9
