@@ -69,6 +69,14 @@ class Solution:
     z_u: np.ndarray | None = None
     z_f: np.ndarray | None = None
 
+    def __repr__(self) -> str:
+        """The multiplier and each array's shape (the arrays themselves run to thousands of numbers)."""
+        parts = [f"multiplier={self.multiplier!r}"]
+        for name in ("x", "u", "z_u", "z_f"):
+            value = getattr(self, name)
+            parts.append(f"{name}={'None' if value is None else f'<array {np.shape(value)}>'}")
+        return f"Solution({', '.join(parts)})"
+
 
 @dataclass
 class Result:
@@ -117,6 +125,18 @@ class Result:
     raw_status: str = ""
     options: dict[str, Any] = field(default_factory=dict)
     extra: dict[str, Any] = field(default_factory=dict)
+
+    def __repr__(self) -> str:
+        """One line a REPL can show: what was solved, how well, how fast (the arrays are in :attr:`solution`,
+        the full record, with the whole message, in :meth:`to_dict`)."""
+        lam = "None" if self.multiplier is None else f"{self.multiplier:.10g}"
+        residual = self.max_residual
+        check = (f"verified={self.verified} (max residual {residual:.1e}, tolerance {self.verify_tol:g})"
+                 if math.isfinite(residual) else f"verified={self.verified} (no residuals)")
+        message = self.message if len(self.message) <= 200 else self.message[:199] + "…"
+        return (f"Result(method={self.method!r}, problem={self.problem!r}, status={self.status.value!r}, "
+                f"multiplier={lam}, {check}, iterations={self.iterations}, build_time_s={self.build_time_s:.3g}, "
+                f"solve_time_s={self.solve_time_s:.3g}, message={message!r})")
 
     @property
     def success(self) -> bool:

@@ -46,6 +46,14 @@ def test_result_is_complete_and_timed(method):
     if res.status.is_success:
         assert set(res.residuals) >= {"equilibrium", "friction_admissibility", "compatibility"}
         assert all(math.isfinite(v) for v in res.residuals.values())
+    # the REPL's view: one line with what was solved and how well, no array dumped
+    shown = repr(res)
+    assert "\n" not in shown and len(shown) < 600
+    assert f"method={method!r}" in shown and f"status={res.status.value!r}" in shown
+    assert f"verified={res.verified}" in shown
+    if res.multiplier is not None:
+        assert f"{res.multiplier:.10g}" in shown
+    assert "array(" not in repr(res.solution)
 
 
 def test_claimed_success_is_downgraded_when_verifier_disagrees(method):
