@@ -94,6 +94,7 @@ from blockmpec.solvers.engines.piece_lp import STATIC_ENGINES
 
 sys.path.insert(0, str(Path(__file__).parent))
 from _tables import markdown, write_csv  # noqa: E402
+from _walls import lowered_friction  # noqa: E402
 
 OUT = Path(__file__).parent / "output" / "fixed_point_routes"
 VERIFY_TOL = 1e-8
@@ -432,17 +433,11 @@ def route_ties(ops, args) -> list[dict]:
     break the running bond's ties.  Lowered friction keeps a solution of the perturbed (3) statically
     admissible for the wall itself, so the worst residual of (3) is measured on the wall itself (about ``eps``
     where a perturbed friction row is active)."""
-    import dataclasses
-
     wall = named_wall(args.wall)
-    friction = wall.interface_friction()
-    draws = np.random.default_rng(1).uniform(0.0, 1.0, friction.size)
     aims = [float(v) for v in args.aims.split(",")] if args.aims else [args.fold]
     rows = []
     for eps in (float(v) for v in args.eps.split(",")):
-        lowered = friction * (1.0 - eps * draws)
-        perturbed_ops = bm.assemble(dataclasses.replace(
-            wall, interfaces=dataclasses.replace(wall.interfaces, friction=lowered)))
+        perturbed_ops = bm.assemble(lowered_friction(wall, eps))
         lp = step_lp(perturbed_ops)
         for aim in aims:
             t0 = time.process_time()

@@ -83,6 +83,7 @@ from blockmpec.solvers.engines.lp_engine import cold_lp_engine
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _tables import write_csv  # noqa: E402
+from _walls import lowered_friction  # noqa: E402
 
 OUT = Path(__file__).parent / "output" / "ipm_crawl"
 #: the crawl starts at the first iterate whose relative duality gap is at most this (the residuals
@@ -288,16 +289,10 @@ def roundoff(spec: str) -> list[dict]:
 
 def ties(spec: str, fractions: list[float]) -> list[dict]:
     """The wall's LP with every interface's friction lowered at random (seed 1) by up to each fraction."""
-    import dataclasses
-
     wall = _wall(spec)
-    friction = wall.interface_friction()
-    draws = np.random.default_rng(1).uniform(0.0, 1.0, friction.size)
     rows = []
     for fraction in fractions:
-        perturbed = dataclasses.replace(wall, interfaces=dataclasses.replace(
-            wall.interfaces, friction=friction * (1.0 - fraction * draws)))
-        ops = bm.assemble(perturbed)
+        ops = bm.assemble(lowered_friction(wall, fraction))
         summary, _ = run(compile_linear(static_lp(ops)), ops)
         rows.append({"wall": spec, "friction_lowered_by_up_to": fraction, **summary})
     return rows

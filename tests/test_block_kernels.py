@@ -68,7 +68,7 @@ def test_block_product_and_reduced_values_match_numpy(wall_ipm):
     blocks = (M_inv, sqrt_d, top_left)
     rhs_dual, rhs_primal = rng.normal(size=ipm.n_blocks * ipm.k), rng.normal(size=ipm.h.size)
     numpy_dv, numpy_dy = ipm._block_solve(blocks, rhs_dual, rhs_primal)
-    compiled_dv, compiled_dy = block_kernels.block_solve(M_inv, blocks[1], rhs_dual, rhs_primal, ipm.block_rows)
+    compiled_dv, compiled_dy = block_kernels.block_solve(M_inv, sqrt_d, rhs_dual, rhs_primal, ipm.block_rows)
     for compiled, expected in ((compiled_dv, numpy_dv), (compiled_dy, numpy_dy)):
         assert np.abs(compiled - expected).max() <= 1e-13 * np.abs(expected).max()
     numpy_values = ipm._reduced_values(Hinv)

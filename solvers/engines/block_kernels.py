@@ -169,4 +169,3 @@ def block_solve(M_inv: np.ndarray, sqrt_d: np.ndarray, rhs_dual: np.ndarray, rhs
     ``dy[rows_i] = D_i^{1/2} z`` (``block_rows`` must cover every inequality row once)."""
     return _block_solve(M_inv, sqrt_d, np.ascontiguousarray(rhs_dual, dtype=np.float64),
                         np.ascontiguousarray(rhs_primal, dtype=np.float64), block_rows)
-
