@@ -35,7 +35,7 @@ comparison), the nonzeros of the factors and the relative residual
 Usage::
 
     python studies/cholesky_choice.py [--walls 100x100,316x316] [--methods ...] [--blas-threads 1,2]
-                                      [--extend-add-runs 2,8]
+                                      [--extend-add-runs 2,8] [--side-by-side [--rounds 3]]
 
 ``--blas-threads 1,2`` measures each method with one and with two BLAS threads (wall and CPU side by side;
 for the supernodal Cholesky only its fronts of at least ``THREADED_FRONT_ROWS`` rows get them, whose
@@ -43,6 +43,13 @@ dense updates are BLAS-3: multithreaded BLAS on every front spins its threads be
 ``--extend-add-runs 2,8`` measures the supernodal Cholesky with each ``extend_add_runs`` (children whose rows
 fall into at most that many runs of their parent's rows are added by slices, the others by a flat index) and
 reports the flat indices' memory.
+
+``--side-by-side`` asks whether the supernodal factorisation can use two cores.  Its elimination tree is split
+into two unions of whole subtrees of about equal estimated cost (:func:`subtree_halves`) and their common
+ancestors (the top).  Each half is factorised by a worker process, alone and then with the other worker at
+the same time; the top runs after both.  Processes, not threads: the dense kernels run under the GIL.  So
+``top + max(halves side by side)`` bounds what any two-core factorisation of this tree could take.  Writes
+``side_by_side.csv``.
 
 Writes ``studies/output/cholesky_choice/cholesky_choice.csv``.
 """
@@ -274,6 +281,123 @@ def measure(method: str, K: sp.csc_array, engine, threads: int = 1, extend_add_r
             "factor_nnz": nnz, "residual": residual, "licence": LICENCE[method]}
 
 
+def front_costs(f: SupernodalCholesky) -> np.ndarray:
+    """An estimate of each supernode's factorisation time (s): a fixed cost per front, the dense flops of
+    ``potrf``, ``trsm`` and ``syrk`` (``w^3/3 + r w^2 + r^2 w`` for ``w`` columns and ``r`` rows below) and
+    the ``m^2`` entries of the front that are zeroed and assembled."""
+    w = (f.end - f.first).astype(float)
+    m = np.array([R.size for R in f.rows], dtype=float)
+    r = m - w
+    return 3e-5 + 2.5e-10 * (w ** 3 / 3 + r * w * w + r * r * w) + 2e-9 * m * m
+
+
+def subtree_halves(f: SupernodalCholesky) -> tuple[list[np.ndarray], np.ndarray]:
+    """``([half_0, half_1], top)``: supernodes two processes can factorise side by side, then the rest.
+
+    From the roots of the supernodal elimination tree, the costliest subtree (:func:`front_costs`) is split
+    into its root (to ``top``) and its children's subtrees as long as that lowers ``cost(top) + max(cost of a
+    half)``; the subtrees are dealt to the halves longest first.  Each half is a union of whole subtrees, so
+    it needs no update matrix from the other.  Every list is in increasing supernode order."""
+    ns = f.supernodes
+    parent = np.full(ns, -1, dtype=np.int64)
+    for s, kids in enumerate(f.children):
+        parent[kids] = s
+    cost = front_costs(f)
+    subtree = cost.copy()
+    for s in range(ns):  # children before their parent
+        if parent[s] >= 0:
+            subtree[parent[s]] += subtree[s]
+    frontier = [int(s) for s in np.flatnonzero(parent < 0)]
+    top: list[int] = []
+    best = None
+    for _ in range(min(ns, 1000)):
+        loads, halves = [0.0, 0.0], [[], []]
+        for s in sorted(frontier, key=lambda s: -subtree[s]):
+            g = int(np.argmin(loads))
+            loads[g] += subtree[s]
+            halves[g].append(s)
+        makespan = float(cost[top].sum()) + max(loads)
+        if best is None or makespan < best[0]:
+            best = (makespan, list(top), halves)
+        biggest = max(frontier, key=lambda s: subtree[s])
+        if not f.children[biggest]:
+            break
+        frontier.remove(biggest)
+        top.append(biggest)
+        frontier.extend(f.children[biggest])
+    _, top, halves = best
+    owner = np.full(ns, -1, dtype=np.int64)  # the half of each supernode, -1: the top
+    root_half = {s: g for g, roots in enumerate(halves) for s in roots}
+    in_top = set(top)
+    for s in range(ns - 1, -1, -1):  # parents before their children
+        if s in root_half:
+            owner[s] = root_half[s]
+        elif s not in in_top:
+            owner[s] = owner[parent[s]]
+    return [np.flatnonzero(owner == g) for g in (0, 1)], np.flatnonzero(owner < 0)
+
+
+def _half_worker(connection, f: SupernodalCholesky, values: np.ndarray, halves: list[np.ndarray]) -> None:
+    """Worker process: factorise the half whose index arrives, answer ``(wall s, CPU s)``; stop on None."""
+    with threadpool_limits(limits=1, user_api="blas"):
+        while (g := connection.recv()) is not None:
+            blocks: list = [None] * f.supernodes
+            t, c = time.perf_counter(), time.process_time()
+            ok = f.factor_supernodes(halves[g].tolist(), values, {}, blocks, list(blocks))
+            connection.send((time.perf_counter() - t, time.process_time() - c, ok))
+
+
+def side_by_side(K: sp.csc_array, engine, rounds: int = 5) -> dict:
+    """Times of the supernodal factorisation of ``K``: whole and its two halves (:func:`subtree_halves`) in this
+    process, the top after them, the halves alone and side by side in two worker processes (medians of ``rounds``,
+    wall-clock s).  ``speedup`` = (top + both halves alone) / (top + the slower half side by side)."""
+    import multiprocessing
+
+    f = SupernodalCholesky(structural_pattern(engine.A_B, engine.k), "metis")
+    halves, top = subtree_halves(f)
+    values = f.pattern_values(K)
+    context = multiprocessing.get_context("fork")  # the workers share f and K's values with this process
+    pipes = [context.Pipe() for _ in halves]
+    workers = [context.Process(target=_half_worker, args=(child, f, values, halves)) for _, child in pipes]
+    for w in workers:
+        w.start()
+    whole, pieces, top_s, alone, together = [], [], [], [[], []], [[], []]
+    with threadpool_limits(limits=1, user_api="blas"):
+        for _ in range(rounds):
+            t = time.perf_counter()
+            f.factorise_values(values)
+            whole.append(time.perf_counter() - t)
+            blocks: list = [None] * f.supernodes
+            updates: dict = {}
+            t = time.perf_counter()
+            for half in halves:  # the top's children's updates, then the top alone
+                f.factor_supernodes(half.tolist(), values, updates, blocks, list(blocks))
+            pieces.append(time.perf_counter() - t)
+            t = time.perf_counter()
+            f.factor_supernodes(top.tolist(), values, updates, blocks, list(blocks))
+            top_s.append(time.perf_counter() - t)
+            for g, (parent, _) in enumerate(pipes):
+                parent.send(g)
+                alone[g].append(parent.recv()[0])
+            for g, (parent, _) in enumerate(pipes):
+                parent.send(g)
+            for g, (parent, _) in enumerate(pipes):
+                together[g].append(parent.recv()[0])
+    for parent, _ in pipes:
+        parent.send(None)
+    for w in workers:
+        w.join()
+    cost = front_costs(f)
+    med = [float(np.median(x)) for x in (whole, pieces, top_s, *alone, *together)]
+    one_core = med[2] + med[3] + med[4]  # the top and both halves one after the other, in the workers
+    bound = med[2] + max(med[5], med[6])
+    return {"blocks": K.shape[0] // 3, "supernodes": f.supernodes, "half_supernodes": "/".join(str(h.size) for h in halves),
+            "top_supernodes": int(top.size), "estimated_s": "/".join(f"{cost[h].sum():.3f}" for h in (*halves, top)),
+            "whole_s": med[0], "halves_here_s": med[1], "top_s": med[2], "alone_s": f"{med[3]:.3f}/{med[4]:.3f}",
+            "side_by_side_s": f"{med[5]:.3f}/{med[6]:.3f}", "one_core_s": one_core, "two_core_bound_s": bound,
+            "speedup": one_core / bound, "rounds": rounds}
+
+
 def main(argv: list[str] | None = None) -> list[dict]:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--walls", default="100x100", help="comma-separated CxB walls (courses x blocks per course)")
@@ -281,7 +405,24 @@ def main(argv: list[str] | None = None) -> list[dict]:
     parser.add_argument("--blas-threads", default="1", help="comma-separated BLAS thread counts, each measured")
     parser.add_argument("--extend-add-runs", default="",
                         help="comma-separated extend_add_runs of the supernodal Cholesky, each measured (default: its own)")
+    parser.add_argument("--side-by-side", action="store_true",
+                        help="time the supernodal factorisation's two subtree halves alone and in two processes at once")
+    parser.add_argument("--rounds", type=int, default=5, help="--side-by-side: rounds (medians are reported)")
     args = parser.parse_args(argv)
+    if args.side_by_side:
+        rows = []
+        for wall in args.walls.split(","):
+            rows.append(side_by_side(*reduced_matrix(*(int(v) for v in wall.split("x"))), rounds=args.rounds))
+            print(rows[-1], flush=True)
+        print("| free blocks | supernodes (halves / top) | whole (halves + top here) | halves alone | top "
+              "| halves side by side | top + slower half side by side | speed-up bound |")
+        print("| ---: | --- | --- | --- | ---: | --- | ---: | ---: |")
+        for r in rows:
+            print(f"| {r['blocks']:,} | {r['supernodes']:,} ({r['half_supernodes']} / {r['top_supernodes']}) "
+                  f"| {r['whole_s']:.3f} s ({r['halves_here_s']:.3f} + {r['top_s']:.3f} s) | {r['alone_s']} s "
+                  f"| {r['top_s']:.3f} s | {r['side_by_side_s']} s | {r['two_core_bound_s']:.3f} s | {r['speedup']:.2f}x |")
+        print(f"wrote {write_csv(OUT / 'side_by_side.csv', rows)}")
+        return rows
     rows = []
     for wall in args.walls.split(","):
         courses, per = (int(v) for v in wall.split("x"))

@@ -154,3 +154,39 @@ def test_cholesky_choice_study_measures_each_installed_method_to_round_off():
             continue
         assert row["residual"] <= 1e-10, (method, row["residual"])
         assert row["rows"] == K.shape[0] and row["solve_s"] > 0
+
+
+def test_subtree_halves_factorised_apart_give_the_same_factors():
+    """``studies/cholesky_choice.py --side-by-side`` times two unions of subtrees of the elimination tree factorised
+    in two processes.  That is only a bound on a two-core factorisation if the split is one: every supernode is in
+    exactly one half or in the top, no half holds a child of the other's or of the top's supernodes, and the halves
+    factorised apart (each with its own updates), then the top, give the whole factorisation's factors bit for bit."""
+    from helpers import load_study
+
+    study = load_study("cholesky_choice")
+    K, engine = study.reduced_matrix(12, 16)
+    f = SupernodalCholesky(structural_pattern(engine.A_B, engine.k), "metis")
+    halves, top = study.subtree_halves(f)
+    assert all(h.size for h in halves) and top.size
+    owner = np.full(f.supernodes, -1)
+    for g, half in enumerate(halves):
+        owner[half] = g
+    assert np.array_equal(np.sort(np.concatenate([*halves, top])), np.arange(f.supernodes))
+    for s, kids in enumerate(f.children):
+        for c in kids:
+            assert owner[s] == -1 or owner[c] == owner[s], (s, c)  # a half's supernode has only its half's children
+    whole: list = []
+    f._solver = lambda diagonal, below: whole.extend([diagonal, below])  # capture the whole factorisation's factors
+    assert f.factorise(K) is None and len(whole) == 2
+    values = f.pattern_values(K)
+    blocks: list = [None] * f.supernodes
+    below: list = [None] * f.supernodes
+    half_updates = [{}, {}]
+    for half, updates in zip(halves, half_updates):  # apart: a missing child update would raise KeyError
+        assert f.factor_supernodes(half.tolist(), values, updates, blocks, below)
+    updates = {**half_updates[0], **half_updates[1]}
+    assert f.factor_supernodes(top.tolist(), values, updates, blocks, below)
+    assert not updates  # every update matrix was consumed by its parent
+    for s in range(f.supernodes):
+        assert np.array_equal(blocks[s], whole[0][s])
+        assert (below[s] is None and whole[1][s] is None) or np.array_equal(below[s], whole[1][s])

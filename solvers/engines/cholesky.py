@@ -371,6 +371,10 @@ class SupernodalCholesky:
 
     def factorise(self, K: sp.sparray):
         """``solve(rhs)`` for ``K x = rhs``, ``K`` a sparse matrix within the pattern; None if not definite."""
+        return self.factorise_values(self.pattern_values(K))
+
+    def pattern_values(self, K: sp.sparray) -> np.ndarray:
+        """``K``'s values on the structural pattern (``pattern.data`` order; zero where ``K`` has no entry)."""
         K = sp.coo_array(K)
         K.sum_duplicates()
         pattern = self._pattern
@@ -382,29 +386,40 @@ class SupernodalCholesky:
         if np.any(where >= key_P.size) or np.any(key_P[np.minimum(where, key_P.size - 1)] != key_K):
             raise ValueError("supernodal Cholesky: the matrix has entries outside its structural pattern")
         values[where] = K.data
-        return self.factorise_values(values)
+        return values
 
     def factorise_values(self, values: np.ndarray):
         """``solve(rhs)`` for ``K x = rhs`` with ``K``'s values given on the pattern (``pattern.data`` order);
         None if a pivot is not positive."""
+        t0, wall0 = time.process_time(), time.perf_counter()
+        diagonal_blocks: list[np.ndarray | None] = [None] * self.supernodes
+        below_blocks: list[np.ndarray | None] = [None] * self.supernodes
+        if not self.factor_supernodes(range(self.supernodes), values, {}, diagonal_blocks, below_blocks):
+            return None
+        self.factorisations += 1
+        self.factorise_s += time.process_time() - t0
+        self.factorise_wall_s += time.perf_counter() - wall0
+        return self._solver(diagonal_blocks, below_blocks)
+
+    def factor_supernodes(self, supernodes, values: np.ndarray, updates: dict[int, np.ndarray],
+                          diagonal_blocks: list, below_blocks: list) -> bool:
+        """Factorise the given supernodes in their order (each after its children): ``L11``/``L21`` into
+        ``diagonal_blocks[s]``/``below_blocks[s]``, update matrices left in ``updates`` for parents not given.
+
+        ``values``: ``K``'s values on the pattern (:meth:`pattern_values`).  False if a pivot is not positive.
+        A union of whole subtrees needs no update from outside it (``studies/cholesky_choice.py --side-by-side``
+        factorises two of them in two processes)."""
         from scipy.linalg.blas import dsyrk, dtrsm
         from scipy.linalg.lapack import dpotrf
 
-        t0, wall0 = time.process_time(), time.perf_counter()
         threaded = _blas_controller() if self.front_threads > 1 else None
-        source = values[self._assembly_source]
-        destination, offsets = self._assembly_destination, self._assembly_offsets
-        updates: dict[int, np.ndarray] = {}
-        first, end, rows_of = self.first, self.end, self.rows
-        diagonal_blocks: list[np.ndarray] = []
-        below_blocks: list[np.ndarray | None] = []
-        for s in range(self.supernodes):
-            R = rows_of[s]
-            m, width = R.size, int(end[s] - first[s])
+        destination, offsets, source = self._assembly_destination, self._assembly_offsets, self._assembly_source
+        for s in supernodes:
+            m, width = self.rows[s].size, int(self.end[s] - self.first[s])
             F = np.zeros((m, m), order="F")  # the front; its lower triangle holds the values
             flat = F.T.reshape(-1)  # a view: flat[col * m + row]
             a, b = offsets[s], offsets[s + 1]
-            flat[destination[a:b]] = source[a:b]
+            flat[destination[a:b]] = values[source[a:b]]
             for c in self.children[s]:
                 update = updates.pop(c)
                 runs, index = self.relative[c]
@@ -422,15 +437,12 @@ class SupernodalCholesky:
             else:
                 L11, L21, update = _dense_front(F, width, dpotrf, dtrsm, dsyrk)
             if L11 is None:
-                return None
-            diagonal_blocks.append(L11)
-            below_blocks.append(L21)
+                return False
+            diagonal_blocks[s] = L11
+            below_blocks[s] = L21
             if update is not None:
                 updates[s] = update
-        self.factorisations += 1
-        self.factorise_s += time.process_time() - t0
-        self.factorise_wall_s += time.perf_counter() - wall0
-        return self._solver(diagonal_blocks, below_blocks)
+        return True
 
     def _solver(self, diagonal_blocks: list[np.ndarray], below_blocks: list[np.ndarray | None]):
         """``solve(rhs)``: ``x = P^T L~^{-T} L~^{-1} P rhs`` by supernodes (BLAS ``trsv``/``trsm``, ``gemv``/``gemm``)."""
