@@ -9,6 +9,26 @@ import numpy as np
 import blockmpec as bm
 
 
+def wall_shape(spec: str) -> tuple[int, int]:
+    """``(courses, blocks per course)`` of a running-bond wall named ``"CxB"``, e.g. ``"100x100"``."""
+    try:
+        courses, per_course = (int(v) for v in spec.strip().lower().split("x"))
+    except ValueError:
+        raise ValueError(f"wall {spec!r}: expected CxB, courses x blocks per course (e.g. 100x100)") from None
+    return courses, per_course
+
+
+def wall_shapes(specs: str) -> list[tuple[int, int]]:
+    """:func:`wall_shape` of each name in a comma-separated list (empty names skipped)."""
+    return [wall_shape(spec) for spec in specs.split(",") if spec.strip()]
+
+
+def named_wall(spec: str, **options) -> bm.Structure:
+    """The running-bond wall ``"CxB"`` of :func:`blockmpec.cases.wall` (``options``: e.g. ``mu``)."""
+    courses, per_course = wall_shape(spec)
+    return bm.cases.wall(courses=courses, blocks_per_course=per_course, **options)
+
+
 def lowered_friction(structure: bm.Structure, fraction: float, seed: int = 1) -> bm.Structure:
     """``structure`` with every interface's friction coefficient ``mu_k`` lowered to ``mu_k (1 - fraction u_k)``,
     ``u_k`` uniform on [0, 1) from ``seed`` (the same draws for every fraction; 0: the structure itself).  Lowered

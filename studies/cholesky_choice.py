@@ -80,6 +80,7 @@ from blockmpec.solvers.engines.lp_engine import cold_lp_engine
 
 sys.path.insert(0, str(Path(__file__).parent))
 from _tables import write_csv  # noqa: E402
+from _walls import wall_shape  # noqa: E402
 
 OUT = Path(__file__).parent / "output" / "cholesky_choice"
 #: our factorisers of K, by the first part of a method name (the second part is the ordering)
@@ -412,7 +413,7 @@ def main(argv: list[str] | None = None) -> list[dict]:
     if args.side_by_side:
         rows = []
         for wall in args.walls.split(","):
-            rows.append(side_by_side(*reduced_matrix(*(int(v) for v in wall.split("x"))), rounds=args.rounds))
+            rows.append(side_by_side(*reduced_matrix(*wall_shape(wall)), rounds=args.rounds))
             print(rows[-1], flush=True)
         print("| free blocks | supernodes (halves / top) | whole (halves + top here) | halves alone | top "
               "| halves side by side | top + slower half side by side | speed-up bound |")
@@ -425,7 +426,7 @@ def main(argv: list[str] | None = None) -> list[dict]:
         return rows
     rows = []
     for wall in args.walls.split(","):
-        courses, per = (int(v) for v in wall.split("x"))
+        courses, per = wall_shape(wall)
         K, engine = reduced_matrix(courses, per)
         for method in args.methods.split(","):
             runs_values = [None]

@@ -97,6 +97,7 @@ from blockmpec.solvers.engines.interior_fixed_point import InteriorFixedPoint, c
 
 sys.path.insert(0, str(Path(__file__).parent))
 from _tables import markdown, write_csv  # noqa: E402
+from _walls import named_wall  # noqa: E402
 
 OUT = Path(__file__).parent / "output" / "fixed_point_continuation"
 RECENTRES = ("every", "converged")
@@ -203,8 +204,7 @@ def main(argv: list[str] | None = None) -> list[dict]:
     parser.add_argument("--time-limit", type=float, default=300.0,
                         help="seconds per stage (the continuation: wall clock)")
     args = parser.parse_args(argv)
-    courses, per = (int(v) for v in args.wall.split("x"))
-    ops = bm.assemble(bm.cases.wall(courses=courses, blocks_per_course=per))
+    ops = bm.assemble(named_wall(args.wall))
     lp = compiled_linear(modified_lp, ops, np.zeros(ops.n_interfaces), slope=ops.dilatancy)
     print(f"{args.wall}: {ops.n_free_blocks} free blocks", flush=True)
     common = {"tol": 1e-9, "time_limit": args.time_limit}

@@ -51,6 +51,7 @@ import blockmpec as bm
 
 sys.path.insert(0, str(Path(__file__).parent))
 from _tables import markdown, write_csv  # noqa: E402
+from _walls import named_wall  # noqa: E402
 
 OUT = Path(__file__).parent / "output" / "fixed_point_polish"
 VERIFY_TOL = 1e-8
@@ -111,8 +112,7 @@ def main(argv: list[str] | None = None) -> list[dict]:
     parser.add_argument("--restart-factors", default="10,1e3,1e7")
     parser.add_argument("--time-limit", type=float, default=120.0, help="seconds per stage")
     args = parser.parse_args(argv)
-    courses, per = (int(v) for v in args.wall.split("x"))
-    ops = bm.assemble(bm.cases.wall(courses=courses, blocks_per_course=per))
+    ops = bm.assemble(named_wall(args.wall))
     lp = compiled_linear(modified_lp, ops, np.zeros(ops.n_interfaces), slope=ops.dilatancy)
     rows = []
     t0 = time.process_time()

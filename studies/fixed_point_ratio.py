@@ -40,7 +40,7 @@ import blockmpec as bm
 
 sys.path.insert(0, str(Path(__file__).parent))
 from _tables import markdown, peak_memory_mb, write_csv  # noqa: E402
-from lp_timing import named_wall  # noqa: E402
+from _walls import named_wall  # noqa: E402
 
 OUT = Path(__file__).parent / "output" / "fixed_point_ratio"
 

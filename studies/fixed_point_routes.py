@@ -94,7 +94,7 @@ from blockmpec.solvers.engines.piece_lp import STATIC_ENGINES
 
 sys.path.insert(0, str(Path(__file__).parent))
 from _tables import markdown, write_csv  # noqa: E402
-from _walls import lowered_friction  # noqa: E402
+from _walls import lowered_friction, named_wall  # noqa: E402
 
 OUT = Path(__file__).parent / "output" / "fixed_point_routes"
 VERIFY_TOL = 1e-8
@@ -151,12 +151,6 @@ def step_lp(ops):
     from blockmpec.formulations._pyomo import compiled_linear
 
     return compiled_linear(modified_lp, ops, np.zeros(ops.n_interfaces), slope=ops.dilatancy)
-
-
-def named_wall(spec: str) -> bm.Structure:
-    """The running-bond wall ``CxB`` (courses x blocks per course)."""
-    courses, per = (int(v) for v in spec.split("x"))
-    return bm.cases.wall(courses=courses, blocks_per_course=per)
 
 
 def stalled_point(lp, ops, aim: float, args):

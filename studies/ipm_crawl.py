@@ -83,7 +83,7 @@ from blockmpec.solvers.engines.lp_engine import cold_lp_engine
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _tables import write_csv  # noqa: E402
-from _walls import lowered_friction  # noqa: E402
+from _walls import lowered_friction, named_wall  # noqa: E402
 
 OUT = Path(__file__).parent / "output" / "ipm_crawl"
 #: the crawl starts at the first iterate whose relative duality gap is at most this (the residuals
@@ -93,7 +93,7 @@ CRAWL_GAP = 3.0
 
 def wall_lp(spec: str, mu: float | None = None):
     """``(lp, ops)``: the static LP (1) of the running-bond wall ``"CxB"`` (courses x blocks per course)."""
-    ops = bm.assemble(_wall(spec) if mu is None else _wall(spec, mu=mu))
+    ops = bm.assemble(named_wall(spec) if mu is None else named_wall(spec, mu=mu))
     return compile_linear(static_lp(ops)), ops
 
 
@@ -183,12 +183,6 @@ def mapped_weights(coarse: tuple[BlockIPM, bm.Structure, np.ndarray], fine: tupl
     return weights
 
 
-def _wall(spec: str, **options) -> bm.Structure:
-    """The running-bond wall ``"CxB"`` of :func:`blockmpec.cases.wall` (``options``: e.g. ``mu``)."""
-    courses, per_course = (int(v) for v in spec.split("x"))
-    return bm.cases.wall(courses=courses, blocks_per_course=per_course, **options)
-
-
 #: the block IPM's settings in every run (a name of ``block_ipm.<NAME>_SETTINGS``; ``--ipm-settings``)
 IPM_SETTINGS = "exact_inner"
 
@@ -246,7 +240,7 @@ def oracle(spec: str, clips: tuple[float, ...] = (10.0, 100.0), rules: tuple[str
         lp_c, ops_c = wall_lp(coarse)
         _, recorder_c = run(lp_c, ops_c)
         weights_c = solution_weights(recorder_c.start, recorder_c.previous, 10.0)
-        weights = mapped_weights((recorder_c.engine, _wall(coarse), weights_c), (recorder.engine, _wall(spec)))
+        weights = mapped_weights((recorder_c.engine, named_wall(coarse), weights_c), (recorder.engine, named_wall(spec)))
         own = solution_weights(recorder.start, recorder.previous, 10.0)
         row, _ = run(lp, ops, weights=weights)
         rows.append({"wall": spec, "weights": f"from the {coarse} wall's solution (clip 10), mapped by position", **row,
@@ -289,7 +283,7 @@ def roundoff(spec: str) -> list[dict]:
 
 def ties(spec: str, fractions: list[float]) -> list[dict]:
     """The wall's LP with every interface's friction lowered at random (seed 1) by up to each fraction."""
-    wall = _wall(spec)
+    wall = named_wall(spec)
     rows = []
     for fraction in fractions:
         ops = bm.assemble(lowered_friction(wall, fraction))

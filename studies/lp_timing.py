@@ -53,6 +53,7 @@ from blockmpec.solvers.engines.lp_engine import cold_lp_engine
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _clarabel import ClarabelProblem  # noqa: E402
 from _tables import peak_memory_mb, write_csv  # noqa: E402
+from _walls import named_wall  # noqa: E402
 
 OUT = Path(__file__).parent / "output" / "lp_timing"
 
@@ -64,12 +65,9 @@ def wall_for(n_blocks: int) -> bm.Structure:
     return bm.cases.wall(courses=courses, blocks_per_course=per)
 
 
-def named_wall(wall: str) -> bm.Structure:
+def wall_or_size(wall: str) -> bm.Structure:
     """The running-bond wall ``"CxB"`` (courses x blocks per course), or :func:`wall_for` a size ``"1000"``."""
-    if "x" in wall:
-        courses, per = (int(v) for v in wall.split("x"))
-        return bm.cases.wall(courses=courses, blocks_per_course=per)
-    return wall_for(int(wall))
+    return named_wall(wall) if "x" in wall else wall_for(int(wall))
 
 
 def hipo_engine(lp, ops, time_limit: float, crossover: bool):
@@ -129,7 +127,7 @@ def time_one(wall: str, algorithm: str, time_limit: float = float("inf"), orderi
     from blockmpec.solvers.engines.highs import static_lp_solution
 
     t0 = time.perf_counter()
-    s = named_wall(wall)
+    s = wall_or_size(wall)
     t1 = time.perf_counter()
     ops = bm.assemble(s)
     t2, c2 = time.perf_counter(), time.process_time()

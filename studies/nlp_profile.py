@@ -32,6 +32,7 @@ from blockmpec.solvers.nlp import RelaxedNLP, _RelaxedMPEC
 
 sys.path.insert(0, str(Path(__file__).parent))
 from _tables import csv_rows  # noqa: E402
+from _walls import wall_shape  # noqa: E402
 from nlp_scaling import parse_configs  # noqa: E402
 
 OUT = Path(__file__).parent / "output" / "nlp"
@@ -112,7 +113,7 @@ def main(argv: list[str] | None = None) -> list[dict]:
     ap.add_argument("--configs", default="ipopt={'route': 'ipopt'}")
     ap.add_argument("--tag", default="")
     args = ap.parse_args(argv)
-    courses, per_course = (int(v) for v in args.wall.split("x"))
+    courses, per_course = wall_shape(args.wall)
     rows = []
     with csv_rows(OUT / f"nlp_profile{'_' + args.tag if args.tag else ''}.csv", COLUMNS) as append:
         for config, options in parse_configs(args.configs).items():

@@ -36,6 +36,7 @@ from blockmpec import facts
 
 sys.path.insert(0, str(Path(__file__).parent))
 from _tables import csv_rows  # noqa: E402
+from _walls import wall_shapes  # noqa: E402
 from certificate_study import _fmt  # noqa: E402
 
 OUT = Path(__file__).parent / "output" / "nlp"
@@ -87,7 +88,7 @@ def main(argv: list[str] | None = None) -> list[dict]:
     ap.add_argument("--fixed-point", action="store_true", help="also solve each wall once with fixed-point")
     ap.add_argument("--keep-going", action="store_true", help="do not stop a set at its first unverified wall")
     args = ap.parse_args(argv)
-    walls = [tuple(int(v) for v in w.split("x")) for w in args.walls.split(",") if w.strip()]
+    walls = wall_shapes(args.walls)
     path = OUT / f"nlp_scaling{'_' + args.tag if args.tag else ''}.csv"
     rows = []
     with csv_rows(path, COLUMNS) as append:

@@ -35,7 +35,9 @@ from __future__ import annotations
 
 import argparse
 import heapq
+import sys
 import time
+from pathlib import Path
 
 import numpy as np
 
@@ -43,6 +45,9 @@ import blockmpec as bm
 from blockmpec.formulations import compile_linear, static_lp
 from blockmpec.formulations.static_lp import modified_lp
 from blockmpec.solvers.engines.highs import HighsLP
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from _walls import named_wall  # noqa: E402
 
 TOL = 1e-9
 
@@ -186,11 +191,6 @@ def branch_and_bound(structure: bm.Structure, time_limit: float) -> dict:
             "closed": not heap, "nodes": nodes, "lp_solves": nb.lp_solves, "cpu_s": time.process_time() - t0}
 
 
-def _wall(spec: str) -> bm.Structure:
-    courses, per = (int(v) for v in spec.split("x"))
-    return bm.cases.wall(courses=courses, blocks_per_course=per)
-
-
 def main(argv: list[str] | None = None) -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("part", choices=["vertices", "bnb"])
@@ -202,7 +202,7 @@ def main(argv: list[str] | None = None) -> None:
     if args.part == "vertices":
         print("| wall | lam on S | min L(n) over sampled vertices of S |\n| --- | --- | ---: |")
         for spec in args.walls.split(","):
-            s = _wall(spec)
+            s = named_wall(spec)
             nb = NormalForceBound(s)
             top = bm.solve(s, "fixed-point").multiplier
             for floor in args.lam_floors.split(","):
@@ -213,7 +213,7 @@ def main(argv: list[str] | None = None) -> None:
         print("| wall | blocks | incumbent (fixed-point) | bound | closed | nodes | LP solves | CPU |\n"
               "| --- | ---: | ---: | ---: | --- | ---: | ---: | ---: |")
         for spec in args.walls.split(","):
-            r = branch_and_bound(_wall(spec), args.time_limit)
+            r = branch_and_bound(named_wall(spec), args.time_limit)
             print(f"| {spec} | {r['blocks']} | {r['incumbent']:.4f} | {r['bound']:.4f} | {r['closed']} | "
                   f"{r['nodes']:,} | {r['lp_solves']:,} | {r['cpu_s']:.0f} s |", flush=True)
 

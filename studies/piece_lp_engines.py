@@ -25,6 +25,7 @@ import blockmpec as bm
 
 sys.path.insert(0, str(Path(__file__).parent))
 from _tables import csv_rows  # noqa: E402
+from _walls import wall_shapes  # noqa: E402
 
 OUT = Path(__file__).parent / "output" / "nlp"
 COLUMNS = ["wall", "blocks", "pairs", "engine", "status", "certified", "multiplier", "fixed_point", "cpu_s", "wall_s",
@@ -75,7 +76,7 @@ def main(argv: list[str] | None = None) -> list[dict]:
     ap.add_argument("--time-limit", type=float, default=120.0)
     ap.add_argument("--tag", default="")
     args = ap.parse_args(argv)
-    walls = [tuple(int(v) for v in w.split("x")) for w in args.walls.split(",") if w.strip()]
+    walls = wall_shapes(args.walls)
     engines = [e.strip() for e in args.engines.split(",") if e.strip()]
     rows = []
     with csv_rows(OUT / f"piece_lp_engines{'_' + args.tag if args.tag else ''}.csv", COLUMNS) as append:

@@ -66,6 +66,7 @@ import blockmpec as bm
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _clarabel import ClarabelProblem  # noqa: E402
+from _walls import named_wall  # noqa: E402
 
 OUT = Path(__file__).parent / "output" / "root_lp_engines"
 ENGINES = ("ipx", "ipx-null-space", "ipx-null-space-cycles", "ipx-null-space-crossover", "ipx-presolve-off", "ipx-tol-1e-4", "ipx-primal", "ipx-filippo", "hipo",
@@ -85,11 +86,6 @@ HIGHS_ENGINES = {"ipx": ("ipx", {}), "ipx-presolve-off": ("ipx", {"presolve": "o
 CLARABEL_ENGINES = {"clarabel": "auto", "clarabel-faer": "faer"}
 
 
-def _wall(spec: str):
-    courses, blocks = (int(k) for k in spec.split("x"))
-    return bm.cases.wall(courses, blocks, mu=0.65)
-
-
 def _emit(rows: list[dict], row: dict) -> None:
     """Print one result row as it arrives (a long run shows its progress) and keep it."""
     print(json.dumps(row), flush=True)
@@ -103,7 +99,7 @@ def root_lp(spec: str, lifting: str = "rlt-full", null_space: str | None = None)
     from blockmpec.solvers.milp import MILPSolver
 
     solver = MILPSolver(engine="bnb", lifting=lifting, root_lp="ipm")
-    solver.setup(bm.operators.assemble(_wall(spec)))
+    solver.setup(bm.operators.assemble(named_wall(spec)))
     bnb = solver._complementarity_bnb(solver._bounds(time.perf_counter() + 600))
     bnb._apply(bnb.root, bnb.lam_lower, bnb.lam_cap)
     c, rl, ru, cl, cu = bnb._lp_arrays()

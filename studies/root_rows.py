@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import sys
 import time
 from pathlib import Path
 
@@ -27,12 +28,10 @@ import numpy as np
 
 import blockmpec as bm
 
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from _walls import named_wall  # noqa: E402
+
 OUT = Path(__file__).parent / "output" / "root_rows"
-
-
-def _wall(spec: str):
-    courses, blocks = (int(k) for k in spec.split("x"))
-    return bm.cases.wall(courses, blocks, mu=0.65)
 
 
 def compare(walls: list[str], modes: list[str], time_limit: float) -> list[dict]:
@@ -40,7 +39,7 @@ def compare(walls: list[str], modes: list[str], time_limit: float) -> list[dict]
     for spec in walls:
         for mode in modes:
             cpu = time.process_time()
-            res = bm.solve(_wall(spec), "milp", engine="bnb", lifting="rlt-full", root_lp=mode,
+            res = bm.solve(named_wall(spec), "milp", engine="bnb", lifting="rlt-full", root_lp=mode,
                            time_limit=time_limit)
             row = {"wall": spec, "root_lp": mode, "status": res.status.value, "lam": res.multiplier,
                    "bound": res.extra.get(bm.facts.BOUND), "cpu_s": time.process_time() - cpu,
@@ -58,7 +57,7 @@ def sizes(walls: list[str]) -> list[dict]:
     rows = []
     for spec in walls:
         solver = MILPSolver(engine="bnb", lifting="rlt-full", root_lp="ipm-rows")
-        solver.setup(bm.operators.assemble(_wall(spec)))
+        solver.setup(bm.operators.assemble(named_wall(spec)))
         cpu = time.process_time()
         bd = solver._bounds(time.perf_counter() + 600)
         bound_s = time.process_time() - cpu
@@ -67,7 +66,7 @@ def sizes(walls: list[str]) -> list[dict]:
                                   **lifting_options(form, "rlt-full", bd.slack_max))
         pair_rows = sum(r.size for r in layout.copy_pair_rows.values())
         late = 0 if layout.tied is None else int(layout.tied_rows[~np.isin(layout.tied, np.r_[form.n, form.t])].size)
-        row = {"wall": spec, "blocks": int(_wall(spec).n_free), "pairs": int(form.n_pairs),
+        row = {"wall": spec, "blocks": int(named_wall(spec).n_free), "pairs": int(form.n_pairs),
                "fixed_active": int((bd.slack_max == 0).sum()), "fixed_idle": int((bd.z_max == 0).sum()),
                "rows": int(A.shape[0]), "cols": int(A.shape[1]), "nnz": int(A.nnz), "copy_pair_rows": int(pair_rows),
                "moment_rows": late, "bounds_cpu_s": bound_s, "lam_lower": bd.lam_lower}
@@ -83,7 +82,7 @@ def copies(walls: list[str], time_limit: float) -> list[dict]:
     for spec in walls:
         for static_copies in ("all", "friction"):
             solver = MILPSolver(engine="bnb", lifting="rlt-full", root_lp="ipm")
-            solver.setup(bm.operators.assemble(_wall(spec)))
+            solver.setup(bm.operators.assemble(named_wall(spec)))
             bnb = solver._complementarity_bnb(solver._bounds(time.perf_counter() + time_limit),
                                               static_copies=static_copies)
             bnb.deadline = time.perf_counter() + time_limit

@@ -82,7 +82,7 @@ def test_mapping_a_wall_onto_itself_keeps_every_weight(crawl):
     _, recorder = crawl.run(lp, ops)
     weights = crawl.solution_weights(recorder.start, recorder.previous)
     other = _engine(lp, ops)
-    wall = crawl._wall("8x10")
+    wall = crawl.named_wall("8x10")
     mapped = crawl.mapped_weights((recorder.engine, wall, weights), (other, wall))
     np.testing.assert_array_equal(mapped, weights)
 
@@ -134,3 +134,17 @@ def test_ties_lowers_friction_and_so_lambda(crawl):
     rows = crawl.ties("8x10", [0.0, 1e-2])
     assert [row["status"] for row in rows] == ["optimal", "optimal"]
     assert rows[1]["lam"] <= rows[0]["lam"] + 1e-9
+
+
+def test_wall_names_are_parsed_once_for_every_study():
+    """``studies/_walls.py`` reads the ``"CxB"`` wall names of every study: courses first, then blocks per course,
+    with options passed to :func:`blockmpec.cases.wall`; a malformed name is one clear error naming it."""
+    walls = load_study("_walls")
+    assert walls.wall_shape(" 3X4 ") == (3, 4)
+    assert walls.wall_shapes("2x5,,10x20") == [(2, 5), (10, 20)]
+    wall = walls.named_wall("3x4", mu=0.4)
+    reference = bm.cases.wall(courses=3, blocks_per_course=4, mu=0.4)
+    assert wall.n_free == reference.n_free and np.array_equal(wall.interface_friction(), reference.interface_friction())
+    for bad in ("3by4", "3x", "3x4x5"):
+        with pytest.raises(ValueError, match=f"wall '{bad}': expected CxB"):
+            walls.wall_shape(bad)
