@@ -35,7 +35,7 @@ comparison), the nonzeros of the factors and the relative residual
 Usage::
 
     python studies/cholesky_choice.py [--walls 100x100,316x316] [--methods ...] [--blas-threads 1,2]
-                                      [--extend-add-runs 2,8] [--side-by-side [--rounds 3]]
+                                      [--extend-add-runs 2,8] [--side-by-side [--rounds 5]]
 
 ``--blas-threads 1,2`` measures each method with one and with two BLAS threads (wall and CPU side by side;
 for the supernodal Cholesky only its fronts of at least ``THREADED_FRONT_ROWS`` rows get them, whose
@@ -47,7 +47,8 @@ reports the flat indices' memory.
 ``--side-by-side`` asks whether the supernodal factorisation can use two cores.  Its elimination tree is split
 into two unions of whole subtrees of about equal estimated cost (:func:`subtree_halves`) and their common
 ancestors (the top).  Each half is factorised by a worker process, alone and then with the other worker at
-the same time; the top runs after both.  Processes, not threads: the dense kernels run under the GIL.  So
+the same time; the top runs after both.  Processes, not threads: scipy's LAPACK wrappers and each front's
+numpy work hold the GIL.  So
 ``top + max(halves side by side)`` bounds what any two-core factorisation of this tree could take.  Writes
 ``side_by_side.csv``.
 
@@ -339,13 +340,21 @@ def subtree_halves(f: SupernodalCholesky) -> tuple[list[np.ndarray], np.ndarray]
 
 
 def _half_worker(connection, f: SupernodalCholesky, values: np.ndarray, halves: list[np.ndarray]) -> None:
-    """Worker process: factorise the half whose index arrives, answer ``(wall s, CPU s)``; stop on None."""
+    """Worker process: factorise the half whose index arrives, answer ``(wall s, CPU s, factorised)``; stop on None."""
     with threadpool_limits(limits=1, user_api="blas"):
         while (g := connection.recv()) is not None:
             blocks: list = [None] * f.supernodes
             t, c = time.perf_counter(), time.process_time()
             ok = f.factor_supernodes(halves[g].tolist(), values, {}, blocks, list(blocks))
             connection.send((time.perf_counter() - t, time.process_time() - c, ok))
+
+
+def _answer(connection) -> float:
+    """A worker's wall-clock time for its half (a half that is not positive definite stops the study)."""
+    wall, _, factorised = connection.recv()
+    if not factorised:
+        raise RuntimeError("side by side: a half of K is not positive definite; its time measures nothing")
+    return wall
 
 
 def side_by_side(K: sp.csc_array, engine, rounds: int = 5) -> dict:
@@ -379,11 +388,11 @@ def side_by_side(K: sp.csc_array, engine, rounds: int = 5) -> dict:
             top_s.append(time.perf_counter() - t)
             for g, (parent, _) in enumerate(pipes):
                 parent.send(g)
-                alone[g].append(parent.recv()[0])
+                alone[g].append(_answer(parent))
             for g, (parent, _) in enumerate(pipes):
                 parent.send(g)
             for g, (parent, _) in enumerate(pipes):
-                together[g].append(parent.recv()[0])
+                together[g].append(_answer(parent))
     for parent, _ in pipes:
         parent.send(None)
     for w in workers:

@@ -190,3 +190,16 @@ def test_subtree_halves_factorised_apart_give_the_same_factors():
     for s in range(f.supernodes):
         assert np.array_equal(blocks[s], whole[0][s])
         assert (below[s] is None and whole[1][s] is None) or np.array_equal(below[s], whole[1][s])
+
+
+def test_side_by_side_study_times_both_halves_in_worker_processes():
+    """``studies/cholesky_choice.py --side-by-side`` (the README's two-core bound) runs end to end on a small wall:
+    its two workers answer for every round, and the supernodes it reports add up to the whole tree."""
+    from helpers import load_study
+
+    study = load_study("cholesky_choice")
+    row = study.side_by_side(*study.reduced_matrix(12, 16), rounds=2)
+    halves = [int(v) for v in row["half_supernodes"].split("/")]
+    assert sum(halves) + row["top_supernodes"] == row["supernodes"] and min(halves) > 0
+    times = [float(v) for key in ("alone_s", "side_by_side_s") for v in row[key].split("/")]
+    assert all(t > 0 for t in times) and row["two_core_bound_s"] > 0 and row["speedup"] > 0
