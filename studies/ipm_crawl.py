@@ -36,6 +36,8 @@ small and only the relative gap, a few units, is left.  After that, steps are 0.
   by up to the fraction ``A``, ``B`` (0: the wall itself).  A running-bond wall is periodic, so several
   mechanisms may tie for the optimum, and an interior point converges to the centre of all of them.  If ties
   made the crawl, breaking them would shorten it.
+* ``--arc CxB,...``: Yang's arc-search steps (:func:`arc_search`), which follow the central path's curvature
+  along an ellipse, against Mehrotra's line steps without and with Gondzio's correctors.
 * ``--oracle CxB --coarse DxE``: also weights from a coarser wall's solution, each row taking the
   weight of the same row (same orientation and row of its interface) of the nearest coarse interface,
   positions scaled to the unit square (:func:`mapped_weights`).
@@ -55,6 +57,7 @@ Usage::
     python studies/ipm_crawl.py --roundoff 20x50,100x100
     python studies/ipm_crawl.py --ties 20x50,100x100 --eps 0,1e-6,1e-4,1e-2 --ipm-settings default
     python studies/ipm_crawl.py --polish 20x50,100x100 --kappas 100,1e4 --ipm-settings default
+    python studies/ipm_crawl.py --arc 20x50,100x100 --ipm-settings default
 
 Every run uses the block IPM with every inner direction corrected to the absolute target
 (``--ipm-settings exact_inner``, :data:`blockmpec.solvers.engines.block_ipm.EXACT_INNER_SETTINGS`): the settings
@@ -62,7 +65,7 @@ all of this study's tables were measured with, the LP default before ``inner_tol
 how many iterations the central path takes, does not depend on it; ``--ipm-settings default`` runs the present
 default (1,010 / 10,050 / 100,014 blocks: 21 / 49 / 79 iterations against 21 / 53 / 82, ``studies/lp_timing.py``).
 
-Writes ``studies/output/ipm_crawl/{diagnose,oracle,transfer,roundoff,polish,polish_summary,ties}.csv``.
+Writes ``studies/output/ipm_crawl/{diagnose,oracle,transfer,roundoff,polish,polish_summary,ties,arc}.csv``.
 """
 
 from __future__ import annotations
@@ -188,13 +191,12 @@ IPM_SETTINGS = "exact_inner"
 
 
 def run(lp, ops, weights: np.ndarray | None = None, diagnose: bool = False, rule: str = "none",
-        clip: float = 10.0, block_product=None) -> tuple[dict, Recorder]:
-    """One cold block-IPM solve with :data:`IPM_SETTINGS`; returns its summary row and the recorder.
-    ``block_product``: replaces the engine's :meth:`~BlockIPM._block_product` (None: the engine's own)."""
-    engine = cold_lp_engine(lp, "block-ipm", ops=ops)
-    if not isinstance(engine, BlockIPM):
-        raise RuntimeError("ipm_crawl: the wall's LP did not get the block IPM")
-    engine.settings(**block_ipm.named_settings(IPM_SETTINGS))
+        clip: float = 10.0, block_product=None, settings: dict | None = None) -> tuple[dict, Recorder]:
+    """One cold block-IPM solve with :data:`IPM_SETTINGS` (and ``settings`` over them); returns its summary row
+    and the recorder.  ``block_product``: replaces the engine's :meth:`~BlockIPM._block_product` (None: the
+    engine's own)."""
+    engine = _engine(lp, ops)
+    engine.settings(**{**block_ipm.named_settings(IPM_SETTINGS), **(settings or {})})
     engine.path_weights = weights
     if block_product is not None:
         engine._block_product = block_product
@@ -205,6 +207,93 @@ def run(lp, ops, weights: np.ndarray | None = None, diagnose: bool = False, rule
     cpu = time.process_time() - cpu
     lam = float(lp.values("lam", out.v)[0]) if out.status.is_success else float("nan")
     return {"status": out.status.value, "iterations": out.iterations, "cpu_s": round(cpu, 2), "lam": lam}, recorder
+
+
+def _engine(lp, ops) -> BlockIPM:
+    engine = cold_lp_engine(lp, "block-ipm", ops=ops)
+    if not isinstance(engine, BlockIPM):
+        raise RuntimeError("ipm_crawl: the wall's LP did not get the block IPM")
+    return engine
+
+
+def arc_step(z: np.ndarray, first: np.ndarray, second: np.ndarray, grid: int = 64) -> float:
+    """The largest ``a`` in ``[0, pi/2]`` with ``z + sin(t) first + (1 - cos t) second > 0`` for every ``t`` in
+    ``[0, a]`` (``z > 0``): the first grid point where a component is not positive, then bisection below it."""
+    def positive(t: float) -> bool:
+        return bool(np.all(z + np.sin(t) * first + (1.0 - np.cos(t)) * second > 0))
+
+    low = 0.0
+    for t in np.linspace(0.0, np.pi / 2, grid + 1)[1:]:
+        if not positive(t):
+            high = t
+            break
+        low = t
+    else:
+        return np.pi / 2
+    for _ in range(40):
+        middle = 0.5 * (low + high)
+        low, high = (middle, high) if positive(middle) else (low, middle)
+    return low
+
+
+def arc_search(lp, ops, max_iterations: int = 300) -> dict:
+    r"""Yang's arc-search interior-point method on the LP, with the block IPM's factorisation and directions.
+
+    Each iteration follows an ellipse through the iterate instead of a line:
+    ``x(a) = x + sin(a) d + (1 - cos a) x''`` for ``a`` in ``[0, pi/2]``.  ``d`` is the affine-scaling direction
+    (the path's tangent, full residuals, target ``-s o y``).  ``x''`` is its second derivative
+    (zero residuals, target ``-2 ds o dy``) plus the centring direction (target ``sigma mu``).  ``sigma =
+    (mu_a / mu)^3``, with ``mu_a`` at the end of the arc without centring.  The primal and dual ``a`` are each the
+    largest that keeps ``s`` (``y``) positive (:func:`arc_step`), times the engine's step fraction.  Mehrotra's
+    step, ``x + a (d + x''/2 + centring)``, adds the whole second-order term even to a short step, where the
+    arc adds ``(1 - cos a) x'' ~ a^2 x''/2``.  The crawl's steps are short, so this asks whether a step that
+    follows the path's curvature shortens it.  No Gondzio correctors; stops as the engine does (every relative
+    measure at most its ``tol``)."""
+    engine = _engine(lp, ops)
+    engine.settings(**block_ipm.named_settings(IPM_SETTINGS))
+    cpu = time.process_time()
+    with block_ipm.single_blas_thread():
+        it = engine.initial_point()
+        p = engine.h.size
+        status, k = "iteration_limit", 0
+        for k in range(max_iterations + 1):
+            r_b, r_h, r_c = engine.residuals(it)
+            if max(engine.measures(it, (r_b, r_h, r_c))) <= engine.tol:
+                status = "optimal"
+                break
+            if k == max_iterations:
+                break
+            mu = float(it.s @ it.y) / p
+            factors = engine._factorise(it)
+            dv, ds, dw, dy = engine._refined_direction(it, factors, r_b, r_h, r_c, -it.s * it.y)
+            zero = (np.zeros_like(r_b), np.zeros_like(r_h), np.zeros_like(r_c))
+            curvature = engine._refined_direction(it, factors, *zero, -2.0 * ds * dy)
+            a_p, a_d = arc_step(it.s, ds, curvature[1]), arc_step(it.y, dy, curvature[3])
+            s_a = it.s + np.sin(a_p) * ds + (1.0 - np.cos(a_p)) * curvature[1]
+            y_a = it.y + np.sin(a_d) * dy + (1.0 - np.cos(a_d)) * curvature[3]
+            sigma = min(1.0, (float(s_a @ y_a) / p / mu) ** 3)
+            centring = engine._refined_direction(it, factors, *zero, np.full(p, sigma * mu))
+            vv, ss, ww, yy = (c + e for c, e in zip(curvature, centring))
+            a_p = engine.step_fraction * arc_step(it.s, ds, ss)
+            a_d = engine.step_fraction * arc_step(it.y, dy, yy)
+            it.v += np.sin(a_p) * dv + (1.0 - np.cos(a_p)) * vv
+            it.s += np.sin(a_p) * ds + (1.0 - np.cos(a_p)) * ss
+            it.w += np.sin(a_d) * dw + (1.0 - np.cos(a_d)) * ww
+            it.y += np.sin(a_d) * dy + (1.0 - np.cos(a_d)) * yy
+    lam = float(lp.values("lam", engine.column_scale * it.v)[0]) if status == "optimal" else float("nan")
+    return {"status": status, "iterations": k, "cpu_s": round(time.process_time() - cpu, 2), "lam": lam,
+            "solves": engine.factoriser.solves}
+
+
+def arc(spec: str) -> list[dict]:
+    """The wall's LP by :func:`arc_search`, by Mehrotra's method without Gondzio's correctors (the closest
+    line-search counterpart) and by the engine as set (:data:`IPM_SETTINGS`, with its correctors)."""
+    lp, ops = wall_lp(spec)
+    rows = [{"wall": spec, "method": "arc search", **arc_search(lp, ops)}]
+    for method, settings in (("Mehrotra, no correctors", {"correctors": 0}), ("the engine as set", {})):
+        summary, recorder = run(lp, ops, settings=settings)
+        rows.append({"wall": spec, "method": method, **summary, "solves": recorder.engine.factoriser.solves})
+    return rows
 
 
 def _emit(rows: list[dict], name: str) -> None:
@@ -363,6 +452,7 @@ def main(argv: list[str] | None = None) -> list[dict]:
     parser.add_argument("--polish", default="", help="comma-separated walls CxB: projections onto the optimal face per iteration")
     parser.add_argument("--ties", default="", help="comma-separated walls CxB: friction lowered at random by up to --eps")
     parser.add_argument("--eps", default="0,1e-6,1e-4,1e-2", help="--ties: largest fractions of the friction removed")
+    parser.add_argument("--arc", default="", help="comma-separated walls CxB: arc-search steps against Mehrotra's")
     parser.add_argument("--kappas", default="1,100", help="--polish: guesses s_i < kappa y_i of the active rows")
     parser.add_argument("--clips", default="10,100", help="--oracle: clips of the weights from the solution")
     parser.add_argument("--rules", default="current,running", help="--oracle: rules without the solution ('' for none)")
@@ -405,8 +495,11 @@ def main(argv: list[str] | None = None) -> list[dict]:
     if args.ties:
         rows = [row for spec in args.ties.split(",") for row in ties(spec, [float(v) for v in args.eps.split(",")])]
         _emit(rows, "ties")
-    if not (args.diagnose or args.oracle or args.transfer or args.roundoff or args.polish or args.ties):
-        parser.error("give --diagnose, --oracle, --transfer, --roundoff, --polish or --ties")
+    if args.arc:
+        rows = [row for spec in args.arc.split(",") for row in arc(spec)]
+        _emit(rows, "arc")
+    if not (args.diagnose or args.oracle or args.transfer or args.roundoff or args.polish or args.ties or args.arc):
+        parser.error("give --diagnose, --oracle, --transfer, --roundoff, --polish, --ties or --arc")
     return rows
 
 

@@ -148,3 +148,23 @@ def test_wall_names_are_parsed_once_for_every_study():
     for bad in ("3by4", "3x", "3x4x5"):
         with pytest.raises(ValueError, match=f"wall '{bad}': expected CxB"):
             walls.wall_shape(bad)
+
+
+def test_arc_step_is_the_first_exit_along_the_ellipse(crawl):
+    """``arc_step``: the largest a in [0, pi/2] keeping ``z + sin(t) first + (1 - cos t) second`` positive up to a.
+    Closed forms: ``1 - 2 sin a`` leaves at pi/6; ``1 - 1.5 (1 - cos a)`` at acos(1/3); an arc that stays positive
+    gives pi/2."""
+    ones = np.ones(1)
+    assert crawl.arc_step(ones, -2 * ones, 0 * ones) == pytest.approx(np.pi / 6, abs=1e-9)
+    assert crawl.arc_step(ones, 0 * ones, -1.5 * ones) == pytest.approx(np.arccos(1 / 3), abs=1e-9)
+    assert crawl.arc_step(np.ones(2), np.array([-2.0, 0.0]), np.array([0.0, -1.5])) == pytest.approx(np.pi / 6, abs=1e-9)
+    assert crawl.arc_step(ones, 0.5 * ones, 0.3 * ones) == np.pi / 2
+
+
+def test_arc_search_reaches_the_engines_optimum(crawl):
+    """The arc-search variant of ``--arc`` is a method for the same LP: it must end optimal at the engine's lambda."""
+    rows = {row["method"]: row for row in crawl.arc("8x10")}
+    assert rows["arc search"]["status"] == "optimal"
+    assert rows["the engine as set"]["status"] == "optimal"
+    assert rows["arc search"]["lam"] == pytest.approx(rows["the engine as set"]["lam"], abs=1e-8)
+    assert rows["Mehrotra, no correctors"]["lam"] == pytest.approx(rows["the engine as set"]["lam"], abs=1e-8)
