@@ -24,12 +24,18 @@ class LPOptions:
     time_limit: float = field(default=check.DEFAULT_TIME_LIMIT_S, metadata={
         "help": "seconds (HiGHS time_limit; the block IPM checks its clock every iteration); default 600 "
                 "(blockmpec.options.DEFAULT_TIME_LIMIT_S: finite, ~13x the 10,046-block wall's LP), inf for none"})
+    factor_processes: int = field(default=1, metadata={
+        "help": "1 | 2: processes for the block IPM's supernodal Cholesky (K of 30,000 rows or more, about 10,000 "
+                "blocks); 2 forks a worker that factorises and solves one subtree half (needs os.fork; "
+                "studies/lp_timing.py --ipm-settings two_process). Other engines run as with 1"})
 
     def __post_init__(self) -> None:
         from blockmpec.solvers.engines.lp_engine import ALGORITHMS
 
         check.choice(self, "algorithm", ALGORITHMS)
         check.positive(self, "time_limit", finite=False)
+        check.integer(self, "factor_processes", minimum=1)
+        check.choice(self, "factor_processes", (1, 2))
 
 
 @register_solver
@@ -50,12 +56,15 @@ class StaticLP(SolverBase):
     def setup(self, ops):
         from blockmpec.formulations import static_lp
         from blockmpec.formulations._pyomo import compiled_linear
+        from blockmpec.solvers.engines.block_ipm import BlockIPM
         from blockmpec.solvers.engines.highs import HighsLP, set_feasibility_tolerances
         from blockmpec.solvers.engines.lp_engine import cold_lp_engine
 
         self.ops = ops
         self.lp = compiled_linear(static_lp, ops)  # cached per structure (content hash of ops)
         self.engine = cold_lp_engine(self.lp, self.options.algorithm, self.options.time_limit, ops=ops)
+        if isinstance(self.engine, BlockIPM):
+            self.engine.settings(factor_processes=self.options.factor_processes)
         if isinstance(self.engine, HighsLP):
             # the mechanism's z >= 0 are duals, held by HiGHS to its dual feasibility tolerance (FEASIBILITY_TOL)
             set_feasibility_tolerances(self.engine.highs)

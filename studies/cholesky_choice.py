@@ -45,12 +45,11 @@ fall into at most that many runs of their parent's rows are added by slices, the
 reports the flat indices' memory.
 
 ``--side-by-side`` asks whether the supernodal factorisation can use two cores.  Its elimination tree is split
-into two unions of whole subtrees of about equal estimated cost (:func:`subtree_halves`) and their common
-ancestors (the top).  Each half is factorised by a worker process, alone and then with the other worker at
-the same time; the top runs after both.  Processes, not threads: scipy's LAPACK wrappers and each front's
-numpy work hold the GIL.  So
-``top + max(halves side by side)`` bounds what any two-core factorisation of this tree could take.  Writes
-``side_by_side.csv``.
+into two unions of whole subtrees of about equal estimated cost (``SupernodalCholesky.subtree_halves``) and
+their common ancestors (the top).  Each half is factorised by a worker process, alone and then with the other
+worker at the same time; the top runs after both.  Processes, not threads: scipy's LAPACK wrappers and each
+front's numpy work hold the GIL.  So ``top + max(halves side by side)`` bounds what any two-core factorisation
+of this tree could take.  Writes ``side_by_side.csv``.
 
 Writes ``studies/output/cholesky_choice/cholesky_choice.csv``.
 """
@@ -283,62 +282,6 @@ def measure(method: str, K: sp.csc_array, engine, threads: int = 1, extend_add_r
             "factor_nnz": nnz, "residual": residual, "licence": LICENCE[method]}
 
 
-def front_costs(f: SupernodalCholesky) -> np.ndarray:
-    """An estimate of each supernode's factorisation time (s): a fixed cost per front, the dense flops of
-    ``potrf``, ``trsm`` and ``syrk`` (``w^3/3 + r w^2 + r^2 w`` for ``w`` columns and ``r`` rows below) and
-    the ``m^2`` entries of the front that are zeroed and assembled."""
-    w = (f.end - f.first).astype(float)
-    m = np.array([R.size for R in f.rows], dtype=float)
-    r = m - w
-    return 3e-5 + 2.5e-10 * (w ** 3 / 3 + r * w * w + r * r * w) + 2e-9 * m * m
-
-
-def subtree_halves(f: SupernodalCholesky) -> tuple[list[np.ndarray], np.ndarray]:
-    """``([half_0, half_1], top)``: supernodes two processes can factorise side by side, then the rest.
-
-    From the roots of the supernodal elimination tree, the costliest subtree (:func:`front_costs`) is split
-    into its root (to ``top``) and its children's subtrees as long as that lowers ``cost(top) + max(cost of a
-    half)``; the subtrees are dealt to the halves longest first.  Each half is a union of whole subtrees, so
-    it needs no update matrix from the other.  Every list is in increasing supernode order."""
-    ns = f.supernodes
-    parent = np.full(ns, -1, dtype=np.int64)
-    for s, kids in enumerate(f.children):
-        parent[kids] = s
-    cost = front_costs(f)
-    subtree = cost.copy()
-    for s in range(ns):  # children before their parent
-        if parent[s] >= 0:
-            subtree[parent[s]] += subtree[s]
-    frontier = [int(s) for s in np.flatnonzero(parent < 0)]
-    top: list[int] = []
-    best = None
-    for _ in range(min(ns, 1000)):
-        loads, halves = [0.0, 0.0], [[], []]
-        for s in sorted(frontier, key=lambda s: -subtree[s]):
-            g = int(np.argmin(loads))
-            loads[g] += subtree[s]
-            halves[g].append(s)
-        makespan = float(cost[top].sum()) + max(loads)
-        if best is None or makespan < best[0]:
-            best = (makespan, list(top), halves)
-        biggest = max(frontier, key=lambda s: subtree[s])
-        if not f.children[biggest]:
-            break
-        frontier.remove(biggest)
-        top.append(biggest)
-        frontier.extend(f.children[biggest])
-    _, top, halves = best
-    owner = np.full(ns, -1, dtype=np.int64)  # the half of each supernode, -1: the top
-    root_half = {s: g for g, roots in enumerate(halves) for s in roots}
-    in_top = set(top)
-    for s in range(ns - 1, -1, -1):  # parents before their children
-        if s in root_half:
-            owner[s] = root_half[s]
-        elif s not in in_top:
-            owner[s] = owner[parent[s]]
-    return [np.flatnonzero(owner == g) for g in (0, 1)], np.flatnonzero(owner < 0)
-
-
 def _half_worker(connection, f: SupernodalCholesky, values: np.ndarray, halves: list[np.ndarray]) -> None:
     """Worker process: factorise the half whose index arrives, answer ``(wall s, CPU s, factorised)``; stop on None."""
     with threadpool_limits(limits=1, user_api="blas"):
@@ -358,13 +301,13 @@ def _answer(connection) -> float:
 
 
 def side_by_side(K: sp.csc_array, engine, rounds: int = 5) -> dict:
-    """Times of the supernodal factorisation of ``K``: whole and its two halves (:func:`subtree_halves`) in this
-    process, the top after them, the halves alone and side by side in two worker processes (medians of ``rounds``,
-    wall-clock s).  ``speedup`` = (top + both halves alone) / (top + the slower half side by side)."""
+    """Times of the supernodal factorisation of ``K``: whole and its two halves
+    (:meth:`~blockmpec.solvers.engines.cholesky.SupernodalCholesky.subtree_halves`) in this process, the top
+    after them, the halves alone and side by side in two worker processes (medians of ``rounds``, wall-clock s).  ``speedup`` = (top + both halves alone) / (top + the slower half side by side)."""
     import multiprocessing
 
     f = SupernodalCholesky(structural_pattern(engine.A_B, engine.k), "metis")
-    halves, top = subtree_halves(f)
+    halves, top = f.subtree_halves()
     values = f.pattern_values(K)
     context = multiprocessing.get_context("fork")  # the workers share f and K's values with this process
     pipes = [context.Pipe() for _ in halves]
@@ -397,7 +340,7 @@ def side_by_side(K: sp.csc_array, engine, rounds: int = 5) -> dict:
         parent.send(None)
     for w in workers:
         w.join()
-    cost = front_costs(f)
+    cost = f.front_costs()
     med = [float(np.median(x)) for x in (whole, pieces, top_s, *alone, *together)]
     one_core = med[2] + med[3] + med[4]  # the top and both halves one after the other, in the workers
     bound = med[2] + max(med[5], med[6])

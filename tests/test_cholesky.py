@@ -5,6 +5,8 @@ numeric one by residuals against the matrix itself and against SuperLU on the sa
 amalgamated supernodes hold every structural nonzero only if these residuals stay at round-off.
 """
 
+import os
+
 import numpy as np
 import pytest
 import scipy.sparse as sp
@@ -111,21 +113,26 @@ def test_supernodal_cholesky_rejects_entries_outside_the_pattern(wall_K):
 
 
 def test_block_ipm_same_lambda_with_either_factorisation():
-    """The supernodal Cholesky (default) and SuperLU's LDL^T give the same optimum, both verified."""
+    """The supernodal Cholesky (default), the same with a worker process (``factor_processes`` 2) and SuperLU's
+    LDL^T give the same optimum, all verified; the worker process ends with the solve."""
     from blockmpec.solvers.engines.highs import static_lp_solution
 
     ops = bm.assemble(bm.cases.wall(10, 20))
     lp = compile_linear(static_lp(ops))
     lams = {}
-    for factorisation in ("supernodal", "superlu"):
+    for factorisation, processes in (("supernodal", 1), ("supernodal", 2), ("superlu", 1)):
         engine = cold_lp_engine(lp, "block-ipm", ops=ops)
         engine.factorisation = factorisation
+        engine.settings(factor_processes=processes)
         out = engine.solve()
         assert out.status is bm.Status.OPTIMAL
         assert isinstance(engine.factoriser, SupernodalCholesky if factorisation == "supernodal" else SymmetricFactoriser)
         assert max(bm.verify.residuals(ops, static_lp_solution(lp, out), associative=True).values()) <= 1e-8
-        lams[factorisation] = float(lp.values("lam", out.v)[0])
-    assert abs(lams["supernodal"] - lams["superlu"]) <= 1e-8 * abs(lams["superlu"])
+        if processes == 2:
+            assert engine.factoriser.processes == 2 and engine.factoriser._worker is None  # closed by the solve
+        lams[factorisation, processes] = float(lp.values("lam", out.v)[0])
+    reference = lams["superlu", 1]
+    assert all(abs(lam - reference) <= 1e-8 * abs(reference) for lam in lams.values()), lams
 
 
 def test_block_ipm_unknown_factorisation_is_one_clear_error():
@@ -166,7 +173,7 @@ def test_subtree_halves_factorised_apart_give_the_same_factors():
     study = load_study("cholesky_choice")
     K, engine = study.reduced_matrix(12, 16)
     f = SupernodalCholesky(structural_pattern(engine.A_B, engine.k), "metis")
-    halves, top = study.subtree_halves(f)
+    halves, top = f.subtree_halves()
     assert all(h.size for h in halves) and top.size
     owner = np.full(f.supernodes, -1)
     for g, half in enumerate(halves):
@@ -203,3 +210,55 @@ def test_side_by_side_study_times_both_halves_in_worker_processes():
     assert sum(halves) + row["top_supernodes"] == row["supernodes"] and min(halves) > 0
     times = [float(v) for key in ("alone_s", "side_by_side_s") for v in row[key].split("/")]
     assert all(t > 0 for t in times) and row["two_core_bound_s"] > 0 and row["speedup"] > 0
+
+
+def test_two_process_factorisation_matches_the_serial_one(wall_K):
+    """``processes=2``: a forked worker factorises and solves one subtree half.  Its factors are the serial ones
+    (the same fronts, the same order), so its solutions agree with the serial solve to round-off; a vector and a
+    matrix of columns are solved; a solver whose factors a later factorisation replaced refuses to solve; a matrix
+    that is not positive definite gives None, and the worker stays in step for the next one; ``close`` ends it."""
+    K, pattern = wall_K
+    serial = SupernodalCholesky(pattern, "metis")
+    split = SupernodalCholesky(pattern, "metis", processes=2)
+    rng = np.random.default_rng(3)
+    b = rng.standard_normal(K.shape[0])
+    B = rng.standard_normal((K.shape[0], 3))
+    x_serial, X_serial = (solve := serial.factorise(K))(b), solve(B)
+    solve_split = split.factorise(K)
+    x, X = solve_split(b), solve_split(B)
+    scale = np.linalg.norm(x_serial)
+    assert np.linalg.norm(x - x_serial) <= 1e-12 * scale
+    assert np.linalg.norm(X - X_serial) <= 1e-12 * np.linalg.norm(X_serial)
+    assert np.linalg.norm(K @ x - b) <= 1e-10 * np.linalg.norm(b)
+    assert split.solves == 2 and split.factorisations == 1
+    indefinite = sp.csc_array(K - 2 * abs(K).max() * sp.eye_array(K.shape[0]))
+    assert split.factorise(indefinite) is None
+    with pytest.raises(RuntimeError, match="replaced by a later factorisation"):
+        solve_split(b)
+    again = split.factorise(K)
+    assert np.linalg.norm(again(b) - x_serial) <= 1e-12 * scale
+    pid = split._worker.pid
+    split.close()
+    with pytest.raises(ChildProcessError):  # reaped
+        os.waitpid(pid, os.WNOHANG)
+    with pytest.raises(ValueError, match="processes must be 1 or 2"):
+        SupernodalCholesky(pattern, "metis", processes=3)
+
+
+def test_static_lp_factor_processes_reaches_the_block_ipm(monkeypatch):
+    """``static-lp``'s ``factor_processes`` is the block IPM's setting; with the supernodal Cholesky forced on a
+    small wall, 2 gives the serial optimum, verified, through ``bm.solve``; 3 is one clear option error."""
+    from blockmpec.errors import OptionError
+    from blockmpec.solvers.engines import block_ipm
+
+    monkeypatch.setattr(block_ipm, "AUTO_SUPERNODAL_ROWS", 0)  # the supernodal Cholesky on any size
+    wall = bm.cases.wall(10, 20)
+    one = bm.solve(wall, "static-lp", algorithm="block-ipm")
+    two = bm.solve(wall, "static-lp", algorithm="block-ipm", factor_processes=2)
+    assert one.verified and two.verified
+    assert two.multiplier == pytest.approx(one.multiplier, rel=1e-8)
+    solver = bm.get_solver("static-lp")(factor_processes=2)
+    solver.setup(bm.assemble(wall))
+    assert solver.engine.factor_processes == 2
+    with pytest.raises(OptionError, match="factor_processes must be one of 1, 2"):
+        bm.get_solver("static-lp")(factor_processes=3)

@@ -130,7 +130,8 @@ from blockmpec.solvers.engines.highs import LPOutcome
 DEFAULT_SETTINGS = {"refinements": 8, "lazy_refinement": True, "inner_refinements": 1, "inner_tolerance": 1e-6,
                     "final_sweeps": 4, "correctors": 2, "gondzio_accept": 1.01, "gondzio_factor": 1.5,
                     "gondzio_delta": 0.1, "step_fraction": 0.995, "sigma_power": 3.0, "sigma_min": 0.0,
-                    "krylov_iterations": 40, "krylov_switch": 0.1, "diagonal_shift": 1e-16, "kernels": "auto"}
+                    "krylov_iterations": 40, "krylov_switch": 0.1, "diagonal_shift": 1e-16, "kernels": "auto",
+                    "factor_processes": 1}
 #: the diagonal shift before 1e-16: what the interior fixed point and the comparison sets below were measured with
 WIDE_DIAGONAL_SHIFT = 1e-12
 #: every inner direction corrected to the absolute target: the default before ``inner_tolerance`` 1e-6, what the
@@ -164,6 +165,9 @@ LATE_KRYLOV_SETTINGS = {**EXACT_INNER_SETTINGS, "krylov_switch": float("inf")}
 FEWER_SOLVES_SETTINGS = {**DEFAULT_SETTINGS, "correctors": 4, "gondzio_accept": 1.0}
 #: the settings before the lazy refinement: every direction refined on the whole system
 PREVIOUS_SETTINGS = {**EXACT_INNER_SETTINGS, "lazy_refinement": False}
+#: the default with one subtree half of every factorisation and solve of K in a forked worker process
+#: (``factor_processes`` 2; the supernodal Cholesky only: :class:`~blockmpec.solvers.engines.cholesky._HalfWorker`)
+TWO_PROCESS_SETTINGS = {**DEFAULT_SETTINGS, "factor_processes": 2}
 
 #: factorisations of K: ``"auto"`` (the supernodal Cholesky for a symmetric K of at least
 #: :data:`AUTO_SUPERNODAL_ROWS` rows, SuperLU otherwise), ``"supernodal"``, ``"superlu"``
@@ -534,7 +538,8 @@ class BlockIPM:
                 self.factorisation == "auto" and self._K_pattern.shape[0] >= AUTO_SUPERNODAL_ROWS))
             if self.factorisation == "supernodal" and not supernodal:
                 raise ValueError("block IPM: the supernodal Cholesky needs a symmetric K")
-            self._factoriser = (SupernodalCholesky(self._K_pattern, self.ordering) if supernodal
+            self._factoriser = (SupernodalCholesky(self._K_pattern, self.ordering, processes=self.factor_processes)
+                                if supernodal
                                 else SymmetricFactoriser(self._K_pattern, self.ordering))
         return self._factoriser
 
@@ -806,7 +811,11 @@ class BlockIPM:
         BLAS runs on one thread meanwhile (:func:`single_blas_thread`).
         """
         with single_blas_thread():
-            return self._solve()
+            try:
+                return self._solve()
+            finally:
+                if isinstance(self._factoriser, SupernodalCholesky):
+                    self._factoriser.close()  # its worker process, if any (``factor_processes`` 2)
 
     def _solve(self) -> LPOutcome:
         t0 = time.perf_counter()

@@ -40,6 +40,7 @@ Supernodal module, ``qdldl`` (Apache-2.0, AMD) took 29 s on the 100k matrix, and
 
 from __future__ import annotations
 
+import os
 import time
 
 import numpy as np
@@ -227,8 +228,16 @@ class SupernodalCholesky:
     """
 
     def __init__(self, pattern: sp.sparray, ordering: str = "auto", relax: float = 4.0, front_threads: int = 1,
-                 threaded_front_rows: int = THREADED_FRONT_ROWS, extend_add_runs: int = EXTEND_ADD_RUNS) -> None:
+                 threaded_front_rows: int = THREADED_FRONT_ROWS, extend_add_runs: int = EXTEND_ADD_RUNS,
+                 processes: int = 1) -> None:
         t0 = time.process_time()
+        if processes not in (1, 2):
+            raise ValueError(f"supernodal Cholesky: processes must be 1 or 2, not {processes!r}")
+        if processes == 2 and not hasattr(os, "fork"):
+            raise ValueError("supernodal Cholesky: processes=2 needs os.fork (not available on this platform)")
+        #: 2: one subtree half of every factorisation and solve runs in a forked worker process (:class:`_HalfWorker`)
+        self.processes = int(processes)
+        self._worker: _HalfWorker | None = None
         #: BLAS threads for the dense work on fronts of at least ``threaded_front_rows`` rows (others: one)
         self.front_threads = int(front_threads)
         self.threaded_front_rows = int(threaded_front_rows)
@@ -394,12 +403,81 @@ class SupernodalCholesky:
         t0, wall0 = time.process_time(), time.perf_counter()
         diagonal_blocks: list[np.ndarray | None] = [None] * self.supernodes
         below_blocks: list[np.ndarray | None] = [None] * self.supernodes
-        if not self.factor_supernodes(range(self.supernodes), values, {}, diagonal_blocks, below_blocks):
+        if self.processes == 2:
+            if self._worker is None:
+                self._worker = _HalfWorker(self)
+            factorised = self._worker.factorise(values, diagonal_blocks, below_blocks)
+        else:
+            factorised = self.factor_supernodes(range(self.supernodes), values, {}, diagonal_blocks, below_blocks)
+        if not factorised:
             return None
         self.factorisations += 1
         self.factorise_s += time.process_time() - t0
         self.factorise_wall_s += time.perf_counter() - wall0
+        if self.processes == 2:
+            return self._worker.solver(diagonal_blocks, below_blocks)
         return self._solver(diagonal_blocks, below_blocks)
+
+    def close(self) -> None:
+        """Stop the worker process (``processes=2``); the next factorisation starts a new one."""
+        if self._worker is not None:
+            self._worker.close()
+            self._worker = None
+
+    def front_costs(self) -> np.ndarray:
+        """An estimate of each supernode's factorisation time (s): a fixed cost per front, the dense flops of
+        ``potrf``, ``trsm`` and ``syrk`` (``w^3/3 + r w^2 + r^2 w`` for ``w`` columns and ``r`` rows below) and
+        the ``m^2`` entries of the front that are zeroed and assembled."""
+        w = (self.end - self.first).astype(float)
+        m = np.array([R.size for R in self.rows], dtype=float)
+        r = m - w
+        return 3e-5 + 2.5e-10 * (w ** 3 / 3 + r * w * w + r * r * w) + 2e-9 * m * m
+
+    def subtree_halves(self) -> tuple[list[np.ndarray], np.ndarray]:
+        """``([half_0, half_1], top)``: supernodes two processes can factorise side by side, then the rest.
+
+        From the roots of the supernodal elimination tree, the costliest subtree (:meth:`front_costs`) is split
+        into its root (to ``top``) and its children's subtrees as long as that lowers ``cost(top) + max(cost of
+        a half)``; the subtrees are dealt to the halves longest first.  Each half is a union of whole subtrees,
+        so it needs no update matrix from the other, and the rows below its supernodes are its own or the top's.
+        Every list is in increasing supernode order."""
+        ns = self.supernodes
+        parent = np.full(ns, -1, dtype=np.int64)
+        for s, kids in enumerate(self.children):
+            parent[kids] = s
+        cost = self.front_costs()
+        subtree = cost.copy()
+        for s in range(ns):  # children before their parent
+            if parent[s] >= 0:
+                subtree[parent[s]] += subtree[s]
+        frontier = [int(s) for s in np.flatnonzero(parent < 0)]
+        top: list[int] = []
+        best = None
+        for _ in range(min(ns, 1000)):
+            loads, halves = [0.0, 0.0], [[], []]
+            for s in sorted(frontier, key=lambda s: -subtree[s]):
+                g = int(np.argmin(loads))
+                loads[g] += subtree[s]
+                halves[g].append(s)
+            makespan = float(cost[top].sum()) + max(loads)
+            if best is None or makespan < best[0]:
+                best = (makespan, list(top), halves)
+            biggest = max(frontier, key=lambda s: subtree[s])
+            if not self.children[biggest]:
+                break
+            frontier.remove(biggest)
+            top.append(biggest)
+            frontier.extend(self.children[biggest])
+        _, top, halves = best
+        owner = np.full(ns, -1, dtype=np.int64)  # the half of each supernode, -1: the top
+        root_half = {s: g for g, roots in enumerate(halves) for s in roots}
+        in_top = set(top)
+        for s in range(ns - 1, -1, -1):  # parents before their children
+            if s in root_half:
+                owner[s] = root_half[s]
+            elif s not in in_top:
+                owner[s] = owner[parent[s]]
+        return [np.flatnonzero(owner == g) for g in (0, 1)], np.flatnonzero(owner < 0)
 
     def factor_supernodes(self, supernodes, values: np.ndarray, updates: dict[int, np.ndarray],
                           diagonal_blocks: list, below_blocks: list) -> bool:
@@ -444,9 +522,34 @@ class SupernodalCholesky:
                 updates[s] = update
         return True
 
+    def forward(self, x: np.ndarray, supernodes, diagonal_blocks: list, below_blocks: list) -> None:
+        """``L~ y = x`` over the given supernodes (in increasing order), in place on the vector ``x``: ``trsv`` on each
+        supernode's entries (BLAS offsets), ``gemv`` for the rows below."""
+        from scipy.linalg.blas import dgemv, dtrsv
+
+        first, below = self.first, self._below
+        for s in supernodes:
+            f = int(first[s])
+            dtrsv(diagonal_blocks[s], x, offx=f, lower=1, overwrite_x=1)
+            L21 = below_blocks[s]
+            if L21 is not None:
+                x[below[s]] -= dgemv(1.0, L21, x, offx=f)
+
+    def backward(self, x: np.ndarray, supernodes, diagonal_blocks: list, below_blocks: list) -> None:
+        """``L~^T z = x`` over the given supernodes (in decreasing order), in place on the vector ``x``."""
+        from scipy.linalg.blas import dgemv, dtrsv
+
+        first, below = self.first, self._below
+        for s in supernodes:
+            f = int(first[s])
+            L21 = below_blocks[s]
+            if L21 is not None:
+                dgemv(-1.0, L21, x[below[s]], beta=1.0, y=x, offy=f, trans=1, overwrite_y=1)
+            dtrsv(diagonal_blocks[s], x, offx=f, lower=1, trans=1, overwrite_x=1)
+
     def _solver(self, diagonal_blocks: list[np.ndarray], below_blocks: list[np.ndarray | None]):
         """``solve(rhs)``: ``x = P^T L~^{-T} L~^{-1} P rhs`` by supernodes (BLAS ``trsv``/``trsm``, ``gemv``/``gemm``)."""
-        from scipy.linalg.blas import dgemv, dtrsm, dtrsv
+        from scipy.linalg.blas import dtrsm
 
         p, inv_p = self.perm, self.inverse_perm
         spans = list(zip(self.first.tolist(), self.end.tolist()))
@@ -457,19 +560,8 @@ class SupernodalCholesky:
             t = time.process_time()
             x = np.array(rhs[p], dtype=float, order="F")
             if x.ndim == 1:
-                # in place on x (BLAS offsets): trsv on the supernode's entries, gemv for the rows below
-                for s in order:  # L~ y = P rhs
-                    f = spans[s][0]
-                    dtrsv(diagonal_blocks[s], x, offx=f, lower=1, overwrite_x=1)
-                    L21 = below_blocks[s]
-                    if L21 is not None:
-                        x[below[s]] -= dgemv(1.0, L21, x, offx=f)
-                for s in reversed(order):  # L~^T z = y
-                    f = spans[s][0]
-                    L21 = below_blocks[s]
-                    if L21 is not None:
-                        dgemv(-1.0, L21, x[below[s]], beta=1.0, y=x, offy=f, trans=1, overwrite_y=1)
-                    dtrsv(diagonal_blocks[s], x, offx=f, lower=1, trans=1, overwrite_x=1)
+                self.forward(x, order, diagonal_blocks, below_blocks)
+                self.backward(x, reversed(order), diagonal_blocks, below_blocks)
             else:
                 for s in order:
                     f, e = spans[s]
@@ -488,6 +580,195 @@ class SupernodalCholesky:
             return x[inv_p]
 
         return solve
+
+
+class _HalfWorker:
+    r"""One subtree half of a :class:`SupernodalCholesky`'s factorisations and solves, run by a forked process.
+
+    Set-up (once): the halves and their top (:meth:`SupernodalCholesky.subtree_halves`); shared memory
+    (anonymous ``mmap``, inherited by the fork) for ``K``'s values, the solve vector, the change the worker's
+    half makes to the top's rows, and the update matrices of the worker's subtree roots.  The worker is forked
+    with the symbolic analysis already in its memory.
+
+    Factorisation: this process factorises half 0 while the worker factorises half 1 and keeps its blocks of
+    ``L~``; the worker's root update matrices come back through shared memory, then this process factorises the
+    top.  The factors are those of the serial factorisation, bit for bit.
+
+    Solve (a vector at a time): the two halves' forward substitutions side by side (the worker's returns its rows
+    and its change to the top's rows), the top's forward and backward substitution here, then the two halves'
+    backward substitutions side by side.  The kernels are the serial solve's; only the sums into the top's rows
+    are grouped differently, so solutions agree to round-off.
+
+    The worker's CPU time does not count in this process's ``time.process_time()``.
+    """
+
+    def __init__(self, chol: SupernodalCholesky) -> None:
+        import mmap
+        import multiprocessing
+        import weakref
+
+        self.chol = chol
+        (mine, theirs), top = chol.subtree_halves()
+        self.mine, self.theirs, self.top = mine.tolist(), theirs.tolist(), top.tolist()
+
+        def own_rows(supernodes: list[int]) -> np.ndarray:
+            return np.concatenate([np.arange(chol.first[s], chol.end[s]) for s in supernodes] + [np.zeros(0, np.int64)])
+
+        self.their_rows, self.top_rows = own_rows(self.theirs), own_rows(self.top)
+        in_top = set(self.top)
+        parent = {c: s for s, kids in enumerate(chol.children) for c in kids}
+        self.their_roots = [s for s in self.theirs if parent.get(s, -1) in in_top]
+        sizes = [int(chol.rows[s].size - (chol.end[s] - chol.first[s])) for s in self.their_roots]
+        ends = np.cumsum([r * r for r in sizes], dtype=np.int64)
+        self.root_blocks = [(int(e - r * r), int(e), r) for e, r in zip(ends, sizes)]
+
+        def shared(size: int) -> np.ndarray:
+            return np.frombuffer(mmap.mmap(-1, 8 * max(size, 1)), dtype=np.float64, count=size)
+
+        self.values = shared(chol._pattern.nnz)
+        self.x = shared(chol.n)
+        self.top_change = shared(self.top_rows.size)
+        self.root_updates = shared(int(ends[-1]) if sizes else 0)
+        self.generation = 0
+        # os.fork, not multiprocessing.Process: a pool's (daemonic) worker may not start processes
+        self.connection, child = multiprocessing.Pipe()
+        pid = os.fork()
+        if pid == 0:  # pragma: no cover - the worker process
+            status = 1
+            try:
+                self.connection.close()
+                self._serve(child)
+                status = 0
+            except BaseException:
+                import traceback
+
+                traceback.print_exc()
+            finally:
+                os._exit(status)
+        child.close()
+        self.pid = pid
+        self._finalizer = weakref.finalize(self, _stop_worker, self.connection, pid)
+
+    def close(self) -> None:
+        """Stop the worker process."""
+        self._finalizer()
+
+    def _serve(self, connection) -> None:  # pragma: no cover - runs in the worker process
+        from threadpoolctl import threadpool_limits
+
+        chol, theirs = self.chol, self.theirs
+        backwards = theirs[::-1]
+        diagonal_blocks: list = []
+        below_blocks: list = []
+        with threadpool_limits(limits=1, user_api="blas"):
+            while True:
+                try:
+                    command = connection.recv()
+                except EOFError:
+                    return
+                if command is None:
+                    return
+                if command == "factorise":
+                    diagonal_blocks, below_blocks = [None] * chol.supernodes, [None] * chol.supernodes
+                    updates: dict[int, np.ndarray] = {}
+                    factorised = chol.factor_supernodes(theirs, self.values, updates, diagonal_blocks, below_blocks)
+                    if factorised:
+                        for s, (a, b, _) in zip(self.their_roots, self.root_blocks):
+                            self.root_updates[a:b] = updates.pop(s).ravel(order="F")
+                    connection.send(factorised)
+                elif command == "forward":
+                    x = np.array(self.x)
+                    top_before = x[self.top_rows]
+                    chol.forward(x, theirs, diagonal_blocks, below_blocks)
+                    self.x[self.their_rows] = x[self.their_rows]
+                    self.top_change[:] = x[self.top_rows] - top_before
+                    connection.send(True)
+                elif command == "backward":
+                    x = np.array(self.x)
+                    chol.backward(x, backwards, diagonal_blocks, below_blocks)
+                    self.x[self.their_rows] = x[self.their_rows]
+                    connection.send(True)
+
+    def _answer(self):
+        try:
+            return self.connection.recv()
+        except EOFError:
+            raise RuntimeError("supernodal Cholesky: its worker process ended unexpectedly") from None
+
+    def factorise(self, values: np.ndarray, diagonal_blocks: list, below_blocks: list) -> bool:
+        """Factorise ``K`` (values on the pattern) with the worker; this process keeps half 0's and the top's blocks."""
+        chol = self.chol
+        self.values[:] = values
+        self.connection.send("factorise")
+        updates: dict[int, np.ndarray] = {}
+        mine_factorised = chol.factor_supernodes(self.mine, values, updates, diagonal_blocks, below_blocks)
+        theirs_factorised = self._answer()  # always collected: the worker and this process stay in step
+        self.generation += 1
+        if not (mine_factorised and theirs_factorised):
+            return False
+        for s, (a, b, r) in zip(self.their_roots, self.root_blocks):
+            updates[s] = np.array(self.root_updates[a:b].reshape(r, r, order="F"), order="F")
+        return chol.factor_supernodes(self.top, values, updates, diagonal_blocks, below_blocks)
+
+    def solver(self, diagonal_blocks: list, below_blocks: list):
+        """``solve(rhs)`` with the factors of the latest :meth:`factorise` (a vector or a matrix of columns)."""
+        chol, generation = self.chol, self.generation
+        p, inv_p = chol.perm, chol.inverse_perm
+        mine_backwards, top_backwards = self.mine[::-1], self.top[::-1]
+
+        def solve_vector(rhs: np.ndarray) -> np.ndarray:
+            x = np.array(rhs[p], dtype=float)
+            self.x[:] = x
+            self.connection.send("forward")
+            chol.forward(x, self.mine, diagonal_blocks, below_blocks)
+            self._answer()
+            x[self.their_rows] = self.x[self.their_rows]
+            x[self.top_rows] += self.top_change
+            chol.forward(x, self.top, diagonal_blocks, below_blocks)
+            chol.backward(x, top_backwards, diagonal_blocks, below_blocks)
+            self.x[self.top_rows] = x[self.top_rows]
+            self.connection.send("backward")
+            chol.backward(x, mine_backwards, diagonal_blocks, below_blocks)
+            self._answer()
+            x[self.their_rows] = self.x[self.their_rows]
+            return x[inv_p]
+
+        def solve(rhs: np.ndarray) -> np.ndarray:
+            if generation != self.generation:
+                raise RuntimeError("supernodal Cholesky: these factors were replaced by a later factorisation")
+            t = time.process_time()
+            rhs = np.asarray(rhs, dtype=float)
+            x = solve_vector(rhs) if rhs.ndim == 1 else np.column_stack(
+                [solve_vector(rhs[:, j]) for j in range(rhs.shape[1])] + [np.zeros((chol.n, 0))])
+            chol.solves += 1
+            chol.solve_s += time.process_time() - t
+            return x
+
+        return solve
+
+
+def _stop_worker(connection, pid: int) -> None:
+    """Ask a :class:`_HalfWorker`'s process to stop and reap it; kill it if it has not ended within a second."""
+    import signal
+
+    try:
+        connection.send(None)
+    except (OSError, ValueError):
+        pass
+    connection.close()
+    deadline = time.perf_counter() + 1.0
+    while True:
+        try:
+            done, _ = os.waitpid(pid, os.WNOHANG)
+        except ChildProcessError:
+            return
+        if done:
+            return
+        if time.perf_counter() > deadline:
+            os.kill(pid, signal.SIGKILL)
+            os.waitpid(pid, 0)
+            return
+        time.sleep(0.001)
 
 
 def _dense_front(F: np.ndarray, width: int, dpotrf, dtrsm, dsyrk):
