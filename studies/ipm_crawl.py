@@ -195,8 +195,7 @@ def run(lp, ops, weights: np.ndarray | None = None, diagnose: bool = False, rule
     """One cold block-IPM solve with :data:`IPM_SETTINGS` (and ``settings`` over them); returns its summary row
     and the recorder.  ``block_product``: replaces the engine's :meth:`~BlockIPM._block_product` (None: the
     engine's own)."""
-    engine = _engine(lp, ops)
-    engine.settings(**{**block_ipm.named_settings(IPM_SETTINGS), **(settings or {})})
+    engine = _engine(lp, ops, settings)
     engine.path_weights = weights
     if block_product is not None:
         engine._block_product = block_product
@@ -209,18 +208,25 @@ def run(lp, ops, weights: np.ndarray | None = None, diagnose: bool = False, rule
     return {"status": out.status.value, "iterations": out.iterations, "cpu_s": round(cpu, 2), "lam": lam}, recorder
 
 
-def _engine(lp, ops) -> BlockIPM:
+def _engine(lp, ops, settings: dict | None = None) -> BlockIPM:
+    """The LP's cold block IPM with :data:`IPM_SETTINGS` (and ``settings`` over them)."""
     engine = cold_lp_engine(lp, "block-ipm", ops=ops)
     if not isinstance(engine, BlockIPM):
         raise RuntimeError("ipm_crawl: the wall's LP did not get the block IPM")
+    engine.settings(**{**block_ipm.named_settings(IPM_SETTINGS), **(settings or {})})
     return engine
+
+
+def arc_point(z: np.ndarray, first: np.ndarray, second: np.ndarray, a: float) -> np.ndarray:
+    """``z + sin(a) first + (1 - cos a) second``: the point at ``a`` on the arc through ``z``."""
+    return z + np.sin(a) * first + (1.0 - np.cos(a)) * second
 
 
 def arc_step(z: np.ndarray, first: np.ndarray, second: np.ndarray, grid: int = 64) -> float:
     """The largest ``a`` in ``[0, pi/2]`` with ``z + sin(t) first + (1 - cos t) second > 0`` for every ``t`` in
     ``[0, a]`` (``z > 0``): the first grid point where a component is not positive, then bisection below it."""
     def positive(t: float) -> bool:
-        return bool(np.all(z + np.sin(t) * first + (1.0 - np.cos(t)) * second > 0))
+        return bool(np.all(arc_point(z, first, second, t) > 0))
 
     low = 0.0
     for t in np.linspace(0.0, np.pi / 2, grid + 1)[1:]:
@@ -250,7 +256,6 @@ def arc_search(lp, ops, max_iterations: int = 300) -> dict:
     follows the path's curvature shortens it.  No Gondzio correctors; stops as the engine does (every relative
     measure at most its ``tol``)."""
     engine = _engine(lp, ops)
-    engine.settings(**block_ipm.named_settings(IPM_SETTINGS))
     cpu = time.process_time()
     with block_ipm.single_blas_thread():
         it = engine.initial_point()
@@ -269,8 +274,7 @@ def arc_search(lp, ops, max_iterations: int = 300) -> dict:
             zero = (np.zeros_like(r_b), np.zeros_like(r_h), np.zeros_like(r_c))
             curvature = engine._refined_direction(it, factors, *zero, -2.0 * ds * dy)
             a_p, a_d = arc_step(it.s, ds, curvature[1]), arc_step(it.y, dy, curvature[3])
-            s_a = it.s + np.sin(a_p) * ds + (1.0 - np.cos(a_p)) * curvature[1]
-            y_a = it.y + np.sin(a_d) * dy + (1.0 - np.cos(a_d)) * curvature[3]
+            s_a, y_a = arc_point(it.s, ds, curvature[1], a_p), arc_point(it.y, dy, curvature[3], a_d)
             sigma = min(1.0, (float(s_a @ y_a) / p / mu) ** 3)
             centring = engine._refined_direction(it, factors, *zero, np.full(p, sigma * mu))
             vv, ss, ww, yy = (c + e for c, e in zip(curvature, centring))
@@ -426,8 +430,7 @@ def polish(spec: str, kappas: tuple[float, ...] = (1.0, 100.0)) -> tuple[list[di
                         f"{name}_objective_error": float(f"{abs(objective - optimum) / (1 + abs(optimum)):.3g}")})
         rows.append(row)
 
-    engine = cold_lp_engine(lp, "block-ipm", ops=ops)
-    engine.settings(**block_ipm.named_settings(IPM_SETTINGS))
+    engine = _engine(lp, ops)
     engine.before_iteration = lambda it: probe(engine, it)
     engine.solve()
     summary = {"wall": spec, **plain, "rows": int(final.s.size), "probe_iterations": len(rows)}
