@@ -350,6 +350,8 @@ class SupernodalCholesky:
         self._assembly_destination = destination
         self._assembly_source = lower_source
         self._below = [self.rows[s][int(end[s] - first[s]):] for s in range(ns)]
+        #: each supernode's first column as a Python int (a BLAS offset in every solve: no numpy scalar per call)
+        self._first_columns = first.tolist()
         #: bytes of the flat extend-add indices (children added by slices need none)
         self.extend_add_index_bytes = int(sum(plan[1].nbytes for plan in self.relative
                                               if plan is not None and plan[1] is not None))
@@ -413,16 +415,16 @@ class SupernodalCholesky:
             if self._worker is None:
                 self._worker = _HalfWorker(self)
             factorised = self._worker.factorise(values, diagonal_blocks, below_blocks)
+            solver = self._worker.solver
         else:
             factorised = self.factor_supernodes(range(self.supernodes), values, {}, diagonal_blocks, below_blocks)
+            solver = self._solver
         if not factorised:
             return None
         self.factorisations += 1
         self.factorise_s += time.process_time() - t0
         self.factorise_wall_s += time.perf_counter() - wall0
-        if self.processes == 2:
-            return self._worker.solver(diagonal_blocks, below_blocks)
-        return self._solver(diagonal_blocks, below_blocks)
+        return solver(diagonal_blocks, below_blocks)
 
     def close(self) -> None:
         """Stop the worker process (``processes=2``); the next factorisation starts a new one."""
@@ -533,9 +535,9 @@ class SupernodalCholesky:
         supernode's entries (BLAS offsets), ``gemv`` for the rows below."""
         from scipy.linalg.blas import dgemv, dtrsv
 
-        first, below = self.first, self._below
+        first, below = self._first_columns, self._below
         for s in supernodes:
-            f = int(first[s])
+            f = first[s]
             dtrsv(diagonal_blocks[s], x, offx=f, lower=1, overwrite_x=1)
             L21 = below_blocks[s]
             if L21 is not None:
@@ -545,9 +547,9 @@ class SupernodalCholesky:
         """``L~^T z = x`` over the given supernodes (in decreasing order), in place on the vector ``x``."""
         from scipy.linalg.blas import dgemv, dtrsv
 
-        first, below = self.first, self._below
+        first, below = self._first_columns, self._below
         for s in supernodes:
-            f = int(first[s])
+            f = first[s]
             L21 = below_blocks[s]
             if L21 is not None:
                 dgemv(-1.0, L21, x[below[s]], beta=1.0, y=x, offy=f, trans=1, overwrite_y=1)
