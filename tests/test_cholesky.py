@@ -208,7 +208,7 @@ def test_side_by_side_study_times_both_halves_in_worker_processes():
     row = study.side_by_side(*study.reduced_matrix(12, 16), rounds=2)
     halves = [int(v) for v in row["half_supernodes"].split("/")]
     assert sum(halves) + row["top_supernodes"] == row["supernodes"] and min(halves) > 0
-    times = [float(v) for key in ("alone_s", "side_by_side_s") for v in row[key].split("/")]
+    times = [row[f"{key}_{half}_s"] for key in ("alone", "side_by_side") for half in (0, 1)]
     assert all(t > 0 for t in times) and row["two_core_bound_s"] > 0 and row["speedup"] > 0
 
 
