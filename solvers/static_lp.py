@@ -24,18 +24,24 @@ class LPOptions:
     time_limit: float = field(default=check.DEFAULT_TIME_LIMIT_S, metadata={
         "help": "seconds (HiGHS time_limit; the block IPM checks its clock every iteration); default 600 "
                 "(blockmpec.options.DEFAULT_TIME_LIMIT_S: finite, ~13x the 10,046-block wall's LP), inf for none"})
-    factor_processes: int = field(default=1, metadata={
-        "help": "1 | 2: processes for the block IPM's supernodal Cholesky (K of 30,000 rows or more, about 10,000 "
-                "blocks); 2 forks a worker that factorises and solves one subtree half (needs os.fork; "
-                "studies/lp_timing.py --ipm-settings two_process). Other engines run as with 1"})
+    factor_processes: int | str = field(default="auto", metadata={
+        "help": "auto | 1 | 2: processes for the block IPM's supernodal Cholesky (K of 30,000 rows or more, about "
+                "10,000 blocks); 2 starts a worker process that factorises and solves one subtree half; auto: 2 "
+                "with the supernodal Cholesky when two CPUs are usable, else 1 "
+                "(studies/lp_timing.py --ipm-settings one_process,default). Other engines run as with 1"})
 
     def __post_init__(self) -> None:
         from blockmpec.solvers.engines.lp_engine import ALGORITHMS
 
         check.choice(self, "algorithm", ALGORITHMS)
         check.positive(self, "time_limit", finite=False)
-        check.integer(self, "factor_processes", minimum=1)
-        check.choice(self, "factor_processes", (1, 2))
+        from blockmpec.solvers.engines.block_ipm import FACTOR_PROCESSES
+
+        if isinstance(self.factor_processes, float) and self.factor_processes.is_integer():
+            self.factor_processes = int(self.factor_processes)
+        if isinstance(self.factor_processes, bool):
+            raise ValueError(f"factor_processes must be one of auto, 1, 2; got {self.factor_processes!r}")
+        check.choice(self, "factor_processes", FACTOR_PROCESSES)
 
 
 @register_solver
@@ -82,4 +88,8 @@ class StaticLP(SolverBase):
         elif out.status is Status.INFEASIBLE_OR_UNBOUNDED:
             message = (f"the static LP is infeasible or unbounded ({out.raw_status}): the structure may be unstable "
                        "under dead load, or no mechanism exists")
-        return RunOutput(out.status, sol, out.iterations, message=message, raw_status=out.raw_status)
+        extra = {}
+        factoriser = getattr(self.engine, "_factoriser", None)
+        if getattr(factoriser, "processes", 1) == 2:  # the worker process's CPU is not in this process's clock
+            extra = {"factor_processes": 2, "factor_worker_cpu_s": factoriser.worker_cpu_s}
+        return RunOutput(out.status, sol, out.iterations, message=message, raw_status=out.raw_status, extra=extra)

@@ -91,6 +91,7 @@ def solve_in_child(wall: str, method: str, options: dict, time_limit: float) -> 
     """One solve of ``wall`` (run in a fresh process): what the tables need, and the process's peak memory."""
     ops = bm.assemble(named_wall(wall))
     res, cpu = timed_solve(ops, method, time_limit=time_limit, **options)
+    cpu += res.extra.get("factor_worker_cpu_s", 0.0)  # a static LP's factorisation worker process, if it had one
     return {"blocks": ops.n_free_blocks, "s": res.solve_time_s, "cpu_s": cpu, "setup_s": res.build_time_s,
             "status": res.status.value, "verified": bool(res.success), "multiplier": res.multiplier,
             "iterations": res.iterations, "engine": res.extra.get("engine"),

@@ -209,11 +209,13 @@ def run(lp, ops, weights: np.ndarray | None = None, diagnose: bool = False, rule
 
 
 def _engine(lp, ops, settings: dict | None = None) -> BlockIPM:
-    """The LP's cold block IPM with :data:`IPM_SETTINGS` (and ``settings`` over them)."""
+    """The LP's cold block IPM with :data:`IPM_SETTINGS` (and ``settings`` over them), ``K`` factorised in this
+    process alone unless ``settings`` say otherwise: every table of this study was measured so, and a worker process
+    (``factor_processes``) moves iteration counts by round-off."""
     engine = cold_lp_engine(lp, "block-ipm", ops=ops)
     if not isinstance(engine, BlockIPM):
         raise RuntimeError("ipm_crawl: the wall's LP did not get the block IPM")
-    engine.settings(**{**block_ipm.named_settings(IPM_SETTINGS), **(settings or {})})
+    engine.settings(**{**block_ipm.named_settings(IPM_SETTINGS), "factor_processes": 1, **(settings or {})})
     return engine
 
 

@@ -7,7 +7,9 @@ largest residual of the shared verifier (``blockmpec.verify.residuals``, associa
 and the peak resident memory.  Each case runs in a fresh process, so its peak memory
 is its own.  Times are wall-clock (``*_s``) and CPU time of the process (``*_cpu_s``):
 on a shared, loaded machine the CPU times are the ones to compare (the solve is
-single-threaded apart from small BLAS calls).  For the block IPM also the fill-reducing ordering of ``K``, its
+single-threaded apart from small BLAS calls).  With two processes for ``K`` (``factor_processes``, the block IPM's
+default from 30,000 rows of ``K`` when two CPUs are usable) the worker process's CPU is reported apart
+(``worker_cpu_s``) and not in the peak memory; compare the wall-clock of such runs.  For the block IPM also the fill-reducing ordering of ``K``, its
 factorisation (``--factorisations``: ``auto``, ``supernodal``, ``superlu``), its per-interface kernels
 (``--kernels``: ``auto``, ``numpy``, ``compiled``, the last needing numba), the number of factorisations and
 solves with ``K`` and their CPU time.
@@ -121,8 +123,9 @@ class ClarabelLP:
 
 def time_one(wall: str, algorithm: str, time_limit: float = float("inf"), ordering: str = "auto",
              max_iterations: int | None = None, ipm_settings: str = "default", factorisation: str = "auto",
-             kernels: str = "auto") -> dict:
-    """One cold solve of the static LP of ``wall`` (a size ``"1000"`` or ``"CxB"`` courses x blocks per course)."""
+             kernels: str = "auto", factor_processes: str | int | None = None) -> dict:
+    """One cold solve of the static LP of ``wall`` (a size ``"1000"`` or ``"CxB"`` courses x blocks per course);
+    ``factor_processes`` (block IPM), when given, overrides that of ``ipm_settings``."""
     from blockmpec.solvers.engines.block_ipm import BlockIPM
     from blockmpec.solvers.engines.highs import static_lp_solution
 
@@ -147,6 +150,8 @@ def time_one(wall: str, algorithm: str, time_limit: float = float("inf"), orderi
         from blockmpec.solvers.engines import block_ipm
 
         engine.settings(**{**block_ipm.named_settings(ipm_settings), "kernels": kernels})
+        if factor_processes is not None:
+            engine.settings(factor_processes=factor_processes)
         if max_iterations is not None:  # a per-iteration cost measurement (status: iteration limit)
             engine.max_iterations = max_iterations
     t5, c5 = time.perf_counter(), time.process_time()
@@ -180,6 +185,9 @@ def time_one(wall: str, algorithm: str, time_limit: float = float("inf"), orderi
         "k_solves": factoriser.solves if factoriser else 0,
         "krylov_steps": engine.krylov_steps if isinstance(engine, BlockIPM) else 0,
         "factorise_s": factoriser.factorise_s if factoriser else 0.0, "factor_nnz": factoriser.factor_nnz if factoriser else 0,
+        "factor_processes": getattr(factoriser, "processes", 1) if factoriser else 0,
+        # the worker process's CPU seconds through its latest factorisation (not in solve_cpu_s or the peak memory)
+        "worker_cpu_s": getattr(factoriser, "worker_cpu_s", 0.0) if factoriser else 0.0,
         "peak_memory_mb": peak_memory_mb(),
     }
 
@@ -200,13 +208,18 @@ def main(argv: list[str] | None = None) -> list[dict]:
                         help="comma-separated block IPM factorisations of K: auto, supernodal, superlu")
     parser.add_argument("--kernels", default="auto",
                         help="comma-separated block IPM per-interface kernels: auto, numpy, compiled (needs numba)")
+    parser.add_argument("--factor-processes", default=None, choices=("auto", "1", "2"),
+                        help="block IPM: processes for K's supernodal Cholesky in every run, over the settings' own "
+                             "(1 reproduces the tables measured before the default became auto)")
     parser.add_argument("--time-limit", type=float, default=float("inf"), help="seconds per solve")
     parser.add_argument("--max-iterations", type=int, default=None,
                         help="block IPM iteration cap: measures the cost per iteration of a size too slow to finish")
     args = parser.parse_args(argv)
     walls = args.walls.split(",") if args.walls else args.sizes.split(",")
     block = ("auto", "block-ipm")
-    cases = [(w, a, args.time_limit, o, args.max_iterations, st, fa, ke) for w in walls for a in args.algorithms.split(",")
+    processes = None if args.factor_processes is None else (
+        args.factor_processes if args.factor_processes == "auto" else int(args.factor_processes))
+    cases = [(w, a, args.time_limit, o, args.max_iterations, st, fa, ke, processes) for w in walls for a in args.algorithms.split(",")
              for o in (args.orderings.split(",") if a in block else ["auto"])
              for st in (args.ipm_settings.split(",") if a in block else ["default"])
              for fa in (args.factorisations.split(",") if a in block else ["auto"])
@@ -223,7 +236,7 @@ def main(argv: list[str] | None = None) -> list[dict]:
     for r in rows:
         print(" ".join(f"{r[k]:>13.4g}" if isinstance(r[k], float) else f"{r[k]!s:>13s}" for k in keys))
     print()
-    print("CPU times of the process (wall-clock solve in brackets):")
+    print("CPU times of the process (wall-clock solve in brackets; + the CPU of a factorisation worker process):")
     print("| free blocks | engine | ordering | factorisation of K | IPM settings | kernels | Pyomo build | compile | solve | iterations "
           "| factorisations, solves with K (CPU) | build + compile / solve | peak memory | verified 1e-8 | λ |")
     print("| ---: | --- | --- | --- | --- | --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | --- | ---: |")
@@ -232,7 +245,8 @@ def main(argv: list[str] | None = None) -> list[dict]:
                   else f"HiGHS {r['algorithm']}")
         kind = {"SupernodalCholesky": "supernodal Cholesky", "SymmetricFactoriser": "SuperLU"}.get(r["factorisation"], "–")
         print(f"| {r['blocks']:,} | {engine} | {r['ordering'] or '–'} | {kind} | {r['ipm_settings'] or '–'} | {r['kernels'] or '–'} "
-              f"| {r['pyomo_build_cpu_s']:.2g} s | {r['compile_cpu_s']:.2g} s | **{r['solve_cpu_s']:.3g} s** ({r['solve_s']:.3g} s) "
+              f"| {r['pyomo_build_cpu_s']:.2g} s | {r['compile_cpu_s']:.2g} s | **{r['solve_cpu_s']:.3g} s** ({r['solve_s']:.3g} s)"
+              f"{f' + {w:.3g} s' if (w := r.get('worker_cpu_s', 0.0)) else ''} "
               f"| {r['lp_iterations']} | {r['factorise_s']:.3g} s, {r['k_solves']} in {r['solve_k_cpu_s']:.3g} s "
               f"| {r['build_over_solve_cpu']:.2f} "
               f"| {r['peak_memory_mb']:,.0f} MB | {'yes' if r['verified_1e-8'] else 'no'} ({r['max_residual']:.1e}) "

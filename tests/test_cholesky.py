@@ -5,8 +5,6 @@ numeric one by residuals against the matrix itself and against SuperLU on the sa
 amalgamated supernodes hold every structural nonzero only if these residuals stay at round-off.
 """
 
-import os
-
 import numpy as np
 import pytest
 import scipy.sparse as sp
@@ -213,7 +211,7 @@ def test_side_by_side_study_times_both_halves_in_worker_processes():
 
 
 def test_two_process_factorisation_matches_the_serial_one(wall_K):
-    """``processes=2``: a forked worker factorises and solves one subtree half.  Its factors are the serial ones
+    """``processes=2``: a worker process factorises and solves one subtree half.  Its factors are the serial ones
     (the same fronts, the same order), so its solutions agree with the serial solve to round-off; a vector and a
     matrix of columns are solved; a solver whose factors a later factorisation replaced refuses to solve; a matrix
     that is not positive definite gives None, and the worker stays in step for the next one; ``close`` ends it."""
@@ -231,23 +229,24 @@ def test_two_process_factorisation_matches_the_serial_one(wall_K):
     assert np.linalg.norm(X - X_serial) <= 1e-12 * np.linalg.norm(X_serial)
     assert np.linalg.norm(K @ x - b) <= 1e-10 * np.linalg.norm(b)
     assert split.solves == 2 and split.factorisations == 1
+    assert split.worker_cpu_s > 0  # the worker's CPU time, reported with its factorisation
     indefinite = sp.csc_array(K - 2 * abs(K).max() * sp.eye_array(K.shape[0]))
     assert split.factorise(indefinite) is None
     with pytest.raises(RuntimeError, match="replaced by a later factorisation"):
         solve_split(b)
     again = split.factorise(K)
     assert np.linalg.norm(again(b) - x_serial) <= 1e-12 * scale
-    pid = split._worker.pid
+    process = split._worker.process
     split.close()
-    with pytest.raises(ChildProcessError):  # reaped
-        os.waitpid(pid, os.WNOHANG)
+    assert process.returncode == 0  # stopped when asked, and reaped
     with pytest.raises(ValueError, match="processes must be 1 or 2"):
         SupernodalCholesky(pattern, "metis", processes=3)
 
 
 def test_static_lp_factor_processes_reaches_the_block_ipm(monkeypatch):
     """``static-lp``'s ``factor_processes`` is the block IPM's setting; with the supernodal Cholesky forced on a
-    small wall, 2 gives the serial optimum, verified, through ``bm.solve``; 3 is one clear option error."""
+    small wall, 2 gives the serial optimum, verified, through ``bm.solve``, and the result reports the worker's CPU;
+    the default (``"auto"``) keeps one process on a small ``K``; 3 and True are one clear option error each."""
     from blockmpec.errors import OptionError
     from blockmpec.solvers.engines import block_ipm
 
@@ -257,8 +256,31 @@ def test_static_lp_factor_processes_reaches_the_block_ipm(monkeypatch):
     two = bm.solve(wall, "static-lp", algorithm="block-ipm", factor_processes=2)
     assert one.verified and two.verified
     assert two.multiplier == pytest.approx(one.multiplier, rel=1e-8)
+    assert "factor_processes" not in one.extra  # the default on a small K: one process
+    assert two.extra["factor_processes"] == 2 and two.extra["factor_worker_cpu_s"] > 0
     solver = bm.get_solver("static-lp")(factor_processes=2)
     solver.setup(bm.assemble(wall))
     assert solver.engine.factor_processes == 2
-    with pytest.raises(OptionError, match="factor_processes must be one of 1, 2"):
-        bm.get_solver("static-lp")(factor_processes=3)
+    for bad in (3, True):
+        with pytest.raises(OptionError, match="factor_processes must be one of auto, 1, 2"):
+            bm.get_solver("static-lp")(factor_processes=bad)
+
+
+def test_auto_factor_processes_takes_two_from_its_threshold_with_two_cpus(monkeypatch):
+    """``factor_processes="auto"`` (the default) is 2 for a supernodal ``K`` of at least ``AUTO_TWO_PROCESS_ROWS``
+    rows when two CPUs are usable, and 1 below the threshold or on one CPU; an explicit 1 or 2 is kept."""
+    from blockmpec.solvers.engines import block_ipm
+
+    ops = bm.assemble(bm.cases.wall(10, 20))
+    lp = compile_linear(static_lp(ops))
+    engine = cold_lp_engine(lp, "block-ipm", ops=ops)
+    assert engine.factor_processes == "auto"
+    n = engine._K_pattern.shape[0]
+    for threshold, cpus, setting, expected in ((n, 2, "auto", 2), (n + 1, 2, "auto", 1), (n, 1, "auto", 1),
+                                               (n + 1, 2, 2, 2), (n, 2, 1, 1)):
+        monkeypatch.setattr(block_ipm, "AUTO_TWO_PROCESS_ROWS", threshold)
+        monkeypatch.setattr(block_ipm, "usable_cpus", lambda: cpus)
+        engine.settings(factor_processes=setting)
+        assert engine.supernodal_processes == expected, (threshold, cpus, setting)
+    with pytest.raises(ValueError, match="factor_processes must be one of auto, 1, 2"):
+        engine.settings(factor_processes=3)

@@ -83,7 +83,7 @@ import scipy.sparse as sp
 
 from blockmpec.formulations import LinearProgram
 from blockmpec.result import Status
-from blockmpec.solvers.engines.cholesky import SupernodalCholesky, SymmetricFactoriser, structural_pattern
+from blockmpec.solvers.engines.cholesky import SupernodalCholesky, SymmetricFactoriser, structural_pattern, usable_cpus
 from blockmpec.solvers.engines.highs import LPOutcome
 
 #: iteration parameters (:meth:`BlockIPM.settings`):
@@ -131,7 +131,7 @@ DEFAULT_SETTINGS = {"refinements": 8, "lazy_refinement": True, "inner_refinement
                     "final_sweeps": 4, "correctors": 2, "gondzio_accept": 1.01, "gondzio_factor": 1.5,
                     "gondzio_delta": 0.1, "step_fraction": 0.995, "sigma_power": 3.0, "sigma_min": 0.0,
                     "krylov_iterations": 40, "krylov_switch": 0.1, "diagonal_shift": 1e-16, "kernels": "auto",
-                    "factor_processes": 1}
+                    "factor_processes": "auto"}
 #: the diagonal shift before 1e-16: what the interior fixed point and the comparison sets below were measured with
 WIDE_DIAGONAL_SHIFT = 1e-12
 #: every inner direction corrected to the absolute target: the default before ``inner_tolerance`` 1e-6, what the
@@ -165,9 +165,14 @@ LATE_KRYLOV_SETTINGS = {**EXACT_INNER_SETTINGS, "krylov_switch": float("inf")}
 FEWER_SOLVES_SETTINGS = {**DEFAULT_SETTINGS, "correctors": 4, "gondzio_accept": 1.0}
 #: the settings before the lazy refinement: every direction refined on the whole system
 PREVIOUS_SETTINGS = {**EXACT_INNER_SETTINGS, "lazy_refinement": False}
-#: the default with one subtree half of every factorisation and solve of K in a forked worker process
+#: the default with one subtree half of every factorisation and solve of K in a worker process
 #: (``factor_processes`` 2; the supernodal Cholesky only: :class:`~blockmpec.solvers.engines.cholesky._HalfWorker`)
 TWO_PROCESS_SETTINGS = {**DEFAULT_SETTINGS, "factor_processes": 2}
+#: the supernodal Cholesky in this process alone (``factor_processes`` 1, the default before ``"auto"``)
+ONE_PROCESS_SETTINGS = {**DEFAULT_SETTINGS, "factor_processes": 1}
+#: ``factor_processes``: ``"auto"`` (2 for a supernodal ``K`` of at least :data:`AUTO_TWO_PROCESS_ROWS` rows when
+#: this process may run on two or more CPUs, else 1), 1 or 2
+FACTOR_PROCESSES = ("auto", 1, 2)
 
 #: factorisations of K: ``"auto"`` (the supernodal Cholesky for a symmetric K of at least
 #: :data:`AUTO_SUPERNODAL_ROWS` rows, SuperLU otherwise), ``"supernodal"``, ``"superlu"``
@@ -178,6 +183,12 @@ FACTORISATIONS = ("auto", "supernodal", "superlu")
 #: there are ~9 per factorisation; from ~10,000 blocks on it wins per iteration (32,670 blocks: 2.35 s
 #: against 3.0 s CPU; studies/lp_timing.py --factorisations)
 AUTO_SUPERNODAL_ROWS = 30_000
+#: ``factor_processes="auto"`` takes two processes from this size of K (the supernodal Cholesky's own threshold):
+#: wall-clock of the solve with one process against two, 10,050 blocks (30,150 rows) 18.1 -> 14.3 s, 19,810
+#: blocks 35.1 -> 32.7 s, 32,670 blocks 66.6 -> 53.8 s (``python studies/lp_timing.py --walls 100x100,140x141
+#: --algorithms block-ipm --ipm-settings one_process,two_process``, ``--walls 140x141,180x181 ... one_process,default``
+#: with 60,000 rows then, one run each, compiled kernels)
+AUTO_TWO_PROCESS_ROWS = 30_000
 
 #: the per-interface work (``kernels`` setting): the block inverses, the block products and the assembly of
 #: ``K``'s values.  ``"numpy"``: numpy's gufuncs (LAPACK/BLAS once per 7-by-7 block); ``"compiled"``: one compiled
@@ -380,8 +391,12 @@ class BlockIPM:
                 raise ValueError(f"block IPM: unknown kernels {kernels!r}; use one of {', '.join(KERNELS)}")
             if kernels == "compiled" and not compiled_kernels_available():
                 raise ValueError('block IPM: kernels="compiled" needs numba (pip install "blockmpec[fast]")')
+        processes = values.get("factor_processes")
+        if processes is not None and processes not in FACTOR_PROCESSES:
+            raise ValueError(f"block IPM: factor_processes must be one of {', '.join(map(str, FACTOR_PROCESSES))}, "
+                             f"not {processes!r}")
         for name, value in values.items():
-            setattr(self, name, type(DEFAULT_SETTINGS[name])(value))
+            setattr(self, name, value if name == "factor_processes" else type(DEFAULT_SETTINGS[name])(value))
 
     @property
     def block_kernels(self):
@@ -538,10 +553,19 @@ class BlockIPM:
                 self.factorisation == "auto" and self._K_pattern.shape[0] >= AUTO_SUPERNODAL_ROWS))
             if self.factorisation == "supernodal" and not supernodal:
                 raise ValueError("block IPM: the supernodal Cholesky needs a symmetric K")
-            self._factoriser = (SupernodalCholesky(self._K_pattern, self.ordering, processes=self.factor_processes)
+            self._factoriser = (SupernodalCholesky(self._K_pattern, self.ordering,
+                                                   processes=self.supernodal_processes)
                                 if supernodal
                                 else SymmetricFactoriser(self._K_pattern, self.ordering))
         return self._factoriser
+
+    @property
+    def supernodal_processes(self) -> int:
+        """Processes of the supernodal Cholesky: the ``factor_processes`` setting, ``"auto"`` resolved to 2 when
+        ``K`` has at least :data:`AUTO_TWO_PROCESS_ROWS` rows and this process may run on two CPUs or more."""
+        if self.factor_processes != "auto":
+            return int(self.factor_processes)
+        return 2 if self._K_pattern.shape[0] >= AUTO_TWO_PROCESS_ROWS and usable_cpus() >= 2 else 1
 
     def _factorise(self, it: IPMIterate):
         """Block matrices, ``H^{-1}`` (top-left of their inverses), ``K = A_B H^{-1} A_B^T`` and its factors."""

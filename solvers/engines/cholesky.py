@@ -20,8 +20,8 @@ factorisations of a symmetric permutation ``P K P^T``:
   it also takes the non-symmetric ``K`` of the interior fixed point.
 
 ``SupernodalCholesky(..., processes=2)`` splits its elimination tree into two subtree halves and their top
-(:meth:`SupernodalCholesky.subtree_halves`) and hands one half of every factorisation and solve to a forked
-worker process (:class:`_HalfWorker`): 0.82x the block IPM's time on the 100,014-block wall (270 s against 328 s
+(:meth:`SupernodalCholesky.subtree_halves`) and hands one half of every factorisation and solve to a
+worker process (:class:`_HalfWorker`, a fresh Python process, not a fork): 0.82x the block IPM's time on the 100,014-block wall (270 s against 328 s
 wall-clock, ``python studies/lp_timing.py --walls 316x316 --algorithms block-ipm --ipm-settings
 default,two_process``).  Threads cannot do it: scipy's LAPACK wrappers and each front's numpy work hold the GIL.
 
@@ -54,6 +54,13 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
 ORDERINGS = ("auto", "metis", "mmd")
+
+
+def usable_cpus() -> int:
+    """CPUs this process may run on (its affinity mask where the platform has one)."""
+    if hasattr(os, "sched_getaffinity"):
+        return len(os.sched_getaffinity(0))
+    return os.cpu_count() or 1  # pragma: no cover - not Linux
 
 
 def metis_available() -> bool:
@@ -239,11 +246,12 @@ class SupernodalCholesky:
         t0 = time.process_time()
         if processes not in (1, 2):
             raise ValueError(f"supernodal Cholesky: processes must be 1 or 2, not {processes!r}")
-        if processes == 2 and not hasattr(os, "fork"):
-            raise ValueError("supernodal Cholesky: processes=2 needs os.fork (not available on this platform)")
-        #: 2: one subtree half of every factorisation and solve runs in a forked worker process (:class:`_HalfWorker`)
+        #: 2: one subtree half of every factorisation and solve runs in a worker process (:class:`_HalfWorker`)
         self.processes = int(processes)
         self._worker: _HalfWorker | None = None
+        #: CPU seconds of the worker process through its latest factorisation (``processes=2``; not in this
+        #: process's ``time.process_time()``)
+        self.worker_cpu_s = 0.0
         #: BLAS threads for the dense work on fronts of at least ``threaded_front_rows`` rows (others: one)
         self.front_threads = int(front_threads)
         self.threaded_front_rows = int(threaded_front_rows)
@@ -426,6 +434,10 @@ class SupernodalCholesky:
         self.factorise_wall_s += time.perf_counter() - wall0
         return solver(diagonal_blocks, below_blocks)
 
+    def __getstate__(self) -> dict:
+        """The symbolic analysis without the worker process (what a :class:`_HalfWorker` receives)."""
+        return {**self.__dict__, "_worker": None, "processes": 1}
+
     def close(self) -> None:
         """Stop the worker process (``processes=2``); the next factorisation starts a new one."""
         if self._worker is not None:
@@ -591,12 +603,14 @@ class SupernodalCholesky:
 
 
 class _HalfWorker:
-    r"""One subtree half of a :class:`SupernodalCholesky`'s factorisations and solves, run by a forked process.
+    r"""One subtree half of a :class:`SupernodalCholesky`'s factorisations and solves, run by a worker process.
 
-    Set-up (once): the halves and their top (:meth:`SupernodalCholesky.subtree_halves`); shared memory
-    (anonymous ``mmap``, inherited by the fork) for ``K``'s values, the solve vector, the change the worker's
-    half makes to the top's rows, and the update matrices of the worker's subtree roots.  The worker is forked
-    with the symbolic analysis already in its memory.
+    Set-up (once): the halves and their top (:meth:`SupernodalCholesky.subtree_halves`); one shared-memory file
+    (:func:`_shared_file`) holding ``K``'s values, the solve vector, the change the worker's half makes to the top's
+    rows, and the update matrices of the worker's subtree roots.  The worker is a fresh Python process
+    (:func:`_serve_half`, started by :mod:`subprocess` from the directory that holds this package; not forked:
+    forking a process that runs BLAS threads is unsafe, and a pool's daemonic worker may not start
+    :mod:`multiprocessing` children); it receives the symbolic analysis once, pickled over a socket.
 
     Factorisation: this process factorises half 0 while the worker factorises half 1 and keeps its blocks of
     ``L~``; the worker's root update matrices come back through shared memory, then this process factorises the
@@ -607,13 +621,18 @@ class _HalfWorker:
     backward substitutions side by side.  The kernels are the serial solve's; only the sums into the top's rows
     are grouped differently, so solutions agree to round-off.
 
-    The worker's CPU time does not count in this process's ``time.process_time()``.
+    The worker's CPU time does not count in this process's ``time.process_time()``; it is reported with every
+    factorisation (:attr:`SupernodalCholesky.worker_cpu_s`).
     """
 
     def __init__(self, chol: SupernodalCholesky) -> None:
         import mmap
-        import multiprocessing
+        import pickle
+        import socket
+        import subprocess
+        import sys
         import weakref
+        from multiprocessing.connection import Connection
 
         self.chol = chol
         (mine, theirs), top = chol.subtree_halves()
@@ -629,78 +648,44 @@ class _HalfWorker:
         sizes = [int(chol.rows[s].size - (chol.end[s] - chol.first[s])) for s in self.their_roots]
         ends = np.cumsum([r * r for r in sizes], dtype=np.int64)
         self.root_blocks = [(int(e - r * r), int(e), r) for e, r in zip(ends, sizes)]
-
-        def shared(size: int) -> np.ndarray:
-            return np.frombuffer(mmap.mmap(-1, 8 * max(size, 1)), dtype=np.float64, count=size)
-
-        self.values = shared(chol._pattern.nnz)
-        self.x = shared(chol.n)
-        self.top_change = shared(self.top_rows.size)
-        self.root_updates = shared(int(ends[-1]) if sizes else 0)
+        layout = _shared_layout(chol._pattern.nnz, chol.n, self.top_rows.size, int(ends[-1]) if sizes else 0)
+        fd = _shared_file(8 * layout["total"])
+        self._memory = mmap.mmap(fd, 8 * layout["total"])
+        self.values, self.x, self.top_change, self.root_updates = _shared_arrays(self._memory, layout)
         self.generation = 0
-        # os.fork, not multiprocessing.Process: a pool's (daemonic) worker may not start processes
-        self.connection, child = multiprocessing.Pipe()
-        pid = os.fork()
-        if pid == 0:  # pragma: no cover - the worker process
-            status = 1
-            try:
-                self.connection.close()
-                self._serve(child)
-                status = 0
-            except BaseException:
-                import traceback
+        # the worker imports this very package (the directory that holds it comes first on its path)
+        import blockmpec
 
-                traceback.print_exc()
-            finally:
-                os._exit(status)
-        child.close()
-        self.pid = pid
-        self._finalizer = weakref.finalize(self, _stop_worker, self.connection, pid)
+        package_root = os.path.dirname(os.path.dirname(os.path.abspath(blockmpec.__file__)))
+        here, there = socket.socketpair()
+        code = (f"import sys; sys.path.insert(0, {package_root!r}); "
+                "from blockmpec.solvers.engines.cholesky import _serve_half; "
+                f"_serve_half({there.fileno()}, {fd})")
+        try:
+            process = subprocess.Popen([sys.executable, "-c", code], pass_fds=(there.fileno(), fd),
+                                       stdin=subprocess.DEVNULL)
+        finally:
+            there.close()
+            os.close(fd)
+        self.connection = Connection(here.detach())
+        self.process = process
+        self._finalizer = weakref.finalize(self, _stop_worker, self.connection, process)
+        try:
+            self.connection.send_bytes(pickle.dumps({
+                "chol": chol, "theirs": self.theirs, "their_roots": self.their_roots, "root_blocks": self.root_blocks,
+                "their_rows": self.their_rows, "top_rows": self.top_rows, "layout": layout}, protocol=5))
+        except OSError:
+            self.close()
+            raise RuntimeError("supernodal Cholesky: its worker process did not start (its error is printed above)")
 
     def close(self) -> None:
         """Stop the worker process."""
         self._finalizer()
 
-    def _serve(self, connection) -> None:  # pragma: no cover - runs in the worker process
-        from threadpoolctl import threadpool_limits
-
-        chol, theirs = self.chol, self.theirs
-        backwards = theirs[::-1]
-        diagonal_blocks: list = []
-        below_blocks: list = []
-        with threadpool_limits(limits=1, user_api="blas"):
-            while True:
-                try:
-                    command = connection.recv()
-                except EOFError:
-                    return
-                if command is None:
-                    return
-                if command == "factorise":
-                    diagonal_blocks, below_blocks = [None] * chol.supernodes, [None] * chol.supernodes
-                    updates: dict[int, np.ndarray] = {}
-                    factorised = chol.factor_supernodes(theirs, self.values, updates, diagonal_blocks, below_blocks)
-                    if factorised:
-                        for s, (a, b, _) in zip(self.their_roots, self.root_blocks):
-                            self.root_updates[a:b] = updates.pop(s).ravel(order="F")
-                    connection.send(factorised)
-                elif command == "forward":
-                    x = np.array(self.x)
-                    top_before = x[self.top_rows]
-                    chol.forward(x, theirs, diagonal_blocks, below_blocks)
-                    self.x[self.their_rows] = x[self.their_rows]
-                    self.top_change[:] = x[self.top_rows] - top_before
-                    connection.send(True)
-                elif command == "backward":
-                    x = np.array(self.x)
-                    chol.backward(x, backwards, diagonal_blocks, below_blocks)
-                    self.x[self.their_rows] = x[self.their_rows]
-                    connection.send(True)
-
     def _answer(self):
         try:
             return self.connection.recv()
-        except EOFError:
+        except (EOFError, OSError):
             raise RuntimeError("supernodal Cholesky: its worker process ended unexpectedly") from None
 
     def factorise(self, values: np.ndarray, diagonal_blocks: list, below_blocks: list) -> bool:
@@ -710,7 +695,7 @@ class _HalfWorker:
         self.connection.send("factorise")
         updates: dict[int, np.ndarray] = {}
         mine_factorised = chol.factor_supernodes(self.mine, values, updates, diagonal_blocks, below_blocks)
-        theirs_factorised = self._answer()  # always collected: the worker and this process stay in step
+        theirs_factorised, chol.worker_cpu_s = self._answer()  # always collected: both processes stay in step
         self.generation += 1
         if not (mine_factorised and theirs_factorised):
             return False
@@ -755,28 +740,99 @@ class _HalfWorker:
         return solve
 
 
-def _stop_worker(connection, pid: int) -> None:
+def _shared_layout(values: int, n: int, top_rows: int, root_updates: int) -> dict:
+    """Offsets (in float64s) of a :class:`_HalfWorker`'s shared arrays in its shared-memory file."""
+    sizes = {"values": values, "x": n, "top_change": top_rows, "root_updates": root_updates}
+    layout, offset = {}, 0
+    for name, size in sizes.items():
+        layout[name] = (offset, size)
+        offset += size
+    layout["total"] = max(offset, 1)
+    return layout
+
+
+def _shared_arrays(memory, layout: dict) -> list[np.ndarray]:
+    """``values, x, top_change, root_updates``: float64 views of the shared-memory file."""
+    return [np.frombuffer(memory, dtype=np.float64, count=size, offset=8 * offset)
+            for offset, size in (layout[name] for name in ("values", "x", "top_change", "root_updates"))]
+
+
+def _shared_file(size: int) -> int:
+    """A file descriptor of ``size`` zero bytes that no path names, to be mapped by this process and the worker:
+    ``memfd_create`` (Linux) or an unlinked temporary file (in ``/dev/shm`` when it exists)."""
+    if hasattr(os, "memfd_create"):
+        fd = os.memfd_create("blockmpec-cholesky")
+    else:  # pragma: no cover - not Linux
+        import tempfile
+
+        fd = os.dup(tempfile.TemporaryFile(dir="/dev/shm" if os.path.isdir("/dev/shm") else None).fileno())
+    os.ftruncate(fd, size)
+    return fd
+
+
+def _serve_half(socket_fd: int, memory_fd: int) -> None:  # pragma: no cover - runs in the worker process
+    """The worker process of :class:`_HalfWorker`: factorises and solves with its half until told to stop."""
+    import mmap
+    import pickle
+    from multiprocessing.connection import Connection
+
+    from threadpoolctl import threadpool_limits
+
+    connection = Connection(socket_fd)
+    setup = pickle.loads(connection.recv_bytes())
+    chol, theirs = setup["chol"], setup["theirs"]
+    their_rows, top_rows, their_roots, root_blocks = (setup[k] for k in ("their_rows", "top_rows", "their_roots",
+                                                                         "root_blocks"))
+    memory = mmap.mmap(memory_fd, 8 * setup["layout"]["total"])
+    os.close(memory_fd)
+    values, shared_x, top_change, root_updates = _shared_arrays(memory, setup["layout"])
+    backwards = theirs[::-1]
+    diagonal_blocks: list = []
+    below_blocks: list = []
+    with threadpool_limits(limits=1, user_api="blas"):
+        while True:
+            try:
+                command = connection.recv()
+            except (EOFError, OSError):
+                return
+            if command is None:
+                return
+            if command == "factorise":
+                diagonal_blocks, below_blocks = [None] * chol.supernodes, [None] * chol.supernodes
+                updates: dict[int, np.ndarray] = {}
+                factorised = chol.factor_supernodes(theirs, values, updates, diagonal_blocks, below_blocks)
+                if factorised:
+                    for s, (a, b, _) in zip(their_roots, root_blocks):
+                        root_updates[a:b] = updates.pop(s).ravel(order="F")
+                connection.send((factorised, time.process_time()))
+            elif command == "forward":
+                x = np.array(shared_x)
+                top_before = x[top_rows]
+                chol.forward(x, theirs, diagonal_blocks, below_blocks)
+                shared_x[their_rows] = x[their_rows]
+                top_change[:] = x[top_rows] - top_before
+                connection.send(True)
+            elif command == "backward":
+                x = np.array(shared_x)
+                chol.backward(x, backwards, diagonal_blocks, below_blocks)
+                shared_x[their_rows] = x[their_rows]
+                connection.send(True)
+
+
+def _stop_worker(connection, process) -> None:
     """Ask a :class:`_HalfWorker`'s process to stop and reap it; kill it if it has not ended within a second."""
-    import signal
+    import subprocess
 
     try:
         connection.send(None)
     except (OSError, ValueError):
         pass
     connection.close()
-    deadline = time.perf_counter() + 1.0
-    while True:
-        try:
-            done, _ = os.waitpid(pid, os.WNOHANG)
-        except ChildProcessError:
-            return
-        if done:
-            return
-        if time.perf_counter() > deadline:
-            os.kill(pid, signal.SIGKILL)
-            os.waitpid(pid, 0)
-            return
-        time.sleep(0.001)
+    try:
+        process.wait(timeout=1.0)
+    except subprocess.TimeoutExpired:
+        process.kill()
+        process.wait()
 
 
 def _dense_front(F: np.ndarray, width: int, dpotrf, dtrsm, dsyrk):
