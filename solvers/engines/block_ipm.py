@@ -183,12 +183,13 @@ FACTORISATIONS = ("auto", "supernodal", "superlu")
 #: there are ~9 per factorisation; from ~10,000 blocks on it wins per iteration (32,670 blocks: 2.35 s
 #: against 3.0 s CPU; studies/lp_timing.py --factorisations)
 AUTO_SUPERNODAL_ROWS = 30_000
-#: ``factor_processes="auto"`` takes two processes from this size of K (the supernodal Cholesky's own threshold):
-#: wall-clock of the solve with one process against two, 10,050 blocks (30,150 rows) 18.1 -> 14.3 s, 19,810
-#: blocks 35.1 -> 32.7 s, 32,670 blocks 66.6 -> 53.8 s (``python studies/lp_timing.py --walls 100x100,140x141
-#: --algorithms block-ipm --ipm-settings one_process,two_process``, ``--walls 140x141,180x181 ... one_process,default``
-#: with 60,000 rows then, one run each, compiled kernels)
-AUTO_TWO_PROCESS_ROWS = 30_000
+#: ``factor_processes="auto"`` takes two processes from this size of K (about 30,000 blocks), where they gain
+#: reliably.  Wall-clock of the solve, one process -> two (``python studies/lp_timing.py --walls
+#: 100x100,140x141,180x181 --algorithms block-ipm --ipm-settings one_process,two_process`` and ``--walls 316x316``,
+#: one run each, compiled kernels): 10,050 blocks (30,150 rows) 15.1 -> 15.7 s (0.79-0.91x in three other runs),
+#: 19,810 blocks 32.0 -> 30.6 s, 32,670 blocks 68.8 -> 54.6 s, 100,014 blocks 319 -> 252 s; the worker adds
+#: 45-50 % of the one-process CPU time, which below this size buys little.
+AUTO_TWO_PROCESS_ROWS = 90_000
 
 #: the per-interface work (``kernels`` setting): the block inverses, the block products and the assembly of
 #: ``K``'s values.  ``"numpy"``: numpy's gufuncs (LAPACK/BLAS once per 7-by-7 block); ``"compiled"``: one compiled

@@ -21,9 +21,9 @@ factorisations of a symmetric permutation ``P K P^T``:
 
 ``SupernodalCholesky(..., processes=2)`` splits its elimination tree into two subtree halves and their top
 (:meth:`SupernodalCholesky.subtree_halves`) and hands one half of every factorisation and solve to a
-worker process (:class:`_HalfWorker`, a fresh Python process, not a fork): 0.82x the block IPM's time on the 100,014-block wall (270 s against 328 s
-wall-clock, ``python studies/lp_timing.py --walls 316x316 --algorithms block-ipm --ipm-settings
-default,two_process``).  Threads cannot do it: scipy's LAPACK wrappers and each front's numpy work hold the GIL.
+worker process (:class:`_HalfWorker`, a fresh Python process, not a fork): 0.79x the block IPM's wall-clock on the
+100,014-block wall (252 s against 319 s, ``python studies/lp_timing.py --walls 316x316 --algorithms block-ipm
+--ipm-settings one_process,two_process``; the block IPM's default from 90,000 rows).  Threads cannot do it: scipy's LAPACK wrappers and each front's numpy work hold the GIL.
 
 Orderings (:data:`ORDERINGS`):
 
