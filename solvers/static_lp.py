@@ -91,5 +91,6 @@ class StaticLP(SolverBase):
         extra = {}
         factoriser = getattr(self.engine, "_factoriser", None)
         if getattr(factoriser, "processes", 1) == 2:  # the worker process's CPU is not in this process's clock
-            extra = {"factor_processes": 2, "factor_worker_cpu_s": factoriser.worker_cpu_s}
+            extra = {"factor_processes": 2, "factor_worker_cpu_s": factoriser.worker_cpu_s,
+                     "factor_worker_factorisations": factoriser.worker_factorisations}
         return RunOutput(out.status, sol, out.iterations, message=message, raw_status=out.raw_status, extra=extra)

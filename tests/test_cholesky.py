@@ -110,10 +110,19 @@ def test_supernodal_cholesky_rejects_entries_outside_the_pattern(wall_K):
         chol.factorise(sp.csc_array(K + outside))
 
 
-def test_block_ipm_same_lambda_with_either_factorisation():
+def _worker_ready_at_once(monkeypatch) -> None:
+    """Every two-process factorisation waits for its worker's set-up (in a solve it starts in the background, and a
+    small wall's solve may end before the worker is ready)."""
+    start = SupernodalCholesky.start_worker
+    monkeypatch.setattr(SupernodalCholesky, "start_worker", lambda self, wait=False: start(self, wait=True))
+
+
+def test_block_ipm_same_lambda_with_either_factorisation(monkeypatch):
     """The supernodal Cholesky (default), the same with a worker process (``factor_processes`` 2) and SuperLU's
     LDL^T give the same optimum, all verified; the worker process ends with the solve."""
     from blockmpec.solvers.engines.highs import static_lp_solution
+
+    _worker_ready_at_once(monkeypatch)
 
     ops = bm.assemble(bm.cases.wall(10, 20))
     lp = compile_linear(static_lp(ops))
@@ -128,6 +137,7 @@ def test_block_ipm_same_lambda_with_either_factorisation():
         assert max(bm.verify.residuals(ops, static_lp_solution(lp, out), associative=True).values()) <= 1e-8
         if processes == 2:
             assert engine.factoriser.processes == 2 and engine.factoriser._worker is None  # closed by the solve
+            assert engine.factoriser.worker_factorisations == engine.factoriser.factorisations > 0
         lams[factorisation, processes] = float(lp.values("lam", out.v)[0])
     reference = lams["superlu", 1]
     assert all(abs(lam - reference) <= 1e-8 * abs(reference) for lam in lams.values()), lams
@@ -222,6 +232,7 @@ def test_two_process_factorisation_matches_the_serial_one(wall_K):
     b = rng.standard_normal(K.shape[0])
     B = rng.standard_normal((K.shape[0], 3))
     x_serial, X_serial = (solve := serial.factorise(K))(b), solve(B)
+    split.start_worker(wait=True)
     solve_split = split.factorise(K)
     x, X = solve_split(b), solve_split(B)
     scale = np.linalg.norm(x_serial)
@@ -229,7 +240,7 @@ def test_two_process_factorisation_matches_the_serial_one(wall_K):
     assert np.linalg.norm(X - X_serial) <= 1e-12 * np.linalg.norm(X_serial)
     assert np.linalg.norm(K @ x - b) <= 1e-10 * np.linalg.norm(b)
     assert split.solves == 2 and split.factorisations == 1
-    assert split.worker_cpu_s > 0  # the worker's CPU time, reported with its factorisation
+    assert split.worker_cpu_s > 0 and split.worker_factorisations == 1  # the worker's CPU time, with its factorisation
     indefinite = sp.csc_array(K - 2 * abs(K).max() * sp.eye_array(K.shape[0]))
     assert split.factorise(indefinite) is None
     with pytest.raises(RuntimeError, match="replaced by a later factorisation"):
@@ -251,6 +262,7 @@ def test_static_lp_factor_processes_reaches_the_block_ipm(monkeypatch):
     from blockmpec.solvers.engines import block_ipm
 
     monkeypatch.setattr(block_ipm, "AUTO_SUPERNODAL_ROWS", 0)  # the supernodal Cholesky on any size
+    _worker_ready_at_once(monkeypatch)
     wall = bm.cases.wall(10, 20)
     one = bm.solve(wall, "static-lp", algorithm="block-ipm")
     two = bm.solve(wall, "static-lp", algorithm="block-ipm", factor_processes=2)
@@ -258,6 +270,7 @@ def test_static_lp_factor_processes_reaches_the_block_ipm(monkeypatch):
     assert two.multiplier == pytest.approx(one.multiplier, rel=1e-8)
     assert "factor_processes" not in one.extra  # the default on a small K: one process
     assert two.extra["factor_processes"] == 2 and two.extra["factor_worker_cpu_s"] > 0
+    assert two.extra["factor_worker_factorisations"] >= two.iterations > 0  # one or more per iteration, shared
     solver = bm.get_solver("static-lp")(factor_processes=2)
     solver.setup(bm.assemble(wall))
     assert solver.engine.factor_processes == 2
@@ -284,3 +297,24 @@ def test_auto_factor_processes_takes_two_from_its_threshold_with_two_cpus(monkey
         assert engine.supernodal_processes == expected, (threshold, cpus, setting)
     with pytest.raises(ValueError, match="factor_processes must be one of auto, 1, 2"):
         engine.settings(factor_processes=3)
+
+
+def test_factorisations_stay_serial_until_the_worker_is_ready(wall_K, monkeypatch):
+    """While the worker process starts (its set-up is sent in the background), ``processes=2`` factorises here
+    alone: the serial factors, bit for bit, and no factorisation counted as shared; once it is ready, it shares."""
+    from blockmpec.solvers.engines import cholesky
+
+    K, pattern = wall_K
+    b = np.random.default_rng(5).standard_normal(K.shape[0])
+    x_serial = SupernodalCholesky(pattern, "metis").factorise(K)(b)
+    split = SupernodalCholesky(pattern, "metis", processes=2)
+    with monkeypatch.context() as m:
+        m.setattr(cholesky._HalfWorker, "ready", lambda self: False)
+        x_early = split.factorise(K)(b)
+    assert np.array_equal(x_early, x_serial)
+    assert split.factorisations == 1 and split.worker_factorisations == 0 and split._worker is not None
+    split.start_worker(wait=True)
+    x = split.factorise(K)(b)
+    assert split.worker_factorisations == 1
+    assert np.linalg.norm(x - x_serial) <= 1e-12 * np.linalg.norm(x_serial)
+    split.close()

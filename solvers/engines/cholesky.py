@@ -47,6 +47,7 @@ Supernodal module, ``qdldl`` (Apache-2.0, AMD) took 29 s on the 100k matrix, and
 from __future__ import annotations
 
 import os
+import threading
 import time
 
 import numpy as np
@@ -252,6 +253,8 @@ class SupernodalCholesky:
         #: CPU seconds of the worker process through its latest factorisation (``processes=2``; not in this
         #: process's ``time.process_time()``)
         self.worker_cpu_s = 0.0
+        #: factorisations shared with the worker (the others, while it started, were done here alone)
+        self.worker_factorisations = 0
         #: BLAS threads for the dense work on fronts of at least ``threaded_front_rows`` rows (others: one)
         self.front_threads = int(front_threads)
         self.threaded_front_rows = int(threaded_front_rows)
@@ -419,11 +422,11 @@ class SupernodalCholesky:
         t0, wall0 = time.process_time(), time.perf_counter()
         diagonal_blocks: list[np.ndarray | None] = [None] * self.supernodes
         below_blocks: list[np.ndarray | None] = [None] * self.supernodes
-        if self.processes == 2:
-            if self._worker is None:
-                self._worker = _HalfWorker(self)
+        self.start_worker()
+        if self._worker is not None and self._worker.ready():
             factorised = self._worker.factorise(values, diagonal_blocks, below_blocks)
             solver = self._worker.solver
+            self.worker_factorisations += 1
         else:
             factorised = self.factor_supernodes(range(self.supernodes), values, {}, diagonal_blocks, below_blocks)
             solver = self._solver
@@ -433,6 +436,16 @@ class SupernodalCholesky:
         self.factorise_s += time.process_time() - t0
         self.factorise_wall_s += time.perf_counter() - wall0
         return solver(diagonal_blocks, below_blocks)
+
+    def start_worker(self, wait: bool = False) -> None:
+        """With ``processes=2``, start the worker process if it is not running (:class:`_HalfWorker`).  It starts in
+        the background: until it has its set-up, factorisations are done here alone, the same factors bit for bit.
+        ``wait``: return only once it is ready."""
+        if self.processes == 2:
+            if self._worker is None:
+                self._worker = _HalfWorker(self)
+            if wait:
+                self._worker.wait_ready()
 
     def __getstate__(self) -> dict:
         """The symbolic analysis without the worker process (what a :class:`_HalfWorker` receives)."""
@@ -457,8 +470,9 @@ class SupernodalCholesky:
         """``([half_0, half_1], top)``: supernodes two processes can factorise side by side, then the rest.
 
         From the roots of the supernodal elimination tree, the costliest subtree (:meth:`front_costs`) is split
-        into its root (to ``top``) and its children's subtrees as long as that lowers ``cost(top) + max(cost of
-        a half)``; the subtrees are dealt to the halves longest first.  Each half is a union of whole subtrees,
+        into its root (to ``top``) and its children's subtrees, and the split with the least ``cost(top) + max(cost of
+        a half)`` is kept (the search stops once ``(cost(all) + cost(top)) / 2``, a bound below every later split's,
+        reaches the best); the subtrees are dealt to the halves longest first.  Each half is a union of whole subtrees,
         so it needs no update matrix from the other, and the rows below its supernodes are its own or the top's.
         Every list is in increasing supernode order."""
         ns = self.supernodes
@@ -473,13 +487,17 @@ class SupernodalCholesky:
         frontier = [int(s) for s in np.flatnonzero(parent < 0)]
         top: list[int] = []
         best = None
+        total = float(cost.sum())
         for _ in range(min(ns, 1000)):
+            top_cost = float(cost[top].sum())
+            if best is not None and (total + top_cost) / 2 >= best[0]:
+                break  # every makespan from here on is at least (total + cost(top)) / 2, and cost(top) only grows
             loads, halves = [0.0, 0.0], [[], []]
             for s in sorted(frontier, key=lambda s: -subtree[s]):
                 g = int(np.argmin(loads))
                 loads[g] += subtree[s]
                 halves[g].append(s)
-            makespan = float(cost[top].sum()) + max(loads)
+            makespan = top_cost + max(loads)
             if best is None or makespan < best[0]:
                 best = (makespan, list(top), halves)
             biggest = max(frontier, key=lambda s: subtree[s])
@@ -610,7 +628,9 @@ class _HalfWorker:
     rows, and the update matrices of the worker's subtree roots.  The worker is a fresh Python process
     (:func:`_serve_half`, started by :mod:`subprocess` from the directory that holds this package; not forked:
     forking a process that runs BLAS threads is unsafe, and a pool's daemonic worker may not start
-    :mod:`multiprocessing` children); it receives the symbolic analysis once, pickled over a socket.
+    :mod:`multiprocessing` children); it receives the symbolic analysis once, pickled over a socket by a thread of
+    this process, so that its start (imports, about 0.7 s, and the set-up) overlaps this process's work: until it
+    reports ready, :meth:`SupernodalCholesky.factorise_values` factorises here alone.
 
     Factorisation: this process factorises half 0 while the worker factorises half 1 and keeps its blocks of
     ``L~``; the worker's root update matrices come back through shared memory, then this process factorises the
@@ -669,14 +689,44 @@ class _HalfWorker:
             os.close(fd)
         self.connection = Connection(here.detach())
         self.process = process
-        self._finalizer = weakref.finalize(self, _stop_worker, self.connection, process)
-        try:
-            self.connection.send_bytes(pickle.dumps({
-                "chol": chol, "theirs": self.theirs, "their_roots": self.their_roots, "root_blocks": self.root_blocks,
-                "their_rows": self.their_rows, "top_rows": self.top_rows, "layout": layout}, protocol=5))
-        except OSError:
-            self.close()
-            raise RuntimeError("supernodal Cholesky: its worker process did not start (its error is printed above)")
+        payload = pickle.dumps({"chol": chol, "theirs": self.theirs, "their_roots": self.their_roots,
+                                "root_blocks": self.root_blocks, "their_rows": self.their_rows,
+                                "top_rows": self.top_rows, "layout": layout}, protocol=5)
+        self._send_error: BaseException | None = None
+
+        def send_setup() -> None:  # in a thread: the worker imports and unpickles while this process factorises
+            try:
+                self.connection.send_bytes(payload)
+            except OSError as error:
+                self._send_error = error
+
+        self._sender = threading.Thread(target=send_setup, name="blockmpec-cholesky-setup", daemon=True)
+        self._sender.start()
+        self._ready = False
+        self._finalizer = weakref.finalize(self, _stop_worker, self.connection, process, self._sender)
+
+    def wait_ready(self, timeout: float = 120.0) -> None:
+        """Block until the worker has its set-up (:meth:`ready`); a RuntimeError after ``timeout`` seconds."""
+        if self._ready:
+            return
+        self._sender.join(timeout)
+        if not self._sender.is_alive() and self._send_error is None:
+            self.connection.poll(max(timeout, 0.0))
+        if not self.ready():
+            raise RuntimeError(f"supernodal Cholesky: its worker process was not ready within {timeout:g} s")
+
+    def ready(self) -> bool:
+        """Whether the worker has its set-up (never waits).  A worker that ended before it was ready is an error."""
+        if not self._ready:
+            if self._sender.is_alive():
+                return False
+            if self._send_error is None and self.connection.poll(0):
+                self._ready = self._answer() == "ready"
+            if not self._ready and (self._send_error is not None or self.process.poll() is not None):
+                self.close()
+                raise RuntimeError("supernodal Cholesky: its worker process did not start (its error is printed "
+                                   "above)")
+        return self._ready
 
     def close(self) -> None:
         """Stop the worker process."""
@@ -786,6 +836,7 @@ def _serve_half(socket_fd: int, memory_fd: int) -> None:  # pragma: no cover - r
     memory = mmap.mmap(memory_fd, 8 * setup["layout"]["total"])
     os.close(memory_fd)
     values, shared_x, top_change, root_updates = _shared_arrays(memory, setup["layout"])
+    connection.send("ready")
     backwards = theirs[::-1]
     diagonal_blocks: list = []
     below_blocks: list = []
@@ -819,14 +870,20 @@ def _serve_half(socket_fd: int, memory_fd: int) -> None:  # pragma: no cover - r
                 connection.send(True)
 
 
-def _stop_worker(connection, process) -> None:
-    """Ask a :class:`_HalfWorker`'s process to stop and reap it; kill it if it has not ended within a second."""
+def _stop_worker(connection, process, sender) -> None:
+    """Ask a :class:`_HalfWorker`'s process to stop and reap it; kill it if it has not ended within a second
+    (or if its set-up is still being sent a second later)."""
     import subprocess
 
-    try:
-        connection.send(None)
-    except (OSError, ValueError):
-        pass
+    sender.join(timeout=1.0)
+    if sender.is_alive():  # the worker does not read its set-up: a message now would interleave with it
+        process.kill()
+        sender.join()
+    else:
+        try:
+            connection.send(None)
+        except (OSError, ValueError):
+            pass
     connection.close()
     try:
         process.wait(timeout=1.0)
