@@ -27,7 +27,7 @@ class LPOptions:
     factor_processes: int | str = field(default="auto", metadata={
         "help": "auto | 1 | 2: processes for the block IPM's supernodal Cholesky (K of 30,000 rows or more, about "
                 "10,000 blocks); 2 starts a worker process that factorises and solves one subtree half; auto: 2 "
-                "from 90,000 rows of K (about 30,000 blocks) when two CPUs are usable, else 1 "
+                "with the supernodal Cholesky when two CPUs are usable, else 1 "
                 "(studies/lp_timing.py --ipm-settings one_process,default). Other engines run as with 1"})
 
     def __post_init__(self) -> None:

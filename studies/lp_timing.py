@@ -8,7 +8,7 @@ and the peak resident memory.  Each case runs in a fresh process, so its peak me
 is its own.  Times are wall-clock (``*_s``) and CPU time of the process (``*_cpu_s``):
 on a shared, loaded machine the CPU times are the ones to compare (the solve is
 single-threaded apart from small BLAS calls).  With two processes for ``K`` (``factor_processes``, the block IPM's
-default from 90,000 rows of ``K`` when two CPUs are usable) the worker process's CPU is reported apart
+default from 30,000 rows of ``K`` when two CPUs are usable) the worker process's CPU is reported apart
 (``worker_cpu_s``) and not in the peak memory; compare the wall-clock of such runs.  For the block IPM also the fill-reducing ordering of ``K``, its
 factorisation (``--factorisations``: ``auto``, ``supernodal``, ``superlu``), its per-interface kernels
 (``--kernels``: ``auto``, ``numpy``, ``compiled``, the last needing numba), the number of factorisations and

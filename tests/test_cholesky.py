@@ -5,6 +5,8 @@ numeric one by residuals against the matrix itself and against SuperLU on the sa
 amalgamated supernodes hold every structural nonzero only if these residuals stay at round-off.
 """
 
+import sys
+
 import numpy as np
 import pytest
 import scipy.sparse as sp
@@ -297,6 +299,13 @@ def test_auto_factor_processes_takes_two_from_its_threshold_with_two_cpus(monkey
         assert engine.supernodal_processes == expected, (threshold, cpus, setting)
     with pytest.raises(ValueError, match="factor_processes must be one of auto, 1, 2"):
         engine.settings(factor_processes=3)
+    # an interpreter that cannot start the worker (no sys.executable): "auto" keeps one process, 2 is an error
+    monkeypatch.setattr(block_ipm, "AUTO_TWO_PROCESS_ROWS", n)
+    monkeypatch.setattr(sys, "executable", "")
+    engine.settings(factor_processes="auto")
+    assert engine.supernodal_processes == 1
+    with pytest.raises(ValueError, match="processes=2 needs a POSIX system and sys.executable"):
+        SupernodalCholesky(engine._K_pattern, "metis", processes=2)
 
 
 def test_factorisations_stay_serial_until_the_worker_is_ready(wall_K, monkeypatch):

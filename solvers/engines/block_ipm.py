@@ -83,7 +83,13 @@ import scipy.sparse as sp
 
 from blockmpec.formulations import LinearProgram
 from blockmpec.result import Status
-from blockmpec.solvers.engines.cholesky import SupernodalCholesky, SymmetricFactoriser, structural_pattern, usable_cpus
+from blockmpec.solvers.engines.cholesky import (
+    SupernodalCholesky,
+    SymmetricFactoriser,
+    structural_pattern,
+    two_processes_available,
+    usable_cpus,
+)
 from blockmpec.solvers.engines.highs import LPOutcome
 
 #: iteration parameters (:meth:`BlockIPM.settings`):
@@ -183,13 +189,15 @@ FACTORISATIONS = ("auto", "supernodal", "superlu")
 #: there are ~9 per factorisation; from ~10,000 blocks on it wins per iteration (32,670 blocks: 2.35 s
 #: against 3.0 s CPU; studies/lp_timing.py --factorisations)
 AUTO_SUPERNODAL_ROWS = 30_000
-#: ``factor_processes="auto"`` takes two processes from this size of K (about 30,000 blocks), where they gain
-#: reliably.  Wall-clock of the solve, one process -> two (``python studies/lp_timing.py --walls
-#: 100x100,140x141,180x181 --algorithms block-ipm --ipm-settings one_process,two_process`` and ``--walls 316x316``,
-#: one run each, compiled kernels): 10,050 blocks (30,150 rows) 15.1 -> 15.7 s (0.79-0.91x in three other runs),
-#: 19,810 blocks 32.0 -> 30.6 s, 32,670 blocks 68.8 -> 54.6 s, 100,014 blocks 319 -> 252 s; the worker adds
-#: 45-50 % of the one-process CPU time, which below this size buys little.
-AUTO_TWO_PROCESS_ROWS = 90_000
+#: ``factor_processes="auto"`` takes two processes from this size of K, the supernodal Cholesky's own threshold.
+#: Wall-clock of the solve, one process -> two (``python studies/lp_timing.py --walls 100x100,140x141,180x181
+#: --algorithms block-ipm --ipm-settings one_process,two_process`` and ``--walls 316x316 ... one_process,default``,
+#: one run each, compiled kernels, the worker started in the background): 10,050 blocks (30,150 rows)
+#: 19.5 -> 14.1 s (another run: 16.3 -> 10.2 s), 19,810 blocks 33.3 -> 27.7 s (34.3 -> 28.5 s), 32,670 blocks
+#: 77.1 -> 59.1 s, 100,014 blocks 339 -> 251 s.  The worker adds 40-50 % of the one-process CPU time.  Before the
+#: background start (the first factorisation waited 1-3 s for the worker's imports) 10,050 blocks gained
+#: 0.79-1.04x, which is why a first version started at 90,000 rows.
+AUTO_TWO_PROCESS_ROWS = 30_000
 
 #: the per-interface work (``kernels`` setting): the block inverses, the block products and the assembly of
 #: ``K``'s values.  ``"numpy"``: numpy's gufuncs (LAPACK/BLAS once per 7-by-7 block); ``"compiled"``: one compiled
@@ -563,10 +571,12 @@ class BlockIPM:
     @property
     def supernodal_processes(self) -> int:
         """Processes of the supernodal Cholesky: the ``factor_processes`` setting, ``"auto"`` resolved to 2 when
-        ``K`` has at least :data:`AUTO_TWO_PROCESS_ROWS` rows and this process may run on two CPUs or more."""
+        ``K`` has at least :data:`AUTO_TWO_PROCESS_ROWS` rows, this process may run on two CPUs or more and the
+        platform is POSIX."""
         if self.factor_processes != "auto":
             return int(self.factor_processes)
-        return 2 if self._K_pattern.shape[0] >= AUTO_TWO_PROCESS_ROWS and usable_cpus() >= 2 else 1
+        return 2 if (self._K_pattern.shape[0] >= AUTO_TWO_PROCESS_ROWS and usable_cpus() >= 2
+                     and two_processes_available()) else 1
 
     def _factorise(self, it: IPMIterate):
         """Block matrices, ``H^{-1}`` (top-left of their inverses), ``K = A_B H^{-1} A_B^T`` and its factors."""

@@ -21,9 +21,9 @@ factorisations of a symmetric permutation ``P K P^T``:
 
 ``SupernodalCholesky(..., processes=2)`` splits its elimination tree into two subtree halves and their top
 (:meth:`SupernodalCholesky.subtree_halves`) and hands one half of every factorisation and solve to a
-worker process (:class:`_HalfWorker`, a fresh Python process, not a fork): 0.79x the block IPM's wall-clock on the
-100,014-block wall (252 s against 319 s, ``python studies/lp_timing.py --walls 316x316 --algorithms block-ipm
---ipm-settings one_process,two_process``; the block IPM's default from 90,000 rows).  Threads cannot do it: scipy's LAPACK wrappers and each front's numpy work hold the GIL.
+worker process (:class:`_HalfWorker`, a fresh Python process, not a fork): 0.74x the block IPM's wall-clock on the
+100,014-block wall (251 s against 339 s, ``python studies/lp_timing.py --walls 316x316 --algorithms block-ipm
+--ipm-settings one_process,two_process``; the block IPM's default with this factorisation).  Threads cannot do it: scipy's LAPACK wrappers and each front's numpy work hold the GIL.
 
 Orderings (:data:`ORDERINGS`):
 
@@ -62,6 +62,14 @@ def usable_cpus() -> int:
     if hasattr(os, "sched_getaffinity"):
         return len(os.sched_getaffinity(0))
     return os.cpu_count() or 1  # pragma: no cover - not Linux
+
+
+def two_processes_available() -> bool:
+    """Whether this interpreter can run a :class:`_HalfWorker`: a POSIX system (the worker inherits file
+    descriptors) and a known Python executable to start it with (not so in some embedded interpreters)."""
+    import sys
+
+    return os.name == "posix" and bool(sys.executable)
 
 
 def metis_available() -> bool:
@@ -247,6 +255,9 @@ class SupernodalCholesky:
         t0 = time.process_time()
         if processes not in (1, 2):
             raise ValueError(f"supernodal Cholesky: processes must be 1 or 2, not {processes!r}")
+        if processes == 2 and not two_processes_available():
+            raise ValueError("supernodal Cholesky: processes=2 needs a POSIX system and sys.executable (to start "
+                             "its worker process)")
         #: 2: one subtree half of every factorisation and solve runs in a worker process (:class:`_HalfWorker`)
         self.processes = int(processes)
         self._worker: _HalfWorker | None = None
