@@ -327,3 +327,16 @@ def test_factorisations_stay_serial_until_the_worker_is_ready(wall_K, monkeypatc
     assert split.worker_factorisations == 1
     assert np.linalg.norm(x - x_serial) <= 1e-12 * np.linalg.norm(x_serial)
     split.close()
+
+
+def test_a_worker_that_dies_is_one_clear_error(wall_K):
+    """A worker process that ends in the middle of a solve (killed, out of memory) makes the next factorisation raise
+    one RuntimeError that says so, never a hang or a wrong solution."""
+    K, pattern = wall_K
+    split = SupernodalCholesky(pattern, "metis", processes=2)
+    split.start_worker(wait=True)
+    split._worker.process.kill()
+    split._worker.process.wait()
+    with pytest.raises(RuntimeError, match="worker process ended unexpectedly"):
+        split.factorise(K)
+    split.close()

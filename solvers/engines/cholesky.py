@@ -743,6 +743,12 @@ class _HalfWorker:
         """Stop the worker process."""
         self._finalizer()
 
+    def _send(self, command: str) -> None:
+        try:
+            self.connection.send(command)
+        except OSError:
+            raise RuntimeError("supernodal Cholesky: its worker process ended unexpectedly") from None
+
     def _answer(self):
         try:
             return self.connection.recv()
@@ -753,7 +759,7 @@ class _HalfWorker:
         """Factorise ``K`` (values on the pattern) with the worker; this process keeps half 0's and the top's blocks."""
         chol = self.chol
         self.values[:] = values
-        self.connection.send("factorise")
+        self._send("factorise")
         updates: dict[int, np.ndarray] = {}
         mine_factorised = chol.factor_supernodes(self.mine, values, updates, diagonal_blocks, below_blocks)
         theirs_factorised, chol.worker_cpu_s = self._answer()  # always collected: both processes stay in step
@@ -773,7 +779,7 @@ class _HalfWorker:
         def solve_vector(rhs: np.ndarray) -> np.ndarray:
             x = np.array(rhs[p], dtype=float)
             self.x[:] = x
-            self.connection.send("forward")
+            self._send("forward")
             chol.forward(x, self.mine, diagonal_blocks, below_blocks)
             self._answer()
             x[self.their_rows] = self.x[self.their_rows]
@@ -781,7 +787,7 @@ class _HalfWorker:
             chol.forward(x, self.top, diagonal_blocks, below_blocks)
             chol.backward(x, top_backwards, diagonal_blocks, below_blocks)
             self.x[self.top_rows] = x[self.top_rows]
-            self.connection.send("backward")
+            self._send("backward")
             chol.backward(x, mine_backwards, diagonal_blocks, below_blocks)
             self._answer()
             x[self.their_rows] = self.x[self.their_rows]
