@@ -31,12 +31,11 @@ class LPOptions:
                 "(studies/lp_timing.py --ipm-settings one_process,default). Other engines run as with 1"})
 
     def __post_init__(self) -> None:
+        from blockmpec.solvers.engines.block_ipm import FACTOR_PROCESSES
         from blockmpec.solvers.engines.lp_engine import ALGORITHMS
 
         check.choice(self, "algorithm", ALGORITHMS)
         check.positive(self, "time_limit", finite=False)
-        from blockmpec.solvers.engines.block_ipm import FACTOR_PROCESSES
-
         if isinstance(self.factor_processes, float) and self.factor_processes.is_integer():
             self.factor_processes = int(self.factor_processes)
         if isinstance(self.factor_processes, bool):
