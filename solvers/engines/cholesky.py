@@ -477,6 +477,13 @@ class SupernodalCholesky:
         r = m - w
         return 3e-5 + 2.5e-10 * (w ** 3 / 3 + r * w * w + r * r * w) + 2e-9 * m * m
 
+    def supernode_parents(self) -> np.ndarray:
+        """Each supernode's parent in the supernodal elimination tree (-1: a root)."""
+        parent = np.full(self.supernodes, -1, dtype=np.int64)
+        for s, kids in enumerate(self.children):
+            parent[kids] = s
+        return parent
+
     def subtree_halves(self) -> tuple[list[np.ndarray], np.ndarray]:
         """``([half_0, half_1], top)``: supernodes two processes can factorise side by side, then the rest.
 
@@ -487,9 +494,7 @@ class SupernodalCholesky:
         so it needs no update matrix from the other, and the rows below its supernodes are its own or the top's.
         Every list is in increasing supernode order."""
         ns = self.supernodes
-        parent = np.full(ns, -1, dtype=np.int64)
-        for s, kids in enumerate(self.children):
-            parent[kids] = s
+        parent = self.supernode_parents()
         cost = self.front_costs()
         subtree = cost.copy()
         for s in range(ns):  # children before their parent
@@ -674,8 +679,8 @@ class _HalfWorker:
 
         self.their_rows, self.top_rows = own_rows(self.theirs), own_rows(self.top)
         in_top = set(self.top)
-        parent = {c: s for s, kids in enumerate(chol.children) for c in kids}
-        self.their_roots = [s for s in self.theirs if parent.get(s, -1) in in_top]
+        parent = chol.supernode_parents()
+        self.their_roots = [s for s in self.theirs if int(parent[s]) in in_top]
         sizes = [int(chol.rows[s].size - (chol.end[s] - chol.first[s])) for s in self.their_roots]
         ends = np.cumsum([r * r for r in sizes], dtype=np.int64)
         self.root_blocks = [(int(e - r * r), int(e), r) for e, r in zip(ends, sizes)]
