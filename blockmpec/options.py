@@ -54,11 +54,15 @@ def integer(options: Any, *names: str, minimum: int = 0) -> None:
             raise ValueError(f"{name} must be an integer >= {minimum}; got {v!r}")
 
 
-def choice(options: Any, name: str, choices: Iterable[str]) -> None:
-    """The option is one of ``choices``."""
+def choice(options: Any, name: str, choices: Iterable[Any]) -> None:
+    """The option is one of ``choices``.  Where the choices hold numbers, an integral float is converted to the
+    integer choice it equals, and a bool matches only a bool (``True == 1`` in Python)."""
     choices = tuple(choices)
     v = getattr(options, name)
-    if v not in choices:
+    if isinstance(v, float) and v.is_integer() and int(v) in choices:
+        v = int(v)
+        setattr(options, name, v)
+    if v not in choices or (isinstance(v, bool) and not any(c is v for c in choices)):
         raise ValueError(f"{name} must be one of {', '.join(map(str, choices))}; got {v!r}")
 
 

@@ -36,10 +36,6 @@ class LPOptions:
 
         check.choice(self, "algorithm", ALGORITHMS)
         check.positive(self, "time_limit", finite=False)
-        if isinstance(self.factor_processes, float) and self.factor_processes.is_integer():
-            self.factor_processes = int(self.factor_processes)
-        if isinstance(self.factor_processes, bool):
-            raise ValueError(f"factor_processes must be one of auto, 1, 2; got {self.factor_processes!r}")
         check.choice(self, "factor_processes", FACTOR_PROCESSES)
 
 

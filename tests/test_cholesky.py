@@ -259,7 +259,8 @@ def test_two_process_factorisation_matches_the_serial_one(wall_K):
 def test_static_lp_factor_processes_reaches_the_block_ipm(monkeypatch):
     """``static-lp``'s ``factor_processes`` is the block IPM's setting; with the supernodal Cholesky forced on a
     small wall, 2 gives the serial optimum, verified, through ``bm.solve``, and the result reports the worker's CPU;
-    the default (``"auto"``) keeps one process on a small ``K``; 3 and True are one clear option error each."""
+    the default (``"auto"``) keeps one process on a small ``K``; 3, True and 1.5 are one clear option error each, and
+    2.0 is taken as 2 (``blockmpec.options.choice``)."""
     from blockmpec.errors import OptionError
     from blockmpec.solvers.engines import block_ipm
 
@@ -276,9 +277,11 @@ def test_static_lp_factor_processes_reaches_the_block_ipm(monkeypatch):
     solver = bm.get_solver("static-lp")(factor_processes=2)
     solver.setup(bm.assemble(wall))
     assert solver.engine.factor_processes == 2
-    for bad in (3, True):
+    for bad in (3, True, 1.5):  # True == 1 in Python, yet no choice of processes
         with pytest.raises(OptionError, match="factor_processes must be one of auto, 1, 2"):
             bm.get_solver("static-lp")(factor_processes=bad)
+    converted = bm.get_solver("static-lp")(factor_processes=2.0).options.factor_processes
+    assert converted == 2 and type(converted) is int
 
 
 def test_auto_factor_processes_takes_two_from_its_threshold_with_two_cpus(monkeypatch):
