@@ -34,6 +34,15 @@ order), for every backend:
   on the cluster at ``scheduler`` (an address such as ``tcp://host:8786``) or, without
   one, on a ``distributed.LocalCluster`` of ``n_jobs`` single-threaded worker processes
   started here and closed at the end.
+
+CPUs
+----
+Solves that run side by side on this machine (``n_jobs`` > 1: joblib's workers or a local Dask cluster) each
+get ``cpus // n_jobs`` of the CPUs this process may run on (:func:`shared_cpus`, at least one) through the
+environment variable :data:`CPUS_VARIABLE` (``BLOCKMPEC_CPUS``), which the automatic settings of a solve read,
+such as the block IPM's second process for ``K`` (``factor_processes="auto"``).  So two jobs on two CPUs run one
+CPU each instead of four processes competing for two.  Settings given explicitly are kept.  On a Dask cluster at ``scheduler``
+the machines are the cluster's: nothing is capped there.
 """
 
 from __future__ import annotations
@@ -54,6 +63,39 @@ from typing import Any
 
 #: wall-clock limit of a solve whose method has no ``time_limit`` option set [s]
 DEFAULT_WALL_LIMIT_S = 600.0
+
+#: the environment variable that caps the CPUs one solve's automatic settings use (the block IPM's
+#: ``factor_processes="auto"``): a positive whole number, unset for every CPU the process may run on
+CPUS_VARIABLE = "BLOCKMPEC_CPUS"
+
+
+def cpu_budget() -> int | None:
+    """The CPUs one solve may use by :data:`CPUS_VARIABLE` (None when it is unset or empty).
+
+    :func:`execute` sets it for each solve that runs beside others (``n_jobs`` > 1 on this machine: the
+    CPUs this process may run on divided by ``n_jobs``); set it yourself to keep your own parallel solves
+    from competing, e.g. ``BLOCKMPEC_CPUS=1``.  A value that is not a positive whole number is an
+    :class:`~blockmpec.errors.OptionError` naming the variable."""
+    from blockmpec.errors import OptionError
+
+    value = os.environ.get(CPUS_VARIABLE, "").strip()
+    if not value:
+        return None
+    try:
+        budget = int(value)
+    except ValueError:
+        budget = 0
+    if budget < 1:
+        raise OptionError(f"{CPUS_VARIABLE}={value!r}: expected a positive whole number of CPUs")
+    return budget
+
+
+def usable_cpus() -> int:
+    """CPUs this process may run on (its affinity mask where the platform has one), at most :func:`cpu_budget`.
+    The automatic settings of a solve (the block IPM's ``factor_processes="auto"``) read it."""
+    cpus = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count() or 1
+    budget = cpu_budget()
+    return cpus if budget is None else min(cpus, budget)
 
 
 def default_wall_limit(options: dict[str, Any], method: str | None = None) -> float:
@@ -98,6 +140,8 @@ class Task:
     sys_path: tuple[str, ...] = ()
     #: folder where the supervisor marks the start of the solve (for the progress bar), or None
     marker_dir: str | None = None
+    #: CPUs the solve's automatic settings may use (:data:`CPUS_VARIABLE` while it runs), None: not capped here
+    cpus: int | None = None
 
 
 @dataclasses.dataclass
@@ -120,6 +164,9 @@ def run_in_process(task: Task) -> Outcome:
     from blockmpec.solver import solve
 
     t0 = time.perf_counter()
+    previous = os.environ.get(CPUS_VARIABLE)
+    if task.cpus is not None:
+        os.environ[CPUS_VARIABLE] = str(task.cpus)
     try:
         res = solve(task.structure, task.method, verify_tol=task.verify_tol, **task.options)
     except BaseException as exc:  # noqa: BLE001 - every failure of one solve is a row
@@ -127,6 +174,12 @@ def run_in_process(task: Task) -> Outcome:
             raise
         return Outcome(task.task_id, status="error", message=f"run failed: {type(exc).__name__}: {exc}",
                        traceback=traceback.format_exc(limit=5), wall_time_s=time.perf_counter() - t0)
+    finally:
+        if task.cpus is not None:
+            if previous is None:
+                os.environ.pop(CPUS_VARIABLE, None)
+            else:
+                os.environ[CPUS_VARIABLE] = previous
     return Outcome(task.task_id, result=res, wall_time_s=time.perf_counter() - t0)
 
 
@@ -334,13 +387,21 @@ def _child_main(argv: list[str]) -> int:
 # --------------------------------------------------------------------------- many solves
 
 
+def shared_cpus(n_jobs: int) -> int:
+    """Each of ``n_jobs`` solves' share of :func:`usable_cpus`, at least 1: what :func:`execute` gives each solve
+    that runs beside others on this machine."""
+    return max(1, usable_cpus() // max(int(n_jobs), 1))
+
+
 BACKENDS = ("loky", "dask")
 
 
 def check_backend(n_jobs: int, backend: str | None, scheduler: str | None) -> None:
-    """Raise OptionError for a bad combination of ``n_jobs``, ``backend`` and ``scheduler``."""
+    """Raise OptionError for a bad combination of ``n_jobs``, ``backend`` and ``scheduler`` (or a bad
+    :data:`CPUS_VARIABLE`, which :func:`execute` reads)."""
     from blockmpec.errors import OptionError
 
+    cpu_budget()
     if isinstance(n_jobs, bool) or not isinstance(n_jobs, int) or n_jobs < 1:
         raise OptionError(f"jobs: must be an integer >= 1; got {n_jobs!r}")
     if backend is not None and backend not in BACKENDS:
@@ -366,6 +427,9 @@ def execute(tasks: Iterable[Task], *, n_jobs: int = 1, backend: str | None = Non
         for task in tasks:
             yield work(task)
         return
+    if not scheduler:  # n_jobs solves side by side on this machine: each gets its share of the CPUs
+        share = shared_cpus(n_jobs)
+        tasks = [task if task.cpus is not None else dataclasses.replace(task, cpus=share) for task in tasks]
     from joblib import Parallel, delayed, parallel_config
 
     if backend == "dask":

@@ -67,9 +67,23 @@ class Hangs(_Base):
         time.sleep(3600)  # pragma: no cover - killed from outside
 
 
+class ReportsCpus(_Base):
+    """Reports the CPUs its solve may use: :data:`blockmpec.runner.CPUS_VARIABLE` as the solve sees it and what the
+    block IPM's automatic settings read from it."""
+
+    name = "test-reports-cpus"
+
+    def run(self):
+        from blockmpec.runner import CPUS_VARIABLE, usable_cpus
+
+        return RunOutput(Status.CONVERGED, Solution(multiplier=1.0),
+                         extra={"cpus_variable": os.environ.get(CPUS_VARIABLE), "usable_cpus": usable_cpus()})
+
+
+#: the dummies that fail, each in its own way
 DUMMIES = [RaisesInRun, RaisesInSetup, NeverFits, EscapesSolve, Segfaults, Hangs]
 NAMES = [c.name for c in DUMMIES]
 
 registry.list_solvers()  # load the real plug-ins first
-for _cls in DUMMIES:
+for _cls in (*DUMMIES, ReportsCpus):
     registry.register_solver(_cls)

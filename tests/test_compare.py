@@ -282,6 +282,53 @@ def test_two_local_workers_give_the_serial_answers():
     np.testing.assert_allclose(parallel["multiplier"], serial["multiplier"], rtol=1e-9)
 
 
+def test_solves_side_by_side_share_the_cpus(monkeypatch):
+    """With ``n_jobs`` solves side by side on this machine each may use its share of the CPUs
+    (``BLOCKMPEC_CPUS``, read by the block IPM's automatic settings); a serial study leaves the variable as it is,
+    here unset, and the comparing process's own environment is unchanged either way."""
+    import dummy_solvers
+
+    from blockmpec.runner import CPUS_VARIABLE, shared_cpus, usable_cpus
+
+    monkeypatch.delenv(CPUS_VARIABLE, raising=False)
+    registry.register_solver(dummy_solvers.ReportsCpus)
+    try:
+        for n_jobs, variable, cpus in ((1, None, usable_cpus()), (2, str(shared_cpus(2)), shared_cpus(2))):
+            results = {}
+            compare(TWO_BLOCKS, ["test-reports-cpus"], repeat=2, n_jobs=n_jobs, results=results, progress=False)
+            assert len(results) == 2
+            for res, _ in results.values():
+                assert res.extra["cpus_variable"] == variable and res.extra["usable_cpus"] == cpus, n_jobs
+    finally:
+        registry._SOLVERS.pop("test-reports-cpus", None)
+    assert CPUS_VARIABLE not in os.environ
+    assert shared_cpus(2) == max(1, usable_cpus() // 2) and shared_cpus(10_000) == 1
+
+
+def test_cpus_variable_caps_the_automatic_settings(monkeypatch):
+    """``BLOCKMPEC_CPUS`` caps what the block IPM's ``"auto"`` counts (it reads ``usable_cpus``); a bad value is one
+    clear error naming the variable."""
+    from blockmpec.runner import CPUS_VARIABLE, cpu_budget, usable_cpus
+    from blockmpec.solvers.engines import block_ipm, cholesky
+
+    assert block_ipm.usable_cpus is usable_cpus and cholesky.usable_cpus is usable_cpus
+
+    monkeypatch.delenv(CPUS_VARIABLE, raising=False)
+    cpus = usable_cpus()
+    assert cpu_budget() is None
+    monkeypatch.setenv(CPUS_VARIABLE, "1")
+    assert cpu_budget() == 1 and usable_cpus() == 1
+    monkeypatch.setenv(CPUS_VARIABLE, str(cpus + 5))
+    assert usable_cpus() == cpus  # a cap, never more than the process may run on
+    for bad in ("0", "-2", "two", "1.5"):
+        monkeypatch.setenv(CPUS_VARIABLE, bad)
+        with pytest.raises(bm.OptionError, match=f"{CPUS_VARIABLE}='{bad}': expected a positive whole number of CPUs"):
+            usable_cpus()
+    # a study checks it before it starts, as it checks its other options
+    with pytest.raises(bm.OptionError, match=f"{CPUS_VARIABLE}='1.5'"):
+        compare(TWO_BLOCKS, ["static-lp"], n_jobs=2, progress=False)
+
+
 def test_two_worker_dask_local_cluster():
     pytest.importorskip("distributed")
     cases = {"two-blocks": TWO_BLOCKS["two-blocks"], "sb": ("single-block", {})}

@@ -54,14 +54,9 @@ import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
+from blockmpec.runner import usable_cpus  # noqa: F401 - the CPUs "auto" counts, capped by BLOCKMPEC_CPUS
+
 ORDERINGS = ("auto", "metis", "mmd")
-
-
-def usable_cpus() -> int:
-    """CPUs this process may run on (its affinity mask where the platform has one)."""
-    if hasattr(os, "sched_getaffinity"):
-        return len(os.sched_getaffinity(0))
-    return os.cpu_count() or 1  # pragma: no cover - not Linux
 
 
 def two_processes_available() -> bool:
