@@ -348,10 +348,14 @@ def _run_compare(args, folder, case_runs, method_runs, repeat, verify_tol, jobs,
                  compare, ComparisonInterrupted, run_metadata, signal) -> int:
     from datetime import datetime, timezone
 
+    from blockmpec.runner import shared_cpus
+
     out_dir = folder.path
     settings = {"cases": [c.label for c in case_runs], "methods": {m.label: [m.name, m.options] for m in method_runs},
                 "repeat": repeat, "verify_tol": verify_tol, "jobs": jobs, "backend": backend or "serial",
-                "scheduler": scheduler, "wall_limits": limits, "resume": args.resume, "config": args.config}
+                "scheduler": scheduler, "wall_limits": limits, "resume": args.resume, "config": args.config,
+                # what each solve's automatic settings may use (BLOCKMPEC_CPUS); a cluster's machines are its own
+                "cpus_per_solve": None if scheduler else shared_cpus(jobs or 1)}
     meta = run_metadata(["blockmpec", *sys.argv[1:]] if sys.argv and "blockmpec" in sys.argv[0] else sys.argv,
                         settings)
     folder.write_metadata(meta)

@@ -146,6 +146,9 @@ def test_compare_takes_builtin_cases_and_structure_files(tmp_path):
     assert (out / "results.parquet").exists() and (out / "summary.csv").exists()
     meta = json.loads((out / "run.json").read_text())
     assert meta["settings"]["jobs"] == 2 and meta["rows"] == 6 and meta["versions"]["highspy"]
+    from blockmpec.runner import usable_cpus
+
+    assert meta["settings"]["cpus_per_solve"] == max(1, usable_cpus() // 2)  # two solves side by side share them
     assert "Summary (solved" in p.stdout
     assert not (out / ".blockmpec.lock").exists()
 
