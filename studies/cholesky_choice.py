@@ -30,7 +30,9 @@ comparison), the nonzeros of the factors and the relative residual
   ``--methods supernodal-metis,supernodal-numba`` (one run each, CPU s per solve; the 100k run with the
   other core busy): 10,050 blocks 0.010 (loop) against 0.013 s (compiled), 100,014 blocks 0.133 against
   0.165 s, the same residuals (1e-10, 3e-10 / 4e-10).  Each solve reads the factor twice, so it is bound by
-  memory, as every library's solve is (table in the README), and the BLAS loop reads it faster.
+  memory, as every library's solve is (table in the README), and the BLAS loop reads it faster.  The table gives
+  the rate at which each solve reads the factor (``solve_read_gb_s``) beside the rate of a plain copy of a
+  400 MB array in the same process (``copy_read_gb_s``, :func:`copy_rate`).
 
 Usage::
 
@@ -279,7 +281,22 @@ def measure(method: str, K: sp.csc_array, engine, threads: int = 1, extend_add_r
     return {"method": method, "extend_add_runs": runs, "extend_add_index_mb": index_mb,
             "rows": n, "nnz_K": K.nnz, "order_s": t_order, "factor_s": t_factor, "solve_s": t_solve,
             "factor_wall_s": w_factor, "solve_wall_s": w_solve,
-            "factor_nnz": nnz, "residual": residual, "licence": LICENCE[method]}
+            "factor_nnz": nnz, "residual": residual, "licence": LICENCE[method],
+            # a solve reads the factor twice (forward and backward): the rate at which it does, bytes per second
+            "solve_read_gb_s": 2 * 8 * nnz / w_solve / 1e9 if nnz else None}
+
+
+def copy_rate(megabytes: int = 400, rounds: int = 5) -> float:
+    """GB/s that a plain copy of a ``megabytes`` array reads (its best of ``rounds``): what memory gives one
+    process, to set beside a solve's read rate (``solve_read_gb_s``)."""
+    source = np.ones(megabytes * 1_000_000 // 8)
+    target = np.empty_like(source)
+    best = float("inf")
+    for _ in range(rounds):
+        t = time.perf_counter()
+        np.copyto(target, source)
+        best = min(best, time.perf_counter() - t)
+    return source.nbytes / best / 1e9
 
 
 def _half_worker(connection, f: SupernodalCholesky, values: np.ndarray, halves: list[np.ndarray]) -> None:
@@ -377,6 +394,7 @@ def main(argv: list[str] | None = None) -> list[dict]:
         print(f"wrote {write_csv(OUT / 'side_by_side.csv', rows)}")
         return rows
     rows = []
+    copy_gb_s = copy_rate()
     for wall in args.walls.split(","):
         courses, per = wall_shape(wall)
         K, engine = reduced_matrix(courses, per)
@@ -395,19 +413,22 @@ def main(argv: list[str] | None = None) -> list[dict]:
                     break
                 row["blocks"] = K.shape[0] // 3  # free blocks: 3 equilibrium rows each
                 row["blas_threads"] = threads
+                row["copy_read_gb_s"] = copy_gb_s
                 rows.append(row)
                 print(row, flush=True)
     print()
-    print("CPU times (wall-clock in brackets):")
+    print(f"CPU times (wall-clock in brackets); the solve reads the factor twice, at the rate given (a plain copy in "
+          f"this process reads {copy_gb_s:.1f} GB/s):")
     print("| blocks | rows of K | method | licence | BLAS threads | extend-add runs (index) | ordering | factorisation "
-          "| solve | nonzeros of factors | residual |")
+          "| solve (factor read at) | nonzeros of factors | residual |")
     print("| ---: | ---: | --- | --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: |")
     for r in rows:
         nnz = f"{r['factor_nnz'] / 1e6:.1f}M" if r["factor_nnz"] else "–"
         runs = "–" if r["extend_add_runs"] is None else f"{r['extend_add_runs']} ({r['extend_add_index_mb']:.0f} MB)"
+        rate = f", {r['solve_read_gb_s']:.1f} GB/s" if r["solve_read_gb_s"] else ""
         print(f"| {r['blocks']:,} | {r['rows']:,} | {r['method']} | {r['licence']} | {r['blas_threads']} | {runs} "
               f"| {r['order_s']:.2f} s | {r['factor_s']:.2f} s ({r['factor_wall_s']:.2f} s) "
-              f"| {r['solve_s']:.3f} s ({r['solve_wall_s']:.3f} s) | {nnz} | {r['residual']:.0e} |")
+              f"| {r['solve_s']:.3f} s ({r['solve_wall_s']:.3f} s{rate}) | {nnz} | {r['residual']:.0e} |")
     if rows:
         print(f"wrote {write_csv(OUT / 'cholesky_choice.csv', rows)}")
     return rows

@@ -171,6 +171,9 @@ def test_cholesky_choice_study_measures_each_installed_method_to_round_off():
             continue
         assert row["residual"] <= 1e-10, (method, row["residual"])
         assert row["rows"] == K.shape[0] and row["solve_s"] > 0
+        # the factor's two reads per solve, as a rate: bytes of both reads over the solve's wall-clock
+        assert row["solve_read_gb_s"] == pytest.approx(16 * row["factor_nnz"] / row["solve_wall_s"] / 1e9)
+    assert study.copy_rate(megabytes=8, rounds=2) > 0
 
 
 def test_subtree_halves_factorised_apart_give_the_same_factors():
