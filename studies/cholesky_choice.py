@@ -22,6 +22,10 @@ comparison), the nonzeros of the factors and the relative residual
   (bundled in that wheel) is GPL, so never a default dependency;
 * ``pardiso`` (``pip install pypardiso``, Intel MKL, Intel Simplified Software
   License): supernodal Cholesky (``mtype=2``) with numeric refactorisation;
+* ``supernodal-compiled`` (numba installed): the default's factorisation, its solves by the compiled loop over
+  supernodes that calls the same BLAS routines (``compiled_solves``,
+  :mod:`blockmpec.solvers.engines.cholesky_kernels`; what the block IPM runs with compiled kernels): the same
+  solutions bit for bit, without the Python loop's cost per supernode;
 * ``supernodal-numba`` (``pip install numba``, BSD-2; not a dependency of blockmpec): the default's
   factorisation, its solve compiled instead of a Python loop over supernodes calling BLAS (the
   panels packed into one array after the factorisation, not timed; forward substitution by
@@ -71,7 +75,7 @@ from threadpoolctl import threadpool_limits
 import blockmpec as bm
 from blockmpec.formulations import compile_linear, static_lp
 from blockmpec.formulations._pyomo import pause_gc
-from blockmpec.solvers.engines.block_ipm import IPMIterate
+from blockmpec.solvers.engines.block_ipm import IPMIterate, compiled_kernels_available
 from blockmpec.solvers.engines.cholesky import (
     SupernodalCholesky,
     SymmetricFactoriser,
@@ -88,13 +92,14 @@ OUT = Path(__file__).parent / "output" / "cholesky_choice"
 #: our factorisers of K, by the first part of a method name (the second part is the ordering)
 FACTORISERS = {"supernodal": SupernodalCholesky, "superlu": SymmetricFactoriser}
 METHODS = ("supernodal-metis", "supernodal-mmd", "superlu-mmd", "superlu-metis", "superlu-colamd", "qdldl", "cholmod", "pardiso",
-           "supernodal-numba")
+           "supernodal-numba", "supernodal-compiled")
 LICENCE = {
     "supernodal-metis": "BSD-3 (scipy) + MIT/Apache-2.0 (pymetis)", "supernodal-mmd": "BSD-3 (scipy)",
     "superlu-mmd": "BSD-3 (scipy)", "superlu-metis": "BSD-3 (scipy) + MIT/Apache-2.0 (pymetis)",
     "superlu-colamd": "BSD-3 (scipy)", "qdldl": "Apache-2.0", "cholmod": "GPL (Supernodal) + LGPL, bundled",
     "pardiso": "Intel Simplified Software License (proprietary)",
     "supernodal-numba": "BSD-3 (ours, scipy) + BSD-2 (numba)",
+    "supernodal-compiled": "BSD-3 (ours, scipy) + BSD-2 (numba)",
 }
 
 
@@ -203,7 +208,19 @@ def measure(method: str, K: sp.csc_array, engine, threads: int = 1, extend_add_r
     b = np.random.default_rng(1).standard_normal(n)
     t_order = 0.0
     kind, _, ordering = method.partition("-")
-    if method == "supernodal-numba":
+    if method == "supernodal-compiled":  # the default's factorisation; its solves compiled, calling the same BLAS
+        if not (metis_available() and compiled_kernels_available()):
+            return None
+        t = time.process_time()
+        f = SupernodalCholesky(structural_pattern(engine.A_B, engine.k), "metis")
+        f.compiled_solves = True
+        t_order = time.process_time() - t
+        f.factorise(K)(b)  # and the first compiled solve (numba's import and cached loops)
+        t, w = time.process_time(), time.perf_counter()
+        solve = f.factorise(K)
+        t_factor, w_factor = time.process_time() - t, time.perf_counter() - w
+        nnz = f.factor_nnz
+    elif method == "supernodal-numba":
         if not metis_available():
             return None
         t = time.process_time()

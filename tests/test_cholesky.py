@@ -346,3 +346,71 @@ def test_a_worker_that_dies_is_one_clear_error(wall_K):
     with pytest.raises(RuntimeError, match="worker process ended unexpectedly"):
         split.factorise(K)
     split.close()
+
+
+# --------------------------------------------------------------------------- compiled solves (numba)
+
+
+def test_compiled_solves_are_the_python_loops_bit_for_bit(wall_K, monkeypatch):
+    """``compiled_solves`` runs the loop over supernodes compiled, calling the same BLAS routines: the solution of
+    ``K x = b`` is the Python loop's bit for bit, in one process and split with a worker (whose own half is
+    compiled too); a matrix of right-hand sides keeps the Python path."""
+    pytest.importorskip("numba")
+    K, pattern = wall_K
+    _worker_ready_at_once(monkeypatch)
+    b = np.random.default_rng(8).standard_normal(K.shape[0])
+    B = np.random.default_rng(9).standard_normal((K.shape[0], 2))
+    for processes in (1, 2):
+        solutions = []
+        for compiled in (False, True):
+            chol = SupernodalCholesky(pattern, "metis", processes=processes)
+            chol.compiled_solves = compiled
+            solve = chol.factorise(K)
+            solutions.append((solve(b), solve(B)))
+            assert np.abs(K @ solutions[-1][0] - b).max() <= 1e-8 * np.abs(b).max()
+            chol.close()
+        assert np.array_equal(solutions[0][0], solutions[1][0]), processes
+        assert np.array_equal(solutions[0][1], solutions[1][1]), processes
+
+
+def test_compiled_solve_refuses_what_it_cannot_solve_in_place(wall_K):
+    pytest.importorskip("numba")
+    K, pattern = wall_K
+    chol = SupernodalCholesky(pattern, "metis")
+    chol.compiled_solves = True
+    diagonal_blocks, below_blocks = [None] * chol.supernodes, [None] * chol.supernodes
+    assert chol.factor_supernodes(range(chol.supernodes), chol.pattern_values(K), {}, diagonal_blocks, below_blocks)
+    panels = chol.solve_panels(diagonal_blocks, below_blocks)
+    with pytest.raises(ValueError, match="contiguous float64 vector"):
+        panels.forward(np.zeros((chol.n, 2))[:, 0], range(chol.supernodes))
+    half = [None] * chol.supernodes
+    half[:3] = diagonal_blocks[:3]
+    with pytest.raises(ValueError, match="a supernode without factors in this process"):
+        chol.solve_panels(half, below_blocks).forward(np.zeros(chol.n), range(chol.supernodes))
+
+
+def test_block_ipm_compiled_solves_follow_the_kernels_and_keep_the_iterates(monkeypatch):
+    """``compiled_solves="auto"`` compiles the supernodal Cholesky's solves with the compiled kernels only; True
+    and False choose.  The solutions are the same bit for bit, so a whole LP takes the same iterates either way."""
+    pytest.importorskip("numba")
+    from blockmpec.solvers.engines import block_ipm
+
+    monkeypatch.setattr(block_ipm, "AUTO_SUPERNODAL_ROWS", 0)  # the supernodal Cholesky on a small wall
+    ops = bm.assemble(bm.cases.wall(10, 20))
+    lp = compile_linear(static_lp(ops))
+    outs = []
+    for setting, kernels, expected in (("auto", "compiled", True), (False, "compiled", False), ("auto", "numpy", False),
+                                       (True, "numpy", True)):
+        engine = cold_lp_engine(lp, "block-ipm", ops=ops)
+        engine.settings(kernels=kernels, compiled_solves=setting, factor_processes=1)
+        outs.append(engine.solve())
+        assert engine.factoriser.compiled_solves is expected, (setting, kernels)
+    assert outs[0].status is bm.Status.OPTIMAL
+    assert outs[0].iterations == outs[1].iterations and np.array_equal(outs[0].v, outs[1].v)
+    assert outs[2].iterations == outs[3].iterations and np.array_equal(outs[2].v, outs[3].v)
+    for bad in ("yes", 1, 0):
+        with pytest.raises(ValueError, match="compiled_solves must be one of auto, True, False"):
+            engine.settings(compiled_solves=bad)
+    monkeypatch.setattr(block_ipm, "compiled_kernels_available", lambda: False)
+    with pytest.raises(ValueError, match=r"compiled_solves=True needs numba"):
+        engine.settings(compiled_solves=True)

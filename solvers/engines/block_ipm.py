@@ -137,7 +137,7 @@ DEFAULT_SETTINGS = {"refinements": 8, "lazy_refinement": True, "inner_refinement
                     "final_sweeps": 4, "correctors": 2, "gondzio_accept": 1.01, "gondzio_factor": 1.5,
                     "gondzio_delta": 0.1, "step_fraction": 0.995, "sigma_power": 3.0, "sigma_min": 0.0,
                     "krylov_iterations": 40, "krylov_switch": 0.1, "diagonal_shift": 1e-16, "kernels": "auto",
-                    "factor_processes": "auto"}
+                    "factor_processes": "auto", "compiled_solves": "auto"}
 #: the diagonal shift before 1e-16: what the interior fixed point and the comparison sets below were measured with
 WIDE_DIAGONAL_SHIFT = 1e-12
 #: every inner direction corrected to the absolute target: the default before ``inner_tolerance`` 1e-6, what the
@@ -176,6 +176,13 @@ PREVIOUS_SETTINGS = {**EXACT_INNER_SETTINGS, "lazy_refinement": False}
 TWO_PROCESS_SETTINGS = {**DEFAULT_SETTINGS, "factor_processes": 2}
 #: the supernodal Cholesky in this process alone (``factor_processes`` 1, the default before ``"auto"``)
 ONE_PROCESS_SETTINGS = {**DEFAULT_SETTINGS, "factor_processes": 1}
+#: the default with the supernodal Cholesky's solves by the Python loop over supernodes even with compiled kernels
+#: (``compiled_solves`` False, as before it existed; ``--ipm-settings python_solves,default`` measures it)
+PYTHON_SOLVES_SETTINGS = {**DEFAULT_SETTINGS, "compiled_solves": False}
+#: ``compiled_solves``: the supernodal Cholesky's solves with vectors by compiled loops calling the same BLAS
+#: (:mod:`blockmpec.solvers.engines.cholesky_kernels`, numba; the same solutions bit for bit): ``"auto"`` (when the
+#: kernels are compiled, :attr:`BlockIPM.block_kernels`), True (needs numba) or False
+COMPILED_SOLVES = ("auto", True, False)
 #: ``factor_processes``: ``"auto"`` (2 for a supernodal ``K`` of at least :data:`AUTO_TWO_PROCESS_ROWS` rows when
 #: this process may run on two or more CPUs, else 1), 1 or 2
 FACTOR_PROCESSES = ("auto", 1, 2)
@@ -404,8 +411,15 @@ class BlockIPM:
         if processes is not None and processes not in FACTOR_PROCESSES:
             raise ValueError(f"block IPM: factor_processes must be one of {', '.join(map(str, FACTOR_PROCESSES))}, "
                              f"not {processes!r}")
+        solves = values.get("compiled_solves")
+        if solves is not None:
+            if not any(solves is choice or solves == choice == "auto" for choice in COMPILED_SOLVES):
+                raise ValueError(f"block IPM: compiled_solves must be one of auto, True, False, not {solves!r}")
+            if solves is True and not compiled_kernels_available():
+                raise ValueError('block IPM: compiled_solves=True needs numba (pip install "blockmpec[fast]")')
         for name, value in values.items():
-            setattr(self, name, value if name == "factor_processes" else type(DEFAULT_SETTINGS[name])(value))
+            chosen = name in ("factor_processes", "compiled_solves")
+            setattr(self, name, value if chosen else type(DEFAULT_SETTINGS[name])(value))
 
     @property
     def block_kernels(self):
@@ -585,6 +599,9 @@ class BlockIPM:
         factoriser = self.factoriser
         solve_K = None
         if isinstance(factoriser, SupernodalCholesky):
+            # its solves compiled or not (the same solutions bit for bit); a worker process keeps its first choice
+            factoriser.compiled_solves = (self.block_kernels is not None if self.compiled_solves == "auto"
+                                          else self.compiled_solves)
             solve_K = factoriser.factorise_values(values)
             if solve_K is None:
                 # a pivot lost definiteness in floating point: SuperLU's LDL^T (same ordering), which

@@ -266,6 +266,10 @@ class SupernodalCholesky:
         self.threaded_front_rows = int(threaded_front_rows)
         #: children whose rows fall into at most this many runs of their parent's are added by slices
         self.extend_add_runs = int(extend_add_runs)
+        #: solves with vectors by the compiled loops of :mod:`blockmpec.solvers.engines.cholesky_kernels` (numba;
+        #: the same BLAS calls, the same solutions bit for bit) instead of a Python loop over the supernodes
+        self.compiled_solves = False
+        self._solve_structure: tuple | None = None
         self.ordering = ("metis" if metis_available() else "mmd") if ordering == "auto" else ordering
         pattern = sp.csc_array(pattern)
         pattern.sort_indices()
@@ -571,9 +575,32 @@ class SupernodalCholesky:
                 updates[s] = update
         return True
 
-    def forward(self, x: np.ndarray, supernodes, diagonal_blocks: list, below_blocks: list) -> None:
+    def solve_structure(self) -> tuple:
+        """``(first, width, below_count, below, below_start)``: each supernode's first column, its columns, its rows
+        below them (all int64, by supernode) and those rows, concatenated (``below[below_start[s]:][:below_count[s]]``);
+        what :class:`~blockmpec.solvers.engines.cholesky_kernels.SolvePanels` reads.  Made once."""
+        if self._solve_structure is None:
+            counts = np.array([b.size for b in self._below], dtype=np.int64)
+            self._solve_structure = (self.first.astype(np.int64), (self.end - self.first).astype(np.int64), counts,
+                                     np.concatenate([*self._below, np.zeros(0)]).astype(np.int64),
+                                     np.concatenate([[0], np.cumsum(counts)[:-1]]).astype(np.int64))
+        return self._solve_structure
+
+    def solve_panels(self, diagonal_blocks: list, below_blocks: list):
+        """The factors of one factorisation for the compiled solves (:attr:`compiled_solves`), else None."""
+        if not self.compiled_solves:
+            return None
+        from blockmpec.solvers.engines.cholesky_kernels import SolvePanels
+
+        return SolvePanels(self.solve_structure(), diagonal_blocks, below_blocks)
+
+    def forward(self, x: np.ndarray, supernodes, diagonal_blocks: list, below_blocks: list, panels=None) -> None:
         """``L~ y = x`` over the given supernodes (in increasing order), in place on the vector ``x``: ``trsv`` on each
-        supernode's entries (BLAS offsets), ``gemv`` for the rows below."""
+        supernode's entries (BLAS offsets), ``gemv`` for the rows below; by the compiled loop with ``panels``
+        (:meth:`solve_panels`)."""
+        if panels is not None:
+            panels.forward(x, supernodes)
+            return
         from scipy.linalg.blas import dgemv, dtrsv
 
         first, below = self._first_columns, self._below
@@ -584,8 +611,12 @@ class SupernodalCholesky:
             if L21 is not None:
                 x[below[s]] -= dgemv(1.0, L21, x, offx=f)
 
-    def backward(self, x: np.ndarray, supernodes, diagonal_blocks: list, below_blocks: list) -> None:
-        """``L~^T z = x`` over the given supernodes (in decreasing order), in place on the vector ``x``."""
+    def backward(self, x: np.ndarray, supernodes, diagonal_blocks: list, below_blocks: list, panels=None) -> None:
+        """``L~^T z = x`` over the given supernodes (in decreasing order), in place on the vector ``x`` (compiled with
+        ``panels``)."""
+        if panels is not None:
+            panels.backward(x, supernodes)
+            return
         from scipy.linalg.blas import dgemv, dtrsv
 
         first, below = self._first_columns, self._below
@@ -603,14 +634,15 @@ class SupernodalCholesky:
         p, inv_p = self.perm, self.inverse_perm
         spans = list(zip(self.first.tolist(), self.end.tolist()))
         below = self._below
-        order = range(self.supernodes)
+        panels = self.solve_panels(diagonal_blocks, below_blocks)
+        order = range(self.supernodes) if panels is None else np.arange(self.supernodes)
 
         def solve(rhs: np.ndarray) -> np.ndarray:
             t = time.process_time()
             x = np.array(rhs[p], dtype=float, order="F")
             if x.ndim == 1:
-                self.forward(x, order, diagonal_blocks, below_blocks)
-                self.backward(x, reversed(order), diagonal_blocks, below_blocks)
+                self.forward(x, order, diagonal_blocks, below_blocks, panels)
+                self.backward(x, order[::-1], diagonal_blocks, below_blocks, panels)
             else:
                 for s in order:
                     f, e = spans[s]
@@ -774,21 +806,24 @@ class _HalfWorker:
         """``solve(rhs)`` with the factors of the latest :meth:`factorise` (a vector or a matrix of columns)."""
         chol, generation = self.chol, self.generation
         p, inv_p = chol.perm, chol.inverse_perm
-        mine_backwards, top_backwards = self.mine[::-1], self.top[::-1]
+        panels = chol.solve_panels(diagonal_blocks, below_blocks)
+        mine, top = (self.mine, self.top) if panels is None else (np.array(self.mine, dtype=np.int64),
+                                                                   np.array(self.top, dtype=np.int64))
+        mine_backwards, top_backwards = mine[::-1], top[::-1]
 
         def solve_vector(rhs: np.ndarray) -> np.ndarray:
             x = np.array(rhs[p], dtype=float)
             self.x[:] = x
             self._send("forward")
-            chol.forward(x, self.mine, diagonal_blocks, below_blocks)
+            chol.forward(x, mine, diagonal_blocks, below_blocks, panels)
             self._answer()
             x[self.their_rows] = self.x[self.their_rows]
             x[self.top_rows] += self.top_change
-            chol.forward(x, self.top, diagonal_blocks, below_blocks)
-            chol.backward(x, top_backwards, diagonal_blocks, below_blocks)
+            chol.forward(x, top, diagonal_blocks, below_blocks, panels)
+            chol.backward(x, top_backwards, diagonal_blocks, below_blocks, panels)
             self.x[self.top_rows] = x[self.top_rows]
             self._send("backward")
-            chol.backward(x, mine_backwards, diagonal_blocks, below_blocks)
+            chol.backward(x, mine_backwards, diagonal_blocks, below_blocks, panels)
             self._answer()
             x[self.their_rows] = self.x[self.their_rows]
             return x[inv_p]
@@ -854,9 +889,11 @@ def _serve_half(socket_fd: int, memory_fd: int) -> None:  # pragma: no cover - r
     os.close(memory_fd)
     values, shared_x, top_change, root_updates = _shared_arrays(memory, setup["layout"])
     connection.send("ready")
-    backwards = theirs[::-1]
+    forwards = np.array(theirs, dtype=np.int64) if chol.compiled_solves else theirs  # the compiled loop's order
+    backwards = forwards[::-1]
     diagonal_blocks: list = []
     below_blocks: list = []
+    panels = None
     with threadpool_limits(limits=1, user_api="blas"):
         while True:
             try:
@@ -872,17 +909,18 @@ def _serve_half(socket_fd: int, memory_fd: int) -> None:  # pragma: no cover - r
                 if factorised:
                     for s, (a, b, _) in zip(their_roots, root_blocks):
                         root_updates[a:b] = updates.pop(s).ravel(order="F")
+                    panels = chol.solve_panels(diagonal_blocks, below_blocks)
                 connection.send((factorised, time.process_time()))
             elif command == "forward":
                 x = np.array(shared_x)
                 top_before = x[top_rows]
-                chol.forward(x, theirs, diagonal_blocks, below_blocks)
+                chol.forward(x, forwards, diagonal_blocks, below_blocks, panels)
                 shared_x[their_rows] = x[their_rows]
                 top_change[:] = x[top_rows] - top_before
                 connection.send(True)
             elif command == "backward":
                 x = np.array(shared_x)
-                chol.backward(x, backwards, diagonal_blocks, below_blocks)
+                chol.backward(x, backwards, diagonal_blocks, below_blocks, panels)
                 shared_x[their_rows] = x[their_rows]
                 connection.send(True)
 
