@@ -906,6 +906,7 @@ def _serve_half(socket_fd: int, memory_fd: int) -> None:  # pragma: no cover - r
                 diagonal_blocks, below_blocks = [None] * chol.supernodes, [None] * chol.supernodes
                 updates: dict[int, np.ndarray] = {}
                 factorised = chol.factor_supernodes(theirs, values, updates, diagonal_blocks, below_blocks)
+                panels = None  # never the factors of an earlier factorisation
                 if factorised:
                     for s, (a, b, _) in zip(their_roots, root_blocks):
                         root_updates[a:b] = updates.pop(s).ravel(order="F")
