@@ -55,12 +55,16 @@ def _call(typingctx, function, arguments):
     return signature, codegen
 
 
+# The BLAS arguments passed by reference live in arrays that the caller holds (:class:`SolvePanels`), not in
+# arrays made here: numba may free a local array after its last use, which would leave its address dangling.
+# ``chars`` = "LNT" (uplo, no transpose or unit-free diagonal, transpose), ``ints`` = (w, r, 1), ``reals`` =
+# (alpha, beta) of the dgemv.
+
+
 @njit(**_JIT)
-def _forward(dtrsv, dgemv, x, order, first, width, below_count, below, below_start, L11, L21, work):  # pragma: no cover
-    chars = np.array([ord("L"), ord("N")], dtype=np.int8)  # uplo, trans / diag
-    ints = np.array([0, 0, 1], dtype=np.int32)  # w, r, increment 1
-    reals = np.array([1.0, 0.0])  # alpha, beta of L21 x
-    c, i, a = chars.ctypes.data, ints.ctypes.data, reals.ctypes.data
+def _forward(dtrsv, dgemv, x, order, first, width, below_count, below, below_start, L11, L21, work, chars, ints,
+             reals):  # pragma: no cover
+    c, i, a = chars.ctypes.data, ints.ctypes.data, reals.ctypes.data  # reals: (1, 0) for L21 x
     xs, ws = x.ctypes.data, work.ctypes.data
     for s in order:
         f, w, r = first[s], width[s], below_count[s]
@@ -75,11 +79,9 @@ def _forward(dtrsv, dgemv, x, order, first, width, below_count, below, below_sta
 
 
 @njit(**_JIT)
-def _backward(dtrsv, dgemv, x, order, first, width, below_count, below, below_start, L11, L21, work):  # pragma: no cover
-    chars = np.array([ord("L"), ord("N"), ord("T")], dtype=np.int8)  # uplo, diag, trans
-    ints = np.array([0, 0, 1], dtype=np.int32)
-    reals = np.array([-1.0, 1.0])  # alpha, beta of x - L21^T x[below]
-    c, i, a = chars.ctypes.data, ints.ctypes.data, reals.ctypes.data
+def _backward(dtrsv, dgemv, x, order, first, width, below_count, below, below_start, L11, L21, work, chars, ints,
+              reals):  # pragma: no cover
+    c, i, a = chars.ctypes.data, ints.ctypes.data, reals.ctypes.data  # reals: (-1, 1) for x - L21^T x[below]
     xs, ws = x.ctypes.data, work.ctypes.data
     for s in order:
         f, w, r = first[s], width[s], below_count[s]
@@ -108,6 +110,10 @@ class SolvePanels:
         self.L11 = np.array([0 if d is None else d.ctypes.data for d in diagonal_blocks], dtype=np.int64)
         self.L21 = np.array([0 if b is None else b.ctypes.data for b in below_blocks], dtype=np.int64)
         self.work = np.empty(max(int(structure[2].max(initial=0)), 1))
+        # the by-reference arguments of the BLAS calls (see above _forward)
+        self._chars = np.array([ord("L"), ord("N"), ord("T")], dtype=np.int8)
+        self._ints = np.array([0, 0, 1], dtype=np.int32)
+        self._forward_reals, self._backward_reals = np.array([1.0, 0.0]), np.array([-1.0, 1.0])
 
     def _order(self, supernodes) -> np.ndarray:
         order = np.asarray(supernodes if isinstance(supernodes, np.ndarray) else list(supernodes), dtype=np.int64)
@@ -117,11 +123,13 @@ class SolvePanels:
 
     def forward(self, x: np.ndarray, supernodes) -> None:
         """``L~ y = x`` over ``supernodes`` (increasing order), in place on the contiguous float64 vector ``x``."""
-        _forward(_DTRSV, _DGEMV, _vector(x), self._order(supernodes), *self.structure, self.L11, self.L21, self.work)
+        _forward(_DTRSV, _DGEMV, _vector(x), self._order(supernodes), *self.structure, self.L11, self.L21, self.work,
+                 self._chars, self._ints, self._forward_reals)
 
     def backward(self, x: np.ndarray, supernodes) -> None:
         """``L~^T z = x`` over ``supernodes`` (decreasing order), in place on ``x``."""
-        _backward(_DTRSV, _DGEMV, _vector(x), self._order(supernodes), *self.structure, self.L11, self.L21, self.work)
+        _backward(_DTRSV, _DGEMV, _vector(x), self._order(supernodes), *self.structure, self.L11, self.L21, self.work,
+                  self._chars, self._ints, self._backward_reals)
 
 
 def _vector(x: np.ndarray) -> np.ndarray:
