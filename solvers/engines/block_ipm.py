@@ -413,8 +413,9 @@ class BlockIPM:
                              f"not {processes!r}")
         solves = values.get("compiled_solves")
         if solves is not None:
-            if not any(solves is choice or solves == choice == "auto" for choice in COMPILED_SOLVES):
-                raise ValueError(f"block IPM: compiled_solves must be one of auto, True, False, not {solves!r}")
+            if not (solves is True or solves is False or solves == "auto"):  # 1 == True, yet no choice
+                raise ValueError(f"block IPM: compiled_solves must be one of {', '.join(map(str, COMPILED_SOLVES))}, "
+                                 f"not {solves!r}")
             if solves is True and not compiled_kernels_available():
                 raise ValueError('block IPM: compiled_solves=True needs numba (pip install "blockmpec[fast]")')
         for name, value in values.items():

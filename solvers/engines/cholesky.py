@@ -635,7 +635,7 @@ class SupernodalCholesky:
         spans = list(zip(self.first.tolist(), self.end.tolist()))
         below = self._below
         panels = self.solve_panels(diagonal_blocks, below_blocks)
-        order = range(self.supernodes) if panels is None else np.arange(self.supernodes)
+        order = range(self.supernodes)
 
         def solve(rhs: np.ndarray) -> np.ndarray:
             t = time.process_time()
@@ -807,8 +807,7 @@ class _HalfWorker:
         chol, generation = self.chol, self.generation
         p, inv_p = chol.perm, chol.inverse_perm
         panels = chol.solve_panels(diagonal_blocks, below_blocks)
-        mine, top = (self.mine, self.top) if panels is None else (np.array(self.mine, dtype=np.int64),
-                                                                   np.array(self.top, dtype=np.int64))
+        mine, top = self.mine, self.top
         mine_backwards, top_backwards = mine[::-1], top[::-1]
 
         def solve_vector(rhs: np.ndarray) -> np.ndarray:
@@ -889,8 +888,7 @@ def _serve_half(socket_fd: int, memory_fd: int) -> None:  # pragma: no cover - r
     os.close(memory_fd)
     values, shared_x, top_change, root_updates = _shared_arrays(memory, setup["layout"])
     connection.send("ready")
-    forwards = np.array(theirs, dtype=np.int64) if chol.compiled_solves else theirs  # the compiled loop's order
-    backwards = forwards[::-1]
+    backwards = theirs[::-1]
     diagonal_blocks: list = []
     below_blocks: list = []
     panels = None
@@ -915,7 +913,7 @@ def _serve_half(socket_fd: int, memory_fd: int) -> None:  # pragma: no cover - r
             elif command == "forward":
                 x = np.array(shared_x)
                 top_before = x[top_rows]
-                chol.forward(x, forwards, diagonal_blocks, below_blocks, panels)
+                chol.forward(x, theirs, diagonal_blocks, below_blocks, panels)
                 shared_x[their_rows] = x[their_rows]
                 top_change[:] = x[top_rows] - top_before
                 connection.send(True)
