@@ -22,10 +22,10 @@ comparison), the nonzeros of the factors and the relative residual
   (bundled in that wheel) is GPL, so never a default dependency;
 * ``pardiso`` (``pip install pypardiso``, Intel MKL, Intel Simplified Software
   License): supernodal Cholesky (``mtype=2``) with numeric refactorisation;
-* ``supernodal-compiled`` (numba installed): the default's factorisation, its solves by the compiled loop over
-  supernodes that calls the same BLAS routines (``compiled_solves``,
+* ``supernodal-compiled`` (numba installed): the default's factorisation and solves by the compiled loops over
+  supernodes that call the same LAPACK and BLAS routines (``compiled_factorisation`` and ``compiled_solves``,
   :mod:`blockmpec.solvers.engines.cholesky_kernels`; what the block IPM runs with compiled kernels): the same
-  solutions bit for bit, without the Python loop's cost per supernode;
+  factors and solutions bit for bit, without the Python loop's cost per supernode;
 * ``supernodal-numba`` (``pip install numba``, BSD-2; not a dependency of blockmpec): the default's
   factorisation, its solve compiled instead of a Python loop over supernodes calling BLAS (the
   panels packed into one array after the factorisation, not timed; forward substitution by
@@ -208,7 +208,8 @@ def measure(method: str, K: sp.csc_array, engine, threads: int = 1, extend_add_r
     b = np.random.default_rng(1).standard_normal(n)
     t_order = 0.0
     kind, _, ordering = method.partition("-")
-    compiled = method == "supernodal-compiled"  # supernodal-metis, its solves compiled (calling the same BLAS)
+    # supernodal-metis, its factorisation and solves compiled (calling the same LAPACK and BLAS)
+    compiled = method == "supernodal-compiled"
     if compiled:
         if not compiled_kernels_available():
             return None
@@ -234,7 +235,7 @@ def measure(method: str, K: sp.csc_array, engine, threads: int = 1, extend_add_r
         f = FACTORISERS[kind](structural_pattern(engine.A_B, engine.k), ordering, **extra)
         if kind == "supernodal":
             f.front_threads = threads
-            f.compiled_solves = compiled
+            f.compiled_solves = f.compiled_factorisation = compiled
         t_order = time.process_time() - t
         # the first numeric factorisation allocates (supernodal); time the second.  Its solve loads the compiled
         # loops (numba's import and cache) before any is timed

@@ -124,9 +124,10 @@ class ClarabelLP:
 def time_one(wall: str, algorithm: str, time_limit: float = float("inf"), ordering: str = "auto",
              max_iterations: int | None = None, ipm_settings: str = "default", factorisation: str = "auto",
              kernels: str = "auto", factor_processes: str | int | None = None,
-             compiled_solves: str | bool | None = None) -> dict:
+             compiled_solves: str | bool | None = None, compiled_factorisation: str | bool | None = None) -> dict:
     """One cold solve of the static LP of ``wall`` (a size ``"1000"`` or ``"CxB"`` courses x blocks per course);
-    ``factor_processes`` and ``compiled_solves`` (block IPM), when given, override those of ``ipm_settings``."""
+    ``factor_processes``, ``compiled_solves`` and ``compiled_factorisation`` (block IPM), when given, override those
+    of ``ipm_settings``."""
     from blockmpec.solvers.engines.block_ipm import BlockIPM
     from blockmpec.solvers.engines.highs import static_lp_solution
 
@@ -155,6 +156,8 @@ def time_one(wall: str, algorithm: str, time_limit: float = float("inf"), orderi
             engine.settings(factor_processes=factor_processes)
         if compiled_solves is not None:
             engine.settings(compiled_solves=compiled_solves)
+        if compiled_factorisation is not None:
+            engine.settings(compiled_factorisation=compiled_factorisation)
         if max_iterations is not None:  # a per-iteration cost measurement (status: iteration limit)
             engine.max_iterations = max_iterations
     t5, c5 = time.perf_counter(), time.process_time()
@@ -190,6 +193,7 @@ def time_one(wall: str, algorithm: str, time_limit: float = float("inf"), orderi
         "factorise_s": factoriser.factorise_s if factoriser else 0.0, "factor_nnz": factoriser.factor_nnz if factoriser else 0,
         "factor_processes": getattr(factoriser, "processes", 1) if factoriser else 0,
         "compiled_solves": bool(getattr(factoriser, "compiled_solves", False)),
+        "compiled_factorisation": bool(getattr(factoriser, "compiled_factorisation", False)),
         # the worker process's CPU seconds through its latest factorisation (not in solve_cpu_s or the peak memory)
         "worker_cpu_s": getattr(factoriser, "worker_cpu_s", 0.0) if factoriser else 0.0,
         "peak_memory_mb": peak_memory_mb(),
@@ -218,6 +222,10 @@ def main(argv: list[str] | None = None) -> list[dict]:
     parser.add_argument("--compiled-solves", default=None, choices=("auto", "on", "off"),
                         help="block IPM: compiled solves with the supernodal Cholesky's factors in every run, over the "
                              "settings' own (off reproduces the compiled-kernel tables measured before they existed)")
+    parser.add_argument("--compiled-factorisation", default=None, choices=("auto", "on", "off"),
+                        help="block IPM: the supernodal Cholesky's factorisation by its compiled loop in every run, "
+                             "over the settings' own (off reproduces the compiled-kernel tables measured before it "
+                             "existed)")
     parser.add_argument("--time-limit", type=float, default=float("inf"), help="seconds per solve")
     parser.add_argument("--max-iterations", type=int, default=None,
                         help="block IPM iteration cap: measures the cost per iteration of a size too slow to finish")
@@ -226,8 +234,9 @@ def main(argv: list[str] | None = None) -> list[dict]:
     block = ("auto", "block-ipm")
     processes = None if args.factor_processes is None else (
         args.factor_processes if args.factor_processes == "auto" else int(args.factor_processes))
-    solves = {None: None, "auto": "auto", "on": True, "off": False}[args.compiled_solves]
-    cases = [(w, a, args.time_limit, o, args.max_iterations, st, fa, ke, processes, solves) for w in walls for a in args.algorithms.split(",")
+    choice = {None: None, "auto": "auto", "on": True, "off": False}
+    solves, factorisation = choice[args.compiled_solves], choice[args.compiled_factorisation]
+    cases = [(w, a, args.time_limit, o, args.max_iterations, st, fa, ke, processes, solves, factorisation) for w in walls for a in args.algorithms.split(",")
              for o in (args.orderings.split(",") if a in block else ["auto"])
              for st in (args.ipm_settings.split(",") if a in block else ["default"])
              for fa in (args.factorisations.split(",") if a in block else ["auto"])

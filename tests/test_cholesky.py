@@ -389,28 +389,117 @@ def test_compiled_solve_refuses_what_it_cannot_solve_in_place(wall_K):
         chol.solve_panels(half, below_blocks).forward(np.zeros(chol.n), range(chol.supernodes))
 
 
+# --------------------------------------------------------------------------- compiled factorisation (numba)
+
+
+def _factors(chol: SupernodalCholesky, values: np.ndarray) -> tuple[list, list] | None:
+    diagonal_blocks, below_blocks = [None] * chol.supernodes, [None] * chol.supernodes
+    if not chol.factor_supernodes(range(chol.supernodes), values, {}, diagonal_blocks, below_blocks):
+        return None
+    return diagonal_blocks, below_blocks
+
+
+def _same_blocks(first: list, second: list) -> bool:
+    return all((a is None and b is None) or (a is not None and b is not None and np.array_equal(a, b))
+               for a, b in zip(first, second, strict=True))
+
+
+@pytest.mark.parametrize("relax", [0.0, 4.0])
+def test_compiled_factorisation_is_the_python_loops_bit_for_bit(wall_K, relax):
+    """``compiled_factorisation`` runs the multifrontal loop compiled (a postorder with a stack of update matrices),
+    calling the same LAPACK/BLAS on the same fronts: every block of ``L~`` is the Python loop's bit for bit (with
+    and without amalgamation), and an indefinite matrix is reported as by the Python loop."""
+    pytest.importorskip("numba")
+    K, pattern = wall_K
+    factors = []
+    for compiled in (False, True):
+        chol = SupernodalCholesky(pattern, "metis", relax=relax)
+        chol.compiled_factorisation = compiled
+        factors.append(_factors(chol, chol.pattern_values(K)))
+        indefinite = sp.csc_array(K - 2.0 * sp.diags_array(K.diagonal()))
+        assert chol.factorise(indefinite) is None
+    assert _same_blocks(factors[0][0], factors[1][0]) and _same_blocks(factors[0][1], factors[1][1])
+
+
+def test_compiled_factorisation_in_halves_and_top_is_the_whole(wall_K, monkeypatch):
+    """The compiled loop on the halves and then the top (:meth:`SupernodalCholesky.subtree_halves`), the top taking
+    the halves' root updates, gives the whole factorisation's blocks; with a worker process (its half compiled as
+    well) the solution is the Python loop's to round-off."""
+    pytest.importorskip("numba")
+    K, pattern = wall_K
+    chol = SupernodalCholesky(pattern, "metis")
+    chol.compiled_factorisation = True
+    values = chol.pattern_values(K)
+    whole = _factors(chol, values)
+    (half_0, half_1), top = chol.subtree_halves()
+    assert top.size and half_0.size and half_1.size
+    diagonal_blocks, below_blocks = [None] * chol.supernodes, [None] * chol.supernodes
+    updates: dict = {}
+    for part in (half_0, half_1, top):
+        assert chol.factor_supernodes(part.tolist(), values, updates, diagonal_blocks, below_blocks)
+    assert not updates  # the top took every root update
+    assert _same_blocks(whole[0], diagonal_blocks) and _same_blocks(whole[1], below_blocks)
+    _worker_ready_at_once(monkeypatch)
+    b = np.random.default_rng(10).standard_normal(K.shape[0])
+    solutions = []
+    for compiled in (False, True):
+        split = SupernodalCholesky(pattern, "metis", processes=2)
+        split.compiled_factorisation = compiled
+        solutions.append(split.factorise(K)(b))
+        assert split.worker_factorisations == 1
+        split.close()
+    assert np.linalg.norm(solutions[1] - solutions[0]) <= 1e-12 * np.linalg.norm(solutions[0])
+
+
+def test_compiled_factorisation_keeps_the_factors_a_solver_still_holds(wall_K):
+    """The compiled loop reuses its factor array only when no earlier factorisation's blocks use it: a solver kept
+    from an earlier factorisation still solves with its own matrix after later ones."""
+    pytest.importorskip("numba")
+    K, pattern = wall_K
+    chol = SupernodalCholesky(pattern, "metis")
+    chol.compiled_factorisation = True
+    b = np.random.default_rng(11).standard_normal(K.shape[0])
+    kept = chol.factorise(K)
+    scaled = [chol.factorise(2.0 ** k * K) for k in range(1, 4)]  # more than the arrays kept for reuse
+    x = kept(b)
+    assert np.abs(K @ x - b).max() <= 1e-8 * np.abs(b).max()
+    for k, solve in enumerate(scaled, start=1):
+        assert np.abs(2.0 ** k * (K @ solve(b)) - b).max() <= 1e-8 * np.abs(b).max()
+    del kept, scaled
+    factors = chol.factor_plan(range(chol.supernodes))._factor_arrays
+    before = [a.ctypes.data for a in factors]
+    chol.factorise(K)
+    assert [a.ctypes.data for a in factors] == before  # a free array was reused, none added
+
+
 def test_block_ipm_compiled_solves_follow_the_kernels_and_keep_the_iterates(monkeypatch):
-    """``compiled_solves="auto"`` compiles the supernodal Cholesky's solves with the compiled kernels only; True
-    and False choose.  The solutions are the same bit for bit, so a whole LP takes the same iterates either way."""
+    """``compiled_solves="auto"`` and ``compiled_factorisation="auto"`` compile the supernodal Cholesky's solves and
+    factorisation with the compiled kernels only; True and False choose.  The solutions and factors are the same
+    bit for bit, so a whole LP takes the same iterates either way."""
     pytest.importorskip("numba")
     from blockmpec.solvers.engines import block_ipm
 
     monkeypatch.setattr(block_ipm, "AUTO_SUPERNODAL_ROWS", 0)  # the supernodal Cholesky on a small wall
     ops = bm.assemble(bm.cases.wall(10, 20))
     lp = compile_linear(static_lp(ops))
-    outs = []
-    for setting, kernels, expected in (("auto", "compiled", True), (False, "compiled", False), ("auto", "numpy", False),
-                                       (True, "numpy", True)):
-        engine = cold_lp_engine(lp, "block-ipm", ops=ops)
-        engine.settings(kernels=kernels, compiled_solves=setting, factor_processes=1)
-        outs.append(engine.solve())
-        assert engine.factoriser.compiled_solves is expected, (setting, kernels)
-    assert outs[0].status is bm.Status.OPTIMAL
-    assert outs[0].iterations == outs[1].iterations and np.array_equal(outs[0].v, outs[1].v)
-    assert outs[2].iterations == outs[3].iterations and np.array_equal(outs[2].v, outs[3].v)
-    for bad in ("yes", 1, 0):
-        with pytest.raises(ValueError, match="compiled_solves must be one of auto, True, False"):
-            engine.settings(compiled_solves=bad)
+    for name in ("compiled_solves", "compiled_factorisation"):
+        outs = []
+        for setting, kernels, expected in (("auto", "compiled", True), (False, "compiled", False),
+                                           ("auto", "numpy", False), (True, "numpy", True)):
+            engine = cold_lp_engine(lp, "block-ipm", ops=ops)
+            engine.settings(kernels=kernels, factor_processes=1, **{name: setting})
+            outs.append(engine.solve())
+            assert getattr(engine.factoriser, name) is expected, (name, setting, kernels)
+            if name == "compiled_factorisation" and expected:
+                # the solve drops each iteration's factors before the next factorisation, which reuses their array
+                assert [len(plan._factor_arrays) for plan in engine.factoriser._factor_plans.values()] == [1]
+        assert outs[0].status is bm.Status.OPTIMAL
+        assert outs[0].iterations == outs[1].iterations and np.array_equal(outs[0].v, outs[1].v), name
+        assert outs[2].iterations == outs[3].iterations and np.array_equal(outs[2].v, outs[3].v), name
+        for bad in ("yes", 1, 0):
+            with pytest.raises(ValueError, match=f"{name} must be one of auto, True, False"):
+                engine.settings(**{name: bad})
     monkeypatch.setattr(block_ipm, "compiled_kernels_available", lambda: False)
-    with pytest.raises(ValueError, match=r"compiled_solves=True needs numba"):
-        engine.settings(compiled_solves=True)
+    for name in ("compiled_solves", "compiled_factorisation"):
+        with pytest.raises(ValueError, match=rf"{name}=True needs numba"):
+            engine.settings(**{name: True})

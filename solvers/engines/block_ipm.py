@@ -137,7 +137,7 @@ DEFAULT_SETTINGS = {"refinements": 8, "lazy_refinement": True, "inner_refinement
                     "final_sweeps": 4, "correctors": 2, "gondzio_accept": 1.01, "gondzio_factor": 1.5,
                     "gondzio_delta": 0.1, "step_fraction": 0.995, "sigma_power": 3.0, "sigma_min": 0.0,
                     "krylov_iterations": 40, "krylov_switch": 0.1, "diagonal_shift": 1e-16, "kernels": "auto",
-                    "factor_processes": "auto", "compiled_solves": "auto"}
+                    "factor_processes": "auto", "compiled_solves": "auto", "compiled_factorisation": "auto"}
 #: the diagonal shift before 1e-16: what the interior fixed point and the comparison sets below were measured with
 WIDE_DIAGONAL_SHIFT = 1e-12
 #: every inner direction corrected to the absolute target: the default before ``inner_tolerance`` 1e-6, what the
@@ -183,6 +183,13 @@ PYTHON_SOLVES_SETTINGS = {**DEFAULT_SETTINGS, "compiled_solves": False}
 #: (:mod:`blockmpec.solvers.engines.cholesky_kernels`, numba; the same solutions bit for bit): ``"auto"`` (when the
 #: kernels are compiled, :attr:`BlockIPM.block_kernels`), True (needs numba) or False
 COMPILED_SOLVES = ("auto", True, False)
+#: the default with the supernodal Cholesky's factorisations by the Python loop over supernodes even with compiled
+#: kernels (``compiled_factorisation`` False, as before it existed; ``--ipm-settings python_factorisation,default``)
+PYTHON_FACTORISATION_SETTINGS = {**DEFAULT_SETTINGS, "compiled_factorisation": False}
+#: ``compiled_factorisation``: the supernodal Cholesky's numeric factorisation by a compiled loop over supernodes
+#: calling the same LAPACK/BLAS on the same fronts (:class:`~blockmpec.solvers.engines.cholesky_kernels.FactorPlan`;
+#: the same factors bit for bit): ``"auto"`` (when the kernels are compiled), True (needs numba) or False
+COMPILED_FACTORISATION = COMPILED_SOLVES
 #: ``factor_processes``: ``"auto"`` (2 for a supernodal ``K`` of at least :data:`AUTO_TWO_PROCESS_ROWS` rows when
 #: this process may run on two or more CPUs, else 1), 1 or 2
 FACTOR_PROCESSES = ("auto", 1, 2)
@@ -411,15 +418,17 @@ class BlockIPM:
         if processes is not None and processes not in FACTOR_PROCESSES:
             raise ValueError(f"block IPM: factor_processes must be one of {', '.join(map(str, FACTOR_PROCESSES))}, "
                              f"not {processes!r}")
-        solves = values.get("compiled_solves")
-        if solves is not None:
-            if not (solves is True or solves is False or solves == "auto"):  # 1 == True, yet no choice
-                raise ValueError(f"block IPM: compiled_solves must be one of {', '.join(map(str, COMPILED_SOLVES))}, "
-                                 f"not {solves!r}")
-            if solves is True and not compiled_kernels_available():
-                raise ValueError('block IPM: compiled_solves=True needs numba (pip install "blockmpec[fast]")')
+        for name in ("compiled_solves", "compiled_factorisation"):
+            compiled = values.get(name)
+            if compiled is None:
+                continue
+            if not (compiled is True or compiled is False or compiled == "auto"):  # 1 == True, yet no choice
+                raise ValueError(f"block IPM: {name} must be one of {', '.join(map(str, COMPILED_SOLVES))}, "
+                                 f"not {compiled!r}")
+            if compiled is True and not compiled_kernels_available():
+                raise ValueError(f'block IPM: {name}=True needs numba (pip install "blockmpec[fast]")')
         for name, value in values.items():
-            chosen = name in ("factor_processes", "compiled_solves")
+            chosen = name in ("factor_processes", "compiled_solves", "compiled_factorisation")
             setattr(self, name, value if chosen else type(DEFAULT_SETTINGS[name])(value))
 
     @property
@@ -601,8 +610,10 @@ class BlockIPM:
         solve_K = None
         if isinstance(factoriser, SupernodalCholesky):
             # its solves compiled or not (the same solutions bit for bit); a worker process keeps its first choice
-            factoriser.compiled_solves = (self.block_kernels is not None if self.compiled_solves == "auto"
-                                          else self.compiled_solves)
+            compiled = self.block_kernels is not None
+            factoriser.compiled_solves = compiled if self.compiled_solves == "auto" else self.compiled_solves
+            factoriser.compiled_factorisation = (compiled if self.compiled_factorisation == "auto"
+                                                 else self.compiled_factorisation)
             solve_K = factoriser.factorise_values(values)
             if solve_K is None:
                 # a pivot lost definiteness in floating point: SuperLU's LDL^T (same ordering), which
@@ -911,7 +922,9 @@ class BlockIPM:
             if k == self.max_iterations:
                 break
             solves0, krylov0, krylov_solves0 = self.factoriser.solves, self.krylov_steps, self.krylov_solves
-            factors = None if time.perf_counter() > deadline else self._factorise(it)
+            factors = None  # the previous factors dropped first: the factorisation may reuse their memory
+            if time.perf_counter() <= deadline:
+                factors = self._factorise(it)
             if factors is None or time.perf_counter() > deadline:
                 # checked before and after the factorisation (the costliest step): the run
                 # overshoots its limit by at most one factorisation

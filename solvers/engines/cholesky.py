@@ -270,6 +270,11 @@ class SupernodalCholesky:
         #: the same BLAS calls, the same solutions bit for bit) instead of a Python loop over the supernodes
         self.compiled_solves = False
         self._solve_structure: tuple | None = None
+        #: factorisations by the compiled loop over supernodes of
+        #: :class:`~blockmpec.solvers.engines.cholesky_kernels.FactorPlan` (numba; the same LAPACK/BLAS calls on the
+        #: same fronts, the same factors bit for bit) instead of the Python loop, when ``front_threads`` is 1
+        self.compiled_factorisation = False
+        self._factor_plans: dict = {}
         self.ordering = ("metis" if metis_available() else "mmd") if ordering == "auto" else ordering
         pattern = sp.csc_array(pattern)
         pattern.sort_indices()
@@ -459,7 +464,7 @@ class SupernodalCholesky:
 
     def __getstate__(self) -> dict:
         """The symbolic analysis without the worker process (what a :class:`_HalfWorker` receives)."""
-        return {**self.__dict__, "_worker": None, "processes": 1}
+        return {**self.__dict__, "_worker": None, "processes": 1, "_factor_plans": {}}
 
     def close(self) -> None:
         """Stop the worker process (``processes=2``); the next factorisation starts a new one."""
@@ -539,7 +544,10 @@ class SupernodalCholesky:
 
         ``values``: ``K``'s values on the pattern (:meth:`pattern_values`).  False if a pivot is not positive.
         A union of whole subtrees needs no update from outside it (``studies/cholesky_choice.py --side-by-side``
-        factorises two of them in two processes)."""
+        factorises two of them in two processes).  With :attr:`compiled_factorisation` (and one BLAS thread per
+        front) the loop is compiled (:meth:`factor_plan`); its blocks are views of one array."""
+        if self.compiled_factorisation and self.front_threads == 1:
+            return self.factor_plan(supernodes).factorise(self, values, updates, diagonal_blocks, below_blocks)
         from scipy.linalg.blas import dsyrk, dtrsm
         from scipy.linalg.lapack import dpotrf
 
@@ -574,6 +582,19 @@ class SupernodalCholesky:
             if update is not None:
                 updates[s] = update
         return True
+
+    def factor_plan(self, supernodes):
+        """The compiled factorisation's plan for this set of supernodes
+        (:class:`~blockmpec.solvers.engines.cholesky_kernels.FactorPlan`), made on first use and kept with its
+        workspace."""
+        from blockmpec.solvers.engines.cholesky_kernels import FactorPlan
+
+        members = np.fromiter(supernodes, dtype=np.int64)
+        key = members.tobytes()
+        plan = self._factor_plans.get(key)
+        if plan is None:
+            plan = self._factor_plans[key] = FactorPlan(self, members)
+        return plan
 
     def solve_structure(self) -> tuple:
         """``(first, width, below_count, below, below_start)``: each supernode's first column, its columns, its rows
