@@ -51,6 +51,32 @@ def test_inverse_blocks_raises_on_a_singular_block_as_numpy_does():
         np.linalg.inv(M)
 
 
+def test_inverse_scaled_blocks_are_the_stacked_path_bit_for_bit(wall_ipm):
+    """The fused kernel builds each ``M_i`` inside its loop: ``M^{-1}``, ``H~`` and ``H^{-1}`` are those of building
+    the stack ``M`` (numpy) and inverting it, bit for bit, for a symmetric LP and for ``G_dual != G`` (the interior
+    fixed point's blocks, ``H^{-1} = H~``), and the IPM's compiled path returns them; a singular block raises."""
+    ipm, it = wall_ipm
+    M, sqrt_d = ipm._block_systems(it)
+    stacked = block_kernels.inverse_blocks(M)
+    top_left = np.ascontiguousarray(stacked[:, :ipm.k, :ipm.k])
+    X, fused_top_left, H = block_kernels.inverse_scaled_blocks(ipm.g_blocks, ipm.g_dual_blocks, sqrt_d, True)
+    assert np.array_equal(X, stacked) and np.array_equal(fused_top_left, top_left)
+    assert np.array_equal(H, 0.5 * (top_left + np.swapaxes(top_left, 1, 2)))
+    ipm.settings(kernels="compiled")
+    Hinv, (M_inv, _, ipm_top_left) = ipm._inverse_blocks(it)
+    ipm.settings(kernels="auto")
+    assert np.array_equal(Hinv, H) and np.array_equal(M_inv, stacked) and np.array_equal(ipm_top_left, top_left)
+    g_dual = ipm.g_blocks * np.random.default_rng(4).uniform(0.5, 1.0, ipm.g_blocks.shape)
+    M_dual = M.copy()
+    M_dual[:, :ipm.k, ipm.k:] = np.swapaxes(g_dual * sqrt_d[:, :, None], 1, 2)
+    X, fused_top_left, H = block_kernels.inverse_scaled_blocks(ipm.g_blocks, g_dual, sqrt_d, False)
+    stacked = block_kernels.inverse_blocks(M_dual)
+    assert np.array_equal(X, stacked) and np.array_equal(fused_top_left, stacked[:, :ipm.k, :ipm.k])
+    assert H is fused_top_left
+    with pytest.raises(np.linalg.LinAlgError, match="block 0"):
+        block_kernels.inverse_scaled_blocks(np.zeros_like(ipm.g_blocks), ipm.g_dual_blocks, sqrt_d, True)
+
+
 def test_block_product_and_reduced_values_match_numpy(wall_ipm):
     ipm, it = wall_ipm
     ipm.settings(kernels="numpy")

@@ -466,14 +466,18 @@ class BlockIPM:
         block of its inverse.  Forming ``H_i`` and inverting it instead loses all accuracy.
         """
         k, r = self.k, self.rows_per_block
-        d = it.y / np.maximum(it.s, SLACK_RATIO_FLOOR * it.y)
-        sqrt_d = np.sqrt(d)[self.block_rows]  # (n_blocks, r)
+        sqrt_d = self._block_scaling(it)
         M = np.zeros((self.n_blocks, k + r, k + r))
         M[:, :k, k:] = np.swapaxes(self.g_dual_blocks * sqrt_d[:, :, None], 1, 2)  # B_dual^T (B^T for an LP)
         M[:, k:, :k] = self.g_blocks * sqrt_d[:, :, None]  # B
         idx = np.arange(r)
         M[:, k + idx, k + idx] = -1.0
         return M, sqrt_d
+
+    def _block_scaling(self, it: IPMIterate) -> np.ndarray:
+        """``sqrt(d)`` per block, ``(n_blocks, r)``: ``d = y / s`` (``s`` floored at ``SLACK_RATIO_FLOOR y``)."""
+        d = it.y / np.maximum(it.s, SLACK_RATIO_FLOOR * it.y)
+        return np.sqrt(d)[self.block_rows]
 
     def _reduced_scatter(self):
         r"""Fixed maps that assemble ``K = A_B H^{-1} A_B^T`` on its structural pattern.
@@ -525,8 +529,15 @@ class BlockIPM:
         solutions by up to 4e-13 relative, through cancellation, and with them the iterates: the
         10,050-block wall took 56 instead of 53 iterations.)"""
         k = self.k
-        M, sqrt_d = self._block_systems(it)
         kernels = self.block_kernels
+        if kernels is not None and type(self)._block_systems is BlockIPM._block_systems:
+            # compiled, M built inside the loop (the same numbers bit for bit); a subclass that changes the block
+            # systems (a study's regularised blocks) takes the general path below
+            sqrt_d = self._block_scaling(it)
+            M_inv, top_left, Hinv = kernels.inverse_scaled_blocks(self.g_blocks, self.g_dual_blocks, sqrt_d,
+                                                                  self.symmetric)
+            return Hinv, (M_inv, sqrt_d, top_left)
+        M, sqrt_d = self._block_systems(it)
         # LU with partial pivoting, per block (compiled: Gauss-Jordan with the same pivots)
         M_inv = np.linalg.inv(M) if kernels is None else kernels.inverse_blocks(M)
         top_left = np.ascontiguousarray(M_inv[:, :k, :k])
