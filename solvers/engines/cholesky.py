@@ -209,7 +209,9 @@ def column_structures(lower: sp.sparray) -> tuple[list[np.ndarray], np.ndarray]:
         if parts is None and own.size and own[0] == j:
             rows = own
         else:
-            rows = np.unique(np.concatenate([[j], own] + (parts or [])))
+            rows = np.concatenate([[j], own] + (parts or []))
+            rows.sort()  # then unique: np.unique's hashing took 2.5 of the 6.2 s at 300,042 columns
+            rows = rows[np.concatenate(([True], rows[1:] != rows[:-1]))]
         pending[j] = None
         structure[j] = rows
         if rows.size > 1:
