@@ -77,6 +77,44 @@ def test_inverse_scaled_blocks_are_the_stacked_path_bit_for_bit(wall_ipm):
         block_kernels.inverse_scaled_blocks(np.zeros_like(ipm.g_blocks), ipm.g_dual_blocks, sqrt_d, True)
 
 
+def test_parallel_kernels_give_the_same_numbers_on_any_number_of_threads(wall_ipm, monkeypatch):
+    """The block inverses and block solves run their blocks on the CPUs this process may use: on one thread
+    (``BLOCKMPEC_CPUS=1``), on all, and from two Python threads at once, the results are the same bit for bit."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    ipm, it = wall_ipm
+    sqrt_d = ipm._block_scaling(it)
+    rng = np.random.default_rng(6)
+    rhs_dual, rhs_primal = rng.normal(size=ipm.n_blocks * ipm.k), rng.normal(size=ipm.h.size)
+
+    def run():
+        X, top_left, H = block_kernels.inverse_scaled_blocks(ipm.g_blocks, ipm.g_dual_blocks, sqrt_d, True)
+        return (X, top_left, H, *block_kernels.block_solve(X, sqrt_d, rhs_dual, rhs_primal, ipm.block_rows))
+
+    everywhere = run()
+    with ThreadPoolExecutor(2) as pool:
+        side_by_side = [f.result() for f in [pool.submit(run) for _ in range(2)]]
+    monkeypatch.setenv("BLOCKMPEC_CPUS", "1")
+    one_thread = run()
+    for other in (one_thread, *side_by_side):
+        assert all(np.array_equal(a, b) for a, b in zip(everywhere, other, strict=True))
+
+
+def test_max_step_is_numpys(wall_ipm):
+    """The compiled step to the boundary is the numpy path's, exactly (the same divisions), with and without a
+    blocking component."""
+    ipm, _ = wall_ipm
+    rng = np.random.default_rng(7)
+    z = 10.0 ** rng.uniform(-8, 2, 1000)
+    for dz in (rng.normal(size=1000), np.abs(rng.normal(size=1000)), -1e-12 * z, np.zeros(1000)):
+        ipm.settings(kernels="numpy")
+        expected = ipm._max_step(z, dz)
+        ipm.settings(kernels="compiled")
+        assert ipm._max_step(z, dz) == expected == block_kernels.max_step(z, dz)
+    ipm.settings(kernels="auto")
+    assert block_kernels.max_step(np.zeros(0), np.zeros(0)) == 1.0
+
+
 def test_block_product_and_reduced_values_match_numpy(wall_ipm):
     ipm, it = wall_ipm
     ipm.settings(kernels="numpy")

@@ -13,11 +13,17 @@ per-call overhead dominates: on 20,100 interfaces ``np.linalg.inv`` takes ~28 ms
 * :func:`block_product`: ``X_i v_i`` for a stack of blocks;
 * :func:`block_solve`: the block solves of a Newton step in one pass (the right-hand side gathered from the
   inequality rows, scaled, multiplied by ``M_i^{-1}``, and ``dy`` scattered back);
+* :func:`max_step`: the step to the boundary of ``z + a dz >= 0`` in one pass;
 * :func:`reduced_values`: ``a_i H_i^{-1} a_i^T`` summed into ``K``'s data array by the scatter index, in the same
   order as ``np.bincount`` adds them.
 
 (A compiled ``np.add.at`` for the supernodal Cholesky's extend-add was measured and dropped: it saved no time
 measurably, 2.11-2.18 s for one factorisation at 100,014 blocks with either, three of each in one process.)
+
+:func:`inverse_scaled_blocks` and :func:`block_solve` run their blocks on the CPUs this process may use (numba's
+``prange``; :func:`blockmpec.runner.usable_cpus`).  Each block is independent, so the numbers are the same on any
+number of threads.  In the block IPM they run while the supernodal Cholesky's worker process waits, so its CPU is
+free.
 
 They compute the same quantities as the numpy expressions they replace, with another rounding (Gauss--Jordan
 instead of LU plus triangular solves): the results agree to round-off, so iterates may differ in late digits.
@@ -28,8 +34,14 @@ chooses compiled kernels (its ``kernels`` setting).  The kernels are compiled on
 
 from __future__ import annotations
 
+import os
+import threading
+
+import numba
 import numpy as np
-from numba import njit
+from numba import njit, prange
+
+from blockmpec.runner import usable_cpus
 
 _JIT = {"cache": True, "nogil": True, "error_model": "numpy"}
 
@@ -89,13 +101,13 @@ def _inverse_blocks(M):  # pragma: no cover - compiled
     return X, singular
 
 
-@njit(**_JIT)
+@njit(parallel=True, **_JIT)
 def _inverse_scaled_blocks(g, g_dual, sqrt_d, symmetric, X, top_left, H):  # pragma: no cover - compiled
     n, r, k = g.shape
     q = k + r
-    A = np.empty((q, q))
-    singular = -1
-    for b in range(n):
+    failed = np.zeros(n, dtype=np.bool_)
+    for b in prange(n):
+        A = np.empty((q, q))
         Xb = X[b]
         for i in range(q):
             for j in range(q):
@@ -108,8 +120,7 @@ def _inverse_scaled_blocks(g, g_dual, sqrt_d, symmetric, X, top_left, H):  # pra
                 A[i, k + j] = g_dual[b, j, i] * scale
                 A[k + j, i] = g[b, j, i] * scale
             A[k + j, k + j] = -1.0
-        if not _gauss_jordan(A, Xb) and singular < 0:
-            singular = b
+        failed[b] = not _gauss_jordan(A, Xb)
         for i in range(k):
             for j in range(k):
                 top_left[b, i, j] = Xb[i, j]
@@ -117,7 +128,10 @@ def _inverse_scaled_blocks(g, g_dual, sqrt_d, symmetric, X, top_left, H):  # pra
             for i in range(k):
                 for j in range(k):
                     H[b, i, j] = 0.5 * (Xb[i, j] + Xb[j, i])
-    return singular
+    for b in range(n):
+        if failed[b]:
+            return b
+    return -1
 
 
 def inverse_blocks(M: np.ndarray) -> np.ndarray:
@@ -127,6 +141,27 @@ def inverse_blocks(M: np.ndarray) -> np.ndarray:
     if singular >= 0:
         raise np.linalg.LinAlgError(f"Singular matrix (block {singular})")
     return X
+
+
+# numba runs parallel loops on OpenMP threads where it finds OpenMP.  By default they spin for a while after each
+# loop, and on two cores that takes the CPU the supernodal Cholesky's worker process needs for its half of every
+# solve: at 10,050 blocks the LP took 10.3 s instead of 7.2 s wall-clock, its solves with K 3.4 s instead of 1.3 s
+# of CPU (``python studies/lp_timing.py --walls 100x100 --algorithms block-ipm``, without and with
+# OMP_WAIT_POLICY=passive, one run each).  So the threads wait passively unless the user chose otherwise (OpenMP
+# reads the variable when it is loaded: numba's first parallel loop, after this import).
+os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
+
+#: one parallel kernel at a time in this process: numba's fallback threading layer (``workqueue``, where neither
+#: OpenMP nor TBB is found) aborts the process when two Python threads launch parallel kernels at once
+_PARALLEL_LAUNCH = threading.Lock()
+
+
+def _parallel(kernel, *args):
+    """``kernel(*args)`` on the CPUs this process may use (:func:`blockmpec.runner.usable_cpus`, which the
+    comparator's CPU share caps), at most ``NUMBA_NUM_THREADS``; one launch at a time."""
+    with _PARALLEL_LAUNCH:
+        numba.set_num_threads(max(1, min(usable_cpus(), numba.config.NUMBA_NUM_THREADS)))
+        return kernel(*args)
 
 
 def inverse_scaled_blocks(g: np.ndarray, g_dual: np.ndarray, sqrt_d: np.ndarray,
@@ -142,9 +177,9 @@ def inverse_scaled_blocks(g: np.ndarray, g_dual: np.ndarray, sqrt_d: np.ndarray,
     X = np.empty((n, k + r, k + r))
     top_left = np.empty((n, k, k))
     H = np.empty((n, k, k)) if symmetric else top_left
-    singular = _inverse_scaled_blocks(np.ascontiguousarray(g, dtype=np.float64),
-                                      np.ascontiguousarray(g_dual, dtype=np.float64),
-                                      np.ascontiguousarray(sqrt_d, dtype=np.float64), bool(symmetric), X, top_left, H)
+    singular = _parallel(_inverse_scaled_blocks, np.ascontiguousarray(g, dtype=np.float64),
+                         np.ascontiguousarray(g_dual, dtype=np.float64), np.ascontiguousarray(sqrt_d, dtype=np.float64),
+                         bool(symmetric), X, top_left, H)
     if singular >= 0:
         raise np.linalg.LinAlgError(f"Singular matrix (block {singular})")
     return X, top_left, H
@@ -199,15 +234,15 @@ def reduced_values(a: np.ndarray, H: np.ndarray, targets: np.ndarray, n_values: 
                            np.ascontiguousarray(targets, dtype=np.int64), int(n_values))
 
 
-@njit(**_JIT)
+@njit(parallel=True, **_JIT)
 def _block_solve(M_inv, sqrt_d, rhs_dual, rhs_primal, block_rows):  # pragma: no cover - compiled
     n, q, _ = M_inv.shape
     r = block_rows.shape[1]
     k = q - r
     dv = np.empty(n * k)
     dy = np.empty(rhs_primal.size)
-    rhs = np.empty(q)
-    for b in range(n):
+    for b in prange(n):
+        rhs = np.empty(q)
         for j in range(k):
             rhs[j] = rhs_dual[b * k + j]
         for j in range(r):
@@ -228,5 +263,22 @@ def block_solve(M_inv: np.ndarray, sqrt_d: np.ndarray, rhs_dual: np.ndarray, rhs
     r"""The block solves of :meth:`~blockmpec.solvers.engines.block_ipm.BlockIPM._block_solve` in one pass:
     per block ``(x, z) = M_i^{-1} (rhs_dual_i, D_i^{1/2} rhs_primal[rows_i])``, ``dv_i = x``,
     ``dy[rows_i] = D_i^{1/2} z`` (``block_rows`` must cover every inequality row once)."""
-    return _block_solve(M_inv, sqrt_d, np.ascontiguousarray(rhs_dual, dtype=np.float64),
-                        np.ascontiguousarray(rhs_primal, dtype=np.float64), block_rows)
+    return _parallel(_block_solve, M_inv, sqrt_d, np.ascontiguousarray(rhs_dual, dtype=np.float64),
+                     np.ascontiguousarray(rhs_primal, dtype=np.float64), block_rows)
+
+
+@njit(**_JIT)
+def _max_step(z, dz):  # pragma: no cover - compiled
+    largest = -np.inf
+    for i in range(z.size):
+        if dz[i] < 0.0:
+            ratio = z[i] / dz[i]
+            if ratio > largest:
+                largest = ratio
+    return min(1.0, -largest)
+
+
+def max_step(z: np.ndarray, dz: np.ndarray) -> float:
+    """The step to the boundary ``min(1, min over dz_i < 0 of -z_i / dz_i)`` in one pass (numpy: a division into a
+    new array, then its maximum); the same divisions, so the same step."""
+    return float(_max_step(np.ascontiguousarray(z, dtype=np.float64), np.ascontiguousarray(dz, dtype=np.float64)))
