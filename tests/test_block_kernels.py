@@ -200,3 +200,64 @@ def test_unknown_or_unavailable_kernels_are_one_clear_error(wall_ipm, monkeypatc
     ipm.settings(kernels="auto")
     assert ipm.block_kernels is None  # auto without numba: numpy, whatever the size
 
+
+
+def test_sparse_products_are_scipys_bit_for_bit(wall_ipm, monkeypatch):
+    """``M x``, ``M^T y`` and ``(M x, |M| |x|)`` by the compiled row loops equal scipy's ``M @ x``, ``M.T @ y`` and
+    ``abs(M) @ np.abs(x)`` bit for bit, for each of the engine's matrices, on one thread and on all, with entries
+    spread over many decades (so that another order of the sums would round differently)."""
+    import scipy.sparse as sp
+
+    ipm, _ = wall_ipm
+    rng = np.random.default_rng(11)
+    wide = sp.random_array((300, 500), density=0.05, format="csr", rng=rng)
+    wide.data *= 10.0 ** rng.uniform(-8, 8, wide.nnz)
+    for M in (ipm.A, ipm.A_B, ipm.G, wide):
+        x = rng.normal(size=M.shape[1]) * 10.0 ** rng.uniform(-6, 6, M.shape[1])
+        y = rng.normal(size=M.shape[0]) * 10.0 ** rng.uniform(-6, 6, M.shape[0])
+        products = block_kernels.SparseProducts(M)
+        for cpus in ("2", "1"):
+            monkeypatch.setenv("BLOCKMPEC_CPUS", cpus)
+            assert np.array_equal(products.times(x), M @ x)
+            assert np.array_equal(products.transpose_times(y), M.T @ y)
+            times, bound = products.times_with_bound(x)
+            assert np.array_equal(times, M @ x) and np.array_equal(bound, abs(M) @ np.abs(x))
+    # the sums do depend on their order here: a reversed order rounds differently somewhere
+    x = rng.normal(size=wide.shape[1]) * 10.0 ** rng.uniform(-6, 6, wide.shape[1])
+    reversed_rows = [sum(v * x[j] for v, j in zip(wide.data[a:b][::-1], wide.indices[a:b][::-1]))
+                     for a, b in zip(wide.indptr[:-1], wide.indptr[1:])]
+    assert not np.array_equal(np.array(reversed_rows, dtype=float), wide @ x)
+
+
+def test_block_solve_without_dy_gives_the_same_dv(wall_ipm):
+    """The first block solve of a direction needs ``dv`` alone: the kernel that reads only ``dv``'s rows of the block
+    inverses gives the full solve's ``dv`` bit for bit."""
+    ipm, it = wall_ipm
+    sqrt_d = ipm._block_scaling(it)
+    X, _, _ = block_kernels.inverse_scaled_blocks(ipm.g_blocks, ipm.g_dual_blocks, sqrt_d, True)
+    rng = np.random.default_rng(12)
+    rhs_dual, rhs_primal = rng.normal(size=ipm.n_blocks * ipm.k), rng.normal(size=ipm.h.size)
+    dv, dy = block_kernels.block_solve(X, sqrt_d, rhs_dual, rhs_primal, ipm.block_rows)
+    dv_alone, none = block_kernels.block_solve(X, sqrt_d, rhs_dual, rhs_primal, ipm.block_rows, with_dy=False)
+    assert none is None and dy is not None
+    assert np.array_equal(dv_alone, dv)
+
+
+def test_compiled_products_leave_the_iterates_bit_for_bit():
+    """``compiled_products`` (on by default with the compiled kernels) changes no number: the whole static LP takes
+    the same iterations to the same primal and dual solution, bit for bit, as with scipy's products; a bad value of
+    the setting is one clear error."""
+    ops = bm.assemble(bm.cases.wall(10, 20))
+    lp = compile_linear(static_lp(ops))
+    outs, traces = [], []
+    for products in (False, True):
+        ipm = cold_lp_engine(lp, "block-ipm", ops=ops)
+        ipm.settings(kernels="compiled", compiled_products=products)
+        assert ipm._products_compiled() is products
+        outs.append(ipm.solve())
+        traces.append([(row["mu"], row["step_primal"], row["step_dual"]) for row in ipm.trace])
+    assert outs[0].status is bm.Status.OPTIMAL and outs[0].iterations == outs[1].iterations
+    assert np.array_equal(outs[0].v, outs[1].v) and np.array_equal(outs[0].row_dual, outs[1].row_dual)
+    assert traces[0] == traces[1]
+    with pytest.raises(ValueError, match="compiled_products must be one of"):
+        ipm.settings(compiled_products=1)

@@ -137,7 +137,8 @@ DEFAULT_SETTINGS = {"refinements": 8, "lazy_refinement": True, "inner_refinement
                     "final_sweeps": 4, "correctors": 2, "gondzio_accept": 1.01, "gondzio_factor": 1.5,
                     "gondzio_delta": 0.1, "step_fraction": 0.995, "sigma_power": 3.0, "sigma_min": 0.0,
                     "krylov_iterations": 40, "krylov_switch": 0.1, "diagonal_shift": 1e-16, "kernels": "auto",
-                    "factor_processes": "auto", "compiled_solves": "auto", "compiled_factorisation": "auto"}
+                    "factor_processes": "auto", "compiled_solves": "auto", "compiled_factorisation": "auto",
+                    "compiled_products": "auto"}
 #: the diagonal shift before 1e-16: what the interior fixed point and the comparison sets below were measured with
 WIDE_DIAGONAL_SHIFT = 1e-12
 #: every inner direction corrected to the absolute target: the default before ``inner_tolerance`` 1e-6, what the
@@ -190,6 +191,14 @@ PYTHON_FACTORISATION_SETTINGS = {**DEFAULT_SETTINGS, "compiled_factorisation": F
 #: calling the same LAPACK/BLAS on the same fronts (:class:`~blockmpec.solvers.engines.cholesky_kernels.FactorPlan`;
 #: the same factors bit for bit): ``"auto"`` (when the kernels are compiled), True (needs numba) or False
 COMPILED_FACTORISATION = COMPILED_SOLVES
+#: the default with scipy's sparse products even with compiled kernels (``compiled_products`` False, as before it
+#: existed; ``--ipm-settings scipy_products,default``)
+SCIPY_PRODUCTS_SETTINGS = {**DEFAULT_SETTINGS, "compiled_products": False}
+#: ``compiled_products``: the products with ``A``, ``A_B``, ``G`` and their transposes by compiled row loops on the
+#: CPUs this process may use (:class:`~blockmpec.solvers.engines.block_kernels.SparseProducts`; scipy's sums in
+#: scipy's order, the same numbers bit for bit) and the first block solve of a direction without ``dy`` (the same
+#: ``dv``): ``"auto"`` (when the kernels are compiled), True (needs numba) or False
+COMPILED_PRODUCTS = COMPILED_SOLVES
 #: ``factor_processes``: ``"auto"`` (2 for a supernodal ``K`` of at least :data:`AUTO_TWO_PROCESS_ROWS` rows when
 #: this process may run on two or more CPUs, else 1), 1 or 2
 FACTOR_PROCESSES = ("auto", 1, 2)
@@ -418,7 +427,7 @@ class BlockIPM:
         if processes is not None and processes not in FACTOR_PROCESSES:
             raise ValueError(f"block IPM: factor_processes must be one of {', '.join(map(str, FACTOR_PROCESSES))}, "
                              f"not {processes!r}")
-        for name in ("compiled_solves", "compiled_factorisation"):
+        for name in ("compiled_solves", "compiled_factorisation", "compiled_products"):
             compiled = values.get(name)
             if compiled is None:
                 continue
@@ -428,7 +437,7 @@ class BlockIPM:
             if compiled is True and not compiled_kernels_available():
                 raise ValueError(f'block IPM: {name}=True needs numba (pip install "blockmpec[fast]")')
         for name, value in values.items():
-            chosen = name in ("factor_processes", "compiled_solves", "compiled_factorisation")
+            chosen = name in ("factor_processes", "compiled_solves", "compiled_factorisation", "compiled_products")
             setattr(self, name, value if chosen else type(DEFAULT_SETTINGS[name])(value))
 
     @property
@@ -444,6 +453,44 @@ class BlockIPM:
         from blockmpec.solvers.engines import block_kernels
 
         return block_kernels
+
+    def _sparse_products(self, M):
+        """The compiled products of the sparse matrix ``M``
+        (:class:`~blockmpec.solvers.engines.block_kernels.SparseProducts`, made once per matrix object: a subclass
+        or study that replaces ``self.G`` gets new ones), or None where scipy multiplies (``compiled_products``:
+        ``"auto"`` with the compiled kernels, True, or False)."""
+        if not self._products_compiled():
+            return None
+        from blockmpec.solvers.engines.block_kernels import SparseProducts
+
+        cache = self.__dict__.setdefault("_products_cache", {})
+        entry = cache.get(id(M))
+        if entry is None or entry[0] is not M:
+            entry = cache[id(M)] = (M, SparseProducts(M))
+        return entry[1]
+
+    def _products_compiled(self) -> bool:
+        """Whether the ``compiled_products`` setting chooses compiled products: True, or ``"auto"`` with the compiled
+        kernels."""
+        return self.compiled_products is True or (self.compiled_products == "auto" and self.block_kernels is not None)
+
+    def _times(self, M, x: np.ndarray) -> np.ndarray:
+        """``M @ x`` for one of the LP's sparse matrices (compiled where :meth:`_sparse_products` says so; the same
+        numbers)."""
+        products = self._sparse_products(M)
+        return M @ x if products is None else products.times(x)
+
+    def _transpose_times(self, M, y: np.ndarray) -> np.ndarray:
+        """``M.T @ y`` (as :meth:`_times`)."""
+        products = self._sparse_products(M)
+        return M.T @ y if products is None else products.transpose_times(y)
+
+    def _A_B_times_with_bound(self, dv_B: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """``(A_B dv_B, |A_B| |dv_B|)``, compiled in one pass where :meth:`_sparse_products` says so."""
+        products = self._sparse_products(self.A_B)
+        if products is None:
+            return self.A_B @ dv_B, self._abs_A_B @ np.abs(dv_B)
+        return products.times_with_bound(dv_B)
 
     def set_row_upper(self, rows: np.ndarray, upper: np.ndarray) -> None:
         """Change the upper bounds of ``<=`` rows ``rows`` of the compiled LP (as :class:`HighsLP` does)."""
@@ -645,12 +692,15 @@ class BlockIPM:
         S_F_inverse = np.linalg.inv(self.A_F.T @ W_F)
         return blocks, solve_K, W_F, S_F_inverse
 
-    def _block_solve(self, blocks, rhs_dual: np.ndarray, rhs_primal: np.ndarray):
-        """Solve ``G_i^T dy_i = rhs_dual_i``, ``G_i dv_i - (s/y)_i dy_i = rhs_primal_i`` for every block."""
+    def _block_solve(self, blocks, rhs_dual: np.ndarray, rhs_primal: np.ndarray, with_dy: bool = True):
+        """Solve ``G_i^T dy_i = rhs_dual_i``, ``G_i dv_i - (s/y)_i dy_i = rhs_primal_i`` for every block.
+        ``with_dy=False`` allows ``dy`` to be left out (None; the compiled kernel then reads only ``dv``'s rows of
+        the block inverses, with :meth:`_sparse_products`: the same ``dv``)."""
         M_inv, sqrt_d, _ = blocks
         kernels = self.block_kernels
         if kernels is not None:
-            return kernels.block_solve(M_inv, sqrt_d, rhs_dual, rhs_primal, self.block_rows)
+            with_dy = with_dy or not self._products_compiled()
+            return kernels.block_solve(M_inv, sqrt_d, rhs_dual, rhs_primal, self.block_rows, with_dy)
         k = self.k
         rhs = np.empty((self.n_blocks, M_inv.shape[1]))
         rhs[:, :k] = rhs_dual.reshape(self.n_blocks, k)
@@ -698,24 +748,28 @@ class BlockIPM:
             dv_F = S_F_inverse @ (self.A_F.T @ W_r - e_border)
             return W_r - W_F @ dv_F, dv_F
 
-        dv0, _ = self._block_solve(blocks, rhs_dual, rhs_primal)  # the block step for dw = 0
-        dw, dv_F = reduced_solve(-r_b - self.A_B @ dv0, r_c[self.border])
+        dv0, _ = self._block_solve(blocks, rhs_dual, rhs_primal, with_dy=False)  # the block step for dw = 0
+        dw, dv_F = reduced_solve(-r_b - self._times(self.A_B, dv0), r_c[self.border])
         target = 1e-1 * self.tol * (1 + _inf(self.b))
         corrections = self.refinements if refinements is None else refinements
         krylov = refinements is None and self.krylov_iterations > 0
         best = None
         previous_error = np.inf
         for done in range(corrections + 1):
-            dv_B, dy = self._block_solve(blocks, rhs_dual + self.A_B.T @ dw, rhs_primal)
+            dv_B, dy = self._block_solve(blocks, rhs_dual + self._transpose_times(self.A_B, dw), rhs_primal)
             if done == corrections and not krylov:
                 # a further correction of dw alone would leave dv_B and dy behind (one solve wasted)
                 break
             # iterative refinement: K was assembled from inverted blocks, the block
             # solves are exact; correct dw until A dv = -r_b holds to round-off
-            e_eq, e_border = self._equality_errors(r_b, r_c, dw, dv_F, dv_B)
+            if tolerance > 0:
+                A_dv_B, bound_B = self._A_B_times_with_bound(dv_B)
+            else:
+                A_dv_B, bound_B = self._times(self.A_B, dv_B), None
+            e_eq, e_border = self._equality_errors(r_b, r_c, dw, dv_F, A_dv_B)
             limit = target
             if tolerance > 0:
-                limit = max(target, tolerance * _inf(self._abs_A_B @ np.abs(dv_B) + self._abs_A_F @ np.abs(dv_F)))
+                limit = max(target, tolerance * _inf(bound_B + self._abs_A_F @ np.abs(dv_F)))
             error = max(_inf(e_eq), _inf(e_border))
             if error <= limit:
                 break
@@ -738,13 +792,13 @@ class BlockIPM:
         dv = np.zeros(self.c.size)
         dv[bc] = dv_B
         dv[self.border] = dv_F
-        ds = -r_h - self.G @ dv
+        ds = -r_h - self._times(self.G, dv)
         return dv, ds, dw, dy
 
-    def _equality_errors(self, r_b, r_c, dw, dv_F, dv_B) -> tuple[np.ndarray, np.ndarray]:
+    def _equality_errors(self, r_b, r_c, dw, dv_F, A_dv_B) -> tuple[np.ndarray, np.ndarray]:
         """Errors of a direction in the equality rows, ``-r_b - A dv``, and in the border's dual
-        rows, ``r_c[F] - A_F^T dw`` (the rows the reduced solve answers for)."""
-        return -r_b - self.A_B @ dv_B - self.A_F @ dv_F, r_c[self.border] - self.A_F.T @ dw
+        rows, ``r_c[F] - A_F^T dw`` (the rows the reduced solve answers for); ``A_dv_B = A_B dv_B``."""
+        return -r_b - A_dv_B - self.A_F @ dv_F, r_c[self.border] - self.A_F.T @ dw
 
     def _krylov_refinement(self, blocks, reduced_solve, rhs_primal, r_b, r_c, limit, error, dw, dv_F, dv_B, dy,
                            e_eq, e_border):
@@ -766,8 +820,8 @@ class BlockIPM:
 
         def preconditioned(z: np.ndarray) -> np.ndarray:
             x_w, x_F = reduced_solve(z[:m], z[m:])
-            x_B = self._block_dual_solve(blocks, self.A_B.T @ x_w)
-            return np.concatenate([self.A_B @ x_B + self.A_F @ x_F, self.A_F.T @ x_w])
+            x_B = self._block_dual_solve(blocks, self._transpose_times(self.A_B, x_w))
+            return np.concatenate([self._times(self.A_B, x_B) + self.A_F @ x_F, self.A_F.T @ x_w])
 
         operator = LinearOperator((m + f, m + f), matvec=preconditioned, dtype=float)
         self.krylov_steps += 1
@@ -783,8 +837,8 @@ class BlockIPM:
             budget -= max(steps[0], 1)
             x_w, x_F = reduced_solve(z[:m], z[m:])
             new_dw, new_dv_F = dw + x_w, dv_F + x_F
-            new_dv_B, new_dy = self._block_solve(blocks, -r_c[bc] + self.A_B.T @ new_dw, rhs_primal)
-            new_e_eq, new_e_border = self._equality_errors(r_b, r_c, new_dw, new_dv_F, new_dv_B)
+            new_dv_B, new_dy = self._block_solve(blocks, -r_c[bc] + self._transpose_times(self.A_B, new_dw), rhs_primal)
+            new_e_eq, new_e_border = self._equality_errors(r_b, r_c, new_dw, new_dv_F, self._times(self.A_B, new_dv_B))
             new_error = max(_inf(new_e_eq), _inf(new_e_border))
             if not new_error < error:
                 break
@@ -805,9 +859,9 @@ class BlockIPM:
         dv, ds, dw, dy = self._direction(it, factors, r_b, r_h, r_c, r_mu) if direction is None else direction
         scale = 1e-2 * self.tol
         for _ in range(sweeps):
-            e_b = -r_b - self.A @ dv
-            e_h = -r_h - self.G @ dv - ds
-            e_c = -r_c + self.A.T @ dw - self.G_dual.T @ dy
+            e_b = -r_b - self._times(self.A, dv)
+            e_h = -r_h - self._times(self.G, dv) - ds
+            e_c = -r_c + self._transpose_times(self.A, dw) - self._transpose_times(self.G_dual, dy)
             e_mu = r_mu - (it.y * ds + it.s * dy)
             if (_inf(e_b) <= scale * (1 + _inf(self.b)) and _inf(e_c) <= scale * (1 + _inf(self.c))
                     and _inf(e_h) <= scale * (1 + _inf(self.h)) and _inf(e_mu) <= scale * max(_inf(r_mu), 1e-300)):
@@ -827,9 +881,9 @@ class BlockIPM:
 
     # ------------------------------------------------------------------ iteration
     def residuals(self, it: IPMIterate):
-        r_b = self.A @ it.v - self.b
-        r_h = self.G @ it.v + it.s - self.h
-        r_c = self.c - self.A.T @ it.w + self.G_dual.T @ it.y
+        r_b = self._times(self.A, it.v) - self.b
+        r_h = self._times(self.G, it.v) + it.s - self.h
+        r_c = self.c - self._transpose_times(self.A, it.w) + self._transpose_times(self.G_dual, it.y)
         return r_b, r_h, r_c
 
     def measures(self, it: IPMIterate, residuals=None) -> tuple[float, float, float]:
