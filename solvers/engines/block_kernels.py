@@ -13,7 +13,9 @@ per-call overhead dominates: on 20,100 interfaces ``np.linalg.inv`` takes ~28 ms
 * :func:`block_product`: ``X_i v_i`` for a stack of blocks;
 * :func:`block_solve`: the block solves of a Newton step in one pass (the right-hand side gathered from the
   inequality rows, scaled, multiplied by ``M_i^{-1}``, and ``dy`` scattered back);
-* :func:`max_step`: the step to the boundary of ``z + a dz >= 0`` in one pass;
+* :func:`max_step`: the step to the boundary of ``z + a dz >= 0`` in one pass (chunks on the usable CPUs: a maximum
+  is exact in any order);
+* :func:`largest_magnitude`: ``max |a_i|`` in one pass (chunks on the usable CPUs);
 * :func:`reduced_values`: ``a_i H_i^{-1} a_i^T`` summed into ``K``'s data array by the scatter index, in the same
   order as ``np.bincount`` adds them;
 * :class:`SparseProducts`: ``M x`` and ``M^T y`` for the LP's sparse matrices by row loops over ``M`` and over an
@@ -23,7 +25,7 @@ per-call overhead dominates: on 20,100 interfaces ``np.linalg.inv`` takes ~28 ms
 (A compiled ``np.add.at`` for the supernodal Cholesky's extend-add was measured and dropped: it saved no time
 measurably, 2.11-2.18 s for one factorisation at 100,014 blocks with either, three of each in one process.)
 
-:func:`inverse_scaled_blocks` and :func:`block_solve` run their blocks on the CPUs this process may use (numba's
+:func:`inverse_scaled_blocks`, :func:`block_solve`, :class:`ReducedAssembly` and :class:`SparseProducts` run their blocks on the CPUs this process may use (numba's
 ``prange``; :func:`blockmpec.runner.usable_cpus`).  Each block is independent, so the numbers are the same on any
 number of threads.  In the block IPM they run while the supernodal Cholesky's worker process waits, so its CPU is
 free.
@@ -229,6 +231,53 @@ def _reduced_values(a, H, targets, n_values):  # pragma: no cover - compiled
     return values[:n_values]
 
 
+@njit(parallel=True, **_JIT)
+def _reduced_values_gathered(a, H, order, starts):  # pragma: no cover - compiled
+    n, s, k = a.shape
+    products = np.empty(n * s * s)
+    for b in prange(n):
+        aH = np.empty((s, k))
+        for i in range(s):
+            for j in range(k):
+                acc = 0.0
+                for m in range(k):
+                    acc += a[b, i, m] * H[b, m, j]
+                aH[i, j] = acc
+        position = b * s * s
+        for i in range(s):
+            for j in range(s):
+                acc = 0.0
+                for m in range(k):
+                    acc += aH[i, m] * a[b, j, m]
+                products[position] = acc
+                position += 1
+    n_values = starts.size - 1
+    values = np.empty(n_values)
+    for t in prange(n_values):
+        acc = 0.0
+        for e in range(starts[t], starts[t + 1]):
+            acc += products[order[e]]
+        values[t] = acc
+    return values
+
+
+class ReducedAssembly:
+    """:func:`reduced_values` on the CPUs this process may use, the same numbers bit for bit: the products
+    ``a_i H_i a_i^T`` are computed block by block in parallel, then each value of ``K`` sums its products in the
+    order of their positions, which is the order in which the scatter adds them (a stable sort of ``targets``
+    made once).  Costs one array of the products (``n s s`` floats) per call."""
+
+    def __init__(self, targets: np.ndarray, n_values: int) -> None:
+        targets = np.ascontiguousarray(targets, dtype=np.int64)
+        self.order = np.argsort(targets, kind="stable")
+        counts = np.bincount(targets, minlength=n_values + 1)[:n_values]  # position n_values: the padding
+        self.starts = np.concatenate([[0], np.cumsum(counts)]).astype(np.int64)
+
+    def values(self, a: np.ndarray, H: np.ndarray) -> np.ndarray:
+        return _parallel(_reduced_values_gathered, np.ascontiguousarray(a, dtype=np.float64),
+                         np.ascontiguousarray(H, dtype=np.float64), self.order, self.starts)
+
+
 def reduced_values(a: np.ndarray, H: np.ndarray, targets: np.ndarray, n_values: int) -> np.ndarray:
     """``sum_i`` of ``a_i H_i a_i^T`` (``a``: ``(n, s, k)``, ``H``: ``(n, k, k)``) scattered into an array of
     ``n_values`` by ``targets`` (``n s s`` positions in row-major order of the products; position ``n_values``
@@ -295,21 +344,30 @@ def block_solve(M_inv: np.ndarray, sqrt_d: np.ndarray, rhs_dual: np.ndarray, rhs
     return _parallel(_block_solve, M_inv, sqrt_d, rhs_dual, rhs_primal, block_rows)
 
 
-@njit(**_JIT)
+@njit(parallel=True, **_JIT)
 def _max_step(z, dz):  # pragma: no cover - compiled
-    largest = -np.inf
-    for i in range(z.size):
-        if dz[i] < 0.0:
-            ratio = z[i] / dz[i]
-            if ratio > largest:
-                largest = ratio
-    return min(1.0, -largest)
+    chunks = min(z.size, 64)
+    largest = np.full(chunks, -np.inf)
+    for c in prange(chunks):
+        m = -np.inf
+        for i in range(z.size * c // chunks, z.size * (c + 1) // chunks):
+            if dz[i] < 0.0:
+                ratio = z[i] / dz[i]
+                if ratio > m:
+                    m = ratio
+        largest[c] = m
+    m = -np.inf
+    for c in range(chunks):
+        if largest[c] > m:
+            m = largest[c]
+    return min(1.0, -m)
 
 
 def max_step(z: np.ndarray, dz: np.ndarray) -> float:
     """The step to the boundary ``min(1, min over dz_i < 0 of -z_i / dz_i)`` in one pass (numpy: a division into a
     new array, then its maximum); the same divisions, so the same step."""
-    return float(_max_step(np.ascontiguousarray(z, dtype=np.float64), np.ascontiguousarray(dz, dtype=np.float64)))
+    z, dz = np.ascontiguousarray(z, dtype=np.float64), np.ascontiguousarray(dz, dtype=np.float64)
+    return float(_parallel(_max_step, z, dz)) if z.size else 1.0
 
 
 @njit(parallel=True, **_JIT)
