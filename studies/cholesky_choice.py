@@ -306,6 +306,8 @@ def measure(method: str, K: sp.csc_array, engine, threads: int = 1, extend_add_r
             # supernodal: the factorisation from K's values on its pattern (factor_s also gathers them from K)
             "factor_values_s": t_values, "factor_values_wall_s": w_values,
             "factor_nnz": nnz, "residual": residual, "licence": LICENCE[method],
+            # the supernodal factorisation's dense work (multiply-adds), the same for every implementation of it
+            "factor_gflop": f.factor_flops / 1e9 if kind == "supernodal" else None,
             # a solve reads the factor twice (forward and backward): the rate at which it does, bytes per second
             "solve_read_gb_s": 2 * 8 * nnz / w_solve / 1e9 if nnz else None}
 
@@ -444,8 +446,8 @@ def main(argv: list[str] | None = None) -> list[dict]:
     print(f"CPU times (wall-clock in brackets); the solve reads the factor twice, at the rate given (a plain copy in "
           f"this process reads {copy_gb_s:.1f} GB/s):")
     print("| blocks | rows of K | method | licence | BLAS threads | extend-add runs (index) | ordering | factorisation "
-          "| of which numeric | solve (factor read at) | nonzeros of factors | residual |")
-    print("| ---: | ---: | --- | --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |")
+          "| of which numeric | solve (factor read at) | nonzeros of factors | dense work of a factorisation | residual |")
+    print("| ---: | ---: | --- | --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |")
     for r in rows:
         nnz = f"{r['factor_nnz'] / 1e6:.1f}M" if r["factor_nnz"] else "–"
         runs = "–" if r["extend_add_runs"] is None else f"{r['extend_add_runs']} ({r['extend_add_index_mb']:.0f} MB)"
@@ -454,7 +456,9 @@ def main(argv: list[str] | None = None) -> list[dict]:
                    else f"{r['factor_values_s']:.2f} s ({r['factor_values_wall_s']:.2f} s)")
         print(f"| {r['blocks']:,} | {r['rows']:,} | {r['method']} | {r['licence']} | {r['blas_threads']} | {runs} "
               f"| {r['order_s']:.2f} s | {r['factor_s']:.2f} s ({r['factor_wall_s']:.2f} s) | {numeric} "
-              f"| {r['solve_s']:.3f} s ({r['solve_wall_s']:.3f} s{rate}) | {nnz} | {r['residual']:.0e} |")
+              f"| {r['solve_s']:.3f} s ({r['solve_wall_s']:.3f} s{rate}) | {nnz} "
+              f"| {'–' if r['factor_gflop'] is None else format(r['factor_gflop'], '.2f') + ' GFlop'} "
+              f"| {r['residual']:.0e} |")
     if rows:
         print(f"wrote {write_csv(OUT / 'cholesky_choice.csv', rows)}")
     return rows

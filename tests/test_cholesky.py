@@ -173,6 +173,7 @@ def test_cholesky_choice_study_measures_each_installed_method_to_round_off():
         assert row["rows"] == K.shape[0] and row["solve_s"] > 0
         # the factor's two reads per solve, as a rate: bytes of both reads over the solve's wall-clock
         assert row["solve_read_gb_s"] == pytest.approx(16 * row["factor_nnz"] / row["solve_wall_s"] / 1e9)
+        assert (row["factor_gflop"] is None) == (not method.startswith("supernodal"))
     assert study.copy_rate(megabytes=8, rounds=2) > 0
 
 
@@ -503,3 +504,21 @@ def test_block_ipm_compiled_solves_follow_the_kernels_and_keep_the_iterates(monk
     for name in ("compiled_solves", "compiled_factorisation"):
         with pytest.raises(ValueError, match=rf"{name}=True needs numba"):
             engine.settings(**{name: True})
+
+
+def test_factor_flops_count_the_dense_work_of_the_fronts():
+    """``factor_flops`` is the dense work of one factorisation: a dense matrix is one front of ``n`` columns,
+    ``n^3 / 3``; a block-diagonal one of ``b`` dense blocks, ``b`` times that of a block; an arrow matrix (a dense
+    last row and column) eliminates ``n - 1`` columns of one row below each, then the corner."""
+    n = 12
+    dense = SupernodalCholesky(sp.csc_array(np.ones((n, n))), "mmd")
+    assert dense.factor_flops == pytest.approx(n ** 3 / 3)
+    blocks = SupernodalCholesky(sp.block_diag([np.ones((4, 4))] * 5, format="csc"), "mmd")
+    assert blocks.factor_flops == pytest.approx(5 * 4 ** 3 / 3)
+    arrow = np.eye(n)
+    arrow[-1, :] = arrow[:, -1] = 1.0
+    # without amalgamation (relax 0): n - 2 fronts of one column with one row below (1/3 + 1 + 1 each), then the
+    # last two columns as one dense front (8/3)
+    chol = SupernodalCholesky(sp.csc_array(arrow), "mmd", relax=0)
+    assert chol.supernodes == n - 1
+    assert chol.factor_flops == pytest.approx((n - 2) * (1 / 3 + 2) + 8 / 3)
