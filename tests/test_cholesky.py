@@ -6,6 +6,7 @@ amalgamated supernodes hold every structural nonzero only if these residuals sta
 """
 
 import sys
+import time
 
 import numpy as np
 import pytest
@@ -315,24 +316,37 @@ def test_auto_factor_processes_takes_two_from_its_threshold_with_two_cpus(monkey
         SupernodalCholesky(engine._K_pattern, "metis", processes=2)
 
 
-def test_factorisations_stay_serial_until_the_worker_is_ready(wall_K, monkeypatch):
+@pytest.mark.parametrize("compiled", [False, True])
+def test_factorisations_stay_serial_until_the_worker_is_ready(wall_K, monkeypatch, compiled):
     """While the worker process starts (its set-up is sent in the background), ``processes=2`` factorises here
-    alone: the serial factors, bit for bit, and no factorisation counted as shared; once it is ready, it shares."""
+    alone: the serial factors, bit for bit, and no factorisation counted as shared; once it is ready, it shares.
+    The solves made here meanwhile have the worker's arithmetic: a vector and a matrix are solved to the numbers
+    of the two-process solve bit for bit (so a run's iterates do not depend on when the worker is ready), which
+    differ from the serial solve's in round-off only."""
     from blockmpec.solvers.engines import cholesky
 
+    if compiled:
+        pytest.importorskip("numba")
     K, pattern = wall_K
-    b = np.random.default_rng(5).standard_normal(K.shape[0])
-    x_serial = SupernodalCholesky(pattern, "metis").factorise(K)(b)
+    rng = np.random.default_rng(5)
+    b, B = rng.standard_normal(K.shape[0]), rng.standard_normal((K.shape[0], 2))
+    serial = SupernodalCholesky(pattern, "metis")
+    serial.compiled_solves = compiled
+    x_serial = serial.factorise(K)(b)
     split = SupernodalCholesky(pattern, "metis", processes=2)
+    split.compiled_solves = compiled
     with monkeypatch.context() as m:
         m.setattr(cholesky._HalfWorker, "ready", lambda self: False)
-        x_early = split.factorise(K)(b)
-    assert np.array_equal(x_early, x_serial)
+        early = split.factorise(K)
+        x_early, X_early = early(b), early(B)
     assert split.factorisations == 1 and split.worker_factorisations == 0 and split._worker is not None
+    assert np.linalg.norm(x_early - x_serial) <= 1e-12 * np.linalg.norm(x_serial)
     split.start_worker(wait=True)
-    x = split.factorise(K)(b)
+    shared = split.factorise(K)
+    x, X = shared(b), shared(B)
     assert split.worker_factorisations == 1
-    assert np.linalg.norm(x - x_serial) <= 1e-12 * np.linalg.norm(x_serial)
+    assert np.array_equal(x, x_early) and np.array_equal(X, X_early)
+    assert not np.array_equal(x, x_serial)  # the top's sums are grouped otherwise: the check above can fail
     split.close()
 
 
@@ -522,3 +536,38 @@ def test_factor_flops_count_the_dense_work_of_the_fronts():
     chol = SupernodalCholesky(sp.csc_array(arrow), "mmd", relax=0)
     assert chol.supernodes == n - 1
     assert chol.factor_flops == pytest.approx((n - 2) * (1 / 3 + 2) + 8 / 3)
+
+
+def test_two_process_lp_iterates_do_not_depend_on_when_the_worker_is_ready(monkeypatch):
+    """A whole block-IPM LP with ``factor_processes=2``: whether the worker is ready from the first factorisation or
+    only from the fourth (the solves before then made here), the iterates, the solution and the duals are the same
+    bit for bit -- so one LP's iteration count and digits do not vary with the machine's load."""
+    from blockmpec.solvers.engines import block_ipm, cholesky
+
+    monkeypatch.setattr(block_ipm, "AUTO_SUPERNODAL_ROWS", 0)  # the supernodal Cholesky on any size
+    ops = bm.assemble(bm.cases.wall(10, 20))
+    lp = compile_linear(static_lp(ops))
+
+    def run(late: int):
+        engine = cold_lp_engine(lp, "block-ipm", ops=ops)
+        engine.settings(factor_processes=2)
+        ready = cholesky._HalfWorker.ready
+        calls = [0]
+
+        def ready_later(self):
+            calls[0] += 1
+            if calls[0] <= late:
+                return False
+            while not ready(self):  # from then on, as if it had been ready at once
+                time.sleep(0.01)
+            return True
+
+        with monkeypatch.context() as m:
+            m.setattr(cholesky._HalfWorker, "ready", ready_later)
+            out = engine.solve()
+        return out, engine.factoriser.worker_factorisations, [row["mu"] for row in engine.trace]
+
+    (first, shared_first, mu_first), (later, shared_later, mu_later) = run(0), run(3)
+    assert first.status is bm.Status.OPTIMAL and shared_later == shared_first - 3 > 0
+    assert mu_first == mu_later and first.iterations == later.iterations
+    assert np.array_equal(first.v, later.v) and np.array_equal(first.row_dual, later.row_dual)

@@ -452,7 +452,8 @@ class SupernodalCholesky:
             self.worker_factorisations += 1
         else:
             factorised = self.factor_supernodes(range(self.supernodes), values, {}, diagonal_blocks, below_blocks)
-            solver = self._solver
+            # while a worker starts, its solves' arithmetic here: the iterates do not depend on when it is ready
+            solver = self._solver if self._worker is None else self._worker.serial_solver
         if not factorised:
             return None
         self.factorisations += 1
@@ -859,6 +860,48 @@ class _HalfWorker:
         def solve(rhs: np.ndarray) -> np.ndarray:
             if generation != self.generation:
                 raise RuntimeError("supernodal Cholesky: these factors were replaced by a later factorisation")
+            t = time.process_time()
+            rhs = np.asarray(rhs, dtype=float)
+            x = solve_vector(rhs) if rhs.ndim == 1 else np.column_stack(
+                [solve_vector(rhs[:, j]) for j in range(rhs.shape[1])] + [np.zeros((chol.n, 0))])
+            chol.solves += 1
+            chol.solve_s += time.process_time() - t
+            return x
+
+        return solve
+
+
+    def serial_solver(self, diagonal_blocks: list, below_blocks: list):
+        """``solve(rhs)`` in this process alone, with the numbers of :meth:`solver` bit for bit: the same substitutions
+        on the two halves and the top, the worker's half's change to the top's rows summed apart and added as the
+        worker's is, a matrix one column at a time.  For the factorisations made here while the worker starts
+        (:meth:`SupernodalCholesky.factorise_values`), so that a run's iterates do not depend on when it became
+        ready (with the serial solve they differed in round-off, and the iteration counts of one LP varied)."""
+        chol = self.chol
+        p, inv_p = chol.perm, chol.inverse_perm
+        panels = chol.solve_panels(diagonal_blocks, below_blocks)
+        mine, theirs, top = self.mine, self.theirs, self.top
+        mine_backwards, theirs_backwards, top_backwards = mine[::-1], theirs[::-1], top[::-1]
+        their_rows, top_rows = self.their_rows, self.top_rows
+
+        def solve_vector(rhs: np.ndarray) -> np.ndarray:
+            x = np.array(rhs[p], dtype=float)
+            theirs_x = x.copy()  # what the worker reads from the shared vector
+            top_before = theirs_x[top_rows]
+            chol.forward(theirs_x, theirs, diagonal_blocks, below_blocks, panels)
+            top_change = theirs_x[top_rows] - top_before
+            chol.forward(x, mine, diagonal_blocks, below_blocks, panels)
+            x[their_rows] = theirs_x[their_rows]
+            x[top_rows] += top_change
+            chol.forward(x, top, diagonal_blocks, below_blocks, panels)
+            chol.backward(x, top_backwards, diagonal_blocks, below_blocks, panels)
+            theirs_x = x.copy()
+            chol.backward(theirs_x, theirs_backwards, diagonal_blocks, below_blocks, panels)
+            chol.backward(x, mine_backwards, diagonal_blocks, below_blocks, panels)
+            x[their_rows] = theirs_x[their_rows]
+            return x[inv_p]
+
+        def solve(rhs: np.ndarray) -> np.ndarray:
             t = time.process_time()
             rhs = np.asarray(rhs, dtype=float)
             x = solve_vector(rhs) if rhs.ndim == 1 else np.column_stack(
