@@ -209,25 +209,36 @@ def block_product(X: np.ndarray, v: np.ndarray) -> np.ndarray:
 
 
 @njit(**_JIT)
+def _block_reduced_products(a, H, b, aH, out, position):  # pragma: no cover - compiled
+    """``a_b H_b a_b^T`` of block ``b`` into ``out[position:position + s s]`` (row-major), through ``aH``."""
+    s, k = a.shape[1], a.shape[2]
+    for i in range(s):
+        for j in range(k):
+            acc = 0.0
+            for m in range(k):
+                acc += a[b, i, m] * H[b, m, j]
+            aH[i, j] = acc
+    for i in range(s):
+        for j in range(s):
+            acc = 0.0
+            for m in range(k):
+                acc += aH[i, m] * a[b, j, m]
+            out[position] = acc
+            position += 1
+
+
+@njit(**_JIT)
 def _reduced_values(a, H, targets, n_values):  # pragma: no cover - compiled
     n, s, k = a.shape
     values = np.zeros(n_values + 1)
     aH = np.empty((s, k))
+    products = np.empty(s * s)
     position = 0
     for b in range(n):
-        for i in range(s):
-            for j in range(k):
-                acc = 0.0
-                for m in range(k):
-                    acc += a[b, i, m] * H[b, m, j]
-                aH[i, j] = acc
-        for i in range(s):
-            for j in range(s):
-                acc = 0.0
-                for m in range(k):
-                    acc += aH[i, m] * a[b, j, m]
-                values[targets[position]] += acc
-                position += 1
+        _block_reduced_products(a, H, b, aH, products, 0)
+        for t in range(s * s):
+            values[targets[position]] += products[t]
+            position += 1
     return values[:n_values]
 
 
@@ -236,21 +247,7 @@ def _reduced_values_gathered(a, H, order, starts):  # pragma: no cover - compile
     n, s, k = a.shape
     products = np.empty(n * s * s)
     for b in prange(n):
-        aH = np.empty((s, k))
-        for i in range(s):
-            for j in range(k):
-                acc = 0.0
-                for m in range(k):
-                    acc += a[b, i, m] * H[b, m, j]
-                aH[i, j] = acc
-        position = b * s * s
-        for i in range(s):
-            for j in range(s):
-                acc = 0.0
-                for m in range(k):
-                    acc += aH[i, m] * a[b, j, m]
-                products[position] = acc
-                position += 1
+        _block_reduced_products(a, H, b, np.empty((s, k)), products, b * s * s)
     n_values = starts.size - 1
     values = np.empty(n_values)
     for t in prange(n_values):
@@ -287,19 +284,20 @@ def reduced_values(a: np.ndarray, H: np.ndarray, targets: np.ndarray, n_values: 
 
 
 @njit(parallel=True, **_JIT)
-def _block_solve(M_inv, sqrt_d, rhs_dual, rhs_primal, block_rows):  # pragma: no cover - compiled
+def _block_solve(M_inv, sqrt_d, rhs_dual, rhs_primal, block_rows, with_dy):  # pragma: no cover - compiled
     n, q, _ = M_inv.shape
     r = block_rows.shape[1]
     k = q - r
     dv = np.empty(n * k)
-    dy = np.empty(rhs_primal.size)
+    dy = np.empty(rhs_primal.size if with_dy else 0)
+    rows = q if with_dy else k  # without dy: only dv's rows of each inverse are read
     for b in prange(n):
         rhs = np.empty(q)
         for j in range(k):
             rhs[j] = rhs_dual[b * k + j]
         for j in range(r):
             rhs[k + j] = sqrt_d[b, j] * rhs_primal[block_rows[b, j]]
-        for i in range(q):
+        for i in range(rows):
             acc = 0.0
             for j in range(q):
                 acc += M_inv[b, i, j] * rhs[j]
@@ -308,26 +306,6 @@ def _block_solve(M_inv, sqrt_d, rhs_dual, rhs_primal, block_rows):  # pragma: no
             else:
                 dy[block_rows[b, i - k]] = sqrt_d[b, i - k] * acc
     return dv, dy
-
-
-@njit(parallel=True, **_JIT)
-def _block_solve_primal(M_inv, sqrt_d, rhs_dual, rhs_primal, block_rows):  # pragma: no cover - compiled
-    n, q, _ = M_inv.shape
-    r = block_rows.shape[1]
-    k = q - r
-    dv = np.empty(n * k)
-    for b in prange(n):
-        rhs = np.empty(q)
-        for j in range(k):
-            rhs[j] = rhs_dual[b * k + j]
-        for j in range(r):
-            rhs[k + j] = sqrt_d[b, j] * rhs_primal[block_rows[b, j]]
-        for i in range(k):
-            acc = 0.0
-            for j in range(q):
-                acc += M_inv[b, i, j] * rhs[j]
-            dv[b * k + i] = acc
-    return dv
 
 
 def block_solve(M_inv: np.ndarray, sqrt_d: np.ndarray, rhs_dual: np.ndarray, rhs_primal: np.ndarray,
@@ -339,9 +317,8 @@ def block_solve(M_inv: np.ndarray, sqrt_d: np.ndarray, rhs_dual: np.ndarray, rhs
     memory read), and None for ``dy``."""
     rhs_dual = np.ascontiguousarray(rhs_dual, dtype=np.float64)
     rhs_primal = np.ascontiguousarray(rhs_primal, dtype=np.float64)
-    if not with_dy:
-        return _parallel(_block_solve_primal, M_inv, sqrt_d, rhs_dual, rhs_primal, block_rows), None
-    return _parallel(_block_solve, M_inv, sqrt_d, rhs_dual, rhs_primal, block_rows)
+    dv, dy = _parallel(_block_solve, M_inv, sqrt_d, rhs_dual, rhs_primal, block_rows, bool(with_dy))
+    return dv, (dy if with_dy else None)
 
 
 @njit(parallel=True, **_JIT)

@@ -857,18 +857,11 @@ class _HalfWorker:
             x[self.their_rows] = self.x[self.their_rows]
             return x[inv_p]
 
-        def solve(rhs: np.ndarray) -> np.ndarray:
+        def current() -> None:
             if generation != self.generation:
                 raise RuntimeError("supernodal Cholesky: these factors were replaced by a later factorisation")
-            t = time.process_time()
-            rhs = np.asarray(rhs, dtype=float)
-            x = solve_vector(rhs) if rhs.ndim == 1 else np.column_stack(
-                [solve_vector(rhs[:, j]) for j in range(rhs.shape[1])] + [np.zeros((chol.n, 0))])
-            chol.solves += 1
-            chol.solve_s += time.process_time() - t
-            return x
 
-        return solve
+        return _counted_solve(chol, solve_vector, current)
 
 
     def serial_solver(self, diagonal_blocks: list, below_blocks: list):
@@ -901,16 +894,25 @@ class _HalfWorker:
             x[their_rows] = theirs_x[their_rows]
             return x[inv_p]
 
-        def solve(rhs: np.ndarray) -> np.ndarray:
-            t = time.process_time()
-            rhs = np.asarray(rhs, dtype=float)
-            x = solve_vector(rhs) if rhs.ndim == 1 else np.column_stack(
-                [solve_vector(rhs[:, j]) for j in range(rhs.shape[1])] + [np.zeros((chol.n, 0))])
-            chol.solves += 1
-            chol.solve_s += time.process_time() - t
-            return x
+        return _counted_solve(chol, solve_vector)
 
-        return solve
+
+def _counted_solve(chol: SupernodalCholesky, solve_vector, check=None):
+    """``solve(rhs)`` for a vector or a matrix of columns (one :func:`solve_vector` each), counted in ``chol``'s
+    solves and their CPU time; ``check()`` first, if given (it raises when the factors are no longer valid)."""
+
+    def solve(rhs: np.ndarray) -> np.ndarray:
+        if check is not None:
+            check()
+        t = time.process_time()
+        rhs = np.asarray(rhs, dtype=float)
+        x = solve_vector(rhs) if rhs.ndim == 1 else np.column_stack(
+            [solve_vector(rhs[:, j]) for j in range(rhs.shape[1])] + [np.zeros((chol.n, 0))])
+        chol.solves += 1
+        chol.solve_s += time.process_time() - t
+        return x
+
+    return solve
 
 
 def _shared_layout(values: int, n: int, top_rows: int, root_updates: int) -> dict:
