@@ -446,7 +446,8 @@ def main(argv: list[str] | None = None) -> list[dict]:
     print(f"CPU times (wall-clock in brackets); the solve reads the factor twice, at the rate given (a plain copy in "
           f"this process reads {copy_gb_s:.1f} GB/s):")
     print("| blocks | rows of K | method | licence | BLAS threads | extend-add runs (index) | ordering | factorisation "
-          "| of which numeric | solve (factor read at) | nonzeros of factors | dense work of a factorisation | residual |")
+          "| of which numeric | solve (factor read at) | nonzeros of factors | dense work of a factorisation "
+          "| residual |")
     print("| ---: | ---: | --- | --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |")
     for r in rows:
         nnz = f"{r['factor_nnz'] / 1e6:.1f}M" if r["factor_nnz"] else "–"

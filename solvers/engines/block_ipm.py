@@ -403,6 +403,10 @@ class BlockIPM:
         self.path_weights: np.ndarray | None = None
         self._K_pattern = structural_pattern(self.A_B, self.k)
         self._K_slots, self._K_targets, self._K_diagonal = self._reduced_scatter()
+        #: compiled products per sparse matrix (:meth:`_sparse_products`) and the parallel assembly of ``K``, made on
+        #: first use
+        self._products_cache: dict = {}
+        self._reduced_assembly = None
 
     def dense_blocks(self, G: sp.sparray) -> np.ndarray:
         """The rows of an inequality matrix ``G`` (this LP's pattern) as dense per-block arrays,
@@ -463,11 +467,10 @@ class BlockIPM:
             return None
         from blockmpec.solvers.engines.block_kernels import SparseProducts
 
-        cache = self.__dict__.setdefault("_products_cache", {})
-        entry = cache.get(id(M))
-        if entry is None or entry[0] is not M:
-            entry = cache[id(M)] = (M, SparseProducts(M))
-        return entry[1]
+        products = self._products_cache.get(id(M))
+        if products is None or products.matrix is not M:
+            products = self._products_cache[id(M)] = SparseProducts(M)
+        return products
 
     def _products_compiled(self) -> bool:
         """Whether the ``compiled_products`` setting chooses compiled products: True, or ``"auto"`` with the compiled
@@ -484,15 +487,6 @@ class BlockIPM:
         """``M.T @ y`` (as :meth:`_times`)."""
         products = self._sparse_products(M)
         return M.T @ y if products is None else products.transpose_times(y)
-
-    def _largest(self, a: np.ndarray) -> float:
-        """``max |a_i|`` (0 if empty): compiled on the usable CPUs for long vectors where :meth:`_sparse_products`
-        is, numpy otherwise (the same number)."""
-        if a.size >= 100_000 and self._products_compiled():
-            from blockmpec.solvers.engines.block_kernels import largest_magnitude
-
-            return largest_magnitude(a)
-        return _inf(a)
 
     def _A_B_times_with_bound(self, dv_B: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """``(A_B dv_B, |A_B| |dv_B|)``, compiled in one pass where :meth:`_sparse_products` says so."""
@@ -611,10 +605,9 @@ class BlockIPM:
             values = values[:-1]
         elif self._products_compiled():
             # on the usable CPUs, the same numbers bit for bit (kernels.ReducedAssembly)
-            assembly = self.__dict__.get("_reduced_assembly")
-            if assembly is None:
-                assembly = self._reduced_assembly = kernels.ReducedAssembly(self._K_targets, self._K_pattern.nnz)
-            values = assembly.values(a, Hinv)
+            if self._reduced_assembly is None:
+                self._reduced_assembly = kernels.ReducedAssembly(self._K_targets, self._K_pattern.nnz)
+            values = self._reduced_assembly.values(a, Hinv)
         else:
             values = kernels.reduced_values(a, Hinv, self._K_targets, self._K_pattern.nnz)
         # a relative diagonal shift (diagonal_shift K_ii, plus 1e-300) keeps the pivots nonzero where a
@@ -765,7 +758,7 @@ class BlockIPM:
 
         dv0, _ = self._block_solve(blocks, rhs_dual, rhs_primal, with_dy=False)  # the block step for dw = 0
         dw, dv_F = reduced_solve(-r_b - self._times(self.A_B, dv0), r_c[self.border])
-        target = 1e-1 * self.tol * (1 + self._largest(self.b))
+        target = 1e-1 * self.tol * (1 + _inf(self.b))
         corrections = self.refinements if refinements is None else refinements
         krylov = refinements is None and self.krylov_iterations > 0
         best = None
@@ -784,8 +777,8 @@ class BlockIPM:
             e_eq, e_border = self._equality_errors(r_b, r_c, dw, dv_F, A_dv_B)
             limit = target
             if tolerance > 0:
-                limit = max(target, tolerance * self._largest(bound_B + self._abs_A_F @ np.abs(dv_F)))
-            error = max(self._largest(e_eq), self._largest(e_border))
+                limit = max(target, tolerance * _inf(bound_B + self._abs_A_F @ np.abs(dv_F)))
+            error = max(_inf(e_eq), _inf(e_border))
             if error <= limit:
                 break
             if krylov and (best is None or error < best[0]):
@@ -854,7 +847,7 @@ class BlockIPM:
             new_dw, new_dv_F = dw + x_w, dv_F + x_F
             new_dv_B, new_dy = self._block_solve(blocks, -r_c[bc] + self._transpose_times(self.A_B, new_dw), rhs_primal)
             new_e_eq, new_e_border = self._equality_errors(r_b, r_c, new_dw, new_dv_F, self._times(self.A_B, new_dv_B))
-            new_error = max(self._largest(new_e_eq), self._largest(new_e_border))
+            new_error = max(_inf(new_e_eq), _inf(new_e_border))
             if not new_error < error:
                 break
             dw, dv_F, dv_B, dy, e_eq, e_border, error = new_dw, new_dv_F, new_dv_B, new_dy, new_e_eq, new_e_border, new_error
@@ -878,8 +871,8 @@ class BlockIPM:
             e_h = -r_h - self._times(self.G, dv) - ds
             e_c = -r_c + self._transpose_times(self.A, dw) - self._transpose_times(self.G_dual, dy)
             e_mu = r_mu - (it.y * ds + it.s * dy)
-            if (self._largest(e_b) <= scale * (1 + self._largest(self.b)) and self._largest(e_c) <= scale * (1 + self._largest(self.c))
-                    and self._largest(e_h) <= scale * (1 + self._largest(self.h)) and self._largest(e_mu) <= scale * max(self._largest(r_mu), 1e-300)):
+            if (_inf(e_b) <= scale * (1 + _inf(self.b)) and _inf(e_c) <= scale * (1 + _inf(self.c))
+                    and _inf(e_h) <= scale * (1 + _inf(self.h)) and _inf(e_mu) <= scale * max(_inf(r_mu), 1e-300)):
                 break
             cv, cs, cw, cy = self._direction(it, factors, -e_b, -e_h, -e_c, e_mu)
             dv, ds, dw, dy = dv + cv, ds + cs, dw + cw, dy + cy
@@ -904,8 +897,8 @@ class BlockIPM:
     def measures(self, it: IPMIterate, residuals=None) -> tuple[float, float, float]:
         """Relative (primal, dual, gap) of an iterate (``residuals``: its :meth:`residuals`, if known)."""
         r_b, r_h, r_c = self.residuals(it) if residuals is None else residuals
-        primal = max(self._largest(r_b) / (1 + self._largest(self.b)), self._largest(r_h) / (1 + self._largest(self.h)))
-        dual = self._largest(r_c) / (1 + self._largest(self.c))
+        primal = max(_inf(r_b) / (1 + _inf(self.b)), _inf(r_h) / (1 + _inf(self.h)))
+        dual = _inf(r_c) / (1 + _inf(self.c))
         return primal, dual, self.gap(it)
 
     def gap(self, it: IPMIterate) -> float:
@@ -996,7 +989,7 @@ class BlockIPM:
                            f"{best_measures[1]:.1e}, gap {best_measures[2]:.1e}; tolerance {self.tol:g}): "
                            "the reduced system lost accuracy")
                 break
-            big = max(self._largest(it.v), self._largest(it.w), self._largest(it.y))
+            big = max(_inf(it.v), _inf(it.w), _inf(it.y))
             if not np.isfinite(big) or big > 1e13:
                 status = Status.NUMERICAL
                 message = ("interior-point iterates diverge (|v|, |w| or |y| > 1e13): the LP is probably "

@@ -15,7 +15,6 @@ per-call overhead dominates: on 20,100 interfaces ``np.linalg.inv`` takes ~28 ms
   inequality rows, scaled, multiplied by ``M_i^{-1}``, and ``dy`` scattered back);
 * :func:`max_step`: the step to the boundary of ``z + a dz >= 0`` in one pass (chunks on the usable CPUs: a maximum
   is exact in any order);
-* :func:`largest_magnitude`: ``max |a_i|`` in one pass (chunks on the usable CPUs);
 * :func:`reduced_values`: ``a_i H_i^{-1} a_i^T`` summed into ``K``'s data array by the scatter index, in the same
   order as ``np.bincount`` adds them;
 * :class:`SparseProducts`: ``M x`` and ``M^T y`` for the LP's sparse matrices by row loops over ``M`` and over an
@@ -25,10 +24,10 @@ per-call overhead dominates: on 20,100 interfaces ``np.linalg.inv`` takes ~28 ms
 (A compiled ``np.add.at`` for the supernodal Cholesky's extend-add was measured and dropped: it saved no time
 measurably, 2.11-2.18 s for one factorisation at 100,014 blocks with either, three of each in one process.)
 
-:func:`inverse_scaled_blocks`, :func:`block_solve`, :class:`ReducedAssembly` and :class:`SparseProducts` run their blocks on the CPUs this process may use (numba's
-``prange``; :func:`blockmpec.runner.usable_cpus`).  Each block is independent, so the numbers are the same on any
-number of threads.  In the block IPM they run while the supernodal Cholesky's worker process waits, so its CPU is
-free.
+:func:`inverse_scaled_blocks`, :func:`block_solve`, :class:`ReducedAssembly` and :class:`SparseProducts` run their
+blocks (or rows) on the CPUs this process may use (numba's ``prange``; :func:`blockmpec.runner.usable_cpus`).  Each
+block is independent, so the numbers are the same on any number of threads.  In the block IPM they run while the
+supernodal Cholesky's worker process waits, so its CPU is free.
 
 They compute the same quantities as the numpy expressions they replace, with another rounding (Gauss--Jordan
 instead of LU plus triangular solves): the results agree to round-off, so iterates may differ in late digits.
@@ -368,36 +367,6 @@ def _row_products_with_bound(indptr, indices, data, x, out, bound):  # pragma: n
         bound[i] = size
 
 
-@njit(parallel=True, **_JIT)
-def _largest_magnitude(a):  # pragma: no cover - compiled
-    chunks = min(a.size, 64)
-    largest = np.zeros(chunks)
-    for c in prange(chunks):
-        start, stop = a.size * c // chunks, a.size * (c + 1) // chunks
-        m = 0.0
-        for i in range(start, stop):
-            v = abs(a[i])
-            if v > m or v != v:  # a NaN is kept once met, as np.max propagates it
-                m = v
-                if v != v:
-                    break
-        largest[c] = m
-    m = 0.0
-    for c in range(chunks):
-        v = largest[c]
-        if v > m or v != v:
-            m = v
-            if v != v:
-                break
-    return m
-
-
-def largest_magnitude(a: np.ndarray) -> float:
-    """``max |a_i|`` (0 for an empty array, NaN if any entry is NaN) in one pass, without the array ``|a|``."""
-    a = np.ascontiguousarray(a, dtype=np.float64).reshape(-1)
-    return float(_parallel(_largest_magnitude, a)) if a.size else 0.0
-
-
 class SparseProducts:
     r"""``M x`` and ``M^T y`` for one sparse matrix ``M``, by compiled loops over rows on the CPUs this process may
     use.
@@ -412,9 +381,9 @@ class SparseProducts:
     """
 
     def __init__(self, M) -> None:
-        M = M.tocsr() if M.format != "csr" else M
         #: the matrix given (the block IPM checks by identity that it still multiplies by this one)
         self.matrix = M
+        M = M.tocsr() if M.format != "csr" else M
         self.shape = M.shape
         self._rows = (M.indptr, M.indices, np.ascontiguousarray(M.data, dtype=np.float64))
         T = M.T.tocsr()  # row i: column i of M, j ascending (a stable counting sort by column)

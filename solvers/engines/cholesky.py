@@ -389,12 +389,9 @@ class SupernodalCholesky:
         self.supernodes = ns
         #: nonzeros of L (structural, without amalgamation zeros) + U, as SuperLU counts its L + U
         self.factor_nnz = 2 * int(counts.sum())
-        widths = (end - first).astype(float)
-        below = np.array([R.size for R in self.rows], dtype=float) - widths
-        #: floating-point operations of one numeric factorisation: ``potrf``, ``trsm`` and ``syrk`` on every front,
-        #: ``w^3/3 + r w^2 + r^2 w`` for ``w`` columns and ``r`` rows below (multiply-adds counted once, as in
-        #: :meth:`front_costs`); the dense work no implementation of this ordering avoids
-        self.factor_flops = float(np.sum(widths ** 3 / 3 + below * widths * widths + below * below * widths))
+        #: floating-point operations of one numeric factorisation (:meth:`front_flops` summed): the dense work no
+        #: implementation of this ordering avoids
+        self.factor_flops = float(self.front_flops().sum())
         self.analyse_s = time.process_time() - t0
         self.factorisations = 0
         self.factorise_s = 0.0
@@ -481,14 +478,18 @@ class SupernodalCholesky:
             self._worker.close()
             self._worker = None
 
-    def front_costs(self) -> np.ndarray:
-        """An estimate of each supernode's factorisation time (s): a fixed cost per front, the dense flops of
-        ``potrf``, ``trsm`` and ``syrk`` (``w^3/3 + r w^2 + r^2 w`` for ``w`` columns and ``r`` rows below) and
-        the ``m^2`` entries of the front that are zeroed and assembled."""
+    def front_flops(self) -> np.ndarray:
+        """Each supernode's dense work: ``potrf``, ``trsm`` and ``syrk`` on its front, ``w^3/3 + r w^2 + r^2 w`` for
+        ``w`` columns and ``r`` rows below (multiply-adds counted once)."""
         w = (self.end - self.first).astype(float)
+        r = np.array([R.size for R in self.rows], dtype=float) - w
+        return w ** 3 / 3 + r * w * w + r * r * w
+
+    def front_costs(self) -> np.ndarray:
+        """An estimate of each supernode's factorisation time (s): a fixed cost per front, its dense work
+        (:meth:`front_flops`) and the ``m^2`` entries of the front that are zeroed and assembled."""
         m = np.array([R.size for R in self.rows], dtype=float)
-        r = m - w
-        return 3e-5 + 2.5e-10 * (w ** 3 / 3 + r * w * w + r * r * w) + 2e-9 * m * m
+        return 3e-5 + 2.5e-10 * self.front_flops() + 2e-9 * m * m
 
     def supernode_parents(self) -> np.ndarray:
         """Each supernode's parent in the supernodal elimination tree (-1: a root)."""
@@ -862,7 +863,6 @@ class _HalfWorker:
                 raise RuntimeError("supernodal Cholesky: these factors were replaced by a later factorisation")
 
         return _counted_solve(chol, solve_vector, current)
-
 
     def serial_solver(self, diagonal_blocks: list, below_blocks: list):
         """``solve(rhs)`` in this process alone, with the numbers of :meth:`solver` bit for bit: the same substitutions
