@@ -52,6 +52,37 @@ def test_column_structures_match_dense_elimination(seed):
         assert parent[j] == (rows[1] if rows.size > 1 else -1)
 
 
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_compiled_symbolic_factorisation_matches_the_python_loop(seed):
+    """Counts, elimination tree and the rows of chosen columns, compiled (row subtrees) and by the Python loop."""
+    pytest.importorskip("numba")
+    from blockmpec.solvers.engines.cholesky_kernels import symbolic_factorisation
+
+    for n, density in ((60, 0.04), (300, 0.01), (200, 0.0)):
+        lower = sp.tril(_random_pattern(n, density, seed), format="csc")
+        structure, parent = column_structures(lower)
+        counts, compiled_parent, rows_of = symbolic_factorisation(lower)
+        assert np.array_equal(compiled_parent, parent)
+        assert np.array_equal(counts, [rows.size for rows in structure])
+        columns = np.random.default_rng(seed).choice(n, size=n // 3, replace=False)
+        for j, rows in zip(columns.tolist(), rows_of(columns)):
+            assert np.array_equal(rows, structure[j])
+
+
+def test_compiled_symbolic_analysis_gives_the_same_supernodes(wall_K):
+    """A whole analysis with the compiled and the Python symbolic factorisation: the same supernodes, rows and
+    assembly (so the same factors)."""
+    pytest.importorskip("numba")
+    _, pattern = wall_K
+    python = SupernodalCholesky(pattern, "mmd", compiled_symbolic=False)
+    compiled = SupernodalCholesky(pattern, "mmd", compiled_symbolic=True)
+    assert compiled.compiled_symbolic and not python.compiled_symbolic
+    assert np.array_equal(compiled.perm, python.perm)
+    assert np.array_equal(compiled.first, python.first) and np.array_equal(compiled.end, python.end)
+    assert all(np.array_equal(a, b) for a, b in zip(compiled.rows, python.rows))
+    assert np.array_equal(compiled._assembly_destination, python._assembly_destination)
+
+
 @pytest.fixture(scope="module")
 def wall_K():
     """K of a 15x30 wall's static LP at a generic interior point (every structural entry nonzero)."""
@@ -348,6 +379,17 @@ def test_factorisations_stay_serial_until_the_worker_is_ready(wall_K, monkeypatc
     assert np.array_equal(x, x_early) and np.array_equal(X, X_early)
     assert not np.array_equal(x, x_serial)  # the top's sums are grouped otherwise: the check above can fail
     split.close()
+
+
+def test_a_worker_never_set_up_stops_with_its_cholesky(wall_K):
+    """The worker process starts with the Cholesky (its imports overlap the analysis); closed before any
+    factorisation, it ends (it was waiting for its set-up)."""
+    _, pattern = wall_K
+    split = SupernodalCholesky(pattern, "metis", processes=2)
+    process = split._worker.process
+    assert split._worker.chol is None and not split._worker.ready()
+    split.close()
+    assert process.poll() is not None
 
 
 def test_a_worker_that_dies_is_one_clear_error(wall_K):

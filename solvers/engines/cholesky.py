@@ -46,6 +46,7 @@ Supernodal module, ``qdldl`` (Apache-2.0, AMD) took 29 s on the 100k matrix, and
 
 from __future__ import annotations
 
+import functools
 import os
 import threading
 import time
@@ -188,6 +189,24 @@ EXTEND_ADD_RUNS = 2
 THREADED_FRONT_ROWS = 1000
 
 
+#: ``compiled_symbolic="auto"`` runs the symbolic factorisation compiled (numba, when installed) from this many rows
+#: on: at 300,042 rows (100,014 blocks) it took 0.1 s against 1.7 s for :func:`column_structures`' Python loop
+#: (the same counts, tree and rows: tests); below, importing numba would cost more than it saves
+COMPILED_SYMBOLIC_ROWS = 20_000
+
+
+def _numba_available() -> bool:
+    """Whether numba is installed (not imported here)."""
+    import importlib.util
+
+    return importlib.util.find_spec("numba") is not None
+
+
+def _columns_of(structure: list[np.ndarray], columns) -> list[np.ndarray]:
+    """The rows of the given columns of ``L`` from :func:`column_structures`' list."""
+    return [structure[j] for j in columns]
+
+
 def column_structures(lower: sp.sparray) -> tuple[list[np.ndarray], np.ndarray]:
     """Symbolic Cholesky factorisation: the rows of every column of ``L`` and the elimination tree.
 
@@ -248,7 +267,7 @@ class SupernodalCholesky:
 
     def __init__(self, pattern: sp.sparray, ordering: str = "auto", relax: float = 4.0, front_threads: int = 1,
                  threaded_front_rows: int = THREADED_FRONT_ROWS, extend_add_runs: int = EXTEND_ADD_RUNS,
-                 processes: int = 1) -> None:
+                 processes: int = 1, compiled_symbolic: str | bool = "auto") -> None:
         t0 = time.process_time()
         if processes not in (1, 2):
             raise ValueError(f"supernodal Cholesky: processes must be 1 or 2, not {processes!r}")
@@ -257,7 +276,8 @@ class SupernodalCholesky:
                              "its worker process)")
         #: 2: one subtree half of every factorisation and solve runs in a worker process (:class:`_HalfWorker`)
         self.processes = int(processes)
-        self._worker: _HalfWorker | None = None
+        # the worker process starts now (set up at the first factorisation): its imports overlap the analysis below
+        self._worker: _HalfWorker | None = _HalfWorker() if processes == 2 else None
         #: CPU seconds of the worker process through its latest factorisation (``processes=2``; not in this
         #: process's ``time.process_time()``)
         self.worker_cpu_s = 0.0
@@ -292,8 +312,18 @@ class SupernodalCholesky:
         permuted.sort_indices()
         self._pattern = pattern
         # structure of L (symbolic factorisation) and the elimination tree
-        structure, parent = column_structures(sp.tril(permuted, format="csc"))
-        counts = np.array([rows.size for rows in structure], dtype=np.int64)
+        lower = sp.tril(permuted, format="csc")
+        self.compiled_symbolic = (n >= COMPILED_SYMBOLIC_ROWS and _numba_available() if compiled_symbolic == "auto"
+                                  else bool(compiled_symbolic))
+        if self.compiled_symbolic:
+            from blockmpec.solvers.engines.cholesky_kernels import symbolic_factorisation
+
+            counts, parent, rows_of = symbolic_factorisation(lower)
+        else:
+            structure, parent = column_structures(lower)
+            counts = np.array([rows.size for rows in structure], dtype=np.int64)
+            rows_of = functools.partial(_columns_of, structure)
+            del structure  # held by rows_of until the supernodes' rows are taken
         joins = np.zeros(n, dtype=bool)
         joins[1:] = (parent[:-1] == np.arange(1, n)) & (counts[:-1] == counts[1:] + 1)
         starts = np.flatnonzero(~joins)
@@ -334,11 +364,11 @@ class SupernodalCholesky:
         first = np.searchsorted(column_top[order], tops)
         end = np.append(first[1:], n)
         self.rows = []
-        for t, f, e in zip(tops, first, end):
-            last = ends[t] - 1  # the group's last column (old numbering): its rows below it
-            below = np.sort(new_position[structure[last][1:]])
+        # each group's last column (old numbering): its rows below it
+        for f, e, last_rows in zip(first, end, rows_of(ends[tops] - 1)):
+            below = np.sort(new_position[last_rows[1:]])
             self.rows.append(np.concatenate([np.arange(f, e), below]).astype(np.int64))
-        del structure
+        del rows_of
         self.perm = self.perm[order]
         self.inverse_perm[self.perm] = np.arange(n)
         permuted = tagged[self.perm][:, self.perm].tocsc()
@@ -447,10 +477,14 @@ class SupernodalCholesky:
             factorised = self._worker.factorise(values, diagonal_blocks, below_blocks)
             solver = self._worker.solver
             self.worker_factorisations += 1
+        elif self._worker is not None:
+            # while a worker starts: its halves and top here (the serial factors), its solves' arithmetic, so that the
+            # iterates do not depend on when it is ready
+            factorised = self._worker.serial_factorise(values, diagonal_blocks, below_blocks)
+            solver = self._worker.serial_solver
         else:
             factorised = self.factor_supernodes(range(self.supernodes), values, {}, diagonal_blocks, below_blocks)
-            # while a worker starts, its solves' arithmetic here: the iterates do not depend on when it is ready
-            solver = self._solver if self._worker is None else self._worker.serial_solver
+            solver = self._solver
         if not factorised:
             return None
         self.factorisations += 1
@@ -464,7 +498,9 @@ class SupernodalCholesky:
         ``wait``: return only once it is ready."""
         if self.processes == 2:
             if self._worker is None:
-                self._worker = _HalfWorker(self)
+                self._worker = _HalfWorker()
+            if self._worker.chol is None:
+                self._worker.set_up(self)
             if wait:
                 self._worker.wait_ready()
 
@@ -606,6 +642,10 @@ class SupernodalCholesky:
             plan = self._factor_plans[key] = FactorPlan(self, members)
         return plan
 
+    def drop_factor_plan(self, supernodes) -> None:
+        """Forget the compiled factorisation's plan for this set of supernodes (its workspace freed), if made."""
+        self._factor_plans.pop(np.fromiter(supernodes, dtype=np.int64).tobytes(), None)
+
     def solve_structure(self) -> tuple:
         """``(first, width, below_count, below, below_start)``: each supernode's first column, its columns, its rows
         below them (all int64, by supernode) and those rows, concatenated (``below[below_start[s]:][:below_count[s]]``);
@@ -702,9 +742,13 @@ class _HalfWorker:
     rows, and the update matrices of the worker's subtree roots.  The worker is a fresh Python process
     (:func:`_serve_half`, started by :mod:`subprocess` from the directory that holds this package; not forked:
     forking a process that runs BLAS threads is unsafe, and a pool's daemonic worker may not start
-    :mod:`multiprocessing` children); it receives the symbolic analysis once, pickled over a socket by a thread of
-    this process, so that its start (imports, about 0.7 s, and the set-up) overlaps this process's work: until it
-    reports ready, :meth:`SupernodalCholesky.factorise_values` factorises here alone.
+    :mod:`multiprocessing` children).  It starts when the Cholesky is made, so that its imports (about 0.7 s, numba's
+    kernels included) overlap the symbolic analysis; at the first factorisation (:meth:`set_up`) it receives the
+    analysis, pickled and sent over a socket by a thread of this process, and warms up on ``K = I`` (its half's
+    plan, the first touch of its factor array, the compiled loops' first calls) before it reports ready.  Until then
+    :meth:`SupernodalCholesky.factorise_values` factorises here alone, by the same halves and top
+    (:meth:`serial_factorise`).  At 100,014 blocks this start took the LP's first four factorisations from 2.8, 1.9,
+    1.2 and 0.7 s to 2.4, 0.5, 0.5 and 0.5 s (a one-off timing of its ``factorise_values``, one run each).
 
     Factorisation: this process factorises half 0 while the worker factorises half 1 and keeps its blocks of
     ``L~``; the worker's root update matrices come back through shared memory, then this process factorises the
@@ -719,14 +763,47 @@ class _HalfWorker:
     factorisation (:attr:`SupernodalCholesky.worker_cpu_s`).
     """
 
-    def __init__(self, chol: SupernodalCholesky) -> None:
-        import mmap
-        import pickle
+    def __init__(self) -> None:
+        """Start the worker process.  It imports what it needs (numpy, scipy, this module and, when installed, the
+        compiled kernels) and then waits for its set-up (:meth:`set_up`), so that its start overlaps the symbolic
+        analysis that precedes the set-up."""
         import socket
         import subprocess
         import sys
         import weakref
         from multiprocessing.connection import Connection
+
+        self.chol: SupernodalCholesky | None = None
+        self._fd = _shared_file(0)  # sized by set_up, before the worker maps it
+        # the worker imports this very package (the directory that holds it comes first on its path)
+        import blockmpec
+
+        package_root = os.path.dirname(os.path.dirname(os.path.abspath(blockmpec.__file__)))
+        here, there = socket.socketpair()
+        code = (f"import sys; sys.path.insert(0, {package_root!r}); "
+                "from blockmpec.solvers.engines.cholesky import _serve_half; "
+                f"_serve_half({there.fileno()}, {self._fd})")
+        try:
+            process = subprocess.Popen([sys.executable, "-c", code], pass_fds=(there.fileno(), self._fd),
+                                       stdin=subprocess.DEVNULL)
+        except BaseException:
+            os.close(self._fd)
+            raise
+        finally:
+            there.close()
+        self.connection = Connection(here.detach())
+        self.process = process
+        self._send_error: BaseException | None = None
+        self._ready = False
+        #: the thread that sends the set-up (one, once :meth:`set_up` ran)
+        self._senders: list[threading.Thread] = []
+        self._finalizer = weakref.finalize(self, _stop_worker, self.connection, process, self._senders)
+
+    def set_up(self, chol: SupernodalCholesky) -> None:
+        """Split ``chol``'s supernodes into two subtree halves and their top, size the shared memory and send the
+        worker the symbolic analysis (pickled and sent by a thread: this process factorises meanwhile)."""
+        import mmap
+        import pickle
 
         self.chol = chol
         (mine, theirs), top = chol.subtree_halves()
@@ -743,48 +820,33 @@ class _HalfWorker:
         ends = np.cumsum([r * r for r in sizes], dtype=np.int64)
         self.root_blocks = [(int(e - r * r), int(e), r) for e, r in zip(ends, sizes)]
         layout = _shared_layout(chol._pattern.nnz, chol.n, self.top_rows.size, int(ends[-1]) if sizes else 0)
-        fd = _shared_file(8 * layout["total"])
-        self._memory = mmap.mmap(fd, 8 * layout["total"])
+        os.ftruncate(self._fd, 8 * layout["total"])
+        self._memory = mmap.mmap(self._fd, 8 * layout["total"])
+        os.close(self._fd)
         self.values, self.x, self.top_change, self.root_updates = _shared_arrays(self._memory, layout)
         self.generation = 0
-        # the worker imports this very package (the directory that holds it comes first on its path)
-        import blockmpec
+        setup = {"chol": chol, "theirs": self.theirs, "their_roots": self.their_roots,
+                 "root_blocks": self.root_blocks, "their_rows": self.their_rows, "top_rows": self.top_rows,
+                 "layout": layout}
 
-        package_root = os.path.dirname(os.path.dirname(os.path.abspath(blockmpec.__file__)))
-        here, there = socket.socketpair()
-        code = (f"import sys; sys.path.insert(0, {package_root!r}); "
-                "from blockmpec.solvers.engines.cholesky import _serve_half; "
-                f"_serve_half({there.fileno()}, {fd})")
-        try:
-            process = subprocess.Popen([sys.executable, "-c", code], pass_fds=(there.fileno(), fd),
-                                       stdin=subprocess.DEVNULL)
-        finally:
-            there.close()
-            os.close(fd)
-        self.connection = Connection(here.detach())
-        self.process = process
-        payload = pickle.dumps({"chol": chol, "theirs": self.theirs, "their_roots": self.their_roots,
-                                "root_blocks": self.root_blocks, "their_rows": self.their_rows,
-                                "top_rows": self.top_rows, "layout": layout}, protocol=5)
-        self._send_error: BaseException | None = None
-
-        def send_setup() -> None:  # in a thread: the worker imports and unpickles while this process factorises
+        def send_setup() -> None:  # the worker unpickles and warms up while this process factorises
             try:
-                self.connection.send_bytes(payload)
+                self.connection.send_bytes(pickle.dumps(setup, protocol=5))
             except OSError as error:
                 self._send_error = error
 
-        self._sender = threading.Thread(target=send_setup, name="blockmpec-cholesky-setup", daemon=True)
-        self._sender.start()
-        self._ready = False
-        self._finalizer = weakref.finalize(self, _stop_worker, self.connection, process, self._sender)
+        sender = threading.Thread(target=send_setup, name="blockmpec-cholesky-setup", daemon=True)
+        self._senders.append(sender)
+        sender.start()
 
     def wait_ready(self, timeout: float = 120.0) -> None:
         """Block until the worker has its set-up (:meth:`ready`); a RuntimeError after ``timeout`` seconds."""
         if self._ready:
             return
-        self._sender.join(timeout)
-        if not self._sender.is_alive() and self._send_error is None:
+        if not self._senders:
+            raise RuntimeError("supernodal Cholesky: its worker process was never set up")
+        self._senders[0].join(timeout)
+        if not self._senders[0].is_alive() and self._send_error is None:
             self.connection.poll(max(timeout, 0.0))
         if not self.ready():
             raise RuntimeError(f"supernodal Cholesky: its worker process was not ready within {timeout:g} s")
@@ -792,7 +854,11 @@ class _HalfWorker:
     def ready(self) -> bool:
         """Whether the worker has its set-up (never waits).  A worker that ended before it was ready is an error."""
         if not self._ready:
-            if self._sender.is_alive():
+            if not self._senders or self._senders[0].is_alive():
+                if self.process.poll() is not None:
+                    self.close()
+                    raise RuntimeError("supernodal Cholesky: its worker process did not start (its error is "
+                                       "printed above)")
                 return False
             if self._send_error is None and self.connection.poll(0):
                 self._ready = self._answer() == "ready"
@@ -818,9 +884,19 @@ class _HalfWorker:
         except (EOFError, OSError):
             raise RuntimeError("supernodal Cholesky: its worker process ended unexpectedly") from None
 
+    def serial_factorise(self, values: np.ndarray, diagonal_blocks: list, below_blocks: list) -> bool:
+        """Factorise ``K`` in this process alone, half 0, half 1, then the top: the serial factors bit for bit (the
+        same calls on the same fronts), made while the worker starts.  It also readies this process's workspace of
+        half 0 and the top; half 1's is dropped once the worker factorises (:meth:`factorise`)."""
+        chol, updates = self.chol, {}
+        return (chol.factor_supernodes(self.mine, values, updates, diagonal_blocks, below_blocks)
+                and chol.factor_supernodes(self.theirs, values, updates, diagonal_blocks, below_blocks)
+                and chol.factor_supernodes(self.top, values, updates, diagonal_blocks, below_blocks))
+
     def factorise(self, values: np.ndarray, diagonal_blocks: list, below_blocks: list) -> bool:
         """Factorise ``K`` (values on the pattern) with the worker; this process keeps half 0's and the top's blocks."""
         chol = self.chol
+        chol.drop_factor_plan(self.theirs)  # made by serial_factorise, if it ran: the worker holds that half now
         self.values[:] = values
         self._send("factorise")
         updates: dict[int, np.ndarray] = {}
@@ -954,19 +1030,35 @@ def _serve_half(socket_fd: int, memory_fd: int) -> None:  # pragma: no cover - r
     from threadpoolctl import threadpool_limits
 
     connection = Connection(socket_fd)
-    setup = pickle.loads(connection.recv_bytes())
+    if _numba_available():  # the compiled kernels loaded while the set-up is made and sent
+        import blockmpec.solvers.engines.cholesky_kernels  # noqa: F401
+    try:
+        setup = pickle.loads(connection.recv_bytes())
+    except (EOFError, OSError):
+        return
+    if setup is None:  # stopped before its set-up
+        return
     chol, theirs = setup["chol"], setup["theirs"]
     their_rows, top_rows, their_roots, root_blocks = (setup[k] for k in ("their_rows", "top_rows", "their_roots",
                                                                          "root_blocks"))
     memory = mmap.mmap(memory_fd, 8 * setup["layout"]["total"])
     os.close(memory_fd)
     values, shared_x, top_change, root_updates = _shared_arrays(memory, setup["layout"])
-    connection.send("ready")
     backwards = theirs[::-1]
-    diagonal_blocks: list = []
-    below_blocks: list = []
-    panels = None
     with threadpool_limits(limits=1, user_api="blas"):
+        # warm-up while this process's owner factorises alone: the half's plan, its factor array's first touch and the
+        # compiled loops' first calls (loaded from numba's cache), on K = I (no answer depends on it)
+        identity = np.zeros(chol._pattern.nnz)
+        identity[chol._pattern.indices == np.repeat(np.arange(chol.n), np.diff(chol._pattern.indptr))] = 1.0
+        diagonal_blocks, below_blocks = [None] * chol.supernodes, [None] * chol.supernodes
+        if chol.factor_supernodes(theirs, identity, {}, diagonal_blocks, below_blocks):
+            panels = chol.solve_panels(diagonal_blocks, below_blocks)
+            x = np.zeros(chol.n)
+            chol.forward(x, theirs, diagonal_blocks, below_blocks, panels)
+            chol.backward(x, backwards, diagonal_blocks, below_blocks, panels)
+        del identity
+        diagonal_blocks, below_blocks, panels = [], [], None
+        connection.send("ready")
         while True:
             try:
                 command = connection.recv()
@@ -975,10 +1067,11 @@ def _serve_half(socket_fd: int, memory_fd: int) -> None:  # pragma: no cover - r
             if command is None:
                 return
             if command == "factorise":
+                # the earlier factors dropped first (the compiled factorisation then reuses their array), never used
+                panels = None
                 diagonal_blocks, below_blocks = [None] * chol.supernodes, [None] * chol.supernodes
                 updates: dict[int, np.ndarray] = {}
                 factorised = chol.factor_supernodes(theirs, values, updates, diagonal_blocks, below_blocks)
-                panels = None  # never the factors of an earlier factorisation
                 if factorised:
                     for s, (a, b, _) in zip(their_roots, root_blocks):
                         root_updates[a:b] = updates.pop(s).ravel(order="F")
@@ -998,15 +1091,17 @@ def _serve_half(socket_fd: int, memory_fd: int) -> None:  # pragma: no cover - r
                 connection.send(True)
 
 
-def _stop_worker(connection, process, sender) -> None:
+def _stop_worker(connection, process, senders: list) -> None:
     """Ask a :class:`_HalfWorker`'s process to stop and reap it; kill it if it has not ended within a second
     (or if its set-up is still being sent a second later)."""
     import subprocess
 
-    sender.join(timeout=1.0)
-    if sender.is_alive():  # the worker does not read its set-up: a message now would interleave with it
+    for sender in senders:
+        sender.join(timeout=1.0)
+    if any(sender.is_alive() for sender in senders):  # the worker does not read its set-up: a message would interleave
         process.kill()
-        sender.join()
+        for sender in senders:
+            sender.join()
     else:
         try:
             connection.send(None)
