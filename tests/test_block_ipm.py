@@ -306,3 +306,47 @@ def test_diagonal_shift_changes_the_path_never_the_optimum():
         error = np.abs((shifted - plain) - settings["diagonal_shift"] * plain)
         assert np.all(error <= np.finfo(float).eps * np.abs(plain) + 1e-280)
     assert abs(lams[0] - lams[1]) <= 1e-9 * abs(lams[1])
+
+
+def test_auto_correctors_follow_the_size_of_k(monkeypatch):
+    """``correctors="auto"`` (the default): two Gondzio correctors below ``AUTO_CORRECTOR_ROWS`` rows of ``K``, four
+    from there; a count is taken as given, anything else is one clear error.  The interior fixed point keeps two."""
+    from blockmpec.solvers.engines import block_ipm
+
+    assert DEFAULT_SETTINGS["correctors"] == "auto" and EXACT_INNER_SETTINGS["correctors"] == 2
+    ops = bm.assemble(bm.cases.wall(4, 5))
+    ipm = cold_lp_engine(compile_linear(static_lp(ops)), "block-ipm", ops=ops)
+    rows = ipm._K_pattern.shape[0]
+    assert ipm.corrector_count == block_ipm.SMALL_CORRECTORS
+    monkeypatch.setattr(block_ipm, "AUTO_CORRECTOR_ROWS", rows)
+    assert ipm.corrector_count == block_ipm.LARGE_CORRECTORS
+    ipm.settings(correctors=3)
+    assert ipm.corrector_count == 3
+    for bad in (-1, 2.5, "many", True):
+        with pytest.raises(ValueError, match='correctors must be "auto" or a count'):
+            ipm.settings(correctors=bad)
+
+
+def test_a_singular_k_ends_the_solve_with_a_status(monkeypatch):
+    """A factorisation that meets an exactly zero pivot (SuperLU's "Factor is exactly singular") ends the solve with
+    the best iterate and a status that says so, never an exception; at the starting point, ``numerical``."""
+    from blockmpec.solvers.engines.cholesky import SingularMatrixError, SymmetricFactoriser
+
+    ops = bm.assemble(bm.cases.wall(4, 5))
+    lp = compile_linear(static_lp(ops))
+    factorise = SymmetricFactoriser.factorise
+
+    def failing_from(count):
+        def patched(self, K):
+            if self.factorisations >= count:
+                raise SingularMatrixError("SuperLU: Factor is exactly singular")
+            return factorise(self, K)
+        return patched
+
+    monkeypatch.setattr(SymmetricFactoriser, "factorise", failing_from(6))
+    out = cold_lp_engine(lp, "block-ipm", ops=ops).solve()
+    assert out.status in (bm.Status.ACCEPTABLE, bm.Status.NUMERICAL) and "singular" in out.message
+    assert out.iterations == 5 and np.all(np.isfinite(out.v))
+    monkeypatch.setattr(SymmetricFactoriser, "factorise", failing_from(0))
+    out = cold_lp_engine(lp, "block-ipm", ops=ops).solve()
+    assert out.status is bm.Status.NUMERICAL and "starting point" in out.message

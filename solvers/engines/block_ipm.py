@@ -84,6 +84,7 @@ import scipy.sparse as sp
 from blockmpec.formulations import LinearProgram
 from blockmpec.result import Status
 from blockmpec.solvers.engines.cholesky import (
+    SingularMatrixError,
     SupernodalCholesky,
     SymmetricFactoriser,
     structural_pattern,
@@ -134,7 +135,7 @@ from blockmpec.solvers.engines.highs import LPOutcome
 #: 180x181 --algorithms block-ipm --ipm-settings wide_shift,default``, and ``--walls 316x316``; README).  The
 #: interior fixed point keeps 1e-12: its stall at 2,420 blocks stays with 1e-16 too (85 iterations, 2.4e-3).
 DEFAULT_SETTINGS = {"refinements": 8, "lazy_refinement": True, "inner_refinements": 1, "inner_tolerance": 1e-6,
-                    "final_sweeps": 4, "correctors": 2, "gondzio_accept": 1.01, "gondzio_factor": 1.5,
+                    "final_sweeps": 4, "correctors": "auto", "gondzio_accept": 1.01, "gondzio_factor": 1.5,
                     "gondzio_delta": 0.1, "step_fraction": 0.995, "sigma_power": 3.0, "sigma_min": 0.0,
                     "krylov_iterations": 40, "krylov_switch": 0.1, "diagonal_shift": 1e-16, "kernels": "auto",
                     "factor_processes": "auto", "compiled_solves": "auto", "compiled_factorisation": "auto",
@@ -144,7 +145,20 @@ WIDE_DIAGONAL_SHIFT = 1e-12
 #: every inner direction corrected to the absolute target: the default before ``inner_tolerance`` 1e-6, what the
 #: interior fixed point runs, and the base of the comparison sets below (each measured with it, and with the
 #: former diagonal shift)
-EXACT_INNER_SETTINGS = {**DEFAULT_SETTINGS, "inner_tolerance": 0.0, "diagonal_shift": WIDE_DIAGONAL_SHIFT}
+EXACT_INNER_SETTINGS = {**DEFAULT_SETTINGS, "inner_tolerance": 0.0, "diagonal_shift": WIDE_DIAGONAL_SHIFT,
+                        "correctors": 2}
+#: ``correctors``: the most Gondzio correctors per iteration, or ``"auto"``: :data:`LARGE_CORRECTORS` when ``K``
+#: has at least :data:`AUTO_CORRECTOR_ROWS` rows, else :data:`SMALL_CORRECTORS`.  On large walls more correctors
+#: cut the crawl's iterations by more than they cost: ``python studies/lp_timing.py --walls 100x100,180x181,316x316
+#: --algorithms block-ipm --ipm-settings two_correctors,default`` (README).  On small LPs four correctors made the
+#: 3x4 wall's K singular in floating point before convergence (and three ended ``acceptable`` after 17 iterations
+#: instead of ``optimal`` after 9), so below that size they stay at two.
+CORRECTOR_COUNTS = ("auto",)
+SMALL_CORRECTORS, LARGE_CORRECTORS = 2, 4
+AUTO_CORRECTOR_ROWS = 30_000
+#: the default with two correctors at every size (``correctors`` 2, the default before ``"auto"``;
+#: ``--ipm-settings two_correctors,default``)
+TWO_CORRECTORS_SETTINGS = {**DEFAULT_SETTINGS, "correctors": 2}
 #: the default before ``diagonal_shift`` 1e-16 (for ``--ipm-settings wide_shift,default`` comparisons)
 WIDE_SHIFT_SETTINGS = {**DEFAULT_SETTINGS, "diagonal_shift": WIDE_DIAGONAL_SHIFT}
 #: Near the optimum of large walls the reduced refinement converges slowly (``K`` very ill-conditioned):
@@ -440,8 +454,13 @@ class BlockIPM:
                                  f"not {compiled!r}")
             if compiled is True and not compiled_kernels_available():
                 raise ValueError(f'block IPM: {name}=True needs numba (pip install "blockmpec[fast]")')
+        correctors = values.get("correctors")
+        if correctors is not None and correctors != "auto" and not (
+                isinstance(correctors, (int, np.integer)) and not isinstance(correctors, bool) and correctors >= 0):
+            raise ValueError(f'block IPM: correctors must be "auto" or a count >= 0, not {correctors!r}')
         for name, value in values.items():
-            chosen = name in ("factor_processes", "compiled_solves", "compiled_factorisation", "compiled_products")
+            chosen = name in ("factor_processes", "compiled_solves", "compiled_factorisation", "compiled_products",
+                              "correctors")
             setattr(self, name, value if chosen else type(DEFAULT_SETTINGS[name])(value))
 
     @property
@@ -657,6 +676,14 @@ class BlockIPM:
                                 if supernodal
                                 else SymmetricFactoriser(self._K_pattern, self.ordering))
         return self._factoriser
+
+    @property
+    def corrector_count(self) -> int:
+        """Gondzio correctors per iteration at most: the ``correctors`` setting, ``"auto"`` resolved by the size of
+        ``K`` (:data:`AUTO_CORRECTOR_ROWS`)."""
+        if self.correctors != "auto":
+            return int(self.correctors)
+        return LARGE_CORRECTORS if self._K_pattern.shape[0] >= AUTO_CORRECTOR_ROWS else SMALL_CORRECTORS
 
     @property
     def supernodal_processes(self) -> int:
@@ -960,7 +987,14 @@ class BlockIPM:
     def _solve(self) -> LPOutcome:
         t0 = time.perf_counter()
         deadline = t0 + self.time_limit
-        it = self.initial_point()
+        self.trace = []
+        try:
+            it = self.initial_point()
+        except SingularMatrixError:
+            return LPOutcome(Status.NUMERICAL, "block-ipm: numerical", float("nan"), np.full(self.lp.c.size, np.nan),
+                             np.full(self.lp.A.shape[0], np.nan), 0,
+                             "K is singular in floating point at the starting point")
+        correctors = self.corrector_count
         p = self.h.size
         status, message = Status.ITERATION_LIMIT, f"no convergence in {self.max_iterations} iterations"
         best, best_error, best_k = it.copy(), np.inf, 0
@@ -1000,7 +1034,14 @@ class BlockIPM:
             solves0, krylov0, krylov_solves0 = self.factoriser.solves, self.krylov_steps, self.krylov_solves
             factors = None  # the previous factors dropped first: the factorisation may reuse their memory
             if time.perf_counter() <= deadline:
-                factors = self._factorise(it)
+                try:
+                    factors = self._factorise(it)
+                except SingularMatrixError:
+                    # K singular in floating point (its LDL^T met a zero pivot): no Newton step from here
+                    status = Status.ACCEPTABLE if best_error <= self.acceptable_tol else Status.NUMERICAL
+                    message = (f"K is singular in floating point at iteration {k}; best relative residual "
+                               f"{best_error:.1e} (tolerance {self.tol:g})")
+                    break
             if factors is None or time.perf_counter() > deadline:
                 # checked before and after the factorisation (the costliest step): the run
                 # overshoots its limit by at most one factorisation
@@ -1028,7 +1069,7 @@ class BlockIPM:
             # complementarity products lie in [0.1, 10] sigma mu
             zeros_b, zeros_h, zeros_c = np.zeros_like(r_b), np.zeros_like(r_h), np.zeros_like(r_c)
             used = 0
-            for _ in range(self.correctors):
+            for _ in range(correctors):
                 if time.perf_counter() > deadline:
                     break
                 tp, td = min(1.0, self.gondzio_factor * ap + self.gondzio_delta), min(1.0, self.gondzio_factor * ad + self.gondzio_delta)

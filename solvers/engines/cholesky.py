@@ -123,6 +123,10 @@ def fill_reducing_ordering(pattern: sp.sparray, method: str = "auto") -> np.ndar
     return p
 
 
+class SingularMatrixError(RuntimeError):
+    """A factorisation met an exactly zero pivot (the matrix is singular in floating point)."""
+
+
 class SymmetricFactoriser:
     """Factorise matrices with one fixed symmetric positive definite pattern, ordering computed once.
 
@@ -155,8 +159,11 @@ class SymmetricFactoriser:
         """``solve(rhs)`` for ``K x = rhs`` (``rhs`` a vector or a matrix of columns)."""
         p, inv_p = self.perm, self.inverse_perm
         t0 = time.process_time()
-        lu = spla.splu(sp.csc_matrix(K)[p][:, p], permc_spec="NATURAL", diag_pivot_thresh=0.0,
-                       options={"SymmetricMode": True})
+        try:
+            lu = spla.splu(sp.csc_matrix(K)[p][:, p], permc_spec="NATURAL", diag_pivot_thresh=0.0,
+                           options={"SymmetricMode": True})
+        except RuntimeError as error:  # SuperLU: "Factor is exactly singular"
+            raise SingularMatrixError(f"SuperLU: {error}") from None
         self.factor_nnz = int(lu.nnz)
         self.factorisations += 1
         self.factorise_s += time.process_time() - t0
