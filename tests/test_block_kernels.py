@@ -277,3 +277,29 @@ def test_reduced_assembly_and_max_step_are_the_serial_numbers(wall_ipm, monkeypa
         assert np.array_equal(assembly.values(ipm._K_slots, Hinv), serial)
         dz = rng.normal(size=z.size)
         assert block_kernels.max_step(z, dz) == min(1.0, np.min(-z[dz < 0] / dz[dz < 0]))
+
+
+@pytest.mark.parametrize("threads", [1, 2])
+def test_centring_targets_are_numpys_bit_for_bit(monkeypatch, threads):
+    """Gondzio's correction, Mehrotra's corrector target and the block solves' primal right-hand side, one compiled
+    pass each: numpy's numbers bit for bit, with and without path weights, on values over 24 decades (products
+    below, inside and above the band), on one thread and on two."""
+    monkeypatch.setattr(block_kernels, "usable_cpus", lambda: threads)
+    rng = np.random.default_rng(7)
+    p = 5000
+    s, y = 10.0 ** rng.uniform(-12, 12, p), 10.0 ** rng.uniform(-12, 12, p)
+    ds, dy = -s * rng.uniform(-2, 1.2, p), -y * rng.uniform(-2, 1.2, p)
+    r_h, r_mu = rng.standard_normal(p), rng.standard_normal(p) * 1e-3
+    sigma, mu, tp, td = 0.37, 2.3e-4, 0.61, 0.43
+    for weights in (None, 10.0 ** rng.uniform(-1, 1, p)):
+        w = 1.0 if weights is None else weights
+        products = (s + tp * ds) * (y + td * dy)
+        expected = np.maximum(np.clip(products, 0.1 * sigma * mu * w, 10.0 * sigma * mu * w) - products,
+                              -10.0 * sigma * mu * w)
+        low_or_high = (expected != 0)  # the band's both sides and its inside occur
+        assert 0 < low_or_high.sum() < p
+        got = block_kernels.centrality_correction(s, ds, y, dy, tp, td, 0.1 * sigma * mu, 10.0 * sigma * mu, weights)
+        assert np.array_equal(got, expected)
+        target = block_kernels.centring_target(s, y, ds, dy, sigma * mu, weights)
+        assert np.array_equal(target, sigma * mu * w - s * y - ds * dy)
+    assert np.array_equal(block_kernels.primal_rhs(r_h, r_mu, y), -r_h - r_mu / y)

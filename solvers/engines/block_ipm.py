@@ -772,7 +772,8 @@ class BlockIPM:
         """
         blocks, solve_K, W_F, S_F_inverse = factors
         bc = self.block_columns.ravel()
-        rhs_primal = -r_h - r_mu / it.y
+        kernels = self.block_kernels
+        rhs_primal = -r_h - r_mu / it.y if kernels is None else kernels.primal_rhs(r_h, r_mu, it.y)
         rhs_dual = -r_c[bc]
 
         def reduced_solve(e_eq: np.ndarray, e_border: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -934,11 +935,12 @@ class BlockIPM:
         dobj = self.b @ it.w - self.h @ it.y
         return abs(pobj - dobj) / (1 + abs(pobj))
 
-    def _path_weights(self) -> np.ndarray:
-        """:attr:`path_weights` checked (one positive finite weight per inequality row), or ones."""
+    def _path_weights(self) -> np.ndarray | None:
+        """:attr:`path_weights` checked (one positive finite weight per inequality row), or None (all ones: the
+        iteration then skips multiplying and dividing by them, which changes no number)."""
         p = self.h.size
         if self.path_weights is None:
-            return np.ones(p)
+            return None
         weights = np.asarray(self.path_weights, dtype=float)
         if weights.shape != (p,):
             raise ValueError(f"block IPM: path_weights has shape {weights.shape}, expected ({p},) "
@@ -947,6 +949,24 @@ class BlockIPM:
         if bad.size:
             raise ValueError(f"block IPM: path_weights must be positive and finite; row {int(bad[0])} has {weights[bad[0]]}")
         return weights
+
+    def _centring_target(self, it: IPMIterate, ds, dy, scale: float, weights) -> np.ndarray:
+        """Mehrotra's corrector target ``scale w - s y - ds dy`` (``w``: the path weights, None: ones)."""
+        kernels = self.block_kernels
+        if kernels is not None:
+            return kernels.centring_target(it.s, it.y, ds, dy, scale, weights)
+        return (scale if weights is None else scale * weights) - it.s * it.y - ds * dy
+
+    def _centrality_correction(self, it: IPMIterate, ds, dy, tp: float, td: float, low: float, high: float,
+                               weights) -> np.ndarray:
+        """Gondzio's correction: the trial products ``p = (s + tp ds) (y + td dy)`` brought into ``[low w, high w]``,
+        ``max(clip(p, low w, high w) - p, -high w)`` (``w``: the path weights, None: ones)."""
+        kernels = self.block_kernels
+        if kernels is not None:
+            return kernels.centrality_correction(it.s, ds, it.y, dy, tp, td, low, high, weights)
+        products = (it.s + tp * ds) * (it.y + td * dy)
+        lo, hi = (low, high) if weights is None else (low * weights, high * weights)
+        return np.maximum(np.clip(products, lo, hi) - products, -hi)
 
     def before_iteration(self, it: IPMIterate) -> None:
         """Called at the start of every iteration with the current iterate; the LP's data
@@ -1008,7 +1028,7 @@ class BlockIPM:
             r_b, r_h, r_c = self.residuals(it)
             primal, dual, gap = self.measures(it, (r_b, r_h, r_c))
             error = max(primal, dual, gap)
-            mu = float(it.s @ (it.y / weights)) / p
+            mu = float(it.s @ (it.y if weights is None else it.y / weights)) / p
             if error < best_error:
                 best, best_error, best_k = it.copy(), error, k
                 best_measures = (primal, dual, gap)
@@ -1055,10 +1075,11 @@ class BlockIPM:
             dv, ds, dw, dy = self._direction(it, factors, r_b, r_h, r_c, -it.s * it.y, inner, loose)
             ap = self._max_step(it.s, ds)
             ad = self._max_step(it.y, dy)
-            mu_aff = float((it.s + ap * ds) @ ((it.y + ad * dy) / weights)) / p
+            dual_aff = it.y + ad * dy
+            mu_aff = float((it.s + ap * ds) @ (dual_aff if weights is None else dual_aff / weights)) / p
             sigma = min(1.0, max((mu_aff / mu) ** self.sigma_power, self.sigma_min))
             # corrector
-            r_mu = sigma * mu * weights - it.s * it.y - ds * dy
+            r_mu = self._centring_target(it, ds, dy, sigma * mu, weights)
             if lazy:
                 dv, ds, dw, dy = self._direction(it, factors, r_b, r_h, r_c, r_mu, inner, loose)
             else:
@@ -1073,9 +1094,8 @@ class BlockIPM:
                 if time.perf_counter() > deadline:
                     break
                 tp, td = min(1.0, self.gondzio_factor * ap + self.gondzio_delta), min(1.0, self.gondzio_factor * ad + self.gondzio_delta)
-                products = (it.s + tp * ds) * (it.y + td * dy)
-                target = np.clip(products, 0.1 * sigma * mu * weights, 10.0 * sigma * mu * weights)
-                correction = np.maximum(target - products, -10.0 * sigma * mu * weights)
+                correction = self._centrality_correction(it, ds, dy, tp, td, 0.1 * sigma * mu, 10.0 * sigma * mu,
+                                                         weights)
                 if lazy:
                     cv, cs, cw, cy = self._direction(it, factors, zeros_b, zeros_h, zeros_c, correction, inner, loose)
                 else:
@@ -1095,7 +1115,8 @@ class BlockIPM:
                 ad = eta * self._max_step(it.y, dy)
             self.trace.append({"k": k, "mu": mu, "primal": primal, "dual": dual, "gap": gap, "sigma": sigma,
                                "step_primal": ap, "step_dual": ad, "correctors": used,
-                               "centrality": float(np.min(it.s * it.y / weights)) / mu,
+                               "centrality": float(np.min(it.s * it.y if weights is None
+                                                          else it.s * it.y / weights)) / mu,
                                "solves": self.factoriser.solves - solves0, "krylov": self.krylov_steps - krylov0,
                                "krylov_solves": self.krylov_solves - krylov_solves0,
                                "fact_over_solve": (self.factoriser.factorise_s / self.factoriser.factorisations)
