@@ -203,8 +203,8 @@ def test_unknown_or_unavailable_kernels_are_one_clear_error(wall_ipm, monkeypatc
 
 
 def test_sparse_products_are_scipys_bit_for_bit(wall_ipm, monkeypatch):
-    """``M x``, ``M^T y`` and ``(M x, |M| |x|)`` by the compiled row loops equal scipy's ``M @ x``, ``M.T @ y`` and
-    ``abs(M) @ np.abs(x)`` bit for bit, for each of the engine's matrices, on one thread and on all, with entries
+    """``M x``, ``M^T y``, ``(M x, |M| |x|)`` and ``-y - M x`` by the compiled row loops equal scipy's ``M @ x``,
+    ``M.T @ y``, ``abs(M) @ np.abs(x)`` and ``-y - M @ x`` bit for bit, for each of the engine's matrices, on one thread and on all, with entries
     spread over many decades (so that another order of the sums would round differently)."""
     import scipy.sparse as sp
 
@@ -222,6 +222,7 @@ def test_sparse_products_are_scipys_bit_for_bit(wall_ipm, monkeypatch):
             assert np.array_equal(products.transpose_times(y), M.T @ y)
             times, bound = products.times_with_bound(x)
             assert np.array_equal(times, M @ x) and np.array_equal(bound, abs(M) @ np.abs(x))
+            assert np.array_equal(products.offset_minus_times(y, x), -y - M @ x)
     # the sums do depend on their order here: a reversed order rounds differently somewhere
     x = rng.normal(size=wide.shape[1]) * 10.0 ** rng.uniform(-6, 6, wide.shape[1])
     reversed_rows = [sum(v * x[j] for v, j in zip(wide.data[a:b][::-1], wide.indices[a:b][::-1]))
@@ -303,3 +304,21 @@ def test_centring_targets_are_numpys_bit_for_bit(monkeypatch, threads):
         target = block_kernels.centring_target(s, y, ds, dy, sigma * mu, weights)
         assert np.array_equal(target, sigma * mu * w - s * y - ds * dy)
     assert np.array_equal(block_kernels.primal_rhs(r_h, r_mu, y), -r_h - r_mu / y)
+
+
+def test_newton_errors_are_numpys_bit_for_bit(monkeypatch):
+    """The whole-system refinement's inequality and complementarity errors and their largest magnitudes in one
+    compiled pass: numpy's numbers bit for bit, on one thread and on two; a NaN anywhere makes its maximum NaN, as
+    numpy's does."""
+    rng = np.random.default_rng(11)
+    p = 3001
+    r_h, G_dv, ds, r_mu, y, s, dy = (rng.standard_normal(p) * 10.0 ** rng.uniform(-8, 8, p) for _ in range(7))
+    for threads in (1, 2):
+        monkeypatch.setattr(block_kernels, "usable_cpus", lambda: threads)
+        e_h, e_mu, h_inf, mu_inf = block_kernels.newton_errors(r_h, G_dv, ds, r_mu, y, s, dy)
+        expected_h, expected_mu = -r_h - G_dv - ds, r_mu - (y * ds + s * dy)
+        assert np.array_equal(e_h, expected_h) and np.array_equal(e_mu, expected_mu)
+        assert h_inf == np.max(np.abs(expected_h)) and mu_inf == np.max(np.abs(expected_mu))
+    ds[1234] = np.nan
+    _, _, h_inf, mu_inf = block_kernels.newton_errors(r_h, G_dv, ds, r_mu, y, s, dy)
+    assert np.isnan(h_inf) and np.isnan(mu_inf)

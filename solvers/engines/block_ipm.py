@@ -502,6 +502,11 @@ class BlockIPM:
         products = self._sparse_products(M)
         return M @ x if products is None else products.times(x)
 
+    def _offset_minus_times(self, M, offset: np.ndarray, x: np.ndarray) -> np.ndarray:
+        """``-offset - M @ x`` (compiled in one pass where :meth:`_sparse_products` says so; the same numbers)."""
+        products = self._sparse_products(M)
+        return -offset - M @ x if products is None else products.offset_minus_times(offset, x)
+
     def _transpose_times(self, M, y: np.ndarray) -> np.ndarray:
         """``M.T @ y`` (as :meth:`_times`)."""
         products = self._sparse_products(M)
@@ -785,7 +790,7 @@ class BlockIPM:
             return W_r - W_F @ dv_F, dv_F
 
         dv0, _ = self._block_solve(blocks, rhs_dual, rhs_primal, with_dy=False)  # the block step for dw = 0
-        dw, dv_F = reduced_solve(-r_b - self._times(self.A_B, dv0), r_c[self.border])
+        dw, dv_F = reduced_solve(self._offset_minus_times(self.A_B, r_b, dv0), r_c[self.border])
         target = 1e-1 * self.tol * (1 + _inf(self.b))
         corrections = self.refinements if refinements is None else refinements
         krylov = refinements is None and self.krylov_iterations > 0
@@ -828,7 +833,7 @@ class BlockIPM:
         dv = np.zeros(self.c.size)
         dv[bc] = dv_B
         dv[self.border] = dv_F
-        ds = -r_h - self._times(self.G, dv)
+        ds = self._offset_minus_times(self.G, r_h, dv)
         return dv, ds, dw, dy
 
     def _equality_errors(self, r_b, r_c, dw, dv_F, A_dv_B) -> tuple[np.ndarray, np.ndarray]:
@@ -894,13 +899,19 @@ class BlockIPM:
         """
         dv, ds, dw, dy = self._direction(it, factors, r_b, r_h, r_c, r_mu) if direction is None else direction
         scale = 1e-2 * self.tol
+        kernels = self.block_kernels
         for _ in range(sweeps):
-            e_b = -r_b - self._times(self.A, dv)
-            e_h = -r_h - self._times(self.G, dv) - ds
+            e_b = self._offset_minus_times(self.A, r_b, dv)
+            if kernels is not None:
+                e_h, e_mu, e_h_inf, e_mu_inf = kernels.newton_errors(r_h, self._times(self.G, dv), ds, r_mu, it.y,
+                                                                     it.s, dy)
+            else:
+                e_h = -r_h - self._times(self.G, dv) - ds
+                e_mu = r_mu - (it.y * ds + it.s * dy)
+                e_h_inf, e_mu_inf = _inf(e_h), _inf(e_mu)
             e_c = -r_c + self._transpose_times(self.A, dw) - self._transpose_times(self.G_dual, dy)
-            e_mu = r_mu - (it.y * ds + it.s * dy)
             if (_inf(e_b) <= scale * (1 + _inf(self.b)) and _inf(e_c) <= scale * (1 + _inf(self.c))
-                    and _inf(e_h) <= scale * (1 + _inf(self.h)) and _inf(e_mu) <= scale * max(_inf(r_mu), 1e-300)):
+                    and e_h_inf <= scale * (1 + _inf(self.h)) and e_mu_inf <= scale * max(_inf(r_mu), 1e-300)):
                 break
             cv, cs, cw, cy = self._direction(it, factors, -e_b, -e_h, -e_c, e_mu)
             dv, ds, dw, dy = dv + cv, ds + cs, dw + cw, dy + cy

@@ -367,6 +367,15 @@ def _row_products_with_bound(indptr, indices, data, x, out, bound):  # pragma: n
         bound[i] = size
 
 
+@njit(parallel=True, **_JIT)
+def _negated_row_products(indptr, indices, data, x, offset, out):  # pragma: no cover - compiled
+    for i in prange(out.size):
+        acc = 0.0
+        for e in range(indptr[i], indptr[i + 1]):
+            acc += data[e] * x[indices[e]]
+        out[i] = -offset[i] - acc
+
+
 class SparseProducts:
     r"""``M x`` and ``M^T y`` for one sparse matrix ``M``, by compiled loops over rows on the CPUs this process may
     use.
@@ -399,6 +408,13 @@ class SparseProducts:
         """``M^T y``, as scipy's ``M.T @ y`` bit for bit."""
         out = np.empty(self.shape[1])
         _parallel(_row_products, *self._columns, np.ascontiguousarray(y, dtype=np.float64), out)
+        return out
+
+    def offset_minus_times(self, offset: np.ndarray, x: np.ndarray) -> np.ndarray:
+        """``-offset - M x`` in one pass, as numpy's ``-offset - M @ x`` bit for bit."""
+        out = np.empty(self.shape[0])
+        _parallel(_negated_row_products, *self._rows, np.ascontiguousarray(x, dtype=np.float64),
+                  np.ascontiguousarray(offset, dtype=np.float64), out)
         return out
 
     def times_with_bound(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -460,3 +476,39 @@ def primal_rhs(r_h, r_mu, y) -> np.ndarray:
     out = np.empty(r_h.size)
     _parallel(_primal_rhs, r_h, r_mu, y, out)
     return out
+
+
+@njit(parallel=True, **_JIT)
+def _newton_errors(r_h, G_dv, ds, r_mu, y, s, dy, e_h, e_mu, largest):  # pragma: no cover - compiled
+    chunks = largest.shape[0]
+    p = e_h.size
+    for c in prange(chunks):
+        m_h, m_mu = 0.0, 0.0
+        nan_h, nan_mu = False, False
+        for i in range(p * c // chunks, p * (c + 1) // chunks):
+            a = (-r_h[i] - G_dv[i]) - ds[i]
+            b = r_mu[i] - (y[i] * ds[i] + s[i] * dy[i])
+            e_h[i], e_mu[i] = a, b
+            a, b = abs(a), abs(b)
+            if a != a:  # NaN is kept: numpy's maximum propagates it
+                nan_h = True
+            elif a > m_h:
+                m_h = a
+            if b != b:
+                nan_mu = True
+            elif b > m_mu:
+                m_mu = b
+        largest[c, 0] = np.nan if nan_h else m_h
+        largest[c, 1] = np.nan if nan_mu else m_mu
+
+
+def newton_errors(r_h, G_dv, ds, r_mu, y, s, dy) -> tuple[np.ndarray, np.ndarray, float, float]:
+    """The inequality and complementarity rows' errors of a Newton direction, ``e_h = -r_h - G dv - ds`` and
+    ``e_mu = r_mu - (y ds + s dy)``, with their largest magnitudes, in one pass (numpy's roundings; a maximum is
+    exact in any order, and NaN propagates as in numpy)."""
+    p = r_h.size
+    e_h, e_mu = np.empty(p), np.empty(p)
+    largest = np.zeros((max(1, min(p, 64)), 2))
+    _parallel(_newton_errors, r_h, G_dv, ds, r_mu, y, s, dy, e_h, e_mu, largest)
+    high = largest.max(axis=0) if p else np.zeros(2)
+    return e_h, e_mu, float(high[0]), float(high[1])
