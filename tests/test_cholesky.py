@@ -368,6 +368,7 @@ def test_factorisations_stay_serial_until_the_worker_is_ready(wall_K, monkeypatc
     split.compiled_solves = compiled
     with monkeypatch.context() as m:
         m.setattr(cholesky._HalfWorker, "ready", lambda self: False)
+        m.setattr(cholesky, "FIRST_WORKER_WAIT", 0.05)
         early = split.factorise(K)
         x_early, X_early = early(b), early(B)
     assert split.factorisations == 1 and split.worker_factorisations == 0 and split._worker is not None
@@ -381,14 +382,45 @@ def test_factorisations_stay_serial_until_the_worker_is_ready(wall_K, monkeypatc
     split.close()
 
 
-def test_a_worker_never_set_up_stops_with_its_cholesky(wall_K):
-    """The worker process starts with the Cholesky (its imports overlap the analysis); closed before any
-    factorisation, it ends (it was waiting for its set-up)."""
+@pytest.mark.parametrize("compiled", [False, True])
+def test_the_first_factorisation_waits_for_a_starting_worker(wall_K, monkeypatch, compiled):
+    """The first factorisation waits (at most ``FIRST_WORKER_WAIT`` s, here long enough) for the worker, having warmed
+    this process's half meanwhile (compiled: its plan is made), and is then shared: the serial factors' solutions to
+    round-off, and the same numbers as a shared factorisation made later."""
+    from blockmpec.solvers.engines import cholesky
+
+    if compiled:
+        pytest.importorskip("numba")
+    monkeypatch.setattr(cholesky, "FIRST_WORKER_WAIT", 120.0)
+    K, pattern = wall_K
+    b = np.random.default_rng(6).standard_normal(K.shape[0])
+    x_serial = SupernodalCholesky(pattern, "metis").factorise(K)(b)
+    split = SupernodalCholesky(pattern, "metis", processes=2, compiled_solves=compiled,
+                               compiled_factorisation=compiled)
+    x_first = split.factorise(K)(b)
+    assert split.factorisations == split.worker_factorisations == 1
+    assert (len(split._factor_plans) == 2) is compiled  # this process's half (warmed while waiting) and the top
+    assert np.linalg.norm(x_first - x_serial) <= 1e-12 * np.linalg.norm(x_serial)
+    assert np.array_equal(split.factorise(K)(b), x_first)
+    split.close()
+
+
+def test_a_worker_stops_with_its_cholesky_before_any_factorisation(wall_K):
+    """The worker process starts with the Cholesky (its imports overlap the analysis) and gets its set-up at the end
+    of the analysis; a Cholesky closed before any factorisation stops it, and so does closing a worker that never got
+    its set-up (it was waiting for it)."""
     _, pattern = wall_K
     split = SupernodalCholesky(pattern, "metis", processes=2)
     process = split._worker.process
-    assert split._worker.chol is None and not split._worker.ready()
+    assert split._worker.chol is split
     split.close()
+    assert process.poll() is not None
+    from blockmpec.solvers.engines.cholesky import _HalfWorker
+
+    waiting = _HalfWorker()
+    assert waiting.chol is None and not waiting.ready()
+    process = waiting.process
+    waiting.close()
     assert process.poll() is not None
 
 
@@ -594,11 +626,9 @@ def test_two_process_lp_iterates_do_not_depend_on_when_the_worker_is_ready(monke
         engine = cold_lp_engine(lp, "block-ipm", ops=ops)
         engine.settings(factor_processes=2)
         ready = cholesky._HalfWorker.ready
-        calls = [0]
 
         def ready_later(self):
-            calls[0] += 1
-            if calls[0] <= late:
+            if self.chol.factorisations < late:
                 return False
             while not ready(self):  # from then on, as if it had been ready at once
                 time.sleep(0.01)
@@ -606,6 +636,7 @@ def test_two_process_lp_iterates_do_not_depend_on_when_the_worker_is_ready(monke
 
         with monkeypatch.context() as m:
             m.setattr(cholesky._HalfWorker, "ready", ready_later)
+            m.setattr(cholesky, "FIRST_WORKER_WAIT", 0.05)
             out = engine.solve()
         return out, engine.factoriser.worker_factorisations, [row["mu"] for row in engine.trace]
 

@@ -676,8 +676,12 @@ class BlockIPM:
                 self.factorisation == "auto" and self._K_pattern.shape[0] >= AUTO_SUPERNODAL_ROWS))
             if self.factorisation == "supernodal" and not supernodal:
                 raise ValueError("block IPM: the supernodal Cholesky needs a symmetric K")
-            self._factoriser = (SupernodalCholesky(self._K_pattern, self.ordering,
-                                                   processes=self.supernodal_processes)
+            compiled = self.block_kernels is not None
+            self._factoriser = (SupernodalCholesky(
+                                    self._K_pattern, self.ordering, processes=self.supernodal_processes,
+                                    compiled_solves=compiled if self.compiled_solves == "auto" else self.compiled_solves,
+                                    compiled_factorisation=(compiled if self.compiled_factorisation == "auto"
+                                                            else self.compiled_factorisation))
                                 if supernodal
                                 else SymmetricFactoriser(self._K_pattern, self.ordering))
         return self._factoriser

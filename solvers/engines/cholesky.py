@@ -196,6 +196,9 @@ EXTEND_ADD_RUNS = 2
 THREADED_FRONT_ROWS = 1000
 
 
+#: seconds the first factorisation waits for a starting worker process (:meth:`SupernodalCholesky._wait_for_worker`)
+FIRST_WORKER_WAIT = 2.0
+
 #: ``compiled_symbolic="auto"`` runs the symbolic factorisation compiled (numba, when installed) from this many rows
 #: on: at 300,042 rows (100,014 blocks) it took 0.1 s against 1.7 s for :func:`column_structures`' Python loop
 #: (the same counts, tree and rows: tests); below, importing numba would cost more than it saves
@@ -274,7 +277,8 @@ class SupernodalCholesky:
 
     def __init__(self, pattern: sp.sparray, ordering: str = "auto", relax: float = 4.0, front_threads: int = 1,
                  threaded_front_rows: int = THREADED_FRONT_ROWS, extend_add_runs: int = EXTEND_ADD_RUNS,
-                 processes: int = 1, compiled_symbolic: str | bool = "auto") -> None:
+                 processes: int = 1, compiled_symbolic: str | bool = "auto", compiled_solves: bool = False,
+                 compiled_factorisation: bool = False) -> None:
         t0 = time.process_time()
         if processes not in (1, 2):
             raise ValueError(f"supernodal Cholesky: processes must be 1 or 2, not {processes!r}")
@@ -297,12 +301,12 @@ class SupernodalCholesky:
         self.extend_add_runs = int(extend_add_runs)
         #: solves with vectors by the compiled loops of :mod:`blockmpec.solvers.engines.cholesky_kernels` (numba;
         #: the same BLAS calls, the same solutions bit for bit) instead of a Python loop over the supernodes
-        self.compiled_solves = False
+        self.compiled_solves = bool(compiled_solves)
         self._solve_structure: tuple | None = None
         #: factorisations by the compiled loop over supernodes of
         #: :class:`~blockmpec.solvers.engines.cholesky_kernels.FactorPlan` (numba; the same LAPACK/BLAS calls on the
         #: same fronts, the same factors bit for bit) instead of the Python loop, when ``front_threads`` is 1
-        self.compiled_factorisation = False
+        self.compiled_factorisation = bool(compiled_factorisation)
         self._factor_plans: dict = {}
         self.ordering = ("metis" if metis_available() else "mmd") if ordering == "auto" else ordering
         pattern = sp.csc_array(pattern)
@@ -388,7 +392,9 @@ class SupernodalCholesky:
         self.first, self.end = first, end
         ns = first.size
         self.children: list[list[int]] = [[] for _ in range(ns)]
-        self.relative: list[np.ndarray | None] = [None] * ns
+        #: each child's rows below its columns as positions in its parent's rows (None: no rows below)
+        self._relative_rows: list[np.ndarray | None] = [None] * ns
+        self._relative: list | None = None
         for s in range(ns):
             width = int(end[s] - first[s])
             R = self.rows[s]
@@ -398,8 +404,7 @@ class SupernodalCholesky:
                 rel = np.searchsorted(self.rows[p_s], R[width:])
                 if not np.array_equal(self.rows[p_s][rel], R[width:]):
                     raise RuntimeError("supernodal Cholesky: a child's structure is not in its parent's")
-                self.relative[s] = self._extend_add_plan(rel.astype(np.int64), self.rows[p_s].size,
-                                                         int(end[p_s] - first[p_s]), self.extend_add_runs)
+                self._relative_rows[s] = rel.astype(np.int64)
         # assembly: each lower entry of permuted K into its supernode's front (flat index)
         column_of = np.repeat(np.arange(n), np.diff(lower.indptr))
         s_of = supernode_of[column_of]
@@ -417,9 +422,6 @@ class SupernodalCholesky:
         self._below = [self.rows[s][int(end[s] - first[s]):] for s in range(ns)]
         #: each supernode's first column as a Python int (a BLAS offset in every solve: no numpy scalar per call)
         self._first_columns = first.tolist()
-        #: bytes of the flat extend-add indices (children added by slices need none)
-        self.extend_add_index_bytes = int(sum(plan[1].nbytes for plan in self.relative
-                                              if plan is not None and plan[1] is not None))
         #: entries stored in the supernodes' panels (lower trapezoids, amalgamation zeros included)
         self.stored_nnz = int(sum(self.rows[s].size * w - w * (w - 1) // 2
                                   for s, w in enumerate((end - first).tolist())))
@@ -436,6 +438,29 @@ class SupernodalCholesky:
         self.factorise_wall_s = 0.0
         self.solves = 0
         self.solve_s = 0.0
+        #: the first factorisation waited for the worker process (and warmed this process's half meanwhile)
+        self._waited_for_worker = False
+        if self._worker is not None:
+            self._worker.set_up(self)  # sent now: the worker unpickles and warms up while the caller prepares K
+
+    @property
+    def relative(self) -> list:
+        """Each child's extend-add plan into its parent's front (:meth:`_extend_add_plan`; None for a supernode
+        without rows below), made on first use: only the Python factorisation reads them (at 100,014 blocks they
+        took 0.3 s and 430 MB, which the compiled factorisation and the worker process's set-up do without)."""
+        if self._relative is None:
+            parent = self.supernode_parents()
+            self._relative = [None if rel is None else
+                              self._extend_add_plan(rel, self.rows[parent[s]].size,
+                                                    int(self.end[parent[s]] - self.first[parent[s]]),
+                                                    self.extend_add_runs)
+                              for s, rel in enumerate(self._relative_rows)]
+        return self._relative
+
+    @property
+    def extend_add_index_bytes(self) -> int:
+        """Bytes of the flat extend-add indices (children added by slices need none)."""
+        return int(sum(plan[1].nbytes for plan in self.relative if plan is not None and plan[1] is not None))
 
     @staticmethod
     def _extend_add_plan(rel: np.ndarray, parent_rows: int, parent_width: int, most_runs: int = EXTEND_ADD_RUNS):
@@ -480,6 +505,8 @@ class SupernodalCholesky:
         diagonal_blocks: list[np.ndarray | None] = [None] * self.supernodes
         below_blocks: list[np.ndarray | None] = [None] * self.supernodes
         self.start_worker()
+        if self._worker is not None and not self._waited_for_worker:
+            self._wait_for_worker()
         if self._worker is not None and self._worker.ready():
             factorised = self._worker.factorise(values, diagonal_blocks, below_blocks)
             solver = self._worker.solver
@@ -499,6 +526,24 @@ class SupernodalCholesky:
         self.factorise_wall_s += time.perf_counter() - wall0
         return solver(diagonal_blocks, below_blocks)
 
+    def _wait_for_worker(self) -> None:
+        """Before the first factorisation with a worker that is still starting: warm this process's half (its plan
+        and the first touch of its factor array, on ``K = I``), then wait for the worker at most
+        :data:`FIRST_WORKER_WAIT` seconds.  A factorisation here alone costs about twice a shared one, and the
+        worker's warm-up overlaps this one's, so the first factorisation is usually shared; if the worker is later,
+        it runs here alone as before (the same factors either way)."""
+        self._waited_for_worker = True
+        worker = self._worker
+        if worker.ready():
+            return
+        if self.compiled_factorisation:
+            identity = np.zeros(self._pattern.nnz)
+            identity[self._pattern.indices == np.repeat(np.arange(self.n), np.diff(self._pattern.indptr))] = 1.0
+            self.factor_supernodes(worker.mine, identity, {}, [None] * self.supernodes, [None] * self.supernodes)
+        deadline = time.perf_counter() + FIRST_WORKER_WAIT
+        while not worker.ready() and time.perf_counter() < deadline:
+            time.sleep(0.005)
+
     def start_worker(self, wait: bool = False) -> None:
         """With ``processes=2``, start the worker process if it is not running (:class:`_HalfWorker`).  It starts in
         the background: until it has its set-up, factorisations are done here alone, the same factors bit for bit.
@@ -513,7 +558,7 @@ class SupernodalCholesky:
 
     def __getstate__(self) -> dict:
         """The symbolic analysis without the worker process (what a :class:`_HalfWorker` receives)."""
-        return {**self.__dict__, "_worker": None, "processes": 1, "_factor_plans": {}}
+        return {**self.__dict__, "_worker": None, "processes": 1, "_factor_plans": {}, "_relative": None}
 
     def close(self) -> None:
         """Stop the worker process (``processes=2``); the next factorisation starts a new one."""
@@ -1065,7 +1110,10 @@ def _serve_half(socket_fd: int, memory_fd: int) -> None:  # pragma: no cover - r
             chol.backward(x, backwards, diagonal_blocks, below_blocks, panels)
         del identity
         diagonal_blocks, below_blocks, panels = [], [], None
-        connection.send("ready")
+        try:
+            connection.send("ready")
+        except OSError:  # closed during the warm-up: nothing left to do
+            return
         while True:
             try:
                 command = connection.recv()
