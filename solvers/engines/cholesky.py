@@ -200,7 +200,7 @@ THREADED_FRONT_ROWS = 1000
 FIRST_WORKER_WAIT = 2.0
 
 #: ``compiled_symbolic="auto"`` runs the symbolic factorisation compiled (numba, when installed) from this many rows
-#: on: at 300,042 rows (100,014 blocks) it took 0.1 s against 1.7 s for :func:`column_structures`' Python loop
+#: on: at 300,042 rows (100,014 blocks) it took 0.16 s against 1.7 s for :func:`column_structures`' Python loop
 #: (the same counts, tree and rows: tests); below, importing numba would cost more than it saves
 COMPILED_SYMBOLIC_ROWS = 20_000
 
@@ -795,12 +795,14 @@ class _HalfWorker:
     (:func:`_serve_half`, started by :mod:`subprocess` from the directory that holds this package; not forked:
     forking a process that runs BLAS threads is unsafe, and a pool's daemonic worker may not start
     :mod:`multiprocessing` children).  It starts when the Cholesky is made, so that its imports (about 0.7 s, numba's
-    kernels included) overlap the symbolic analysis; at the first factorisation (:meth:`set_up`) it receives the
-    analysis, pickled and sent over a socket by a thread of this process, and warms up on ``K = I`` (its half's
+    kernels included) overlap the symbolic analysis; at the end of the analysis (:meth:`set_up`) it receives the
+    analysis (without the Python factorisation's extend-add plans), pickled and sent over a socket by a thread of
+    this process, and warms up on ``K = I`` (its half's
     plan, the first touch of its factor array, the compiled loops' first calls) before it reports ready.  Until then
     :meth:`SupernodalCholesky.factorise_values` factorises here alone, by the same halves and top
-    (:meth:`serial_factorise`).  At 100,014 blocks this start took the LP's first four factorisations from 2.8, 1.9,
-    1.2 and 0.7 s to 2.4, 0.5, 0.5 and 0.5 s (a one-off timing of its ``factorise_values``, one run each).
+    (:meth:`serial_factorise`); the first factorisation waits for it (:meth:`SupernodalCholesky._wait_for_worker`).
+    At 100,014 blocks this start took the LP's first four factorisations from 2.8, 1.9, 1.2 and 0.7 s to 2.2 (1.7 s
+    of it waiting), 0.4, 0.4 and 0.4 s (a one-off timing of its ``factorise_values``, one run each).
 
     Factorisation: this process factorises half 0 while the worker factorises half 1 and keeps its blocks of
     ``L~``; the worker's root update matrices come back through shared memory, then this process factorises the
