@@ -153,7 +153,6 @@ EXACT_INNER_SETTINGS = {**DEFAULT_SETTINGS, "inner_tolerance": 0.0, "diagonal_sh
 #: --algorithms block-ipm --ipm-settings two_correctors,default`` (README).  On small LPs four correctors made the
 #: 3x4 wall's K singular in floating point before convergence (and three ended ``acceptable`` after 17 iterations
 #: instead of ``optimal`` after 9), so below that size they stay at two.
-CORRECTOR_COUNTS = ("auto",)
 SMALL_CORRECTORS, LARGE_CORRECTORS = 2, 4
 AUTO_CORRECTOR_ROWS = 30_000
 #: the default with two correctors at every size (``correctors`` 2, the default before ``"auto"``;
