@@ -797,8 +797,8 @@ class _HalfWorker:
     :mod:`multiprocessing` children).  It starts when the Cholesky is made, so that its imports (about 0.7 s, numba's
     kernels included) overlap the symbolic analysis; at the end of the analysis (:meth:`set_up`) it receives the
     analysis (without the Python factorisation's extend-add plans), pickled and sent over a socket by a thread of
-    this process, and warms up on ``K = I`` (its half's
-    plan, the first touch of its factor array, the compiled loops' first calls) before it reports ready.  Until then
+    this process, and warms up on ``K = I`` (its half's plan, the first touch of its factor array, the compiled
+    loops' first calls) before it reports ready.  Until then
     :meth:`SupernodalCholesky.factorise_values` factorises here alone, by the same halves and top
     (:meth:`serial_factorise`); the first factorisation waits for it (:meth:`SupernodalCholesky._wait_for_worker`).
     At 100,014 blocks this start took the LP's first four factorisations from 2.8, 1.9, 1.2 and 0.7 s to 2.2 (1.7 s
