@@ -260,6 +260,31 @@ def test_central_path_continuation_from_an_early_iterate_reaches_a_solution_of_3
     assert sol.multiplier <= bm.solve(ops, "static-lp").multiplier + 1e-9
 
 
+def test_continuation_ends_at_its_last_point_when_k_is_singular(monkeypatch):
+    """A singular ``K`` during the continuation (SuperLU's zero pivot) ends it at its last accepted point, with
+    the steps made so far, instead of an exception."""
+    from blockmpec.solvers.engines.cholesky import SingularMatrixError
+    from blockmpec.solvers.engines.interior_fixed_point import continue_central_path
+
+    ops = bm.assemble(bm.cases.wall(courses=10, blocks_per_course=10))
+    early = InteriorFixedPoint(_step_lp(ops), ops, max_iterations=3)
+    early.solve()
+    factorise, calls = early._factorise, [0]
+
+    def failing(z):
+        calls[0] += 1
+        if calls[0] > 4:
+            raise SingularMatrixError("SuperLU: Factor is exactly singular")
+        return factorise(z)
+
+    monkeypatch.setattr(early, "_factorise", failing)
+    steps = []
+    end, facts = continue_central_path(early, early.best_iterate, tol=1e-9, time_limit=60.0,
+                                       record=lambda **values: steps.append(values))
+    assert calls[0] == 5 and facts["steps"] == len(steps) and facts["factorisations"] <= 4
+    assert np.all(np.isfinite(end.v)) and np.all(end.s > 0) and np.all(end.y > 0)
+
+
 def test_a_stalled_interior_run_is_continued_and_the_steps_are_traced():
     """``run_interior`` continues a run that stalls (here: a tolerance of 1e-17, below round-off) along its
     central path; the steps count as iterations and are traced; unconverged, the status says so."""

@@ -325,8 +325,9 @@ def continue_central_path(engine: InteriorFixedPoint, start: IPMIterate, *, tol:
     The tangent keeps the previous one's orientation, so a turning point (``dmu/ds`` changing
     sign) would be followed.  Stops when the relative residuals of (3) are at most ``tol``,
     after ``max_steps`` steps, after ``time_limit`` seconds (wall clock), when no step of
-    length ``h > 1e-8`` is accepted, or when ``mu`` has risen to :data:`CONTINUATION_MU_RISE`
-    times its start (the path has turned back towards ``mu = inf``).
+    length ``h > 1e-8`` is accepted, when ``mu`` has risen to :data:`CONTINUATION_MU_RISE`
+    times its start (the path has turned back towards ``mu = inf``), or when ``K`` is singular in floating point
+    (at the last accepted point).
 
     Why: Mehrotra's long steps leave this path where it curves (groups of friction rows
     switching between stick and slip, one after another) and stall; the path itself goes on
@@ -338,6 +339,7 @@ def continue_central_path(engine: InteriorFixedPoint, start: IPMIterate, *, tol:
     import time
 
     from blockmpec.solvers.engines.block_ipm import single_blas_thread
+    from blockmpec.solvers.engines.cholesky import SingularMatrixError
 
     t_start = time.perf_counter()
     mu0 = float(start.s @ start.y) / start.s.size
@@ -361,50 +363,54 @@ def continue_central_path(engine: InteriorFixedPoint, start: IPMIterate, *, tol:
 
     z, mu, steps, factorisations = start, mu0, 0, 1
     with single_blas_thread():
-        factors = engine._factorise(z)
-        t = tangent(z, mu, factors)
-        h = 0.1
-        while (steps < max_steps and time.perf_counter() - t_start < time_limit and max(engine.measures(z)) > tol
-               and mu < CONTINUATION_MU_RISE * mu0):
-            accepted, corrections = False, 0
-            while h > 1e-8 and not accepted:
-                zp, mp = moved(z, t, h), mu + h * t[4]
-                if zp.s.min() <= 0 or zp.y.min() <= 0 or mp <= 0:
-                    h *= 0.5
-                    continue
-                zc, mc = zp, mp
-                for corrections in range(1, 5):
-                    factors = engine._factorise(zc)
-                    factorisations += 1
-                    r_b, r_h, r_c = engine.residuals(zc)
-                    theta = mc / mu0
-                    a = [*engine._refined_direction(zc, factors, r_b - theta * r0[0], r_h - theta * r0[1],
-                                                    r_c - theta * r0[2], mc * weights - zc.s * zc.y), 0.0]
-                    b = [*engine._refined_direction(zc, factors, *slope, weights), 1.0]
-                    offset = metric(t, [zc.v - zp.v, zc.s - zp.s, zc.w - zp.w, zc.y - zp.y, mc - mp], z, mu)
-                    dmu = (-offset - metric(t, a, z, mu)) / metric(t, b, z, mu)
-                    d = [a[i] + dmu * b[i] for i in range(4)] + [dmu]
-                    longest = min(engine._max_step(zc.s, d[1]), engine._max_step(zc.y, d[3]))
-                    full = longest >= 1.0 and (zc.s + d[1]).min() > 0 and (zc.y + d[3]).min() > 0
-                    step = 1.0 if full else 0.9 * longest
-                    zc, mc = moved(zc, d, step), mc + step * dmu
-                    off_path = float(np.max(np.abs(zc.s * zc.y - mc * weights) / (mc * weights))) if mc > 0 else np.inf
-                    if full and off_path <= corrector_tol:
-                        accepted = True
-                        break
+        try:
+            factors = engine._factorise(z)
+            t = tangent(z, mu, factors)
+            h = 0.1
+            while (steps < max_steps and time.perf_counter() - t_start < time_limit and max(engine.measures(z)) > tol
+                   and mu < CONTINUATION_MU_RISE * mu0):
+                accepted, corrections = False, 0
+                while h > 1e-8 and not accepted:
+                    zp, mp = moved(z, t, h), mu + h * t[4]
+                    if zp.s.min() <= 0 or zp.y.min() <= 0 or mp <= 0:
+                        h *= 0.5
+                        continue
+                    zc, mc = zp, mp
+                    for corrections in range(1, 5):
+                        factors = engine._factorise(zc)
+                        factorisations += 1
+                        r_b, r_h, r_c = engine.residuals(zc)
+                        theta = mc / mu0
+                        a = [*engine._refined_direction(zc, factors, r_b - theta * r0[0], r_h - theta * r0[1],
+                                                        r_c - theta * r0[2], mc * weights - zc.s * zc.y), 0.0]
+                        b = [*engine._refined_direction(zc, factors, *slope, weights), 1.0]
+                        offset = metric(t, [zc.v - zp.v, zc.s - zp.s, zc.w - zp.w, zc.y - zp.y, mc - mp], z, mu)
+                        dmu = (-offset - metric(t, a, z, mu)) / metric(t, b, z, mu)
+                        d = [a[i] + dmu * b[i] for i in range(4)] + [dmu]
+                        longest = min(engine._max_step(zc.s, d[1]), engine._max_step(zc.y, d[3]))
+                        full = longest >= 1.0 and (zc.s + d[1]).min() > 0 and (zc.y + d[3]).min() > 0
+                        step = 1.0 if full else 0.9 * longest
+                        zc, mc = moved(zc, d, step), mc + step * dmu
+                        off_path = float(np.max(np.abs(zc.s * zc.y - mc * weights) / (mc * weights))) if mc > 0 else np.inf
+                        if full and off_path <= corrector_tol:
+                            accepted = True
+                            break
+                    if not accepted:
+                        h *= 0.5
                 if not accepted:
-                    h *= 0.5
-            if not accepted:
-                break
-            t = tangent(zc, mc, factors, t)
-            z, mu = zc, mc
-            steps += 1
-            h *= 2.0 if corrections == 1 else 1.3 if corrections == 2 else 1.0
-            if record is not None:
-                primal, dual, complementarity = engine.measures(z)
-                lam = float(engine.column_scale[engine.lam_column] * z.v[engine.lam_column])
-                record(step=steps, mu=mu, primal=primal, dual=dual, complementarity=complementarity,
-                       multiplier=lam, factorisations=factorisations)
+                    break
+                t = tangent(zc, mc, factors, t)
+                z, mu = zc, mc
+                steps += 1
+                h *= 2.0 if corrections == 1 else 1.3 if corrections == 2 else 1.0
+                if record is not None:
+                    primal, dual, complementarity = engine.measures(z)
+                    lam = float(engine.column_scale[engine.lam_column] * z.v[engine.lam_column])
+                    record(step=steps, mu=mu, primal=primal, dual=dual, complementarity=complementarity,
+                           multiplier=lam, factorisations=factorisations)
+        except SingularMatrixError:
+            pass  # K singular in floating point: the continuation ends at its last accepted point
+
     return z, {"steps": steps, "factorisations": factorisations, "mu": mu}
 
 
