@@ -27,7 +27,8 @@ with gap and feasibility tolerances 1e-10; :class:`ClarabelLP`).  Usage::
                                 [--algorithms block-ipm,hipo,hipo-crossover]
                                 [--algorithms block-ipm,clarabel,clarabel-1e-10]
 
-``--walls CxB`` gives walls of ``courses=C, blocks_per_course=B`` instead of sizes.
+``--walls CxB`` gives walls of ``courses=C, blocks_per_course=B`` instead of sizes; options of
+:func:`blockmpec.cases.wall` may follow after colons, ``--walls 100x100:mu=0.3,100x100:bond=stack``.
 
 Writes ``studies/output/lp_timing/lp_timing.csv`` and, per block IPM run, its iteration trace
 ``trace_<wall>_<settings>.csv``.
@@ -68,8 +69,22 @@ def wall_for(n_blocks: int) -> bm.Structure:
 
 
 def wall_or_size(wall: str) -> bm.Structure:
-    """The running-bond wall ``"CxB"`` (courses x blocks per course), or :func:`wall_for` a size ``"1000"``."""
-    return named_wall(wall) if "x" in wall else wall_for(int(wall))
+    """The wall ``"CxB"`` (courses x blocks per course; running bond unless an option says otherwise), with options
+    of :func:`blockmpec.cases.wall` after colons (``"100x100:mu=0.3"``, ``"100x100:bond=stack"``), or :func:`wall_for`
+    a size ``"1000"``."""
+    if "x" not in wall:
+        return wall_for(int(wall))
+    shape, *options = wall.split(":")
+    values = {}
+    for option in options:
+        name, sep, value = option.partition("=")
+        if not sep or not name:
+            raise SystemExit(f"lp_timing: wall {wall!r}: option {option!r} is not name=value")
+        try:
+            values[name] = float(value)
+        except ValueError:
+            values[name] = value
+    return named_wall(shape, **values)
 
 
 def hipo_engine(lp, ops, time_limit: float, crossover: bool):
@@ -170,9 +185,9 @@ def time_one(wall: str, algorithm: str, time_limit: float = float("inf"), orderi
                 if has_point else math.nan)
     factoriser = engine.factoriser if isinstance(engine, BlockIPM) else None
     if isinstance(engine, BlockIPM) and engine.trace:  # mu, steps, centrality, solves per iteration
-        write_csv(OUT / f"trace_{wall}_{ipm_settings}_{factorisation}_{kernels}.csv", engine.trace)
+        write_csv(OUT / f"trace_{wall.replace(':', '_')}_{ipm_settings}_{factorisation}_{kernels}.csv", engine.trace)
     return {
-        "blocks": s.n_free, "interfaces": len(s.interfaces), "rows": lp.A.shape[0], "columns": lp.A.shape[1],
+        "wall": wall, "blocks": s.n_free, "interfaces": len(s.interfaces), "rows": lp.A.shape[0], "columns": lp.A.shape[1],
         "generate_s": t1 - t0, "assemble_s": t2 - t1, "pyomo_build_s": t3 - t2, "compile_s": t4 - t3,
         "load_s": t5 - t4, "solve_s": t6 - t5, "build_over_solve": (t4 - t2) / (t6 - t5),
         "pyomo_build_cpu_s": c3 - c2, "compile_cpu_s": c4 - c3, "solve_cpu_s": c6 - c5,
@@ -246,7 +261,7 @@ def main(argv: list[str] | None = None) -> list[dict]:
     for case in cases:
         with context.Pool(1, maxtasksperchild=1) as pool:
             rows.append(pool.apply(_run_in_child, (case,)))
-    keys = ["blocks", "algorithm", "ordering", "factorisation", "ipm_settings", "kernels", "k_solves", "factorise_s", "solve_k_cpu_s", "krylov_steps", "pyomo_build_cpu_s", "compile_cpu_s", "solve_cpu_s", "solve_s",
+    keys = ["wall", "blocks", "algorithm", "ordering", "factorisation", "ipm_settings", "kernels", "k_solves", "factorise_s", "solve_k_cpu_s", "krylov_steps", "pyomo_build_cpu_s", "compile_cpu_s", "solve_cpu_s", "solve_s",
             "build_over_solve_cpu", "lp_iterations", "factorise_s", "peak_memory_mb", "status", "max_residual",
             "multiplier"]
     print(" ".join(f"{k:>13s}" for k in keys), flush=True)
@@ -261,7 +276,8 @@ def main(argv: list[str] | None = None) -> list[dict]:
         engine = ("block IPM" if r["engine"] == "BlockIPM" else r["algorithm"] if r["engine"] == "ClarabelLP"
                   else f"HiGHS {r['algorithm']}")
         kind = {"SupernodalCholesky": "supernodal Cholesky", "SymmetricFactoriser": "SuperLU"}.get(r["factorisation"], "–")
-        print(f"| {r['blocks']:,} | {engine} | {r['ordering'] or '–'} | {kind} | {r['ipm_settings'] or '–'} | {r['kernels'] or '–'} "
+        named = f" ({r['wall']})" if ":" in r["wall"] else ""
+        print(f"| {r['blocks']:,}{named} | {engine} | {r['ordering'] or '–'} | {kind} | {r['ipm_settings'] or '–'} | {r['kernels'] or '–'} "
               f"| {r['pyomo_build_cpu_s']:.2g} s | {r['compile_cpu_s']:.2g} s | **{r['solve_cpu_s']:.3g} s** ({r['solve_s']:.3g} s)"
               f"{f' + {w:.3g} s' if (w := r.get('worker_cpu_s', 0.0)) else ''} "
               f"| {r['lp_iterations']} | {r['factorise_s']:.3g} s, {r['k_solves']} in {r['solve_k_cpu_s']:.3g} s "
