@@ -151,13 +151,16 @@ EXACT_INNER_SETTINGS = {**DEFAULT_SETTINGS, "inner_tolerance": 0.0, "diagonal_sh
 #: has at least :data:`AUTO_CORRECTOR_ROWS` rows, else :data:`SMALL_CORRECTORS`.  On large walls more correctors
 #: cut the crawl's iterations by more than they cost: ``python studies/lp_timing.py --walls 100x100,180x181,316x316
 #: --algorithms block-ipm --ipm-settings two_correctors,default`` (README).  On small LPs four correctors made the
-#: 3x4 wall's K singular in floating point before convergence (and three ended ``acceptable`` after 17 iterations
-#: instead of ``optimal`` after 9), so below that size they stay at two.
+#: 3x4 wall's K singular in floating point before convergence (``acceptable`` instead of ``optimal``) and took 17
+#: iterations against 15 on 10x20 (``--walls 3x4,5x4,10x20 --ipm-settings two_correctors,four_correctors``), so below
+#: that size they stay at two.
 SMALL_CORRECTORS, LARGE_CORRECTORS = 2, 4
 AUTO_CORRECTOR_ROWS = 30_000
 #: the default with two correctors at every size (``correctors`` 2, the default before ``"auto"``;
 #: ``--ipm-settings two_correctors,default``)
 TWO_CORRECTORS_SETTINGS = {**DEFAULT_SETTINGS, "correctors": 2}
+#: the default with four correctors at every size (``--ipm-settings two_correctors,four_correctors`` on small walls)
+FOUR_CORRECTORS_SETTINGS = {**DEFAULT_SETTINGS, "correctors": 4}
 #: the default before ``diagonal_shift`` 1e-16 (for ``--ipm-settings wide_shift,default`` comparisons)
 WIDE_SHIFT_SETTINGS = {**DEFAULT_SETTINGS, "diagonal_shift": WIDE_DIAGONAL_SHIFT}
 #: Near the optimum of large walls the reduced refinement converges slowly (``K`` very ill-conditioned):
