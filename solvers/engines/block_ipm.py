@@ -74,7 +74,6 @@ so it cannot start HiGHS's warm simplex re-solves (the fixed point needs them).
 
 from __future__ import annotations
 
-import functools
 import time
 from dataclasses import dataclass
 
@@ -87,6 +86,7 @@ from blockmpec.solvers.engines.cholesky import (
     SingularMatrixError,
     SupernodalCholesky,
     SymmetricFactoriser,
+    compiled_kernels_available,
     structural_pattern,
     two_processes_available,
     usable_cpus,
@@ -248,14 +248,6 @@ KERNELS = ("auto", "numpy", "compiled")
 #: kernels costs 0.5-1 s and ~100 MB (their first compilation on a machine, a few seconds more); at 2,420 blocks
 #: the LP took 3.3 s compiled against 2.8 s with numpy (studies/lp_timing.py --kernels numpy,compiled)
 COMPILED_KERNEL_BLOCKS = 8_000
-
-
-@functools.cache
-def compiled_kernels_available() -> bool:
-    """Whether numba is installed (the compiled kernels' only extra requirement); numba is not imported."""
-    import importlib.util
-
-    return importlib.util.find_spec("numba") is not None
 
 
 def named_settings(name: str) -> dict:
@@ -678,15 +670,18 @@ class BlockIPM:
                 self.factorisation == "auto" and self._K_pattern.shape[0] >= AUTO_SUPERNODAL_ROWS))
             if self.factorisation == "supernodal" and not supernodal:
                 raise ValueError("block IPM: the supernodal Cholesky needs a symmetric K")
-            compiled = self.block_kernels is not None
-            self._factoriser = (SupernodalCholesky(
-                                    self._K_pattern, self.ordering, processes=self.supernodal_processes,
-                                    compiled_solves=compiled if self.compiled_solves == "auto" else self.compiled_solves,
-                                    compiled_factorisation=(compiled if self.compiled_factorisation == "auto"
-                                                            else self.compiled_factorisation))
+            self._factoriser = (SupernodalCholesky(self._K_pattern, self.ordering,
+                                                   processes=self.supernodal_processes, **self._cholesky_choices())
                                 if supernodal
                                 else SymmetricFactoriser(self._K_pattern, self.ordering))
         return self._factoriser
+
+    def _cholesky_choices(self) -> dict[str, bool]:
+        """The supernodal Cholesky's ``compiled_solves`` and ``compiled_factorisation``: the settings, ``"auto"``
+        resolved to whether the block kernels are compiled (either way the same numbers bit for bit)."""
+        compiled = self.block_kernels is not None
+        return {name: compiled if getattr(self, name) == "auto" else getattr(self, name)
+                for name in ("compiled_solves", "compiled_factorisation")}
 
     @property
     def corrector_count(self) -> int:
@@ -713,11 +708,9 @@ class BlockIPM:
         factoriser = self.factoriser
         solve_K = None
         if isinstance(factoriser, SupernodalCholesky):
-            # its solves compiled or not (the same solutions bit for bit); a worker process keeps its first choice
-            compiled = self.block_kernels is not None
-            factoriser.compiled_solves = compiled if self.compiled_solves == "auto" else self.compiled_solves
-            factoriser.compiled_factorisation = (compiled if self.compiled_factorisation == "auto"
-                                                 else self.compiled_factorisation)
+            # the settings may have changed since it was made; a worker process keeps its first choice
+            for name, value in self._cholesky_choices().items():
+                setattr(factoriser, name, value)
             solve_K = factoriser.factorise_values(values)
             if solve_K is None:
                 # a pivot lost definiteness in floating point: SuperLU's LDL^T (same ordering), which

@@ -347,12 +347,13 @@ def max_step(z: np.ndarray, dz: np.ndarray) -> float:
 
 
 @njit(parallel=True, **_JIT)
-def _row_products(indptr, indices, data, x, out):  # pragma: no cover - compiled
+def _row_products(indptr, indices, data, x, offset, negated, out):  # pragma: no cover - compiled
+    """``out = M x``, or ``-offset - M x`` when ``negated`` (``offset`` is not read otherwise)."""
     for i in prange(out.size):
         acc = 0.0
         for e in range(indptr[i], indptr[i + 1]):
             acc += data[e] * x[indices[e]]
-        out[i] = acc
+        out[i] = -offset[i] - acc if negated else acc
 
 
 @njit(parallel=True, **_JIT)
@@ -365,15 +366,6 @@ def _row_products_with_bound(indptr, indices, data, x, out, bound):  # pragma: n
             size += abs(data[e]) * abs(x[indices[e]])
         out[i] = acc
         bound[i] = size
-
-
-@njit(parallel=True, **_JIT)
-def _negated_row_products(indptr, indices, data, x, offset, out):  # pragma: no cover - compiled
-    for i in prange(out.size):
-        acc = 0.0
-        for e in range(indptr[i], indptr[i + 1]):
-            acc += data[e] * x[indices[e]]
-        out[i] = -offset[i] - acc
 
 
 class SparseProducts:
@@ -401,20 +393,20 @@ class SparseProducts:
     def times(self, x: np.ndarray) -> np.ndarray:
         """``M x``, as scipy's ``M @ x`` bit for bit."""
         out = np.empty(self.shape[0])
-        _parallel(_row_products, *self._rows, np.ascontiguousarray(x, dtype=np.float64), out)
+        _parallel(_row_products, *self._rows, np.ascontiguousarray(x, dtype=np.float64), out, False, out)
         return out
 
     def transpose_times(self, y: np.ndarray) -> np.ndarray:
         """``M^T y``, as scipy's ``M.T @ y`` bit for bit."""
         out = np.empty(self.shape[1])
-        _parallel(_row_products, *self._columns, np.ascontiguousarray(y, dtype=np.float64), out)
+        _parallel(_row_products, *self._columns, np.ascontiguousarray(y, dtype=np.float64), out, False, out)
         return out
 
     def offset_minus_times(self, offset: np.ndarray, x: np.ndarray) -> np.ndarray:
         """``-offset - M x`` in one pass, as numpy's ``-offset - M @ x`` bit for bit."""
         out = np.empty(self.shape[0])
-        _parallel(_negated_row_products, *self._rows, np.ascontiguousarray(x, dtype=np.float64),
-                  np.ascontiguousarray(offset, dtype=np.float64), out)
+        _parallel(_row_products, *self._rows, np.ascontiguousarray(x, dtype=np.float64),
+                  np.ascontiguousarray(offset, dtype=np.float64), True, out)
         return out
 
     def times_with_bound(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -205,8 +205,9 @@ FIRST_WORKER_WAIT = 2.0
 COMPILED_SYMBOLIC_ROWS = 20_000
 
 
-def _numba_available() -> bool:
-    """Whether numba is installed (not imported here)."""
+@functools.cache
+def compiled_kernels_available() -> bool:
+    """Whether numba is installed (the compiled kernels' only extra requirement); numba is not imported."""
     import importlib.util
 
     return importlib.util.find_spec("numba") is not None
@@ -324,7 +325,7 @@ class SupernodalCholesky:
         self._pattern = pattern
         # structure of L (symbolic factorisation) and the elimination tree
         lower = sp.tril(permuted, format="csc")
-        self.compiled_symbolic = (n >= COMPILED_SYMBOLIC_ROWS and _numba_available() if compiled_symbolic == "auto"
+        self.compiled_symbolic = (n >= COMPILED_SYMBOLIC_ROWS and compiled_kernels_available() if compiled_symbolic == "auto"
                                   else bool(compiled_symbolic))
         if self.compiled_symbolic:
             from blockmpec.solvers.engines.cholesky_kernels import symbolic_factorisation
@@ -537,12 +538,16 @@ class SupernodalCholesky:
         if worker.ready():
             return
         if self.compiled_factorisation:
-            identity = np.zeros(self._pattern.nnz)
-            identity[self._pattern.indices == np.repeat(np.arange(self.n), np.diff(self._pattern.indptr))] = 1.0
-            self.factor_supernodes(worker.mine, identity, {}, [None] * self.supernodes, [None] * self.supernodes)
-        deadline = time.perf_counter() + FIRST_WORKER_WAIT
-        while not worker.ready() and time.perf_counter() < deadline:
-            time.sleep(0.005)
+            self.factor_supernodes(worker.mine, self.identity_values(), {}, [None] * self.supernodes,
+                                   [None] * self.supernodes)
+        worker.wait_ready(FIRST_WORKER_WAIT, required=False)
+
+    def identity_values(self) -> np.ndarray:
+        """The values of ``K = I`` on the pattern (``pattern.data`` order): what the warm-ups factorise."""
+        pattern = self._pattern
+        values = np.zeros(pattern.nnz)
+        values[pattern.indices == np.repeat(np.arange(self.n), np.diff(pattern.indptr))] = 1.0
+        return values
 
     def start_worker(self, wait: bool = False) -> None:
         """With ``processes=2``, start the worker process if it is not running (:class:`_HalfWorker`).  It starts in
@@ -893,17 +898,23 @@ class _HalfWorker:
         self._senders.append(sender)
         sender.start()
 
-    def wait_ready(self, timeout: float = 120.0) -> None:
-        """Block until the worker has its set-up (:meth:`ready`); a RuntimeError after ``timeout`` seconds."""
+    def wait_ready(self, timeout: float = 120.0, required: bool = True) -> bool:
+        """Wait at most ``timeout`` seconds for the worker to have its set-up (:meth:`ready`); whether it has.
+        ``required``: a RuntimeError if it has not."""
         if self._ready:
-            return
+            return True
         if not self._senders:
-            raise RuntimeError("supernodal Cholesky: its worker process was never set up")
+            if required:
+                raise RuntimeError("supernodal Cholesky: its worker process was never set up")
+            return False
+        deadline = time.perf_counter() + timeout
         self._senders[0].join(timeout)
         if not self._senders[0].is_alive() and self._send_error is None:
-            self.connection.poll(max(timeout, 0.0))
-        if not self.ready():
+            self.connection.poll(max(deadline - time.perf_counter(), 0.0))
+        ready = self.ready()
+        if required and not ready:
             raise RuntimeError(f"supernodal Cholesky: its worker process was not ready within {timeout:g} s")
+        return ready
 
     def ready(self) -> bool:
         """Whether the worker has its set-up (never waits).  A worker that ended before it was ready is an error."""
@@ -1084,7 +1095,7 @@ def _serve_half(socket_fd: int, memory_fd: int) -> None:  # pragma: no cover - r
     from threadpoolctl import threadpool_limits
 
     connection = Connection(socket_fd)
-    if _numba_available():  # the compiled kernels loaded while the set-up is made and sent
+    if compiled_kernels_available():  # the compiled kernels loaded while the set-up is made and sent
         import blockmpec.solvers.engines.cholesky_kernels  # noqa: F401
     try:
         setup = pickle.loads(connection.recv_bytes())
@@ -1102,8 +1113,7 @@ def _serve_half(socket_fd: int, memory_fd: int) -> None:  # pragma: no cover - r
     with threadpool_limits(limits=1, user_api="blas"):
         # warm-up while this process's owner factorises alone: the half's plan, its factor array's first touch and the
         # compiled loops' first calls (loaded from numba's cache), on K = I (no answer depends on it)
-        identity = np.zeros(chol._pattern.nnz)
-        identity[chol._pattern.indices == np.repeat(np.arange(chol.n), np.diff(chol._pattern.indptr))] = 1.0
+        identity = chol.identity_values()
         diagonal_blocks, below_blocks = [None] * chol.supernodes, [None] * chol.supernodes
         if chol.factor_supernodes(theirs, identity, {}, diagonal_blocks, below_blocks):
             panels = chol.solve_panels(diagonal_blocks, below_blocks)
