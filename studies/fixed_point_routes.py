@@ -35,6 +35,9 @@ Routes (subcommands):
 * ``ties``: the interior engine's aimed run (no continuation) with other aim weights (``--aims``), or on the wall
   with every interface's friction lowered at random by up to a fraction ``--eps``: is the stall the aim's, or the
   running bond's ties between equal interfaces?
+* ``hybrid``: Newton on (3) with the dilatancy gap kept only on a set ``S`` of interfaces and associative flow
+  elsewhere (:func:`route_hybrid`): ``S`` starts as the interfaces that slide in the associative LP's solution and
+  grows by those that slide outside it, until none does.  Is the stall the size of the non-monotone part?
 
 Measured (2 shared cores, CPU seconds; one cold block-IPM LP: 1,010 blocks 0.9 s / 21 iterations,
 10,050 blocks 24.7 s / 53 iterations; budget of the target: ~3x those iterations):
@@ -58,12 +61,18 @@ Measured (2 shared cores, CPU seconds; one cold block-IPM LP: 1,010 blocks 0.9 s
 | ``pieces``, aim 0.1 | 70x70 (4,935) | stalled point 0.32 from (3) (34 iterations); three piece LPs, no solution of (3) within the 300 s limit |
 | ``ties``, aims 0, 0.01, 0.03, 0.3, 1, 3 | 40x60 | every run ``NUMERICAL``: 46-85 iterations, worst residual of (3) 7e-5 to 1.7e-2 |
 | ``ties``, friction lowered by up to 1e-6 / 1e-4 / 1e-2, aim 0.1 | 40x60 | ``NUMERICAL``: 45 / 46 / 32 iterations, 4.7e-3 / 1.1e-2 / 7.5e-3 (unperturbed: 49, 1.3e-2) |
+| ``hybrid`` (``--cold``) | 20x50 | verified (6.2e-12, lam 0.452074) in two cold rounds, ``S`` 209 then 218 of 2,940 interfaces (20 + 19 iterations); with the associative LP 1.55 s, 3.3x the cold LP's 0.47 s (the default interior engine: 1.4x) |
+| ``hybrid`` (``--cold``) | 40x60 | ``S`` of 1,309 of 7,120 interfaces: the first round stalls (``NUMERICAL``, 67 iterations) |
+| ``hybrid``, ``--share 0.1`` | 40x60 | the first round (``S`` 290) converges in 68 iterations, but 1,162 interfaces slide outside ``S``; the second (``S`` 1,452) stalls |
+| ``hybrid``, ``--share 0.1 --outside 0.1 --continued --time-limit 600`` | 40x60 | the second round (``S`` 346) continued from the first's answer: 2,593 steps (7,241 factorisations, 646 s CPU), ends at mu 2.7e-7, no solution |
+| ``hybrid``, ``--share 0.1`` (``--cold``) | 100x100 | ``S`` of 1,971 of 29,850 interfaces: the first round stalls (``NUMERICAL``, 51 iterations, 18.1 s against the cold LP's 10.8 s) |
 
 The classic fixed point's steps are cheap once warm (5-7 iterations of a symmetric ``K``), but the
 analytic-centre answers of the step LPs converge only linearly, and slowly, even with the fold
 (no route there met ``||n - n*|| <= 1e-9 ||n||``); at 10,050 blocks three LPs already cost 2.8x one
 cold LP, where the simplex engine's fixed point takes tens of steps.  Every route on
-(3) itself stalls where the gap is large: the cold Newton run converges at 10,050 blocks only up to a
+(3) itself stalls where the gap is large (keeping the gap only where the mechanism slides, ``hybrid``, converges at 2,420
+blocks with 290 such interfaces but not once the set holds those that then slide outside it, 346 to 1,452): the cold Newton run converges at 10,050 blocks only up to a
 gap of ~0.2 (of 0.65), and from a solution at a smaller gap the next stage stalls, so the difficulty is
 the problem at ``psi = 0``, not the path taken to it.
 
@@ -78,6 +87,7 @@ Usage::
     python studies/fixed_point_routes.py pieces --wall 40x60 --fold 0.1 [--static-engine dual-simplex]
     python studies/fixed_point_routes.py ties --wall 40x60 --fold 0.1 --eps 0,1e-6,1e-4,1e-2
     python studies/fixed_point_routes.py ties --wall 40x60 --eps 0 --aims 0,0.01,0.03,0.3,1,3
+    python studies/fixed_point_routes.py hybrid --wall 40x60 --share 0.1 [--outside 0.1 --continued]
 """
 
 from __future__ import annotations
@@ -441,8 +451,73 @@ def route_ties(ops, args) -> list[dict]:
     return rows
 
 
+def hybrid_ops(ops, coupled: np.ndarray):
+    """The wall with the dilatancy gap kept only on the ``coupled`` interfaces: ``tan(psi) = tan(phi)`` (associative
+    flow, monotone) on the others."""
+    import dataclasses
+
+    dilatancy = np.where(coupled, ops.dilatancy, ops.friction)
+    return dataclasses.replace(ops, dilatancy=dilatancy, V_f=ops.friction_operator(dilatancy))
+
+
+def route_hybrid(ops, args) -> list[dict]:
+    """Newton on (3) with the non-associative coupling only where the mechanism slides.  On an interface that does
+    not slide (friction multipliers 0) the dual rows' slope does not enter (3), so a solution of the *hybrid*
+    problem (gap kept on a set ``S``, associative elsewhere) whose friction multipliers vanish outside ``S`` solves
+    (3) itself.  ``S`` starts as the interfaces whose friction multiplier in the associative LP's solution is at
+    least ``--share`` of the largest; each round runs the interior engine (no aim, no continuation) on the hybrid
+    problem, cold or, with ``--continued``, by :func:`continue_central_path` from the previous round's answer
+    (``s, y`` raised by ``sqrt(mu_target)``), then adds to ``S`` every interface outside it whose friction
+    multiplier exceeds ``--outside`` of the largest; it stops when none does (at most ``--steps`` rounds).  The
+    worst residual of (3) is measured on the wall itself."""
+    from blockmpec.solvers.engines.highs import static_lp_solution
+    from blockmpec.solvers.engines.interior_fixed_point import InteriorFixedPoint, continue_central_path
+
+    t0 = time.process_time()
+    lp_result = bm.solve(ops, "static-lp")
+    rows = [result_row("hybrid", "associative LP", ops, lp_result.solution, lp_result.iterations,
+                       time.process_time() - t0, lp_result.status.value)]
+    flow = lp_result.solution.z_f.reshape(-1, 2).sum(axis=1)
+    coupled = flow >= args.share * flow.max()
+    previous = None
+    for round_ in range(args.steps):
+        hybrid = hybrid_ops(ops, coupled)
+        lp = step_lp(hybrid)
+        engine = InteriorFixedPoint(lp, hybrid, tol=args.tol, max_iterations=args.iterations,
+                                    time_limit=args.time_limit)
+        t0 = time.process_time()
+        if previous is None or not args.continued:
+            out = engine.solve()
+            end, how, iterations, failure = engine.best_iterate, "cold", out.iterations, out.status.value
+        else:
+            start = previous.copy()
+            floor = np.sqrt(args.mu_target)
+            start.s = np.maximum(engine.h - engine.G @ start.v, 0.0) + floor
+            start.y = start.y + floor
+            end, info = continue_central_path(engine, start, tol=args.tol, time_limit=args.time_limit)
+            how, iterations = f"continued ({info['steps']} steps)", info["factorisations"]
+            failure = f"numerical (continuation ended at mu {info['mu']:.1e})"
+        cpu = time.process_time() - t0
+        outcome = engine.outcome_at(end) if end is not None else None
+        sol = static_lp_solution(lp, outcome) if outcome is not None and outcome.status.is_success else bm.Solution()
+        setting = f"round {round_}, |S| = {int(coupled.sum())}, {how}"
+        if sol.multiplier is None:
+            rows.append(result_row("hybrid", setting, ops, sol, iterations, cpu, failure))
+            break
+        flow = sol.z_f.reshape(-1, 2).sum(axis=1)
+        outside = (flow > args.outside * flow.max()) & ~coupled
+        rows.append(result_row("hybrid", setting, ops, sol, iterations, cpu, outcome.status.value,
+                               sliding_outside=int(outside.sum())))
+        if not outside.any():
+            break
+        coupled |= outside
+        previous = end
+    return rows
+
+
 ROUTES = {"steps": route_steps, "mixed": route_mixed, "path": route_path, "gap": route_gap, "trust": route_trust,
-          "active-set": route_active_set, "pieces": route_pieces, "ties": route_ties}
+          "active-set": route_active_set, "pieces": route_pieces, "ties": route_ties,
+          "hybrid": route_hybrid}
 
 
 def main(argv: list[str] | None = None) -> list[dict]:
@@ -480,6 +555,15 @@ def main(argv: list[str] | None = None) -> list[dict]:
     parser.add_argument("--eps", default="0,1e-6,1e-4,1e-2",
                         help="ties: fractions by which each interface's friction is lowered at most (0: none)")
     parser.add_argument("--aims", default="", help="ties: comma-separated aim weights (default: --fold)")
+    # hybrid
+    parser.add_argument("--share", type=float, default=1e-6,
+                        help="hybrid: S starts as the interfaces with at least this share of the associative LP's "
+                             "largest friction multiplier")
+    parser.add_argument("--outside", type=float, default=1e-6,
+                        help="hybrid: an interface outside S slides when its friction multiplier exceeds this share "
+                             "of the largest")
+    parser.add_argument("--continued", action="store_true",
+                        help="hybrid: later rounds continue the previous round's central path instead of a cold run")
     args = parser.parse_args(argv)
     ops = bm.assemble(named_wall(args.wall))
     rows = []
