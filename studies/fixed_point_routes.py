@@ -71,10 +71,11 @@ The classic fixed point's steps are cheap once warm (5-7 iterations of a symmetr
 analytic-centre answers of the step LPs converge only linearly, and slowly, even with the fold
 (no route there met ``||n - n*|| <= 1e-9 ||n||``); at 10,050 blocks three LPs already cost 2.8x one
 cold LP, where the simplex engine's fixed point takes tens of steps.  Every route on
-(3) itself stalls where the gap is large (keeping the gap only where the mechanism slides, ``hybrid``, converges at 2,420
-blocks with 290 such interfaces but not once the set holds those that then slide outside it, 346 to 1,452): the cold Newton run converges at 10,050 blocks only up to a
-gap of ~0.2 (of 0.65), and from a solution at a smaller gap the next stage stalls, so the difficulty is
-the problem at ``psi = 0``, not the path taken to it.
+(3) itself stalls where the gap is large (keeping the gap only where the mechanism slides, ``hybrid``,
+converges at 2,420 blocks with 290 such interfaces but not once the set holds those that then slide outside
+it, 346 to 1,452): the cold Newton run converges at 10,050 blocks only up to a gap of ~0.2 (of 0.65), and
+from a solution at a smaller gap the next stage stalls, so the difficulty is the problem at ``psi = 0``, not
+the path taken to it.
 
 Usage::
 
@@ -526,7 +527,8 @@ def main(argv: list[str] | None = None) -> list[dict]:
     parser.add_argument("--wall", default="20x50", help="CxB: courses x blocks per course")
     parser.add_argument("--cold", action="store_true", help="first time one cold static-lp")
     parser.add_argument("--time-limit", type=float, default=300.0)
-    parser.add_argument("--iterations", type=int, default=150, help="path, trust, active-set, pieces: most iterations")
+    parser.add_argument("--iterations", type=int, default=150,
+                        help="path, trust, active-set, pieces, hybrid: most iterations")
     # steps
     parser.add_argument("--fold", type=float, default=0.0)
     parser.add_argument("--mu-target", type=float, default=1e-7)
