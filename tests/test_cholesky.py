@@ -5,6 +5,7 @@ numeric one by residuals against the matrix itself and against SuperLU on the sa
 amalgamated supernodes hold every structural nonzero only if these residuals stay at round-off.
 """
 
+import os
 import sys
 import time
 
@@ -408,7 +409,7 @@ def test_the_first_factorisation_waits_for_a_starting_worker(wall_K, monkeypatch
 def test_a_worker_stops_with_its_cholesky_before_any_factorisation(wall_K):
     """The worker process starts with the Cholesky (its imports overlap the analysis) and gets its set-up at the end
     of the analysis; a Cholesky closed before any factorisation stops it, and so does closing a worker that never got
-    its set-up (it was waiting for it)."""
+    its set-up (it was waiting for it), which also closes the shared memory's file it never mapped."""
     _, pattern = wall_K
     split = SupernodalCholesky(pattern, "metis", processes=2)
     process = split._worker.process
@@ -419,9 +420,12 @@ def test_a_worker_stops_with_its_cholesky_before_any_factorisation(wall_K):
 
     waiting = _HalfWorker()
     assert waiting.chol is None and not waiting.ready()
-    process = waiting.process
+    process, (fd,) = waiting.process, waiting._unmapped_fds
+    os.fstat(fd)  # open until the worker is set up or stopped
     waiting.close()
     assert process.poll() is not None
+    with pytest.raises(OSError):
+        os.fstat(fd)
 
 
 def test_a_worker_that_dies_is_one_clear_error(wall_K):

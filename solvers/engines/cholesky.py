@@ -833,7 +833,9 @@ class _HalfWorker:
         from multiprocessing.connection import Connection
 
         self.chol: SupernodalCholesky | None = None
-        self._fd = _shared_file(0)  # sized by set_up, before the worker maps it
+        fd = _shared_file(0)  # sized by set_up, before the worker maps it
+        #: the shared memory's file until :meth:`set_up` maps and closes it (closed by :func:`_stop_worker` if never)
+        self._unmapped_fds = [fd]
         # the worker imports this very package (the directory that holds it comes first on its path)
         import blockmpec
 
@@ -841,12 +843,12 @@ class _HalfWorker:
         here, there = socket.socketpair()
         code = (f"import sys; sys.path.insert(0, {package_root!r}); "
                 "from blockmpec.solvers.engines.cholesky import _serve_half; "
-                f"_serve_half({there.fileno()}, {self._fd})")
+                f"_serve_half({there.fileno()}, {fd})")
         try:
-            process = subprocess.Popen([sys.executable, "-c", code], pass_fds=(there.fileno(), self._fd),
+            process = subprocess.Popen([sys.executable, "-c", code], pass_fds=(there.fileno(), fd),
                                        stdin=subprocess.DEVNULL)
         except BaseException:
-            os.close(self._fd)
+            os.close(fd)
             raise
         finally:
             there.close()
@@ -856,7 +858,8 @@ class _HalfWorker:
         self._ready = False
         #: the thread that sends the set-up (one, once :meth:`set_up` ran)
         self._senders: list[threading.Thread] = []
-        self._finalizer = weakref.finalize(self, _stop_worker, self.connection, process, self._senders)
+        self._finalizer = weakref.finalize(self, _stop_worker, self.connection, process, self._senders,
+                                           self._unmapped_fds)
 
     def set_up(self, chol: SupernodalCholesky) -> None:
         """Split ``chol``'s supernodes into two subtree halves and their top, size the shared memory and send the
@@ -879,9 +882,10 @@ class _HalfWorker:
         ends = np.cumsum([r * r for r in sizes], dtype=np.int64)
         self.root_blocks = [(int(e - r * r), int(e), r) for e, r in zip(ends, sizes)]
         layout = _shared_layout(chol._pattern.nnz, chol.n, self.top_rows.size, int(ends[-1]) if sizes else 0)
-        os.ftruncate(self._fd, 8 * layout["total"])
-        self._memory = mmap.mmap(self._fd, 8 * layout["total"])
-        os.close(self._fd)
+        fd = self._unmapped_fds.pop()
+        os.ftruncate(fd, 8 * layout["total"])
+        self._memory = mmap.mmap(fd, 8 * layout["total"])
+        os.close(fd)
         self.values, self.x, self.top_change, self.root_updates = _shared_arrays(self._memory, layout)
         self.generation = 0
         setup = {"chol": chol, "theirs": self.theirs, "their_roots": self.their_roots,
@@ -1158,11 +1162,13 @@ def _serve_half(socket_fd: int, memory_fd: int) -> None:  # pragma: no cover - r
                 connection.send(True)
 
 
-def _stop_worker(connection, process, senders: list) -> None:
+def _stop_worker(connection, process, senders: list, unmapped_fds: list) -> None:
     """Ask a :class:`_HalfWorker`'s process to stop and reap it; kill it if it has not ended within a second
-    (or if its set-up is still being sent a second later)."""
+    (or if its set-up is still being sent a second later).  Closes the shared memory's file if it was never set up."""
     import subprocess
 
+    while unmapped_fds:
+        os.close(unmapped_fds.pop())
     for sender in senders:
         sender.join(timeout=1.0)
     if any(sender.is_alive() for sender in senders):  # the worker does not read its set-up: a message would interleave
