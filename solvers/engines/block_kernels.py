@@ -419,6 +419,14 @@ class SparseProducts:
 # --- the centring targets of an iteration (elementwise, one pass each; numpy's roundings) --------------------------
 
 
+def _weight_arguments(weights, out: np.ndarray) -> tuple[np.ndarray, bool]:
+    """The ``(weights, unit)`` arguments of the kernels below: the path weights as float64, or for ``None`` (all ones)
+    any float64 array of the right size (``out``, never read) and ``unit`` True."""
+    if weights is None:
+        return out, True
+    return np.ascontiguousarray(weights, dtype=np.float64), False
+
+
 @njit(parallel=True, **_JIT)
 def _centrality_correction(s, ds, y, dy, tp, td, low, high, weights, unit, out):  # pragma: no cover - compiled
     for i in prange(out.size):
@@ -434,9 +442,8 @@ def centrality_correction(s, ds, y, dy, tp: float, td: float, low: float, high: 
     ``p = (s + tp ds) (y + td dy)``, ``max(clip(p, low w, high w) - p, -high w)`` (``weights`` ``w``; None: ones).
     The same numbers bit for bit as the numpy expression it replaces (its passes and temporaries: 11 of each)."""
     out = np.empty(s.size)
-    unit = weights is None
     _parallel(_centrality_correction, s, ds, y, dy, float(tp), float(td), float(low), float(high),
-              out if unit else np.ascontiguousarray(weights, dtype=np.float64), unit, out)
+              *_weight_arguments(weights, out), out)
     return out
 
 
@@ -451,9 +458,7 @@ def centring_target(s, y, ds, dy, scale: float, weights) -> np.ndarray:
     """Mehrotra's corrector target ``scale w - s y - ds dy`` (``scale = sigma mu``; ``weights`` ``w``, None: ones)
     in one pass, the same numbers bit for bit as numpy's five."""
     out = np.empty(s.size)
-    unit = weights is None
-    _parallel(_centring_target, s, y, ds, dy, float(scale), out if unit else np.ascontiguousarray(weights, dtype=np.float64),
-              unit, out)
+    _parallel(_centring_target, s, y, ds, dy, float(scale), *_weight_arguments(weights, out), out)
     return out
 
 
