@@ -37,6 +37,7 @@ import sys
 from pathlib import Path
 
 import blockmpec as bm
+from blockmpec.cli import parse_pairs
 
 sys.path.insert(0, str(Path(__file__).parent))
 from _tables import markdown, peak_memory_mb, write_csv  # noqa: E402
@@ -73,20 +74,9 @@ def timed_solve(ops, method: str, **options):
 
 
 def parse_options(text: str) -> dict:
-    """``"a=1,b=x"`` -> ``{"a": 1, "b": "x"}`` (numbers parsed); ``"default"`` -> ``{}``."""
-    out: dict = {}
-    for item in filter(None, text.split(",")):
-        if item == "default":
-            continue
-        key, value = item.split("=", 1)
-        try:
-            out[key] = int(value)
-        except ValueError:
-            try:
-                out[key] = float(value)
-            except ValueError:
-                out[key] = value
-    return out
+    """``"a=1,b=x"`` -> ``{"a": 1, "b": "x"}`` (the CLI's ``KEY=VALUE`` reader: JSON values, else strings);
+    ``"default"`` -> ``{}``."""
+    return parse_pairs([item for item in text.split(",") if item and item != "default"], "--fixed-point")
 
 
 def solve_in_child(wall: str, method: str, options: dict, time_limit: float) -> dict:

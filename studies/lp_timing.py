@@ -47,6 +47,8 @@ import numpy as np
 import scipy.sparse as sp
 
 import blockmpec as bm
+from blockmpec.cli import parse_pairs
+from blockmpec.errors import OptionError
 from blockmpec.formulations import compile_linear, static_lp
 from blockmpec.formulations._pyomo import pause_gc
 from blockmpec.result import Status
@@ -75,16 +77,10 @@ def wall_or_size(wall: str) -> bm.Structure:
     if "x" not in wall:
         return wall_for(int(wall))
     shape, *options = wall.split(":")
-    values = {}
-    for option in options:
-        name, sep, value = option.partition("=")
-        if not sep or not name:
-            raise SystemExit(f"lp_timing: wall {wall!r}: option {option!r} is not name=value")
-        try:
-            values[name] = float(value)
-        except ValueError:
-            values[name] = value
-    return named_wall(shape, **values)
+    try:
+        return named_wall(shape, **parse_pairs(options, f"wall {wall!r}: option"))
+    except OptionError as error:
+        raise SystemExit(f"lp_timing: {error}") from None
 
 
 def hipo_engine(lp, ops, time_limit: float, crossover: bool):
