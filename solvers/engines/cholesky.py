@@ -46,6 +46,7 @@ Supernodal module, ``qdldl`` (Apache-2.0, AMD) took 29 s on the 100k matrix, and
 
 from __future__ import annotations
 
+import contextlib
 import functools
 import os
 import threading
@@ -509,13 +510,17 @@ class SupernodalCholesky:
         if self._worker is not None and not self._waited_for_worker:
             self._wait_for_worker()
         if self._worker is not None and self._worker.ready():
-            factorised = self._worker.factorise(values, diagonal_blocks, below_blocks)
+            # one BLAS thread, as in the worker: the two processes' arithmetic is the same whatever BLAS threads the
+            # caller runs with, so a shared factorisation's numbers equal those made here while the worker starts
+            with _blas_controller().limit(limits=1):
+                factorised = self._worker.factorise(values, diagonal_blocks, below_blocks)
             solver = self._worker.solver
             self.worker_factorisations += 1
         elif self._worker is not None:
             # while a worker starts: its halves and top here (the serial factors), its solves' arithmetic, so that the
             # iterates do not depend on when it is ready
-            factorised = self._worker.serial_factorise(values, diagonal_blocks, below_blocks)
+            with _blas_controller().limit(limits=1):
+                factorised = self._worker.serial_factorise(values, diagonal_blocks, below_blocks)
             solver = self._worker.serial_solver
         else:
             factorised = self.factor_supernodes(range(self.supernodes), values, {}, diagonal_blocks, below_blocks)
@@ -1007,7 +1012,7 @@ class _HalfWorker:
             if generation != self.generation:
                 raise RuntimeError("supernodal Cholesky: these factors were replaced by a later factorisation")
 
-        return _counted_solve(chol, solve_vector, current)
+        return _counted_solve(chol, solve_vector, current, single_thread=True)
 
     def serial_solver(self, diagonal_blocks: list, below_blocks: list):
         """``solve(rhs)`` in this process alone, with the numbers of :meth:`solver` bit for bit: the same substitutions
@@ -1039,20 +1044,23 @@ class _HalfWorker:
             x[their_rows] = theirs_x[their_rows]
             return x[inv_p]
 
-        return _counted_solve(chol, solve_vector)
+        return _counted_solve(chol, solve_vector, single_thread=True)
 
 
-def _counted_solve(chol: SupernodalCholesky, solve_vector, check=None):
+def _counted_solve(chol: SupernodalCholesky, solve_vector, check=None, single_thread: bool = False):
     """``solve(rhs)`` for a vector or a matrix of columns (one :func:`solve_vector` each), counted in ``chol``'s
-    solves and their CPU time; ``check()`` first, if given (it raises when the factors are no longer valid)."""
+    solves and their CPU time; ``check()`` first, if given (it raises when the factors are no longer valid).
+    ``single_thread``: BLAS on one thread meanwhile, as in the worker process (the two-process solves, whose numbers
+    must not depend on the caller's BLAS threads)."""
 
     def solve(rhs: np.ndarray) -> np.ndarray:
         if check is not None:
             check()
         t = time.process_time()
         rhs = np.asarray(rhs, dtype=float)
-        x = solve_vector(rhs) if rhs.ndim == 1 else np.column_stack(
-            [solve_vector(rhs[:, j]) for j in range(rhs.shape[1])] + [np.zeros((chol.n, 0))])
+        with _blas_controller().limit(limits=1) if single_thread else contextlib.nullcontext():
+            x = solve_vector(rhs) if rhs.ndim == 1 else np.column_stack(
+                [solve_vector(rhs[:, j]) for j in range(rhs.shape[1])] + [np.zeros((chol.n, 0))])
         chol.solves += 1
         chol.solve_s += time.process_time() - t
         return x
