@@ -41,7 +41,8 @@ from blockmpec.geometry import Interfaces, PointLoad, Structure, make_structure
 from blockmpec.operators import Operators, assemble
 from blockmpec.registry import get_solver, list_solvers, register_solver
 from blockmpec.result import Result, Solution, Status
-from blockmpec.solver import RunOutput, SolverBase, solve
+from blockmpec.result import RunOutput
+from blockmpec.solver import SolverBase, run_solver, solve
 from blockmpec.structure_file import load_structure, save_structure, structure_from_dict, structure_to_dict
 from blockmpec.units import Units
 from blockmpec.verify import residuals

@@ -9,13 +9,15 @@ live load = horizontal body force equal to the weight.
 from __future__ import annotations
 
 import inspect
+import json
 import math
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Any, Callable
 
 import numpy as np
 
-from blockmpec.errors import OptionError, UnknownNameError
+from blockmpec.errors import BlockmpecError, OptionError, UnknownNameError
 from blockmpec.geometry import Structure, make_structure
 
 
@@ -310,3 +312,53 @@ def get_case(name: str) -> CaseSpec:
 def build_case(name: str, **params: Any) -> Structure:
     """Build a built-in case by name with parameters."""
     return get_case(name).build(**params)
+
+
+def _is_number(v: Any) -> bool:
+    """A number that is not a bool."""
+    return isinstance(v, (int, float)) and not isinstance(v, bool)
+
+
+def check_case_params(case: str, params: dict[str, Any], known: dict[str, Any]) -> None:
+    """Each value of ``params`` must have the type of its default in ``known`` (a number for a
+    number or None, a string for a string, a list for a list); else an OptionError naming it."""
+    for key, value in params.items():
+        if key not in known:
+            continue  # the case names the unknown key itself, with the valid ones
+        default = known[key]
+        if _is_number(default) or default is None:
+            ok = _is_number(value) or (default is None and value is None)
+            want = "a number"
+        elif isinstance(default, str):
+            ok, want = isinstance(value, str), "a string"
+        elif isinstance(default, (list, tuple)):
+            ok, want = isinstance(value, (list, tuple)), "a list"
+        else:
+            ok, want = True, ""
+        if not ok:
+            raise OptionError(f"-p {key}={json.dumps(value) if not isinstance(value, str) else value}: "
+                              f"case {case!r} expects {want} for {key}")
+
+
+def load_case(case: str, params: dict[str, Any]) -> Structure:
+    """A built-in case name or a structure file path, with parameters applied (bad values: OptionError)."""
+    if case in CASES:
+        spec = get_case(case)
+        check_case_params(case, params, spec.parameters)
+        try:
+            return spec.build(**params)
+        except BlockmpecError:
+            raise
+        except (TypeError, ValueError, ArithmeticError, IndexError, KeyError) as exc:
+            raise OptionError(f"case {case!r} with {params}: {type(exc).__name__}: {exc}") from None
+    path = Path(case)
+    if path.suffix.lower() == ".json" or path.exists():
+        from blockmpec.structure_file import load_structure
+
+        structure = load_structure(path)
+        unknown = sorted(set(params) - {"mu", "dilatancy"})
+        if unknown:
+            raise OptionError(f"structure file {case}: only mu and dilatancy can be set with -p; got {unknown[0]!r}")
+        check_case_params(case, params, {"mu": None, "dilatancy": None})
+        return structure.with_material(params.get("mu"), params.get("dilatancy"))
+    raise OptionError(f"unknown case {case!r}: not a built-in case ({', '.join(CASES)}) nor a structure file")

@@ -26,26 +26,14 @@ import time
 from pathlib import Path
 from typing import Any
 
-from blockmpec.cases import CASES, get_case
+from blockmpec.bench.suite import BENCHMARK_SUITE
+from blockmpec.cases import CASES, load_case
 from blockmpec.errors import BlockmpecError, OptionError
 from blockmpec.geometry import Structure
 from blockmpec.registry import get_solver, list_solvers
 from blockmpec.result import Result
 from blockmpec.solver import option_fields, solve
-from blockmpec.structure_file import load_structure, save_structure
-
-#: The built-in benchmark suite of ``blockmpec compare``: label -> (case, parameters).
-#: Sizes keep the default run (every method, with the time limits of
-#: ``BENCHMARK_METHOD_OPTIONS``) within a few minutes on 2 cores.
-BENCHMARK_SUITE: dict[str, tuple[str, dict[str, Any]]] = {
-    "two-blocks": ("two-blocks", {"eta": 3.0, "mu": 0.65}),
-    "round-arch": ("round-arch", {}),
-    "arch-on-buttresses": ("arch-on-buttresses", {}),
-    "wall-4x2-stack": ("wall", {"courses": 4, "blocks_per_course": 2, "bond": "stack"}),
-    "wall-5x4": ("wall", {"courses": 5, "blocks_per_course": 4}),
-    "wall-10x5": ("wall", {"courses": 10, "blocks_per_course": 5}),
-}
-
+from blockmpec.structure_file import save_structure
 
 def parse_value(text: str) -> Any:
     """A ``-p``/``-O`` value: JSON if it parses (numbers, lists, true/false), else the string."""
@@ -64,53 +52,6 @@ def parse_pairs(pairs: list[str] | None, flag: str) -> dict[str, Any]:
             raise OptionError(f"{flag} {pair!r}: expected KEY=VALUE")
         out[key.strip()] = parse_value(value.strip())
     return out
-
-
-def _is_number(v: Any) -> bool:
-    return isinstance(v, (int, float)) and not isinstance(v, bool)
-
-
-def check_case_params(case: str, params: dict[str, Any], known: dict[str, Any]) -> None:
-    """Each value of ``params`` must have the type of its default in ``known`` (a number for a
-    number or None, a string for a string, a list for a list); else an OptionError naming it."""
-    for key, value in params.items():
-        if key not in known:
-            continue  # the case names the unknown key itself, with the valid ones
-        default = known[key]
-        if _is_number(default) or default is None:
-            ok = _is_number(value) or (default is None and value is None)
-            want = "a number"
-        elif isinstance(default, str):
-            ok, want = isinstance(value, str), "a string"
-        elif isinstance(default, (list, tuple)):
-            ok, want = isinstance(value, (list, tuple)), "a list"
-        else:
-            ok, want = True, ""
-        if not ok:
-            raise OptionError(f"-p {key}={json.dumps(value) if not isinstance(value, str) else value}: "
-                              f"case {case!r} expects {want} for {key}")
-
-
-def load_case(case: str, params: dict[str, Any]) -> Structure:
-    """A built-in case name or a structure file path, with parameters applied (bad values: OptionError)."""
-    if case in CASES:
-        spec = get_case(case)
-        check_case_params(case, params, spec.parameters)
-        try:
-            return spec.build(**params)
-        except BlockmpecError:
-            raise
-        except (TypeError, ValueError, ArithmeticError, IndexError, KeyError) as exc:
-            raise OptionError(f"case {case!r} with {params}: {type(exc).__name__}: {exc}") from None
-    path = Path(case)
-    if path.suffix.lower() == ".json" or path.exists():
-        structure = load_structure(path)
-        unknown = sorted(set(params) - {"mu", "dilatancy"})
-        if unknown:
-            raise OptionError(f"structure file {case}: only mu and dilatancy can be set with -p; got {unknown[0]!r}")
-        check_case_params(case, params, {"mu": None, "dilatancy": None})
-        return structure.with_material(params.get("mu"), params.get("dilatancy"))
-    raise OptionError(f"unknown case {case!r}: not a built-in case ({', '.join(CASES)}) nor a structure file")
 
 
 def _format_result(label: str, r: Result) -> str:
@@ -147,7 +88,7 @@ def _stdout_to_stderr():
 
 
 def cmd_solve(args: argparse.Namespace) -> int:
-    from blockmpec.study import check_tolerance
+    from blockmpec.bench.study import check_tolerance
 
     verify_tol = check_tolerance(args.verify_tol)
     params = parse_pairs(args.param, "-p")
@@ -208,10 +149,10 @@ def cmd_methods(args: argparse.Namespace) -> int:
 
 
 def compare_cases(items: list[str]) -> list[Any]:
-    """``--cases`` items as :class:`~blockmpec.compare.CaseRun`: suite labels, built-in case names
+    """``--cases`` items as :class:`~blockmpec.bench.compare.CaseRun`: suite labels, built-in case names
     (default parameters) and structure files; each is built now, so a bad one is an error before
     any solve."""
-    from blockmpec.compare import CaseRun
+    from blockmpec.bench.compare import CaseRun
     from blockmpec.operators import assemble
 
     out = []
@@ -275,7 +216,7 @@ def _on_sigterm(signum, frame):  # pragma: no cover - exercised through a subpro
 def cmd_compare(args: argparse.Namespace) -> int:
     import signal
 
-    from blockmpec.compare import (
+    from blockmpec.bench.compare import (
         BENCHMARK_METHOD_OPTIONS,
         ComparisonInterrupted,
         MethodRun,
@@ -283,8 +224,8 @@ def cmd_compare(args: argparse.Namespace) -> int:
         normalise_cases,
         normalise_methods,
     )
-    from blockmpec.runner import check_backend
-    from blockmpec.study import ResultsFolder, check_tolerance, load_study, run_metadata
+    from blockmpec.bench.runner import check_backend
+    from blockmpec.bench.study import ResultsFolder, check_tolerance, load_study, run_metadata
 
     # ---- every input is checked before anything runs
     study = load_study(args.config) if args.config else None
@@ -348,7 +289,7 @@ def _run_compare(args, folder, case_runs, method_runs, repeat, verify_tol, jobs,
                  compare, ComparisonInterrupted, run_metadata, signal) -> int:
     from datetime import datetime, timezone
 
-    from blockmpec.runner import shared_cpus
+    from blockmpec.bench.runner import shared_cpus
 
     out_dir = folder.path
     settings = {"cases": [c.label for c in case_runs], "methods": {m.label: [m.name, m.options] for m in method_runs},
@@ -376,7 +317,7 @@ def _run_compare(args, folder, case_runs, method_runs, repeat, verify_tol, jobs,
     finally:
         signal.signal(signal.SIGTERM, previous)
     wall_time = time.perf_counter() - t0
-    from blockmpec.profiles import summary_table, summary_text
+    from blockmpec.bench.profiles import summary_table, summary_text
 
     summary = summary_table(df)
     paths = [out_dir / "results.csv", out_dir / "results.parquet"]
@@ -397,7 +338,7 @@ def _run_compare(args, folder, case_runs, method_runs, repeat, verify_tol, jobs,
     for stale in out_dir.glob("*.png"):  # figures of an earlier state of a resumed run
         stale.unlink()
     if not args.no_figures:
-        from blockmpec.plot import comparison_figures
+        from blockmpec.bench.plots import comparison_figures
 
         try:
             paths += comparison_figures(df, results, out_dir)
@@ -414,7 +355,7 @@ def _run_compare(args, folder, case_runs, method_runs, repeat, verify_tol, jobs,
 
 def _table(df, key: str, fmt: str, title: str, reference: bool = False, median: bool = False) -> str:
     """A ``case x method`` text table of column ``key`` of the comparison table ``df``."""
-    from blockmpec.compare import text_table
+    from blockmpec.bench.compare import text_table
 
     note = ("NA reference (for a method that produced nothing): f = closed form, c = certified minimum, "
             "b = best verified value; after the colon the method that produced it.\n"

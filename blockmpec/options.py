@@ -1,4 +1,6 @@
-"""Validators for solver options (used in the ``Options.__post_init__`` of every adapter).
+"""The options every method shares (:class:`CommonOptions`) and validators for the others.
+
+Validators are used in the ``Options.__post_init__`` of every adapter.
 
 Each raises ``ValueError`` naming the option, what was expected and what was
 received; :class:`blockmpec.solver.SolverBase` turns it into an
@@ -9,15 +11,36 @@ from __future__ import annotations
 
 import math
 from collections.abc import Iterable
+from dataclasses import dataclass, field
 from typing import Any
 
-#: Default ``time_limit`` [s] of static-lp, kinematic-lp and nlp (and the value fixed-point, slp
-#: and mcp-newton use).  Finite, so that no default solve runs unbounded (issue 16); 600 s is
-#: about 13x the largest LP measured (10,046-block wall: 47 s with the block IPM) and 20-50x
-#: nlp on the 50-block wall.  Note: :data:`blockmpec.runner.DEFAULT_WALL_LIMIT_S` (600 s,
-#: set-up included) applies to a solve without an explicit ``time_limit``.
-#: ``time_limit=inf`` (``-O time_limit=Infinity`` on the command line) removes the limit.
+#: The one default ``time_limit`` [s] of every method (:class:`CommonOptions`).  Finite, so that no default solve
+#: runs unbounded: about 13x the largest LP measured by the HiGHS simplex engines and far beyond the block IPM's
+#: 100,000-block LP.  ``time_limit=inf`` (``-O time_limit=Infinity`` on the command line) removes the limit.
 DEFAULT_TIME_LIMIT_S = 600.0
+
+
+@dataclass
+class CommonOptions:
+    """The options every method has, declared once (each method's ``Options`` extends this class).
+
+    Attributes
+    ----------
+    time_limit : float
+        Seconds for the whole solve, set-up excluded; ``inf`` for none.  :func:`blockmpec.solve` turns it
+        into one :class:`~blockmpec.deadline.Deadline` that every engine of the run shares.
+    verbose : bool
+        Log the run's progress (``logging`` at INFO on the ``blockmpec`` loggers, printed to stderr) and the
+        backends' own logs (HiGHS, Ipopt).
+    """
+
+    time_limit: float = field(default=DEFAULT_TIME_LIMIT_S, metadata={
+        "help": "seconds for the whole solve, set-up excluded (inf: no limit)"})
+    verbose: bool = field(default=False, metadata={"help": "print the run's progress and the backends' logs"})
+
+    def __post_init__(self) -> None:
+        positive(self, "time_limit", finite=False)
+        boolean(self, "verbose")
 
 
 def _is_number(value: Any) -> bool:

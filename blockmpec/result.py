@@ -79,6 +79,20 @@ class Solution:
 
 
 @dataclass
+class RunOutput:
+    """What a method's run (and each engine it drives) returns: its claimed status and raw iterate, before the
+    shared verifier; :func:`blockmpec.solve` turns it into a :class:`Result`."""
+
+    status: Status
+    solution: Solution = field(default_factory=Solution)
+    iterations: int = 0
+    trace: list[dict[str, Any]] = field(default_factory=list)
+    message: str = ""
+    raw_status: str = ""
+    extra: dict[str, Any] = field(default_factory=dict)
+
+
+@dataclass
 class Result:
     """The outcome of one solve.
 

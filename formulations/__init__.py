@@ -1,6 +1,7 @@
 """Pyomo statements of the limit-analysis problems, built from the sparse operators.
 
 * :func:`static_lp`      problem (1), and the modified associative LP (5) of the fixed point;
+* :func:`step_lps`       the compiled LPs of a sequence of (5) (fixed point, SLP) with their rows' data;
 * :func:`tie_break_lp`   the fixed point's tie-break LP (picks one optimal point of a step LP (5));
 * :func:`kinematic_lp`   problem (2);
 * :func:`mcp`            the non-associative MCP (3), with ``pyomo.mpec`` complementarity pairs;
@@ -20,10 +21,10 @@ from blockmpec.formulations.compiled import CompiledMCP, compile_mcp
 from blockmpec.formulations.kinematic_lp import kinematic_lp
 from blockmpec.formulations.mcp import evaluate_mcp, mcp
 from blockmpec.formulations.mpec import mpec
-from blockmpec.formulations.static_lp import modified_lp, static_lp
+from blockmpec.formulations.static_lp import StepLPs, modified_lp, static_lp, step_lps
 from blockmpec.formulations.tie_break import tie_break_lp
 
 __all__ = [
-    "CompiledMCP", "LinearProgram", "compile_mcp", "PyomoProblem", "compile_linear", "evaluate_mcp", "kinematic_lp", "mcp", "modified_lp", "mpec",
-    "static_lp", "tie_break_lp",
+    "CompiledMCP", "LinearProgram", "PyomoProblem", "StepLPs", "compile_linear", "compile_mcp", "evaluate_mcp",
+    "kinematic_lp", "mcp", "modified_lp", "mpec", "static_lp", "step_lps", "tie_break_lp",
 ]

@@ -42,7 +42,7 @@ between optimal vertices while ``lam`` has levelled off, and the plain iteration
   ``"closest"``.
 
 ``u, z_u, z_f`` come from the duals of the step LP; ``x`` from the tie-break LP (any
-optimal primal and dual of one LP are complementary).  ``fold_weight > 0`` folds a
+optimal primal and dual of one LP are complementary).  The setting ``fold_weight > 0`` folds a
 weighted rule into the step LP's objective (one LP per step) and closes with exact
 ``"closest"`` steps (see :mod:`blockmpec.solvers.engines.lp_sequence`).
 
@@ -52,8 +52,8 @@ answer depends on which optimal vertex HiGHS returns: two blocks (``eta = 3``,
 ``mu = 0.65``) with HiGHS's default feasibility tolerance 1e-7 it drifted to 1/3
 (the minimum) in 11 steps, with 1e-9 it stops at 0.41973 after one step.
 
-Update: ``relaxation`` ``omega`` as above, or Anderson mixing on ``n*``
-(``acceleration="anderson"``, depth ``memory``).  ``multistart > 1`` runs the
+Update: ``relaxation`` ``omega`` as above, or Anderson mixing on ``n*`` (settings
+``acceleration="anderson"``, depth ``memory``).  ``multistart > 1`` runs the
 configured start and then seeded random starts (seeds ``seed + 1, ...``) and
 returns the converged run with the lowest verified multiplier (residuals of (3)
 at most 1e-6); nothing unverified is preferred over a verified run.
@@ -80,13 +80,13 @@ Engines (``engine``).  Everything above is the ``"simplex"`` engine.  ``"interio
 (:mod:`blockmpec.solvers.engines.interior_fixed_point`) replaces the sequence of LPs by one
 interior-point run of Newton's method on (3), written as the step LP (5) with ``n* = n``
 (Coulomb rows in the primal, ``tan(psi)`` flow in the dual); its aim term
-``interior_weight`` plays the part of the least-compressed tie-break, and it stops when
+(setting ``interior_weight``) plays the part of the least-compressed tie-break, and it stops when
 the residuals of (3) are at most ``tol``; ``start``, ``tie_break``, ``fold_weight``,
 ``relaxation``, ``acceleration`` and ``multistart`` do not apply to it.  ``"auto"`` (the
-default) takes the simplex engine below :data:`AUTO_INTERIOR_BLOCKS` free blocks (so the
+default) takes the simplex engine below :data:`~blockmpec.solvers.plan.FIXED_POINT_INTERIOR_BLOCKS` free blocks (so the
 small structures' answers are those of the simplex engine), the interior one from there
 up, and falls back to the simplex engine in the time left when the interior run does not
-reach a solution of (3) (residuals above 1e-6), below :data:`AUTO_SIMPLEX_FALLBACK_BLOCKS` free
+reach a solution of (3) (residuals above 1e-6), below :data:`~blockmpec.solvers.plan.FIXED_POINT_SIMPLEX_FALLBACK_BLOCKS` free
 blocks (above, the simplex engine cannot finish in the default time limit, and the interior run's
 failure is returned at once).  On the 1,010-block wall the interior
 engine costs 1.4x one cold block-IPM LP (CPU) against the simplex engine's 46x, with
@@ -97,7 +97,7 @@ On 2,400- and 10,000-block walls Mehrotra's iterates leave the strongly curved c
 of (3) and stall; no closing stage from the stalled point reached a solution of (3)
 (semismooth Newton, exact block-IPM fixed-point steps, restarts, proximal regularisation,
 aimed forces with LP duals), but arclength continuation of the central path from there does
-(``interior_continuation``, on by default; its steps count as iterations): on the
+(setting ``interior_continuation``, on by default; its steps count as iterations): on the
 2,420-block wall a verified solution, lam 0.41939, in 78 s CPU (20x one cold block-IPM LP;
 aimed run, plain run, 155 continuation steps), where the simplex engine does not finish one
 step in 600 s.  On the 10,050-block wall the path through the stalled point turns back and
@@ -110,6 +110,11 @@ interior answers converge on ``n`` only linearly: 260 iterations at 1,010 blocks
 following on (3) in a wide neighbourhood, a homotopy on the dilatancy gap (cold Newton on (3)
 converges at 10,050 blocks only up to ``tan(psi)`` 0.45 of 0.65, and the next stage stalls), ``n*``
 moved inside one LP run, and an active-set finish; none reached a solution of (3) within 3x one cold LP.
+
+Options and settings.  The options (:class:`FixedPointOptions`) are what a user chooses; the engine settings
+(:class:`FixedPointSettings`: the fold weight, Anderson acceleration, the HiGHS algorithm, the interior engine's aim
+weight and continuation) are the measured defaults that experiments vary (``studies/lab``,
+:func:`blockmpec.run_solver`).
 """
 
 from __future__ import annotations
@@ -119,83 +124,84 @@ from dataclasses import dataclass, field
 from blockmpec import facts as fact_names
 from blockmpec import options as check
 from blockmpec.facts import ASSOCIATIVE_MULTIPLIER
+from blockmpec.options import CommonOptions
 from blockmpec.registry import register_solver
-from blockmpec.result import Status
-from blockmpec.solver import RunOutput, SolverBase
+from blockmpec.result import RunOutput, Status
+from blockmpec.solver import SolverBase
+from blockmpec.solvers import plan
 
 #: residual tolerance under which a multistart run counts as a solution of (3) (the verifier's default)
 MULTISTART_VERIFY_TOL = 1e-6
-#: engines of the fixed point; "auto" takes the interior engine from this many free blocks up
-ENGINES = ("auto", "simplex", "interior")
-AUTO_INTERIOR_BLOCKS = 500
-#: "auto" falls back to the simplex engine only below this many free blocks: on the 2,032-block wall the
-#: simplex engine made 13 steps in 400 s without converging (``python studies/fixed_point_ratio.py --walls 32x63
-#: --fixed-point "engine=simplex" --time-limit 400``; each step LP and its tie-break about 14 s, while the
-#: 1,010-block wall needs 53 steps) and at 2,420 blocks it does not finish one step in 600 s, so a fallback
-#: there only uses up the time limit
-AUTO_SIMPLEX_FALLBACK_BLOCKS = 2000
-#: default weight of the interior engine's aim term (studies/fixed_point_strategies.py)
+#: default weight of the interior engine's aim term (studies/lab/fixed_point_strategies.py)
 INTERIOR_AIM_WEIGHT = 0.1
 
 
-def select_engine(engine: str, n_free_blocks: int) -> str:
-    """The engine ``"auto"`` stands for: ``"interior"`` from :data:`AUTO_INTERIOR_BLOCKS` free blocks up."""
-    if engine != "auto":
-        return engine
-    return "interior" if n_free_blocks >= AUTO_INTERIOR_BLOCKS else "simplex"
-
-
 @dataclass
-class FixedPointOptions:
+class FixedPointOptions(CommonOptions):
     """Options of the fixed-point method."""
 
-    tol: float = field(default=1e-9, metadata={"help": "stop when ||n - n*|| <= tol ||n||"})
-    max_iterations: int = field(default=500, metadata={"help": "most modified-LP steps"})
+    tol: float = field(default=1e-9, metadata={"help": "stop when ||n - n*|| <= tol ||n|| (normal forces)"})
+    max_iterations: int = field(default=500, metadata={"help": "most LP steps (interior engine: iterations)"})
     relaxation: float = field(default=1.0, metadata={"help": "omega in (0, 1]: n* <- n* + omega (n - n*)"})
     start: str = field(default="dead-load", metadata={
-        "help": "associative | zero | dead-load | random: the first n* (see lp_sequence)"})
+        "help": "the first n*: dead-load (forces under the dead load alone) | associative | zero | random"})
     tie_break: str = field(default="least-compressed", metadata={
-        "help": "closest | least-compressed | min-lambda | on-oscillation | none: which optimal LP forces a step takes"})
-    fold_weight: float = field(default=1e-4, metadata={
-        "help": "0: weighted tie-breaks as their own LP; > 0: folded into the step LP with this weight, "
-                "then exact closest steps close the loop"})
-    acceleration: str = field(default="none", metadata={"help": "none | anderson: update of n*"})
-    memory: int = field(default=5, metadata={"help": "Anderson depth"})
+        "help": "which of a step's optimal forces to take: least-compressed | closest | min-lambda | "
+                "on-oscillation | none"})
     seed: int = field(default=0, metadata={"help": "seed of the random start (run i of a multistart: seed + i)"})
     multistart: int = field(default=1, metadata={
-        "help": "runs: the start above, then random starts; returns the lowest verified (residuals <= 1e-6)"})
-    algorithm: str = field(default="auto", metadata={"help": "HiGHS: auto | simplex | dual-simplex | primal-simplex | ipm"})
+        "help": "runs: the start above, then random starts; the lowest verified answer is returned"})
     engine: str = field(default="auto", metadata={
-        "help": "simplex (warm HiGHS LP steps) | interior (one interior-point run on (3), "
-                "blockmpec.solvers.engines.interior_fixed_point) | auto: interior from "
-                "AUTO_INTERIOR_BLOCKS free blocks up"})
-    interior_weight: float = field(default=INTERIOR_AIM_WEIGHT, metadata={
-        "help": "interior engine: weight of the least-compressed aim term (0: none)"})
-    interior_continuation: bool = field(default=True, metadata={
-        "help": "interior engine: when the run stalls, follow its central path by arclength continuation "
-                "(steps count as iterations)"})
-    time_limit: float = field(default=600.0, metadata={
-        "help": "seconds for the whole iteration, every start of a multistart included (each LP gets the time "
-                "left; the loop checks the clock); default 600: finite, ~1.8x the 1,000-block wall's 337 s by the "
-                "simplex engine (the interior engine, auto's choice there, takes ~1 s), as mcp-newton; inf for none"})
+        "help": "auto (simplex below 500 free blocks, interior above) | simplex (warm LP steps) | interior (one "
+                "interior-point run on (3))"})
 
     def __post_init__(self) -> None:
-        from blockmpec.solvers.engines.lp_engine import BASIS_ALGORITHMS
-        from blockmpec.solvers.engines.lp_sequence import ACCELERATIONS, STARTS, TIE_BREAKS
+        from blockmpec.solvers.engines.lp_sequence import STARTS, TIE_BREAKS
 
+        super().__post_init__()
         check.positive(self, "tol")
         check.integer(self, "max_iterations", minimum=1)
         check.interval(self, "relaxation", 0, 1, closed="right")
         check.choice(self, "start", STARTS)
         check.choice(self, "tie_break", TIE_BREAKS)
-        check.choice(self, "acceleration", ACCELERATIONS)
-        check.interval(self, "fold_weight", 0, 1, closed="left")
-        check.integer(self, "memory", minimum=1)
         check.integer(self, "seed", minimum=0)
         check.integer(self, "multistart", minimum=1)
-        check.choice(self, "algorithm", BASIS_ALGORITHMS)
-        check.positive(self, "time_limit", finite=False)
-        check.choice(self, "engine", ENGINES)
+        check.choice(self, "engine", plan.FIXED_POINT_ENGINES)
+
+
+@dataclass
+class FixedPointSettings:
+    """Engine settings of the fixed-point method (experiments: ``studies/lab``; see the module docstring).
+
+    Attributes
+    ----------
+    fold_weight : float
+        0: a weighted tie-break runs as its own LP; > 0: folded into the step LP with this weight, then exact
+        closest steps close the loop (:mod:`~blockmpec.solvers.engines.lp_sequence`).
+    acceleration : {"none", "anderson"}
+        Update of ``n*``; ``memory`` is Anderson's depth.
+    algorithm : str
+        HiGHS algorithm of the step LPs (:data:`~blockmpec.solvers.plan.BASIS_ALGORITHMS`).
+    interior_weight : float
+        Interior engine: weight of the least-compressed aim term (0: none).
+    interior_continuation : bool
+        Interior engine: when the run stalls, follow its central path by arclength continuation.
+    """
+
+    fold_weight: float = 1e-4
+    acceleration: str = "none"
+    memory: int = 5
+    algorithm: str = "auto"
+    interior_weight: float = INTERIOR_AIM_WEIGHT
+    interior_continuation: bool = True
+
+    def __post_init__(self) -> None:
+        from blockmpec.solvers.engines.lp_sequence import ACCELERATIONS
+
+        check.interval(self, "fold_weight", 0, 1, closed="left")
+        check.choice(self, "acceleration", ACCELERATIONS)
+        check.integer(self, "memory", minimum=1)
+        check.choice(self, "algorithm", plan.BASIS_ALGORITHMS)
         check.interval(self, "interior_weight", 0, 10, closed="both")
         check.boolean(self, "interior_continuation")
 
@@ -210,30 +216,34 @@ class FixedPoint(SolverBase):
                "500 free blocks) one interior-point run on (3)")
     requires = ("highspy", "pyomo")
     Options = FixedPointOptions
+    Settings = FixedPointSettings
 
     def setup(self, ops):
+        from blockmpec.solvers.engines.scaling import LoadUnits
+
         self.ops = ops
-        o = self.options
-        self.engine = select_engine(o.engine, ops.n_free_blocks)
+        self.units = LoadUnits.of(ops)
+        self.engine = plan.fixed_point_engine(self.options.engine, ops.n_free_blocks)
+        self.fallback = plan.fixed_point_fallback(self.options.engine, ops.n_free_blocks)
         self.sequence = None
         if self.engine == "interior":
-            import numpy as np
+            from blockmpec.formulations import step_lps
 
-            from blockmpec.formulations import modified_lp
-            from blockmpec.formulations._pyomo import compiled_linear
-
-            # the HiGHS sequence of a fallback ("auto") is built only when it is needed
-            self.step_lp = compiled_linear(modified_lp, ops, np.zeros(ops.n_interfaces), slope=ops.dilatancy)
+            # the step LP (5) (tan(psi) rows) and the static LP (1) (tan(phi) rows): the interior engine's dual and
+            # primal rows; the HiGHS sequence of a fallback is built only when it is needed
+            self.interior_lps = step_lps(ops, tie_break=False, associative=True)
             return
         self._build_sequence()
 
     def _build_sequence(self) -> None:
+        from blockmpec.formulations import step_lps
         from blockmpec.solvers.engines.lp_sequence import LPSequence
 
-        o = self.options
+        o, st = self.options, self.settings
         needs_lp1 = o.start in ("associative", "dead-load", "random") or o.multistart > 1
-        self.sequence = LPSequence(self.ops, alpha=0.0, tie_break=o.tie_break, algorithm=o.algorithm,
-                                   need_associative=needs_lp1, fold_weight=o.fold_weight)
+        lps = step_lps(self.ops, alpha=0.0, tie_break=o.tie_break != "none", associative=needs_lp1)
+        self.sequence = LPSequence(lps, self.units, alpha=0.0, tie_break=o.tie_break, algorithm=st.algorithm,
+                                   fold_weight=st.fold_weight)
 
     def _verified(self, out: RunOutput) -> bool:
         """A success whose residuals of (3) are at most :data:`MULTISTART_VERIFY_TOL`."""
@@ -242,55 +252,51 @@ class FixedPoint(SolverBase):
         return (out.status.is_success and out.solution.multiplier is not None
                 and all(v <= MULTISTART_VERIFY_TOL for v in residuals(self.ops, out.solution, associative=False).values()))
 
-    def _run_once(self, start: str, seed: int, time_limit: float):
+    def _run_once(self, start: str, seed: int, deadline):
         from blockmpec.solvers.engines.lp_sequence import run_sequence
 
-        o = self.options
+        o, st = self.options, self.settings
         return run_sequence(self.sequence, start=start, relaxation=o.relaxation, stop_on="normal", tol=o.tol,
-                            max_iterations=o.max_iterations, time_limit=time_limit,
-                            acceleration=o.acceleration, memory=o.memory, seed=seed)
+                            max_iterations=o.max_iterations, deadline=deadline,
+                            acceleration=st.acceleration, memory=st.memory, seed=seed)
 
-    def _run_interior(self) -> RunOutput:
+    def _run_interior(self, deadline) -> RunOutput:
         """The interior engine; under ``engine="auto"`` an unverified run falls back to the simplex engine."""
-        import time
-
         from blockmpec.solvers.engines.interior_fixed_point import run_interior
 
-        o = self.options
-        t0 = time.perf_counter()
-        out, facts = run_interior(self.ops, self.step_lp, tol=o.tol, max_iterations=o.max_iterations,
-                                  time_limit=o.time_limit, fold_weight=o.interior_weight,
-                                  continuation=o.interior_continuation)
+        o, st = self.options, self.settings
+        lps = self.interior_lps
+        out, facts = run_interior(lps.step, lps.associative, self.units, tol=o.tol, max_iterations=o.max_iterations,
+                                  deadline=deadline, fold_weight=st.interior_weight,
+                                  continuation=st.interior_continuation)
         out.extra[fact_names.ENGINE] = "interior"
-        left = o.time_limit - (time.perf_counter() - t0)
-        if o.engine != "auto" or self._verified(out) or left <= 0:
+        out.extra["plan"] = [f"interior fixed point on (3): {facts.pop('plan', 'block IPM')}"]
+        if o.engine != "auto" or self._verified(out) or deadline.expired():
             return out
-        if self.ops.n_free_blocks >= AUTO_SIMPLEX_FALLBACK_BLOCKS:
-            out.message = (f"{out.message} (no simplex fallback: from {AUTO_SIMPLEX_FALLBACK_BLOCKS:,} free blocks "
-                           "the simplex engine does not converge within the default time limit)")
+        if not self.fallback:
+            out.message = (f"{out.message} (no simplex fallback: from {plan.FIXED_POINT_SIMPLEX_FALLBACK_BLOCKS:,} free "
+                           "blocks the simplex engine does not converge within the default time limit)")
             return out
         # the interior run did not reach a solution of (3): the simplex engine, in the time left
         self._build_sequence()
-        simplex = self._run_simplex(o.time_limit - (time.perf_counter() - t0))
+        simplex = self._run_simplex(deadline)
         simplex.extra[fact_names.LP_SOLVES] = simplex.extra.get(fact_names.LP_SOLVES, 0) + facts[fact_names.LP_SOLVES]
         simplex.extra[fact_names.LP_TIME_S] = {**simplex.extra.get(fact_names.LP_TIME_S, {}), **facts[fact_names.LP_TIME_S]}
         simplex.extra[fact_names.ENGINE] = "interior, then simplex"
         simplex.extra["interior_status"] = out.status.value
+        simplex.extra["plan"] = out.extra["plan"] + simplex.extra["plan"]
         simplex.trace = [{**rec, fact_names.ENGINE: "interior"} for rec in out.trace] + simplex.trace
         simplex.message = f"{simplex.message} (after an interior run that ended {out.status.value}: {out.message})"
         return simplex
 
-    def run(self) -> RunOutput:
+    def run(self, deadline) -> RunOutput:
         if self.engine == "interior":
-            return self._run_interior()
-        return self._run_simplex(self.options.time_limit)
+            return self._run_interior(deadline)
+        return self._run_simplex(deadline)
 
-    def _run_simplex(self, time_limit: float) -> RunOutput:
-        import time
-
+    def _run_simplex(self, deadline) -> RunOutput:
         o = self.options
-        t0 = time.perf_counter()
-        out, facts = self._run_once(o.start, o.seed, time_limit)
+        out, facts = self._run_once(o.start, o.seed, deadline)
         runs = [(out.solution.multiplier, o.start, o.seed, out.status.value)]
         if o.multistart > 1:
             # further runs from seeded random starts; keep the lowest verified solution of (3)
@@ -299,10 +305,9 @@ class FixedPoint(SolverBase):
 
             best, best_facts = (out, facts) if verified(out) else (None, None)
             for i in range(1, o.multistart):
-                left = time_limit - (time.perf_counter() - t0)
-                if left <= 0:
+                if deadline.expired():
                     break
-                other, other_facts = self._run_once("random", o.seed + i, left)
+                other, other_facts = self._run_once("random", o.seed + i, deadline)
                 runs.append((other.solution.multiplier, "random", o.seed + i, other.status.value))
                 if verified(other) and (best is None or other.solution.multiplier < best.solution.multiplier):
                     best, best_facts = other, other_facts
@@ -311,6 +316,8 @@ class FixedPoint(SolverBase):
             out.extra = self.sequence.facts()
             out.extra["multistart_runs"] = runs
         out.extra[fact_names.ENGINE] = "simplex"
+        out.extra["plan"] = [f"fixed point: {self.sequence.lp_solves} HiGHS LPs (start {facts['start_used']}, "
+                             f"tie-break {o.tie_break})"]
         out.extra["tie_break_failures"] = facts["tie_break_failures"]
         out.extra["start"] = facts["start_used"]
         if facts["lam_start"] is not None:

@@ -7,30 +7,27 @@ value ``-f_d^T u``.
 
 from __future__ import annotations
 
-import time
 from dataclasses import dataclass, field
 
 from blockmpec import options as check
+from blockmpec.options import CommonOptions
 from blockmpec.registry import register_solver
 from blockmpec.result import Solution, Status
-from blockmpec.solver import RunOutput, SolverBase
+from blockmpec.result import RunOutput
+from blockmpec.solver import SolverBase
+from blockmpec.solvers.plan import BASIS_ALGORITHMS
 
 
 @dataclass
-class KinematicLPOptions:
+class KinematicLPOptions(CommonOptions):
     """Options of ``kinematic-lp`` (HiGHS only: the block IPM needs the static LP's shape)."""
 
-    algorithm: str = field(default="auto", metadata={"help": "auto | simplex | dual-simplex | primal-simplex | ipm"})
-    time_limit: float = field(default=check.DEFAULT_TIME_LIMIT_S, metadata={
-        "help": "seconds (HiGHS time_limit, shared with the static LP that tells infeasible from unbounded); "
-                "default 600 (blockmpec.options.DEFAULT_TIME_LIMIT_S: finite, ~13x the 10,046-block wall's LP), "
-                "inf for none"})
+    algorithm: str = field(default="auto", metadata={
+        "help": "auto (HiGHS's dual simplex) | simplex | dual-simplex | primal-simplex | ipm"})
 
     def __post_init__(self) -> None:
-        from blockmpec.solvers.engines.lp_engine import BASIS_ALGORITHMS
-
+        super().__post_init__()
         check.choice(self, "algorithm", BASIS_ALGORITHMS)
-        check.positive(self, "time_limit", finite=False)
 
 
 @register_solver
@@ -46,19 +43,18 @@ class KinematicLP(SolverBase):
     def setup(self, ops):
         from blockmpec.formulations import compile_linear, kinematic_lp
         from blockmpec.solvers.engines.highs import HighsLP, set_feasibility_tolerances
-        from blockmpec.solvers.engines.scaling import kinematic_scaling
+        from blockmpec.solvers.engines.scaling import LoadUnits
 
         self.ops = ops
+        self.units = LoadUnits.of(ops)
         self.lp = compile_linear(kinematic_lp(ops))
-        row_scale, column_scale = kinematic_scaling(self.lp, ops)
-        self.highs = HighsLP(self.lp, self.options.algorithm, self.options.time_limit, row_scale=row_scale,
-                             column_scale=column_scale)
+        row_scale, column_scale = self.units.kinematic(self.lp)
+        self.highs = HighsLP(self.lp, self.options.algorithm, row_scale=row_scale, column_scale=column_scale)
         # z >= 0 are column bounds, held by HiGHS only to its primal feasibility tolerance (see FEASIBILITY_TOL)
         set_feasibility_tolerances(self.highs.highs)
 
-    def run(self) -> RunOutput:
-        started = time.perf_counter()
-        out = self.highs.solve()
+    def run(self, deadline) -> RunOutput:
+        out = self.highs.solve(deadline=deadline)
         lp = self.lp
         sol = Solution()
         message = out.message
@@ -71,29 +67,29 @@ class KinematicLP(SolverBase):
                 z_f=lp.values("z_f", out.v),
             )
         elif out.status in (Status.INFEASIBLE, Status.INFEASIBLE_OR_UNBOUNDED):
-            remaining = self.options.time_limit - (time.perf_counter() - started)
-            out.status, message = self._no_mechanism(out.status, remaining)
+            out.status, message = self._no_mechanism(out.status, deadline)
         elif out.status is Status.UNBOUNDED:
             message = "the kinematic LP is unbounded: no equilibrium exists (e.g. unstable under dead load)"
             out.status = Status.INFEASIBLE  # a dual with an unbounded objective proves the static LP infeasible
-        return RunOutput(out.status, sol, out.iterations, message=message, raw_status=out.raw_status)
+        return RunOutput(out.status, sol, out.iterations, message=message, raw_status=out.raw_status,
+                         extra={"plan": [f"kinematic LP (2): HiGHS {self.highs.last_algorithm}"]})
 
-    def _no_mechanism(self, status: Status, time_limit: float) -> tuple[Status, str]:
+    def _no_mechanism(self, status: Status, deadline) -> tuple[Status, str]:
         """Status and message when the kinematic LP has no feasible mechanism.
 
         By LP duality its dual, the static LP (1), is then infeasible *or* unbounded, and both
         happen (a frictionless block between two walls has neither an equilibrium nor a
         mechanism).  One static LP solve (HiGHS's dual simplex, load units) says which, within
-        ``time_limit`` (the time left of the run).
+        the run's ``deadline``.
         """
-        if time_limit <= 0:
+        if deadline.expired():
             return status, (f"the kinematic LP is {status.value}: no feasible mechanism; the time limit left no "
                             "time to tell an infeasible static LP from an unbounded one")
         from blockmpec.formulations import compile_linear, static_lp
         from blockmpec.solvers.engines.lp_engine import cold_lp_engine
 
-        static = cold_lp_engine(compile_linear(static_lp(self.ops)), "dual-simplex", time_limit,
-                                ops=self.ops).solve()
+        static = cold_lp_engine(compile_linear(static_lp(self.ops)), "dual-simplex", self.units).solve(
+            deadline=deadline)
         if static.status is Status.UNBOUNDED:
             return Status.UNBOUNDED, ("the kinematic LP is infeasible and the static LP unbounded: no collapse "
                                       "mechanism exists for this live load")

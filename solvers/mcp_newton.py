@@ -47,13 +47,13 @@ start, so the start decides the answer:
   behaviour before the strategy study).
 
 From the other starts Newton solves (3) at ``tan(psi)`` directly: with
-``fallback``, in at most ``step_iterations`` iterations, and a start that fails,
+setting ``fallback``, in at most ``step_iterations`` iterations, and a start that fails,
 or from which Newton does not converge, is followed by the associative path within
 the remaining time and iterations (without it, with the whole budget)
 (``Result.extra["start"]`` names the start that gave the answer).  One
 :class:`~blockmpec.solvers.engines.stopping.StoppingCriterion` spans the run: it
-counts every Newton iteration against ``max_iterations``, keeps ``time_limit``
-(the start's solver gets the remaining time) and writes the trace
+counts every Newton iteration against ``max_iterations``, keeps the run's deadline
+(the start's solver runs within it too) and writes the trace
 (``iteration, time_s, residual, merit, step, direction, multiplier, continuation``).
 
 The Jacobian is singular at every solution of a hyperstatic structure (the forces
@@ -77,13 +77,14 @@ Status: ``CONVERGED`` when ``||Phi||_inf <= tol``; ``ITERATION_LIMIT``,
 
 from __future__ import annotations
 
-import dataclasses
 from dataclasses import dataclass, field
 
 from blockmpec import options as check
+from blockmpec.options import CommonOptions
 from blockmpec.registry import register_solver
 from blockmpec.result import Status
-from blockmpec.solver import RunOutput, SolverBase
+from blockmpec.result import RunOutput
+from blockmpec.solver import SolverBase
 
 #: starting points of the Newton iteration (see the module docstring)
 STARTS = ("fixed-point", "dead-load", "random", "nlp", "associative")
@@ -102,40 +103,63 @@ _USABLE_START = (Status.OPTIMAL, Status.CONVERGED, Status.LOCALLY_OPTIMAL, Statu
 
 
 @dataclass
-class NewtonOptions:
+class NewtonOptions(CommonOptions):
     """Options of the semismooth Newton method."""
 
     start: str = field(default="fixed-point", metadata={
-        "help": "fixed-point | dead-load | random | nlp | associative: the starting point (see the docstring)"})
+        "help": "the starting point: fixed-point | dead-load | random | nlp | associative (continuation in the "
+                "dilatancy from the associative solution)"})
     seed: int = field(default=0, metadata={"help": "seed of the random start"})
-    fallback: bool = field(default=True, metadata={
-        "help": "after a failed start or a Newton run that does not converge, the associative path"})
     tol: float = field(default=1e-12, metadata={"help": "stop when the scaled ||Phi||_inf <= tol"})
     max_iterations: int = field(default=2000, metadata={"help": "Newton iterations in total"})
-    step_iterations: int = field(default=30, metadata={"help": "Newton iterations per continuation step (and from a non-associative start, with fallback)"})
-    step_tol: float = field(default=1e-7,
-                            metadata={"help": "tolerance of the intermediate continuation steps (the last uses tol)"})
-    continuation: bool = field(default=True, metadata={
-        "help": "associative start: continuation in the dilatancy from tan(phi) to tan(psi)"})
-    min_step: float = field(default=1e-4, metadata={"help": "smallest continuation step before giving up"})
-    sigma: float = field(default=1e-4, metadata={"help": "Armijo sufficient-decrease constant, in (0, 0.5)"})
-    backtrack: float = field(default=0.5, metadata={"help": "step reduction factor of the line search, in (0, 1)"})
-    max_backtracks: int = field(default=40, metadata={"help": "step reductions before a direction is given up"})
-    regularisation: float = field(default=1.0,
-                                  metadata={"help": "Levenberg-Marquardt fallback: nu = regularisation * ||Phi||"})
-    time_limit: float = field(default=600.0, metadata={"help": "seconds for the whole run, start included"})
 
     def __post_init__(self) -> None:
+        super().__post_init__()
         check.choice(self, "start", STARTS)
         check.integer(self, "seed", minimum=0)
-        check.boolean(self, "fallback")
-        check.positive(self, "tol", "step_tol", "regularisation")
-        check.integer(self, "max_iterations", "step_iterations", "max_backtracks", minimum=0)
+        check.positive(self, "tol")
+        check.integer(self, "max_iterations", minimum=0)
+
+
+@dataclass
+class NewtonSettings:
+    """Engine settings of the semismooth Newton method (experiments: ``studies/lab``).
+
+    Attributes
+    ----------
+    fallback : bool
+        After a failed start or a Newton run that does not converge, the associative path.
+    step_iterations : int
+        Newton iterations per continuation step (and from a non-associative start, with fallback).
+    step_tol : float
+        Tolerance of the intermediate continuation steps (the last uses ``tol``).
+    continuation : bool
+        Associative start: continuation in the dilatancy from ``tan(phi)`` to ``tan(psi)``.
+    min_step : float
+        Smallest continuation step before giving up.
+    sigma, backtrack, max_backtracks : float, float, int
+        Armijo's sufficient-decrease constant, the step reduction factor and the most reductions.
+    regularisation : float
+        Levenberg-Marquardt fallback: ``nu = regularisation * ||Phi||``.
+    """
+
+    fallback: bool = True
+    step_iterations: int = 30
+    step_tol: float = 1e-7
+    continuation: bool = True
+    min_step: float = 1e-4
+    sigma: float = 1e-4
+    backtrack: float = 0.5
+    max_backtracks: int = 40
+    regularisation: float = 1.0
+
+    def __post_init__(self) -> None:
+        check.boolean(self, "fallback", "continuation")
+        check.positive(self, "step_tol", "regularisation")
+        check.integer(self, "step_iterations", "max_backtracks", minimum=0)
         check.interval(self, "sigma", 0, 0.5)
         check.interval(self, "backtrack", 0, 1)
-        check.boolean(self, "continuation")
         check.interval(self, "min_step", 0, 1, closed="right")
-        check.positive(self, "time_limit", finite=False)
 
 
 @register_solver
@@ -147,6 +171,7 @@ class MCPNewton(SolverBase):
     summary = "MCP (3): Fischer-Burmeister semismooth Newton from the fixed point's solution (PATH stand-in)"
     requires = ("highspy", "pyomo", "scipy")
     Options = NewtonOptions
+    Settings = NewtonSettings
 
     def setup(self, ops):
         from blockmpec.formulations import compile_mcp
@@ -157,13 +182,13 @@ class MCPNewton(SolverBase):
         self.ops = ops
         self.form = compile_mcp(ops)  # (3), compiled once
         self.start_lp = None
-        if opt.start == "associative" or opt.fallback:
-            self.start_lp = StaticLP(time_limit=opt.time_limit)  # the associative start
+        if opt.start == "associative" or self.settings.fallback:
+            self.start_lp = StaticLP()  # the associative start (within the run's deadline)
             self.start_lp.setup(ops)
         self.start_solver = None
         if opt.start != "associative":
             method, start_options = _START_METHODS[opt.start]
-            start_options = dict(start_options, time_limit=opt.time_limit)
+            start_options = dict(start_options)
             if opt.start == "random":
                 start_options["seed"] = opt.seed
             self.start_solver = get_solver(method)(**start_options)  # the registered method, not a copy
@@ -174,16 +199,16 @@ class MCPNewton(SolverBase):
     def _newton(self, form, solution, stop, max_iterations, tol, t):
         from blockmpec.solvers.engines.newton_system import MCPSystem, semismooth_newton
 
-        opt = self.options
+        st = self.settings
         system = MCPSystem(form, solution)
         return semismooth_newton(
-            system, system.pack(solution), tol=tol, max_iterations=max_iterations, sigma=opt.sigma,
-            backtrack=opt.backtrack, max_backtracks=opt.max_backtracks, regularisation=opt.regularisation,
+            system, system.pack(solution), tol=tol, max_iterations=max_iterations, sigma=st.sigma,
+            backtrack=st.backtrack, max_backtracks=st.max_backtracks, regularisation=st.regularisation,
             stop=stop, continuation=t)
 
     def _budget(self, stop):
         """(status, message) when the run's time or iterations are spent, else None."""
-        if stop.remaining() <= 0:
+        if stop.out_of_time():
             return Status.TIME_LIMIT
         if self.options.max_iterations - stop.iterations <= 0:
             return Status.ITERATION_LIMIT
@@ -191,9 +216,9 @@ class MCPNewton(SolverBase):
 
     def _associative_path(self, stop, counts):
         """Static LP (1), then the continuation in the dilatancy ``tan(phi) -> tan(psi)``."""
-        opt = self.options
+        opt, st = self.options, self.settings
         form = self.form
-        start = self.start_lp.run()
+        start = self.start_lp.run(stop.deadline)
         if start.status is not Status.OPTIMAL:
             passed_on = (Status.UNBOUNDED, Status.INFEASIBLE, Status.INFEASIBLE_OR_UNBOUNDED, Status.TIME_LIMIT)
             return (start.status if start.status in passed_on else Status.ERROR, start.solution,
@@ -211,8 +236,8 @@ class MCPNewton(SolverBase):
             t_next = min(1.0, t_done + dt)
             final = t_next >= 1.0
             step_form = form if final else form.with_dilatancy((1 - t_next) * form.friction + t_next * form.dilatancy)
-            limit = budget if not opt.continuation else min(budget, opt.step_iterations)
-            out = self._newton(step_form, solution, stop, limit, opt.tol if final else max(opt.tol, opt.step_tol),
+            limit = budget if not st.continuation else min(budget, st.step_iterations)
+            out = self._newton(step_form, solution, stop, limit, opt.tol if final else max(opt.tol, st.step_tol),
                                t_next)
             if out.status is Status.CONVERGED:
                 counts["continuation_steps"] += 1
@@ -223,13 +248,13 @@ class MCPNewton(SolverBase):
                 dt = min(2 * dt, 1.0)
                 continue
             counts["continuation_failures"] += 1
-            if not opt.continuation or out.status is Status.TIME_LIMIT:
+            if not st.continuation or out.status is Status.TIME_LIMIT:
                 solution, status, message = out.solution, out.status, out.message
                 break
             dt /= 2
-            if dt < opt.min_step:
+            if dt < st.min_step:
                 status = Status.NUMERICAL
-                message = (f"continuation stalled at t = {t_done:.4g} (step < {opt.min_step:g}); "
+                message = (f"continuation stalled at t = {t_done:.4g} (step < {st.min_step:g}); "
                            f"last attempt: {out.message}")
                 if t_done == 0.0:
                     solution = out.solution
@@ -240,11 +265,9 @@ class MCPNewton(SolverBase):
         return status, solution, message, start.solution.multiplier
 
     def _started_path(self, stop):
-        """The start's solver (registered method) with the remaining time, then Newton at ``tan(psi)``."""
+        """The start's solver (registered method) within the run's deadline, then Newton at ``tan(psi)``."""
         opt = self.options
-        self.start_solver.options = dataclasses.replace(self.start_solver.options,
-                                                        time_limit=max(stop.remaining(), 1e-3))
-        start = self.start_solver.run()
+        start = self.start_solver.run(stop.deadline)
         from blockmpec import facts
 
         lam_assoc = start.extra.get(facts.ASSOCIATIVE_MULTIPLIER)
@@ -255,18 +278,18 @@ class MCPNewton(SolverBase):
             return spent, start.solution, f"{spent.value} after the {opt.start} start", lam_assoc
         # near a solution Newton converges in a few steps; past step_iterations it wanders (leave time for the fallback)
         limit = opt.max_iterations - stop.iterations
-        if opt.fallback:
-            limit = min(limit, opt.step_iterations)
+        if self.settings.fallback:
+            limit = min(limit, self.settings.step_iterations)
         out = self._newton(self.form, start.solution, stop, limit, opt.tol, 1.0)
         return out.status, out.solution, out.message, lam_assoc
 
-    def run(self) -> RunOutput:
+    def run(self, deadline) -> RunOutput:
         from blockmpec import facts
         from blockmpec.solvers.engines.stopping import StoppingCriterion
 
         opt = self.options
-        # one criterion for the run: every Newton iteration, the time limit, the trace
-        stop = StoppingCriterion(opt.tol, opt.max_iterations, opt.time_limit, measure_name="residual").start()
+        # one criterion for the run: every Newton iteration, the deadline, the trace
+        stop = StoppingCriterion(opt.tol, opt.max_iterations, deadline, measure_name="residual").start()
         counts = {"continuation_reached": 0.0, "continuation_steps": 0, "continuation_failures": 0}
         start_used = opt.start
         lam_assoc = None
@@ -274,13 +297,13 @@ class MCPNewton(SolverBase):
             status, solution, message, lam_assoc = self._associative_path(stop, counts)
         else:
             status, solution, message, lam_assoc = self._started_path(stop)
-            if status is not Status.CONVERGED and opt.fallback and self._budget(stop) is None:
+            if status is not Status.CONVERGED and self.settings.fallback and self._budget(stop) is None:
                 first = f"{opt.start} start: {message}"
                 status, solution, message, lam_assoc = self._associative_path(stop, counts)
                 start_used = "associative"
                 message = f"{message} (fallback after {first})"
         kinds = [r["direction"] for r in stop.trace]
-        extra = {"start": start_used, **counts,
+        extra = {"start": start_used, **counts, "plan": [f"start: {start_used}", "semismooth Newton on (3)"],
                  "newton_steps": kinds.count("newton"),
                  "levenberg_marquardt_steps": kinds.count("levenberg-marquardt"),
                  "gradient_steps": kinds.count("gradient")}

@@ -37,7 +37,7 @@ derives every row).  A run has five stages, all timed:
    a mechanism) and the ``heuristic``'s verified point polished on its pattern, the better
    one.  If it meets ``lam_lower`` within ``CERTIFICATE_TOL`` it is certified at the root
    (no search).  Otherwise the engine: ``engine="auto"`` (the default) is ``"bnb"`` for ``sense="min"``
-   on structures of at most ``AUTO_BNB_MAX_PAIRS`` pairs and ``"highs"`` otherwise
+   on structures of at most :data:`~blockmpec.solvers.plan.MILP_BNB_MAX_PAIRS` pairs and ``"highs"`` otherwise
    (:meth:`MILPSolver._resolve_engine`; ``extra["engine"]`` names the one that ran).  HiGHS on the
    big-M model (``engine="highs"``), SCIP (``engine="scip"``, SOS1 sets ``{s_i, z_i}``) or the branch
    and bound over the pairs of :mod:`blockmpec.solvers.engines.complementarity_bnb` (``engine="bnb"``, a lifted LP
@@ -48,7 +48,7 @@ derives every row).  A run has five stages, all timed:
    ``"rlt"`` stops at 0.558 against 0.6); ``lam_branching`` also
    bisects ``lam``; ``root_lp="ipm"`` solves the root LP by the interior point first and drops the
    rows with zero dual there, a relaxation; with ``"rlt-full"`` it solves that LP in null-space coordinates,
-   equilibrium and compatibility solved once (:mod:`blockmpec.solvers.engines.null_space`: the same LP with
+   equilibrium and compatibility solved once (:mod:`blockmpec.solvers.linalg.null_space`: the same LP with
    about 60 % of the rows and 45 % of the columns, 3-4x faster by IPX; ``root_lp="ipm-lifted"`` solves the
    lifted LP itself); defaults ``lifting="rlt-full"``, ``root_lp="ipm"``), started
    from the incumbent.  ``tau >= 0`` makes the model a
@@ -75,7 +75,7 @@ not *exceed* the bound, and the gap is ``bound - lam >= 0``.
 
 Units: stages 1-5 run on (3) in per-block units (:func:`per_block_units`: each block's
 equilibrium rows divided by its load ``l_i``, interface forces in ``l_k``, multipliers in the
-reciprocal units, ``lam`` in the power of two :func:`~blockmpec.solvers.engines.scaling.multiplier_scale`),
+reciprocal units, ``lam`` in the power of two :attr:`~blockmpec.solvers.engines.scaling.LoadUnits.lam_unit`),
 the system the LP methods solve (:mod:`blockmpec.solvers.engines.scaling`), so that the engines'
 absolute tolerances hold for a 1e-5 block on a unit block and under dead point loads 1e10 times the
 weights.  The point, the bounds, the gaps and the big-M bounds are returned in the problem's units,
@@ -95,18 +95,19 @@ import numpy as np
 import scipy.sparse as sp
 
 from blockmpec import facts
-from blockmpec.registry import register_solver
+from blockmpec import options as check
+from blockmpec.deadline import Deadline
+from blockmpec.errors import OptionError
+from blockmpec.options import CommonOptions
+from blockmpec.registry import get_solver, register_solver
 from blockmpec.result import Solution, Status
-from blockmpec.solver import RunOutput, SolverBase
+from blockmpec.result import RunOutput
+from blockmpec.solver import SolverBase
+from blockmpec.solvers import plan
 
-ENGINES = ("auto", "highs", "scip", "bnb")
-#: engine="auto" runs "bnb" (sense="min") on structures of at most this many complementarity pairs, "highs" above
-#: it and for sense="max".  The lifted LP of "bnb" grows like pairs^2 (rows G_j x^(i) of every copy): 124 pairs
-#: (4x3 running-bond wall) 29,929 rows, 352 pairs (8x4, 36 blocks) 233,575 rows; above this neither engine
-#: certifies a running-bond wall in 10 minutes and the lifted LP alone would cost memory and set-up time.
-AUTO_BNB_MAX_PAIRS = 400
-#: defaults of the bnb engine's options (None in MILPOptions: "not set"): the best measured
-#: (``python studies/certificate_study.py suite --configs highs,bnb-rltfull-ipm``)
+ENGINES = plan.MILP_ENGINES
+#: defaults of the bnb engine's settings (None in MILPSettings: "not set"): the best measured
+#: (``python studies/lab/certificate_study.py suite --configs highs,bnb-rltfull-ipm``)
 BNB_DEFAULT_LIFTING = "rlt-full"
 BNB_DEFAULT_ROOT_LP = "ipm"
 LIFTINGS = ("friction", "mechanism", "all", "rlt", "rlt-full")
@@ -124,97 +125,104 @@ def lifting_options(form, lifting: str, slack_max: np.ndarray) -> dict:
 
 
 @dataclass
-class MILPOptions:
+class MILPOptions(CommonOptions):
     """Options of the ``milp`` method."""
 
-    time_limit: float = field(default=60.0, metadata={"help": "seconds for the whole run (bounds + MILP + polish)"})
     engine: str = field(default="auto", metadata={
-        "help": "auto: bnb for sense=min up to AUTO_BNB_MAX_PAIRS (400) complementarity pairs, highs otherwise | "
-                "highs: HiGHS branch and cut on the big-M model | scip: SCIP with SOS1 complementarity | "
-                "bnb: branch and bound over the pairs on the lifted work-identity LP (no big-M; sense=min)"})
-    lam_branching: bool = field(default=False, metadata={
-        "help": "engine=bnb: also branch on lam (bisect the node's lam-interval; every copy's live load in it)"})
-    lifting: str | None = field(default=None, metadata={
-        "help": "engine=bnb (default rlt-full): friction: static copies z_i x for the friction pairs | "
-                "mechanism: and lam u, lam z (compatibility times lam) | all: copies for every pair, and lam u | "
-                "rlt: all, and the products of compatibility and f_l^T u = 1 with each normal and tangential force "
-                "(x u^T) | rlt-full: rlt with the moments too"})
-    root_lp: str | None = field(default=None, metadata={
-        "help": "engine=bnb (default ipm): simplex: every node LP by the dual simplex on all rows | ipm: the root "
-                "LP first by the interior point (no crossover; once more with crossover when that gives no bound), "
-                "the copy pair rows with zero dual there dropped (a relaxation), woken again where a node's LP point "
-                "violates them; with lifting=rlt-full the root LP in null-space coordinates (equilibrium and "
-                "compatibility solved once: the same LP, smaller) | ipm-lifted: ipm on the lifted LP itself (ipm "
-                "before the null-space coordinates) | ipm-rows: the root LP by row "
-                "generation, rounds of the interior point each with the rows violated at the last point added "
-                "(every round's bound in the trace; measured slower than ipm)"})
-    mip_rel_gap: float = field(default=1e-9, metadata={"help": "relative gap |primal - dual| / |primal|"})
-    mip_abs_gap: float = field(default=1e-9, metadata={"help": "absolute gap on lam"})
-    feasibility_tol: float = field(default=1e-9, metadata={
-        "help": "engine feasibility tolerance (the dual bound is exact up to about this)"})
-    bigm_scale: float = field(default=1.0, metadata={
-        "help": "factor on the proven slack bounds (< 1 only to test detection; never certifies)"})
-    slack_bounds: str = field(default="row", metadata={"help": "row: one LP per slack | normal: one LP per interface"})
-    multiplier_bounds: bool = field(default=True, metadata={"help": "tighten z_i <= y_i to z_i <= zmax_i y_i by LPs"})
-    envelope: bool = field(default=False, metadata={
-        "help": "McCormick envelope of the work identity lam tau = -f_d^T u + x^T B z (OBBT bounds on n)"})
-    dissipation_bound: bool = field(default=True, metadata={
-        "help": "lam >= an LP of the work identity with the friction work bounded by conditional OBBT on n"})
-    heuristic: str = field(default="fixed-point", metadata={
-        "help": "a method whose verified point, polished on its pattern, is a further incumbent ('' for none)"})
-    bilinear: bool = field(default=False, metadata={
-        "help": "engine=scip: the work identity's products as exact bilinear constraints (spatial branching)"})
-    incumbent: bool = field(default=True, metadata={
-        "help": "start from the associative optimum when its active set admits a mechanism"})
-    warm_bounds: bool = field(default=False, metadata={
-        "help": "warm-start the bound LPs (faster; HiGHS warm re-solves were measured to err, see _bounds)"})
-    threads: int = field(default=1, metadata={"help": "engine threads"})
+        "help": "auto (the branch and bound over the pairs up to 400 pairs, HiGHS's big-M MILP above) | highs | "
+                "scip (needs pyscipopt) | bnb"})
     sense: str = field(default="min", metadata={
-        "help": "min: the MPEC (4), min lam over solutions of (3) | max: max lam over the same set"})
-    verbose: bool = field(default=False, metadata={"help": "print the engine log"})
+        "help": "min: the MPEC (4), least lam over the solutions of (3) | max: the largest lam over the same set"})
+    mip_rel_gap: float = field(default=1e-9, metadata={"help": "stop when |incumbent - bound| <= this |incumbent|"})
+    threads: int = field(default=1, metadata={"help": "the engine's threads"})
+
+    def __post_init__(self) -> None:
+        super().__post_init__()
+        check.choice(self, "engine", ENGINES)
+        check.choice(self, "sense", ("min", "max"))
+        check.interval(self, "mip_rel_gap", 0, 1, closed="left")
+        check.integer(self, "threads", minimum=1)
+
+
+@dataclass
+class MILPSettings:
+    """Engine settings of ``milp`` (experiments: ``studies/lab``; the module docstring explains each).
+
+    Attributes
+    ----------
+    lam_branching : bool
+        engine=bnb: also branch on ``lam`` (bisect the node's interval).
+    lifting : str or None
+        engine=bnb (None: :data:`BNB_DEFAULT_LIFTING`): one of :data:`LIFTINGS`.
+    root_lp : str or None
+        engine=bnb (None: :data:`BNB_DEFAULT_ROOT_LP`): one of :data:`ROOT_LPS`.
+    mip_abs_gap : float
+        Absolute gap on ``lam``.
+    feasibility_tol : float
+        Engine feasibility tolerance (the dual bound is exact up to about this).
+    bigm_scale : float
+        Factor on the proven slack bounds (< 1 only to test detection; never certifies).
+    slack_bounds : {"row", "normal"}
+        One LP per slack, or one per interface.
+    multiplier_bounds, envelope, dissipation_bound : bool
+        Tighten ``z_i <= y_i`` by LPs; McCormick envelope of the work identity; the dissipation bound on ``lam``.
+    heuristic : str
+        A method whose verified point, polished on its pattern, is a further incumbent ('' for none).
+    bilinear : bool
+        engine=scip: the work identity's products as exact bilinear constraints.
+    incumbent : bool
+        Start from the associative optimum when its active set admits a mechanism.
+    warm_bounds : bool
+        Warm-start the bound LPs (faster; HiGHS warm re-solves after cost changes were measured to err).
+    """
+
+    lam_branching: bool = False
+    lifting: str | None = None
+    root_lp: str | None = None
+    mip_abs_gap: float = 1e-9
+    feasibility_tol: float = 1e-9
+    bigm_scale: float = 1.0
+    slack_bounds: str = "row"
+    multiplier_bounds: bool = True
+    envelope: bool = False
+    dissipation_bound: bool = True
+    heuristic: str = "fixed-point"
+    bilinear: bool = False
+    incumbent: bool = True
+    warm_bounds: bool = False
 
     @property
     def sets_bnb_options(self) -> bool:
-        """An option of engine="bnb" is set (``lam_branching``, ``lifting`` or ``root_lp``)."""
+        """A setting of engine="bnb" is set (``lam_branching``, ``lifting`` or ``root_lp``)."""
         return self.lam_branching or self.lifting is not None or self.root_lp is not None
 
     def __post_init__(self) -> None:
-        if not self.time_limit > 0:
-            raise ValueError(f"time_limit must be > 0 seconds; got {self.time_limit}")
-        if self.engine not in ENGINES:
-            raise ValueError(f"engine must be one of {ENGINES}; got {self.engine!r}")
-        if not 0 <= self.mip_rel_gap < 1:
-            raise ValueError(f"mip_rel_gap must be in [0, 1); got {self.mip_rel_gap}")
-        if not self.mip_abs_gap >= 0:
-            raise ValueError(f"mip_abs_gap must be >= 0; got {self.mip_abs_gap}")
-        if not 1e-12 <= self.feasibility_tol <= 1e-4:
-            raise ValueError(f"feasibility_tol must be in [1e-12, 1e-4]; got {self.feasibility_tol}")
-        if not (self.bigm_scale > 0 and np.isfinite(self.bigm_scale)):
-            raise ValueError(f"bigm_scale must be a finite number > 0; got {self.bigm_scale}")
-        if self.sense not in ("min", "max"):
-            raise ValueError(f"sense must be 'min' or 'max'; got {self.sense!r}")
-        if self.slack_bounds not in ("row", "normal"):
-            raise ValueError(f"slack_bounds must be 'row' or 'normal'; got {self.slack_bounds!r}")
-        if self.lifting is not None and self.lifting not in LIFTINGS:
-            raise ValueError(f"lifting must be one of {LIFTINGS}; got {self.lifting!r}")
-        if self.root_lp is not None and self.root_lp not in ROOT_LPS:
-            raise ValueError(f"root_lp must be one of {ROOT_LPS}; got {self.root_lp!r}")
-        bnb_options = self.sets_bnb_options
-        if bnb_options and self.engine not in ("bnb", "auto"):
-            raise ValueError("lam_branching, lifting and root_lp are options of engine='bnb'")
-        if bnb_options and self.engine == "auto" and self.sense != "min":
-            raise ValueError("lam_branching, lifting and root_lp are options of engine='bnb', which bounds the "
-                             "minimum only (sense='max' runs engine='highs')")
-        for name in ("lam_branching", "multiplier_bounds", "envelope", "dissipation_bound", "bilinear", "incumbent", "warm_bounds",
-                     "verbose"):
-            if not isinstance(getattr(self, name), bool):
-                raise ValueError(f"{name} must be True or False; got {getattr(self, name)!r}")
-        if self.engine == "bnb" and self.sense != "min":
-            raise ValueError("engine='bnb' bounds the minimum only; use engine='highs' or 'scip' for sense='max'")
-        if self.bilinear and self.engine != "scip":
-            raise ValueError("bilinear=True needs engine='scip' (HiGHS has no bilinear constraints)")
-        if isinstance(self.threads, bool) or not isinstance(self.threads, int) or self.threads < 1:
-            raise ValueError(f"threads must be an integer >= 1; got {self.threads!r}")
+        check.interval(self, "feasibility_tol", 1e-12, 1e-4, closed="both")
+        check.positive(self, "bigm_scale")
+        check.choice(self, "slack_bounds", ("row", "normal"))
+        if not (isinstance(self.mip_abs_gap, (int, float)) and self.mip_abs_gap >= 0):
+            raise ValueError(f"mip_abs_gap must be >= 0; got {self.mip_abs_gap!r}")
+        if self.lifting is not None:
+            check.choice(self, "lifting", LIFTINGS)
+        if self.root_lp is not None:
+            check.choice(self, "root_lp", ROOT_LPS)
+        check.boolean(self, "lam_branching", "multiplier_bounds", "envelope", "dissipation_bound", "bilinear",
+                      "incumbent", "warm_bounds")
+        if not isinstance(self.heuristic, str):
+            raise ValueError(f"heuristic must be a method name or ''; got {self.heuristic!r}")
+
+
+def _check_engine_settings(options: MILPOptions, settings: MILPSettings) -> None:
+    """The options and settings that only fit together (raises ValueError naming them)."""
+    if settings.sets_bnb_options and options.engine not in ("bnb", "auto"):
+        raise ValueError("lam_branching, lifting and root_lp are settings of engine='bnb'")
+    if settings.sets_bnb_options and options.engine == "auto" and options.sense != "min":
+        raise ValueError("lam_branching, lifting and root_lp are settings of engine='bnb', which bounds the "
+                         "minimum only (sense='max' runs engine='highs')")
+    if options.engine == "bnb" and options.sense != "min":
+        raise ValueError("engine='bnb' bounds the minimum only; use engine='highs' or 'scip' for sense='max'")
+    if settings.bilinear and options.engine != "scip":
+        raise ValueError("bilinear=True needs engine='scip' (HiGHS has no bilinear constraints)")
 
 
 #: relative margin and absolute margin (times the largest bound) added to proven slack bounds
@@ -242,12 +250,13 @@ def _widen(lower: np.ndarray, upper: np.ndarray) -> tuple[np.ndarray, np.ndarray
             upper + LP_MARGIN * np.maximum(1.0, np.abs(upper)) + BOUND_MARGIN_REL * width)
 
 
-def per_block_units(form, ops):
-    """Problem (3) of ``form`` in per-block units (``ops.units``), and the units of its vector.
+def per_block_units(form, units):
+    """Problem (3) of ``form`` in per-block units (a :class:`~blockmpec.solvers.engines.scaling.LoadUnits`), and
+    the units of its vector.
 
     With ``r`` the equilibrium row scale (``1/l_i``), ``C`` the force column scale (interface
     units of ``(t, n, m)``), ``S`` the multiplier column scale (``z_u``, ``z_f``) and ``s`` the
-    multiplier unit (:func:`blockmpec.solvers.engines.scaling.multiplier_scale`, a power of two),
+    multiplier unit (:attr:`~blockmpec.solvers.engines.scaling.LoadUnits.lam_unit`, a power of two),
     the scaled system is (3) of the structure with ``E^ = r E C``, ``f_l^ = s r f_l``,
     ``f_d^ = r f_d``, ``F^ = C F S``, pair rows ``S G C``: rows equilibrium ``* r``, compatibility
     ``* C``, normalisation ``* s`` (right-hand side still 1), pairs ``* S``; columns
@@ -265,9 +274,7 @@ def per_block_units(form, ops):
     """
     import dataclasses
 
-    from blockmpec.solvers.engines.scaling import mcp_scaling
-
-    column, row = mcp_scaling(form, ops)
+    column, row = units.mcp(form)
     s = float(column[form.lam])
     r = column[form.u]
     A = sp.csr_array(sp.diags_array(row) @ form.A @ sp.diags_array(column))
@@ -304,6 +311,14 @@ class MILPSolver(SolverBase):
     certifies_minimum = True
     requires = ("highspy", "pyomo")
     Options = MILPOptions
+    Settings = MILPSettings
+
+    def __init__(self, **kwargs) -> None:
+        super().__init__(**kwargs)
+        try:
+            _check_engine_settings(self.options, self.settings)
+        except ValueError as exc:
+            raise OptionError(f"method {self.name!r}: {exc}") from None
 
     def skip_reason(self, ops) -> str | None:
         import importlib.util
@@ -319,11 +334,13 @@ class MILPSolver(SolverBase):
 
         self.ops = ops
         # the MILP, its bounds and its polish all work on (3) in per-block units (ops.units)
-        form, self._w_unit, self._lam_unit = per_block_units(compile_mcp(ops), ops)
+        from blockmpec.solvers.engines.scaling import LoadUnits
+
+        form, self._w_unit, self._lam_unit = per_block_units(compile_mcp(ops), LoadUnits.of(ops))
         self.form = form
         self.engine = self._resolve_engine(form)
-        self.lifting = self.options.lifting or BNB_DEFAULT_LIFTING
-        self.root_lp = self.options.root_lp or BNB_DEFAULT_ROOT_LP
+        self.lifting = self.settings.lifting or BNB_DEFAULT_LIFTING
+        self.root_lp = self.settings.root_lp or BNB_DEFAULT_ROOT_LP
         eq, cp, nm = form.equilibrium, form.compatibility, form.normalisation
         # static LP over (lam, x): A[equilibrium] (lam, x) = rhs, G x <= 0
         sc = np.r_[form.lam, np.arange(form.x.start, form.x.stop)]
@@ -358,35 +375,31 @@ class MILPSolver(SolverBase):
         set_feasibility_tolerances(self.kinematic_bound.highs, BOUND_LP_TOL)
 
     # ------------------------------------------------------------------ 1. bounds
-    def _solve_cost(self, hl, cost: np.ndarray, deadline: float):
+    def _solve_cost(self, hl, cost: np.ndarray, deadline: Deadline):
         h = hl.highs
         n = cost.size
         h.changeColsCost(n, np.arange(n, dtype=np.int32), cost)
-        h.setOptionValue("time_limit", h.getRunTime() + max(deadline - time.perf_counter(), 1e-3))
-        if not self.options.warm_bounds:
+        if not self.settings.warm_bounds:
             h.clearSolver()
         self._n_lps += 1
-        return hl.solve()
+        return hl.solve(deadline=deadline)
 
     def _resolve_engine(self, form) -> str:
         """The engine that runs: ``engine`` unless it is ``"auto"``, which picks ``"bnb"`` (its lifted LP is
         the stronger bound: every structure of the heuristic suite certified in 0.24x the total time of
         ``"highs"``, running-bond walls of 13-14 blocks within 60 s where ``"highs"`` stops at 7) for
-        ``sense="min"`` with at most ``AUTO_BNB_MAX_PAIRS`` pairs or any bnb option set, else ``"highs"``."""
+        ``sense="min"`` with at most :data:`~blockmpec.solvers.plan.MILP_BNB_MAX_PAIRS` pairs or any bnb setting
+        set, else ``"highs"`` (:func:`blockmpec.solvers.plan.milp_engine`)."""
         opt = self.options
-        if opt.engine != "auto":
-            return opt.engine
-        if opt.sense != "min":
-            return "highs"
-        if opt.sets_bnb_options:
+        if opt.engine == "auto" and opt.sense == "min" and self.settings.sets_bnb_options:
             return "bnb"
-        return "bnb" if form.n_pairs <= AUTO_BNB_MAX_PAIRS else "highs"
+        return plan.milp_engine(opt.engine, opt.sense, form.n_pairs)
 
-    def _bounds(self, deadline: float):
+    def _bounds(self, deadline: Deadline):
         """All LP bounds (:meth:`_root_bounds` then :meth:`_model_bounds`)."""
         return self._model_bounds(self._root_bounds(deadline), deadline)
 
-    def _x_bound(self, j: int, direction: float, deadline: float) -> float:
+    def _x_bound(self, j: int, direction: float, deadline: Deadline) -> float:
         """``min direction * x_j`` over the static LP's current set; raises ``_BoundFailure``."""
         cost = np.zeros(self.static.c.size)
         cost[1 + j] = direction  # x columns of the static LP start after lam
@@ -395,7 +408,7 @@ class MILPSolver(SolverBase):
             raise _BoundFailure(r.status, f"bound LP of x[{j}]: {r.status.value} ({r.raw_status})")
         return float(r.objective)
 
-    def _root_bounds(self, deadline: float):
+    def _root_bounds(self, deadline: Deadline):
         """The bounds on lam (enough for a root certificate): an :class:`MPECBounds` whose model
         bounds (``slack_max``, ``z_max``, ``tau_max``) are not computed yet (None)."""
         from blockmpec.formulations.mpec_milp import MPECBounds, work_matrix
@@ -421,7 +434,7 @@ class MILPSolver(SolverBase):
         h.changeColBounds(0, lam_lower, lam_upper)
         nx = form.pair_matrix.shape[1]
         x_lower, x_upper = np.full(nx, -np.inf), np.full(nx, np.inf)
-        need_products = self.options.envelope or self.options.dissipation_bound
+        need_products = self.settings.envelope or self.settings.dissipation_bound
         Bw = work_matrix(form) if need_products else None
         product_lower = product_upper = None
         diss = None
@@ -442,7 +455,7 @@ class MILPSolver(SolverBase):
             nonpositive = self._implied_nonpositive()
             x_upper[nonpositive] = np.minimum(x_upper[nonpositive], 0.0)
             product_upper = np.where(nonpositive[Bw.row], np.minimum(product_upper, 0.0), product_upper)
-            if self.options.dissipation_bound:
+            if self.settings.dissipation_bound:
                 diss = self._dissipation_minimum(Bw, np.minimum(x_upper[Bw.row], product_upper), deadline)
         h.changeColBounds(0, -np.inf, np.inf)
         kin = self._kinematic_minimum(deadline)
@@ -454,12 +467,12 @@ class MILPSolver(SolverBase):
                           product_upper=product_upper if need_products else None, x_associative=x_assoc,
                           n_lps=self._n_lps, time_s=time.perf_counter() - t0)
 
-    def _product_bounds(self, Bw, x_lower: np.ndarray, x_upper: np.ndarray, deadline: float) -> None:
+    def _product_bounds(self, Bw, x_lower: np.ndarray, x_upper: np.ndarray, deadline: Deadline) -> None:
         """Bounds of the ``x_r`` of the work identity over ``S`` (in place) and over ``S ∩ {s_i = 0}``
         for each product ``x_r z_i`` (conditional OBBT; kept in ``self._products``)."""
         lp, h = self.static, self.bound_lp.highs
         for j in np.unique(Bw.row):
-            if self.options.envelope:
+            if self.settings.envelope:
                 x_lower[j] = self._x_bound(j, 1.0, deadline)
             x_upper[j] = -self._x_bound(j, -1.0, deadline)
         # conditional OBBT: bounds of x_r over S ∩ {s_i = 0} for each product x_r z_i of B
@@ -469,7 +482,7 @@ class MILPSolver(SolverBase):
             i = int(Bw.col[e])
             h.changeRowBounds(int(rows[i]), 0.0, 0.0)
             try:
-                if self.options.envelope:
+                if self.settings.envelope:
                     product_lower[e] = self._x_bound(int(Bw.row[e]), 1.0, deadline)
                 product_upper[e] = -self._x_bound(int(Bw.row[e]), -1.0, deadline)
             except _BoundFailure as fail:
@@ -482,7 +495,7 @@ class MILPSolver(SolverBase):
                 h.changeRowBounds(int(rows[i]), -np.inf, 0.0)
         self._products = (product_lower, product_upper)
 
-    def _model_bounds(self, bd, deadline: float):
+    def _model_bounds(self, bd, deadline: Deadline):
         """``slack_max`` (the big-M), ``z_max`` and ``tau_max`` added to the root bounds ``bd``."""
         import dataclasses
 
@@ -496,7 +509,7 @@ class MILPSolver(SolverBase):
         npair = Gx.shape[0]
         x_lower = bd.x_lower.copy()
         try:
-            if self.options.slack_bounds == "row":
+            if self.settings.slack_bounds == "row":
                 smax = np.empty(npair)
                 for i in range(npair):
                     a, b = Gx.indptr[i], Gx.indptr[i + 1]
@@ -537,7 +550,7 @@ class MILPSolver(SolverBase):
                 out[big[0]] = True
         return out
 
-    def _dissipation_minimum(self, Bw, upper: np.ndarray, deadline: float) -> float | None:
+    def _dissipation_minimum(self, Bw, upper: np.ndarray, deadline: Deadline) -> float | None:
         r"""A lower bound on lam from the work identity with the friction work bounded below.
 
         At a solution of (3) with ``f_l^T u = 1``: ``lam = -f_d^T u + sum_e B_e x_r z_i`` (identity (W)
@@ -566,8 +579,8 @@ class MILPSolver(SolverBase):
     def _slack_bounds_by_normal(self, x_bound, x_lower: np.ndarray) -> np.ndarray:
         """``slack_bounds="normal"``: ``nmin_k = min n_k`` over ``S`` (one LP per interface), then
         ``max s_i`` over the interface's own polytope ``{G_k x_k <= 0, n_k >= nmin_k}`` (a superset of
-        the projection of ``S``, so the bound is valid); the small LPs are solved by scipy's HiGHS."""
-        from scipy.optimize import linprog
+        the projection of ``S``, so the bound is valid); the small LPs are solved by HiGHS."""
+        from blockmpec.solvers.engines.highs import small_lp
 
         form = self.form
         Gx = form.pair_matrix.toarray()
@@ -577,16 +590,16 @@ class MILPSolver(SolverBase):
             x_lower[nk] = x_bound(nk, 1.0)
             pairs = np.flatnonzero(form.pair_interface == k)
             cols = np.flatnonzero(np.any(Gx[pairs] != 0.0, axis=0) | (np.arange(Gx.shape[1]) == nk))
-            bounds = [(x_lower[nk], None) if j == nk else (None, None) for j in cols]
+            lower = np.where(cols == nk, x_lower[nk], -np.inf)
             Gk = Gx[np.ix_(pairs, cols)]
             for i, row in zip(pairs, Gk):
-                r = linprog(row, A_ub=Gk, b_ub=np.zeros(pairs.size), bounds=bounds, method="highs")
-                if r.status != 0:
-                    raise _BoundFailure(Status.ERROR, f"interface slack LP of pair {i}: {r.message}")
-                smax[i] = max(-r.fun, 0.0)
+                status, value = small_lp(row, Gk, np.zeros(pairs.size), lower, np.full(cols.size, np.inf))
+                if status is not Status.OPTIMAL:
+                    raise _BoundFailure(Status.ERROR, f"interface slack LP of pair {i}: {status.value}")
+                smax[i] = max(-value, 0.0)
         return smax
 
-    def _multiplier_bounds(self, deadline: float) -> tuple[np.ndarray, float]:
+    def _multiplier_bounds(self, deadline: Deadline) -> tuple[np.ndarray, float]:
         """``max z_i`` and ``max f_l^T u`` over ``K = {compatibility, 1^T z = 1, z >= 0}``."""
         kp, hk = self.kinematic, self.kinematic_bound
         g = hk.highs
@@ -600,7 +613,7 @@ class MILPSolver(SolverBase):
         r = self._solve_cost(hk, cost, deadline)
         tau_max = -r.objective * (1 + LP_MARGIN) + LP_MARGIN if r.status is Status.OPTIMAL else np.inf
         z_max = np.ones(npair)
-        if self.options.multiplier_bounds:
+        if self.settings.multiplier_bounds:
             for i in range(npair):
                 cost = np.zeros(kp.c.size)
                 cost[kp.columns["z"][i]] = -1.0
@@ -610,7 +623,7 @@ class MILPSolver(SolverBase):
                     z_max[i] = 0.0 if zi <= 1e-12 else min(1.0, zi * (1 + BOUND_MARGIN_REL) + BOUND_MARGIN_ABS)
         return z_max, float(tau_max)
 
-    def _kinematic_minimum(self, deadline: float) -> float | None:
+    def _kinematic_minimum(self, deadline: Deadline) -> float | None:
         """``min -f_d^T u`` over compatibility, ``f_l^T u = 1``, ``z >= 0`` (None when not optimal)."""
         kp, hk = self.kinematic, self.kinematic_bound
         g = hk.highs
@@ -628,10 +641,10 @@ class MILPSolver(SolverBase):
         from blockmpec.formulations import mpec_milp as fm
 
         opt = self.options
-        M = opt.bigm_scale * bd.slack_max
+        M = self.settings.bigm_scale * bd.slack_max
         complementarity = "bigm" if self.engine == "highs" else "sos1"
         mip = fm.mpec_milp(self.form, bd, sense=opt.sense, complementarity=complementarity, bigm=M,
-                           envelope=opt.envelope, tau_min=tau_min)
+                           envelope=self.settings.envelope, tau_min=tau_min)
         zcols = self.form.pair_column
         fixed_active = bd.slack_max == 0.0  # the pair row is active on all of S
         fixed_idle = (bd.z_max == 0.0) & ~fixed_active  # z_i = 0 in every normalised mechanism
@@ -677,31 +690,30 @@ class MILPSolver(SolverBase):
         from blockmpec.solvers.engines.complementarity_bnb import ComplementarityBnB
 
         kwargs = dict(fixed_active=bd.slack_max == 0.0, fixed_idle=bd.z_max == 0.0,
-                      lam_branching=self.options.lam_branching, root_lp=self.root_lp,
+                      lam_branching=self.settings.lam_branching, root_lp=self.root_lp,
                       **lifting_options(self.form, self.lifting, bd.slack_max))
         kwargs.update(overrides)
         return ComplementarityBnB(self.form, work_matrix(self.form), bd.lam_lower, bd.lam_upper,
                                   lambda active: self._polish(active)[0], **kwargs)
 
-    def _solve_bnb(self, bd, incumbent: Solution | None, deadline: float, t0: float):
+    def _solve_bnb(self, bd, incumbent: Solution | None, deadline: Deadline, t0: float):
         """engine="bnb": (MIPRun with lam-unit bounds, best polished Solution or None, the branch and bound that
         ran (its LP count and root timings), seconds to build its lifted LP)."""
         tb = time.perf_counter()
         bnb = self._complementarity_bnb(bd)
         t_build = time.perf_counter() - tb
-        run, best = bnb.solve(deadline - time.perf_counter(), incumbent, t0=t0)
+        run, best = bnb.solve(deadline, incumbent, t0=t0)
         return run, best, bnb, t_build
 
-    def _solve(self, mip, deadline: float, start: np.ndarray | None, t0: float):
+    def _solve(self, mip, deadline: Deadline, start: np.ndarray | None, t0: float):
         from blockmpec.solvers.engines import mip as engines
 
-        opt = self.options
-        kw = dict(rel_gap=opt.mip_rel_gap, abs_gap=opt.mip_abs_gap, feasibility_tol=opt.feasibility_tol,
-                  threads=opt.threads, verbose=opt.verbose, start=start, t0=t0)
-        limit = deadline - time.perf_counter()
+        opt, st = self.options, self.settings
+        kw = dict(rel_gap=opt.mip_rel_gap, abs_gap=st.mip_abs_gap, feasibility_tol=st.feasibility_tol,
+                  threads=opt.threads, start=start, t0=t0)
         if self.engine == "scip":
-            return engines.solve_scip(mip, limit, bilinear=opt.bilinear, **kw)
-        return engines.solve_highs(mip, limit, **kw)
+            return engines.solve_scip(mip, deadline, bilinear=st.bilinear, **kw)
+        return engines.solve_highs(mip, deadline, **kw)
 
     # ------------------------------------------------------------------ 4. polish
     def _mechanism(self, active: np.ndarray):
@@ -752,16 +764,17 @@ class MILPSolver(SolverBase):
             return None
         return self._solution(bd.lam_associative, bd.x_associative, *mech)
 
-    def _incumbent(self, bd, deadline: float) -> Solution | None:
-        """The better of the associative-pattern point and the ``heuristic``'s verified point, each
-        polished on its pattern (so an exact solution of (3)); None when neither exists."""
+    def _incumbent(self, bd, deadline: Deadline) -> Solution | None:
+        """The better of the associative-pattern point and the ``heuristic``'s verified point (a quarter of the time
+        left, at most 30 s), each polished on its pattern (so an exact solution of (3)); None when neither exists."""
         opt = self.options
         best = self._associative_incumbent(bd)
-        if opt.heuristic:
-            import blockmpec as bm
+        if self.settings.heuristic:
+            from blockmpec.solver import run_solver
 
-            limit = max(min(0.25 * (deadline - time.perf_counter()), 30.0), 1e-3)
-            res = bm.solve(self.ops, opt.heuristic, time_limit=limit)
+            heuristic = get_solver(self.settings.heuristic)(time_limit=max(min(0.25 * deadline.remaining(), 30.0),
+                                                                           1e-3))
+            res = run_solver(heuristic, self.ops)
             if res.verified and res.status.is_success:
                 w = self.form.pack(self.scaled(res.solution))
                 s, z = self.form.slack(w), self.form.multipliers(w)
@@ -777,7 +790,7 @@ class MILPSolver(SolverBase):
         bound = bd.lam_upper if maximise else bd.lam_lower
         lam = incumbent.multiplier
         gap = max(0.0, (bound - lam) if maximise else (lam - bound))
-        if gap > CERTIFICATE_TOL * max(1.0, abs(lam)) or self.options.bigm_scale < 1:
+        if gap > CERTIFICATE_TOL * max(1.0, abs(lam)) or self.settings.bigm_scale < 1:
             return None
         extra = {facts.SENSE: self.options.sense, facts.ASSOCIATIVE_MULTIPLIER: bd.lam_associative,
                  facts.BOUND: bound, facts.GAP_ABS: gap, facts.GAP_REL: gap / max(abs(lam), 1e-12),
@@ -797,9 +810,11 @@ class MILPSolver(SolverBase):
         return z > s
 
     # ------------------------------------------------------------------ run
-    def run(self) -> RunOutput:
+    def run(self, deadline: Deadline) -> RunOutput:
         """Stages 1-5 on the scaled (3), then the point, the bounds and the gaps back in the problem's units."""
-        out = self._run_scaled()
+        out = self._run_scaled(deadline)
+        out.extra["plan"] = [f"LP bounds ({out.extra.get(facts.LP_SOLVES, 0)} LPs)",
+                             f"engine: {out.extra.get(facts.ENGINE, self.engine)}", "polish: piece LPs"]
         unit = self._lam_unit
         if out.solution is not None and out.solution.multiplier is not None:
             out.solution = self.form.unpack(self.form.pack(out.solution) * self._w_unit)
@@ -832,7 +847,7 @@ class MILPSolver(SolverBase):
         gap = sign * (lam - bound)
         out.extra[facts.GAP_ABS] = max(0.0, gap)
         out.extra[facts.GAP_REL] = max(0.0, gap) / max(abs(lam), 1e-12)
-        if -tol <= gap <= max(opt.mip_abs_gap, opt.mip_rel_gap * abs(lam)) + tol:
+        if -tol <= gap <= max(self.settings.mip_abs_gap, opt.mip_rel_gap * abs(lam)) + tol:
             return
         out.status = Status.LOCALLY_OPTIMAL
         out.message = (f"in the problem's units lam {lam:.10g} and the bound {bound:.10g} differ by {gap:.2e} "
@@ -842,12 +857,11 @@ class MILPSolver(SolverBase):
         """A point of (3) in the problem's units -> the same point in the MILP's units (:func:`per_block_units`)."""
         return self.form.unpack(self.form.pack(sol) / self._w_unit)
 
-    def _run_scaled(self) -> RunOutput:
+    def _run_scaled(self, deadline: Deadline) -> RunOutput:
         opt = self.options
         maximise = opt.sense == "max"
         bound_word = "upper" if maximise else "lower"
         t_start = self._t_start = time.perf_counter()
-        deadline = t_start + opt.time_limit
         try:
             bd = self._root_bounds(deadline)
         except _BoundFailure as fail:
@@ -857,7 +871,7 @@ class MILPSolver(SolverBase):
                                                            facts.SENSE: opt.sense, facts.LP_SOLVES: self._n_lps})
         trace = [{"iteration": 0, "stage": "bounds", "time_s": bd.time_s,
                   "bound": bd.lam_lower if not maximise else bd.lam_upper, "incumbent": None, "gap_abs": None}]
-        incumbent = self._incumbent(bd, deadline) if opt.incumbent else None
+        incumbent = self._incumbent(bd, deadline) if self.settings.incumbent else None
         if incumbent is not None:
             trace.append({"iteration": len(trace), "stage": "incumbent", "time_s": time.perf_counter() - t_start,
                           "bound": bd.lam_upper if maximise else bd.lam_lower, "incumbent": incumbent.multiplier,
@@ -899,7 +913,7 @@ class MILPSolver(SolverBase):
             "lam_dissipation": bd.lam_dissipation,
             "tau_max": bd.tau_max,
             "bigm": mip.bigm.tolist(),
-            "bigm_scale": opt.bigm_scale,
+            "bigm_scale": self.settings.bigm_scale,
             "n_binaries": int(mip.integer.sum()),
             "n_sos1": len(mip.sos1),
             "n_fixed_pairs": self._n_fixed,
@@ -914,7 +928,7 @@ class MILPSolver(SolverBase):
             return self._no_point(run, incumbent, bound, extra, trace)
         v = run.point
         active = self._pattern(mip, v)
-        if self._mechanism(active) is None and time.perf_counter() < deadline:
+        if self._mechanism(active) is None and not deadline.expired():
             # The relaxation's optimum has tau = 0 (its pattern admits no mechanism with f_l^T u > 0).
             # Its bound stays the certified one; the restriction tau >= tau_restart has only points of (3).
             tau_restart = 1e-6 * (bd.tau_max if np.isfinite(bd.tau_max) else 1.0)
@@ -932,7 +946,7 @@ class MILPSolver(SolverBase):
         # a slack at its big-M in the engine's point: the bound behind the model was not proven
         slack = self.form.slack(v[: self.form.n_columns])
         scale = float(max(bd.slack_max.max(initial=0.0), 1e-300))
-        at_bound = ~active & (slack >= mip.bigm - ACTIVE_TOL * opt.bigm_scale * scale) & (mip.bigm > 0)
+        at_bound = ~active & (slack >= mip.bigm - ACTIVE_TOL * self.settings.bigm_scale * scale) & (mip.bigm > 0)
         extra["bigm_active"] = np.flatnonzero(at_bound).tolist()
         extra["engine_multiplier"] = float(v[self.form.lam])
         extra["tau"] = float(v[mip.columns["tau"][0]])
@@ -943,7 +957,7 @@ class MILPSolver(SolverBase):
                              f"{pmsg}; the {bound_word} bound {bound:.10g} stands", run.raw_status, extra)
         return self._certify(sol, run, bound, bd, extra, trace)
 
-    def _run_bnb(self, bd, incumbent, deadline: float, trace: list) -> RunOutput:
+    def _run_bnb(self, bd, incumbent, deadline: Deadline, trace: list) -> RunOutput:
         """Stages 3-5 with engine="bnb": its points are polished patterns already, its bound is in lam."""
         run, best, bnb, t_build = self._solve_bnb(bd, incumbent, deadline, self._t_start)
         trace += [dict(r, iteration=len(trace) + k, stage="search") for k, r in enumerate(run.trace)]
@@ -963,9 +977,9 @@ class MILPSolver(SolverBase):
     def _no_point(self, run, incumbent, bound, extra, trace) -> RunOutput:
         opt = self.options
         if run.status is Status.INFEASIBLE:
-            if opt.bigm_scale < 1:
+            if self.settings.bigm_scale < 1:
                 return RunOutput(Status.INFEASIBLE, Solution(), run.nodes, trace,
-                                 f"the MILP is infeasible with bigm_scale = {opt.bigm_scale} < 1: the scaled slack "
+                                 f"the MILP is infeasible with bigm_scale = {self.settings.bigm_scale} < 1: the scaled slack "
                                  "bounds cut off every solution of (3); the proven bounds (bigm_scale = 1) are needed",
                                  run.raw_status, extra)
             return RunOutput(Status.NUMERICAL, Solution(), run.nodes, trace,
@@ -997,7 +1011,7 @@ class MILPSolver(SolverBase):
         trace.append({"iteration": len(trace), "stage": "polish", "time_s": time.perf_counter() - self._t_start,
                       "bound": bound, "incumbent": lam, "gap_abs": gap_abs})
         tol = CERTIFICATE_TOL * max(1.0, abs(lam))
-        closed = gap_abs <= max(opt.mip_abs_gap, opt.mip_rel_gap * abs(lam)) + tol
+        closed = gap_abs <= max(self.settings.mip_abs_gap, opt.mip_rel_gap * abs(lam)) + tol
         undercut = sign * (lam - bound) < -tol  # a point of (3) beyond the relaxation's bound is impossible
         word = "maximum" if maximise else "minimum"
         if run.status is Status.OPTIMAL and closed and not undercut and bd.verified:
@@ -1018,12 +1032,12 @@ class MILPSolver(SolverBase):
             st, msg = Status.ERROR, run.message
         if extra["bigm_active"]:
             st = Status.TIME_LIMIT if run.status is Status.TIME_LIMIT else Status.LOCALLY_OPTIMAL
-            msg = (f"{len(extra['bigm_active'])} slack(s) at their big-M bound (bigm_scale = {opt.bigm_scale}): "
+            msg = (f"{len(extra['bigm_active'])} slack(s) at their big-M bound (bigm_scale = {self.settings.bigm_scale}): "
                    f"the point solves (3) but the certificate of global {'maxim' if maximise else 'minim'}ality "
                    f"is void. {msg}")
-        elif opt.bigm_scale < 1 and st is Status.OPTIMAL:
+        elif self.settings.bigm_scale < 1 and st is Status.OPTIMAL:
             # no slack reached its (shrunken) M, but the model was a restriction: nothing is certified
             st = Status.LOCALLY_OPTIMAL
-            msg = (f"bigm_scale = {opt.bigm_scale} < 1: the slack bounds are not proven, so the certificate of "
+            msg = (f"bigm_scale = {self.settings.bigm_scale} < 1: the slack bounds are not proven, so the certificate of "
                    f"global {'maxim' if maximise else 'minim'}ality is void (no slack reached them). {msg}")
         return RunOutput(st, sol, run.nodes, trace, msg, run.raw_status, extra)

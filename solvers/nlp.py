@@ -32,7 +32,7 @@ unverified, at size ratio 1e3).  An interface with ``tan(phi) = 0`` has ``t_k`` 
 ``lam = 0``.
 ``eps`` is driven from ``eps_initial`` down to ``eps_final`` by the factor
 ``eps_factor``; each stage is warm-started from the previous one (primal point and,
-with ``warm_start``, Ipopt's multipliers); a
+with the setting ``warm_start``, Ipopt's multipliers); a
 :class:`~blockmpec.solvers.engines.stopping.StoppingCriterion` on ``eps`` keeps the time
 limit and writes the trace (one record per Ipopt solve: ``iteration, time_s, eps,
 stage, multiplier, ipopt_status, ipopt_iterations, warm_multipliers, stage_time_s,
@@ -81,27 +81,27 @@ are reported as ``extra["start_time_s"]``) and starts the NLP from its solution 
 which satisfies every row; the NLP then moves it to a nearby local minimum of (4) (its
 multiplier may end above the start's: the NLP is local, not a descent from it).
 
-Piece LPs (``piece_lp``).  After the stages (and the polish), the point is finished by
+Piece LPs (setting ``piece_lp``, and the ``pieces`` route).  After the stages (and the polish), the point is finished by
 :func:`~blockmpec.solvers.engines.piece_lp.piece_descent`: with every pair's zero side fixed
 by the point, (4) is a linear program (a *piece*), whose minimiser solves (3) exactly.  The piece LP is
 two LPs that no row couples, a static one in ``(lam, x)`` and a mechanism in ``(u, z)``
-(``piece_lps="split"``, the default; ``"whole"`` solves each piece as one HiGHS LP, the route before,
+(setting ``piece_lps="split"``, the default; ``"whole"`` solves each piece as one HiGHS LP, the route before,
 kept for measurement).  The static LP on the support of a mechanism is the relaxed LP at its point, so
 its duals certify a local minimum of (4) (checked, not assumed); further mechanisms that free pairs whose
 equalities raise ``lam`` descend from there.  The certified point replaces Ipopt's when its ``lam`` is
-not higher.  With ``ipopt=False`` there are no stages: the start (the fixed point's solution of (3)) goes
+not higher.  On the ``pieces`` route there are no stages: the start (the fixed point's solution of (3)) goes
 straight to the piece LPs, and their outcome is the run's.
 
-Route (``route``).  ``"ipopt"`` runs the options above; ``"pieces"`` is ``start="fixed-point",
-ipopt=False, piece_lp=True`` whatever those say; ``"auto"`` (default) takes ``"pieces"`` from
-:data:`PIECE_ROUTE_BLOCKS` free blocks on.  Measured (``studies/nlp_scaling.py``, one loaded run):
+Route (``route``).  ``"ipopt"`` runs the options above; ``"pieces"`` starts from the fixed point and goes
+straight to the piece LPs, whatever ``start`` says; ``"auto"`` (default) takes ``"pieces"`` from
+:data:`~blockmpec.solvers.plan.NLP_PIECE_ROUTE_BLOCKS` free blocks on.  Measured (``studies/nlp_scaling.py``, one loaded run):
 the Ipopt stages reach at most ~69 blocks within 60 s, while the piece route solves the 2,032-block wall
 (certified local minimum 0.42179, below the fixed point's 0.42633) in ~19 s CPU: the fixed point ~5 s,
 the static halves by the block IPM, the mechanisms by HiGHS.  Below the threshold Ipopt is kept: its
 local minima are lower on small walls (10x5: 0.50530 against the pieces' 0.50582).
 
 A stage that fails after a warm start is tried once more from the same primal
-point without Ipopt's multipliers.  With ``polish`` the last stage's point is
+point without Ipopt's multipliers.  With the setting ``polish`` the last stage's point is
 finished by a few semismooth Newton steps on (3) (the products ``z_i s_i`` of order
 ``eps`` become exact zeros) and round-off entries of ``u`` and ``z`` are zeroed; the
 polished point is kept only if Newton converged and ``lam`` moved by at most
@@ -110,7 +110,7 @@ polished point is kept only if Newton converged and ``lam`` moved by at most
 Status: ``LOCALLY_OPTIMAL`` when Ipopt solved every stage (or the piece LPs certified their
 point), ``ACCEPTABLE`` when some stage ended at Ipopt's "solved to acceptable level", otherwise
 the stage's failure (``ITERATION_LIMIT``, ``TIME_LIMIT``, ``NUMERICAL`` or ``ERROR``) with the
-last iterate; with ``ipopt=False``, the piece LPs' limit or ``NUMERICAL`` with their best point.
+last iterate; on the ``pieces`` route, the piece LPs' limit or ``NUMERICAL`` with their best point.
 Ipopt's "Infeasible_Problem_Detected" is local (a stationary point of the constraint
 violation), so it maps to ``NUMERICAL``, not ``INFEASIBLE``; only an infeasible
 associative start LP (no equilibrium at all) gives ``INFEASIBLE``.
@@ -125,9 +125,12 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from blockmpec import options as check
+from blockmpec.options import CommonOptions
 from blockmpec.registry import register_solver
 from blockmpec.result import Solution, Status
-from blockmpec.solver import RunOutput, SolverBase
+from blockmpec.result import RunOutput
+from blockmpec.solver import SolverBase
+from blockmpec.solvers import plan
 
 #: Ipopt ApplicationReturnStatus -> (our status, short name)
 _IPOPT_STATUS = {
@@ -160,12 +163,7 @@ _PENALTY_MU_INIT = 1e-6
 STARTS = ("associative", "cold", "fixed-point")
 COMPLEMENTARITY = ("relaxed", "penalty")
 PIECE_LPS = ("split", "whole")
-ROUTES = ("auto", "ipopt", "pieces")
-#: ``route="auto"`` takes the piece route from this many free blocks on.  Measured (studies/nlp_scaling.py): the
-#: Ipopt stages solve the 50-block wall in ~6 s and at most ~69 blocks within 60 s; the piece route solves the
-#: 2,032-block wall within 60 s.  Below, Ipopt's local minima are kept (10x5 wall: 0.50530 against the
-#: pieces' 0.50582 from the fixed point)
-PIECE_ROUTE_BLOCKS = 100
+ROUTES = plan.NLP_ROUTES
 
 #: starts taken from a registered method's solution: (method, its options); the associative start is
 #: the static LP's solution, the fixed-point start a solution of (3)
@@ -176,79 +174,92 @@ _USABLE_START = (Status.OPTIMAL, Status.CONVERGED, Status.LOCALLY_OPTIMAL, Statu
 
 
 @dataclass
-class NLPOptions:
+class NLPOptions(CommonOptions):
     """Options of the relaxed-complementarity NLP."""
 
     eps_initial: float = field(default=1e-4, metadata={"help": "relaxation of the first stage (scale-free)"})
     eps_final: float = field(default=1e-9, metadata={"help": "relaxation of the last stage"})
     eps_factor: float = field(default=0.1, metadata={"help": "eps of the next stage = factor * eps, in (0, 1)"})
-    max_iter: int = field(default=3000, metadata={"help": "Ipopt iterations per stage"})
-    time_limit: float = field(default=check.DEFAULT_TIME_LIMIT_S, metadata={
-        "help": "total seconds: start LP, every stage (Ipopt max_wall_time = the time left) and the polish; "
-                "default 600 (blockmpec.options.DEFAULT_TIME_LIMIT_S: finite, 20-50x the 50-block wall), inf for none"})
     start: str = field(default="associative", metadata={
-        "help": "associative (static LP solution) | cold (Ipopt's default push from 0) | fixed-point (the solution "
-                "of (3) of the registered fixed-point method, its time counted in this run)"})
-    warm_start: bool = field(default=True,
-                             metadata={"help": "pass Ipopt the previous stage's multipliers (warm_start_init_point)"})
-    tol: float = field(default=1e-9, metadata={"help": "Ipopt tol"})
-    polish: bool = field(default=True, metadata={
-        "help": "finish with semismooth Newton steps on (3) from the last stage (kept only if lam moves <= 1e-6)"})
-    polish_iterations: int = field(default=20, metadata={"help": "Newton iterations of the polish"})
+        "help": "associative (the static LP's solution) | cold (Ipopt's default push from 0) | fixed-point (the "
+                "fixed point's solution of (3), its time counted in this run)"})
     complementarity: str = field(default="relaxed", metadata={
-        "help": "relaxed (Scholtes rows z_i s_i <= eps, eps schedule) | penalty (min lam + rho sum z_i s_i, rho "
-                "schedule until max z_i s_i / P <= eps_final)"})
-    penalty: float = field(default=100.0, metadata={"help": "penalty: rho of the first stage"})
-    penalty_factor: float = field(default=10.0, metadata={"help": "penalty: rho of the next stage = factor * rho, > 1"})
-    penalty_stages: int = field(default=4, metadata={"help": "penalty: most stages"})
-    ipopt_options: dict = field(default_factory=dict,
-                                metadata={"help": "extra Ipopt options {name: value}; floats as floats"})
-    piece_lp: bool = field(default=False, metadata={
-        "help": "finish with the piece-LP descent (solvers/engines/piece_lp.py): an exact solution of (3) certified "
-                "a local minimum of (4) by a relaxed LP; kept when certified and lam is not higher"})
-    ipopt: bool = field(default=True, metadata={
-        "help": "solve the relaxed NLP stages; False: the start goes straight to the piece LPs (needs piece_lp and "
-                "start associative or fixed-point)"})
-    piece_lps: str = field(default="split", metadata={
-        "help": "split (each piece LP as its static (lam, x) and kinematic (u, z) halves, the static by the block IPM "
-                "from 4,000 pairs) | whole (each piece one HiGHS LP, the route before; for measurement)"})
+        "help": "relaxed (Scholtes rows z_i s_i <= eps, eps schedule) | penalty (min lam + rho sum z_i s_i)"})
     route: str = field(default="auto", metadata={
-        "help": "auto (pieces from PIECE_ROUTE_BLOCKS = 100 free blocks on, else ipopt) | ipopt (the options above) | "
-                "pieces (the fixed point's solution of (3) straight to the piece LPs: start=fixed-point, ipopt=False, "
-                "piece_lp=True, whatever those options say)"})
+        "help": "auto (pieces from 100 free blocks on, else ipopt) | ipopt (the relaxed NLP stages) | pieces (the "
+                "fixed point's solution of (3) to exact piece LPs that certify a local minimum of (4))"})
 
     def __post_init__(self) -> None:
-        check.positive(self, "eps_initial", "eps_final", "tol")
+        super().__post_init__()
+        check.positive(self, "eps_initial", "eps_final")
         if self.eps_final > self.eps_initial:
             raise ValueError(f"eps_final ({self.eps_final}) must be <= eps_initial ({self.eps_initial})")
         check.interval(self, "eps_factor", 0, 1)
-        check.integer(self, "max_iter", "polish_iterations", minimum=0)
-        check.positive(self, "time_limit", finite=False)
         check.choice(self, "start", STARTS)
         check.choice(self, "complementarity", COMPLEMENTARITY)
-        check.positive(self, "penalty")
+        check.choice(self, "route", ROUTES)
+
+
+@dataclass
+class NLPSettings:
+    """Engine settings of ``nlp`` (experiments: ``studies/lab``).
+
+    Attributes
+    ----------
+    max_iter : int
+        Ipopt iterations per stage.
+    tol : float
+        Ipopt's ``tol``.
+    warm_start : bool
+        Pass Ipopt the previous stage's multipliers (``warm_start_init_point``).
+    polish, polish_iterations : bool, int
+        Finish with semismooth Newton steps on (3) from the last stage (kept only if ``lam`` moves <= 1e-6).
+    penalty, penalty_factor, penalty_stages : float, float, int
+        ``complementarity="penalty"``: ``rho`` of the first stage, its factor per stage (> 1), the most stages.
+    ipopt_options : dict
+        Extra Ipopt options ``{name: value}`` (floats as floats).
+    piece_lp : bool
+        Finish the Ipopt stages with the piece-LP descent (:mod:`~blockmpec.solvers.engines.piece_lp`): kept when
+        certified and ``lam`` is not higher.
+    piece_lps : {"split", "whole"}
+        Each piece LP as its static and kinematic halves (the static by the block IPM on large structures), or
+        as one HiGHS LP (the route before; for measurement).
+    """
+
+    max_iter: int = 3000
+    tol: float = 1e-9
+    warm_start: bool = True
+    polish: bool = True
+    polish_iterations: int = 20
+    penalty: float = 100.0
+    penalty_factor: float = 10.0
+    penalty_stages: int = 4
+    ipopt_options: dict = field(default_factory=dict)
+    piece_lp: bool = False
+    piece_lps: str = "split"
+
+    def __post_init__(self) -> None:
+        check.positive(self, "tol", "penalty")
+        check.integer(self, "max_iter", "polish_iterations", minimum=0)
         check.interval(self, "penalty_factor", 1, math.inf)
         check.integer(self, "penalty_stages", minimum=1)
-        check.boolean(self, "warm_start", "polish", "piece_lp", "ipopt")
+        check.boolean(self, "warm_start", "polish", "piece_lp")
         check.choice(self, "piece_lps", PIECE_LPS)
-        check.choice(self, "route", ROUTES)
-        if not self.ipopt and (not self.piece_lp or self.start == "cold"):
-            raise ValueError(f"ipopt=False needs piece_lp=True and a start other than cold; got piece_lp="
-                             f"{self.piece_lp}, start={self.start!r}")
         if not isinstance(self.ipopt_options, dict):
             raise ValueError(f"ipopt_options must be a dict {{name: value}}; got {self.ipopt_options!r}")
         for k, v in self.ipopt_options.items():
             if not isinstance(k, str) or isinstance(v, bool) or not isinstance(v, (str, int, float)):
                 raise ValueError(f"ipopt_options[{k!r}] must map a name to a str, int or float; got {v!r}")
 
-    def schedule(self) -> list[float]:
-        """The eps of every stage, from ``eps_initial`` down to ``eps_final`` (included); penalty: the rho."""
-        if self.complementarity == "penalty":
-            return [self.penalty * self.penalty_factor ** k for k in range(self.penalty_stages)]
-        eps = [float(self.eps_initial)]
-        while eps[-1] > self.eps_final * (1 + 1e-12):
-            eps.append(max(eps[-1] * self.eps_factor, float(self.eps_final)))
-        return eps
+
+def eps_schedule(options: NLPOptions, settings: NLPSettings) -> list[float]:
+    """The eps of every stage, from ``eps_initial`` down to ``eps_final`` (included); penalty: the rho."""
+    if options.complementarity == "penalty":
+        return [settings.penalty * settings.penalty_factor ** k for k in range(settings.penalty_stages)]
+    eps = [float(options.eps_initial)]
+    while eps[-1] > options.eps_final * (1 + 1e-12):
+        eps.append(max(eps[-1] * options.eps_factor, float(options.eps_final)))
+    return eps
 
 
 class _RelaxedMPEC:
@@ -445,9 +456,9 @@ def _without_free_sliding(form, solution: Solution) -> Solution:
     return solution
 
 
-def nlp_scaling(form, ops) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def nlp_scaling(form, units) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Column, equality-row and slack scales of the relaxed NLP: the per-block units of
-    :func:`~blockmpec.solvers.engines.scaling.mcp_scaling` (shared with ``milp``), each pair slack
+    :meth:`LoadUnits.mcp <blockmpec.solvers.engines.scaling.LoadUnits.mcp>` (shared with ``milp``), each pair slack
     in the reciprocal unit of its multiplier, so that the products ``z^ s^`` equal ``z s`` (works
     in ``lam`` units) and Ipopt's absolute tolerances hold block by block.
 
@@ -457,9 +468,7 @@ def nlp_scaling(form, ops) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     row_scale : ndarray, shape (rows of ``form.A``,)
     slack_scale : ndarray, shape (n_pairs,)
     """
-    from blockmpec.solvers.engines.scaling import mcp_scaling
-
-    column_scale, row_scale = mcp_scaling(form, ops)
+    column_scale, row_scale = units.mcp(form)
     return column_scale, row_scale, 1.0 / column_scale[form.pair_column]
 
 
@@ -472,27 +481,29 @@ class RelaxedNLP(SolverBase):
     summary = "MPEC (4): Scholtes-relaxed NLP solved by Ipopt over a decreasing eps schedule"
     requires = ("cyipopt", "highspy", "pyomo")
     Options = NLPOptions
+    Settings = NLPSettings
 
     def setup(self, ops):
-        import dataclasses
-
         from blockmpec.formulations import compile_mcp
+        from blockmpec.solvers.engines.scaling import LoadUnits
 
         self.ops = ops
         self.form = compile_mcp(ops)  # (3), compiled once
         opt = self.options
-        self.route = opt.route if opt.route != "auto" else (
-            "pieces" if self.form.n_blocks >= PIECE_ROUTE_BLOCKS else "ipopt")
-        if self.route == "pieces":
-            self.options = dataclasses.replace(opt, start="fixed-point", ipopt=False, piece_lp=True)
+        self.route = plan.nlp_route(opt.route, self.form.n_blocks)
+        # the route decides: the Ipopt stages from the chosen start (and the piece LPs if the settings say so), or
+        # the fixed point's solution straight to the piece LPs
+        self.start = "fixed-point" if self.route == "pieces" else opt.start
+        self.use_ipopt = self.route == "ipopt"
+        self.use_pieces = self.route == "pieces" or self.settings.piece_lp
         self.start_solver = None
-        if self.options.start in _START_METHODS:  # the start is the registered method's adapter itself
+        if self.start in _START_METHODS:  # the start is the registered method's adapter itself
             from blockmpec.registry import get_solver
 
-            method, start_options = _START_METHODS[self.options.start]
-            self.start_solver = get_solver(method)(**dict(start_options, time_limit=self.options.time_limit))
+            method, start_options = _START_METHODS[self.start]
+            self.start_solver = get_solver(method)(**start_options)
             self.start_solver.setup(ops)
-        self.scaling = nlp_scaling(self.form, ops)
+        self.scaling = nlp_scaling(self.form, LoadUnits.of(ops))
         self.nlp = None  # built in run(): its scale depends on the starting point
         self.start_time_s = 0.0  # seconds of the start's solve (part of the run's solve time)
 
@@ -505,8 +516,6 @@ class RelaxedNLP(SolverBase):
         ``P = max(z^0) max(s^0)`` in the units of :func:`nlp_scaling`; cold: ``max|f^_d| / sum|f^_l|``
         (a force times the size of ``z`` implied by ``f_l^T u = 1``, in units).
         """
-        import dataclasses
-
         from blockmpec import facts
 
         form = self.form
@@ -517,11 +526,9 @@ class RelaxedNLP(SolverBase):
             force = float(np.max(np.abs(f_d))) if f_d.size else 1.0
             scale = force / max(float(np.sum(np.abs(f_l))), 1e-300)
             return None, (scale if scale > 0 else 1.0), None, "cold start", None
-        name = self.options.start
-        self.start_solver.options = dataclasses.replace(self.start_solver.options,
-                                                        time_limit=max(stop.remaining(), 1e-3))
+        name = self.start
         t0 = time.perf_counter()
-        start = self.start_solver.run()
+        start = self.start_solver.run(stop.deadline)
         self.start_time_s = time.perf_counter() - t0
         if start.status not in _USABLE_START or start.solution is None or start.solution.multiplier is None:
             return (None, 1.0, start.status, f"{name} start failed: {start.status.value} ({start.message})", None)
@@ -534,25 +541,25 @@ class RelaxedNLP(SolverBase):
         lam_associative = sol.multiplier if name == "associative" else start.extra.get(facts.ASSOCIATIVE_MULTIPLIER)
         return np.concatenate([w0, s0]), scale, None, f"{name} start lam = {sol.multiplier:.9g}", lam_associative
 
-    def run(self) -> RunOutput:
+    def run(self, deadline) -> RunOutput:
         import cyipopt
 
         from blockmpec import facts
         from blockmpec.solvers.engines.stopping import StoppingCriterion
 
-        opt = self.options
-        schedule = opt.schedule() if opt.ipopt else []
+        opt, st = self.options, self.settings
+        schedule = eps_schedule(opt, st) if self.use_ipopt else []
         # writes the trace (one record per Ipopt solve, measure eps) and keeps the time limit; the
         # stages stop on Ipopt's status, so its iteration limit (every solve twice, and the polish) never binds
         penalty = opt.complementarity == "penalty"
         # the trace's measure: the stage's eps, or its rho in the penalty NLP
-        stop = StoppingCriterion(opt.eps_final, 2 * len(schedule) + 2, opt.time_limit,
+        stop = StoppingCriterion(opt.eps_final, 2 * len(schedule) + 2, deadline,
                                  measure_name="rho" if penalty else "eps").start()
         v0, scale, fail, start_msg, lam_associative = self._start_point(stop)
         if fail is not None:
             passed_on = (Status.UNBOUNDED, Status.INFEASIBLE, Status.INFEASIBLE_OR_UNBOUNDED, Status.TIME_LIMIT)
             return RunOutput(fail if fail in passed_on else Status.ERROR, message=start_msg,
-                             raw_status="static LP" if opt.start == "associative" else opt.start)
+                             raw_status="static LP" if self.start == "associative" else self.start)
         nlp = (_PenaltyMPEC if penalty else _RelaxedMPEC)(self.form, scale, *self.scaling)
         self.nlp = nlp
         v = np.zeros(nlp.n) if v0 is None else nlp.to_units(v0)
@@ -562,7 +569,7 @@ class RelaxedNLP(SolverBase):
         raw = ""
         message = ""
         for k, eps in enumerate(schedule):
-            attempts = [True, False] if opt.warm_start and mult is not None else [False]
+            attempts = [True, False] if st.warm_start and mult is not None else [False]
             if penalty:
                 nlp.rho = eps
             for use_mult in attempts:
@@ -608,20 +615,23 @@ class RelaxedNLP(SolverBase):
         trace = stop.trace
         solution = _without_free_sliding(self.form, nlp.split(v))
         n_stages = len({t["stage"] for t in trace})
-        extra = {"stages": n_stages, "ipopt_solves": len(trace), "scale": scale, "start": opt.start, "route": self.route,
-                 "start_time_s": self.start_time_s, "complementarity": opt.complementarity}
+        extra = {"stages": n_stages, "ipopt_solves": len(trace), "scale": scale, "start": self.start, "route": self.route,
+                 "start_time_s": self.start_time_s, "complementarity": opt.complementarity,
+                 "plan": [f"start: {self.start}"] + ([f"Ipopt: {n_stages} {opt.complementarity} stages"]
+                                                      if self.use_ipopt else [])}
         if lam_associative is not None:
             extra[facts.ASSOCIATIVE_MULTIPLIER] = lam_associative
-        if not message and opt.ipopt:
+        if not message and self.use_ipopt:
             last = trace[-1]
             final_value = (f"final rho = {last['rho']:.3g}, max z_i s_i / P = {last.get('max_work', math.nan):.3g}"
                            if penalty else f"final eps = {last['eps']:.3g}")
             message = f"{n_stages} stages ({len(trace)} Ipopt solves), {final_value}; {start_msg}"
-            if opt.polish and opt.polish_iterations > 0:
+            if st.polish and st.polish_iterations > 0:
                 solution, note = self._polish(solution, stop)
                 message += f"; {note}"
                 extra["polish"] = note
-        if opt.piece_lp and (not opt.ipopt or final in (Status.LOCALLY_OPTIMAL, Status.ACCEPTABLE)):
+        if self.use_pieces and (not self.use_ipopt or final in (Status.LOCALLY_OPTIMAL, Status.ACCEPTABLE)):
+            extra["plan"].append(f"piece LPs ({st.piece_lps})")
             solution, final, note = self._piece_finish(solution, final, stop, extra)
             message = f"{message}; {note}" if message else f"{start_msg}; {note}"
         return RunOutput(final, solution, iterations=total_iter, trace=trace, message=message, raw_status=raw,
@@ -629,10 +639,12 @@ class RelaxedNLP(SolverBase):
 
     def _solve_stage(self, cyipopt, nlp: _RelaxedMPEC, eps: float, v: np.ndarray, mult, remaining: float):
         """One Ipopt solve of the relaxed NLP at ``eps`` from ``v`` (with multipliers ``mult`` if given)."""
-        opt = self.options
+        from blockmpec.progress import verbose_enabled
+
+        opt = self.settings
         lb, ub, cl, cu = nlp.bounds(eps)
         problem = cyipopt.Problem(n=nlp.n, m=nlp.m, problem_obj=nlp, lb=lb, ub=ub, cl=cl, cu=cu)
-        problem.add_option("print_level", 0)
+        problem.add_option("print_level", 5 if verbose_enabled() else 0)
         problem.add_option("sb", "yes")
         problem.add_option("mumps_pivtol", 1e-8)
         problem.add_option("tol", float(opt.tol))
@@ -676,12 +688,11 @@ class RelaxedNLP(SolverBase):
         from blockmpec import facts
         from blockmpec.solvers.engines.piece_lp import piece_descent, whole_piece_descent
 
-        remaining = stop.remaining()
-        if remaining <= 0:
-            return solution, status if self.options.ipopt else Status.TIME_LIMIT, "no time left for the piece LPs"
+        if stop.out_of_time():
+            return solution, status if self.use_ipopt else Status.TIME_LIMIT, "no time left for the piece LPs"
         t0 = time.perf_counter()
-        descent = piece_descent if self.options.piece_lps == "split" else whole_piece_descent
-        out = descent(self.form, self.scaling, self.form.pack(solution), time_limit=remaining)
+        descent = piece_descent if self.settings.piece_lps == "split" else whole_piece_descent
+        out = descent(self.form, self.scaling, self.form.pack(solution), deadline=stop.deadline)
         dt = time.perf_counter() - t0
         stop.check(0.0, stage="piece-lp", multiplier=float(out.multiplier), ipopt_status="", ipopt_iterations=0,
                    piece_status=out.status.value, certified=out.certified, piece_lps=out.pieces,
@@ -690,13 +701,13 @@ class RelaxedNLP(SolverBase):
         extra[facts.LP_TIME_S] = out.lp_time_s
         extra["piece_certified"] = out.certified
         extra["piece_lp_trace"] = out.trace  # one record per piece LP: lam, free/biactive pairs, certificate
-        extra["piece_lps"] = self.options.piece_lps
-        if self.options.piece_lps == "split":
+        extra["piece_lps"] = self.settings.piece_lps
+        if self.settings.piece_lps == "split":
             extra["static_lp_time_s"] = out.static_time_s
             extra["kinematic_lp_time_s"] = out.kinematic_time_s
         lam = solution.multiplier
         better = out.w is not None and (lam is None or out.multiplier <= lam + 1e-9 * max(1.0, abs(lam)))
-        if self.options.ipopt and not (out.certified and better):
+        if self.use_ipopt and not (out.certified and better):
             return solution, status, f"piece LPs not kept ({out.message})"
         if out.w is None:
             failed = out.status if out.status is Status.TIME_LIMIT else Status.NUMERICAL
@@ -721,13 +732,12 @@ class RelaxedNLP(SolverBase):
         """
         from blockmpec.solvers.engines.newton_system import MCPSystem, semismooth_newton
 
-        remaining = stop.remaining()
-        if remaining <= 0:
+        if stop.out_of_time():
             return solution, "no time left for the polish"
         t0 = time.perf_counter()
         system = MCPSystem(self.form, solution)
         out = semismooth_newton(system, system.pack(solution), tol=1e-12,
-                                max_iterations=self.options.polish_iterations, time_limit=remaining)
+                                max_iterations=self.settings.polish_iterations, deadline=stop.deadline)
         dt = time.perf_counter() - t0
         lam, lam_new = solution.multiplier, out.solution.multiplier
         ok = out.status is Status.CONVERGED and abs(lam_new - lam) <= 1e-6 * max(1.0, abs(lam))

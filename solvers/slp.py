@@ -51,9 +51,12 @@ from dataclasses import dataclass, field
 
 from blockmpec import options as check
 from blockmpec.facts import ASSOCIATIVE_MULTIPLIER
+from blockmpec.options import CommonOptions
 from blockmpec.registry import register_solver
 from blockmpec.result import Status
-from blockmpec.solver import RunOutput, SolverBase
+from blockmpec.result import RunOutput
+from blockmpec.solver import SolverBase
+from blockmpec.solvers.plan import BASIS_ALGORITHMS
 
 ALPHA_SCHEDULES = ("constant", "halving")
 
@@ -67,8 +70,8 @@ def alpha_of_step(alpha: float, schedule: str, k: int) -> float:
 
 
 @dataclass
-class SLPOptions:
-    """Options of the SLP heuristic."""
+class SLPOptions(CommonOptions):
+    """Options of the SLP heuristic (Gilbert, Casapulla & Ahmed's published values by default)."""
 
     alpha: float = field(default=0.01, metadata={
         "help": "in [0, 1]: slope of each LP's friction surface, tan(psi) + alpha (tan(phi) - tan(psi))"})
@@ -77,25 +80,29 @@ class SLPOptions:
     beta: float = field(default=0.6, metadata={"help": "relaxation in (0, 1]: n* <- beta n + (1 - beta) n*"})
     tol: float = field(default=1e-6, metadata={"help": "stop when |lam_k - lam_(k-1)| <= tol (k >= 2)"})
     max_iterations: int = field(default=500, metadata={"help": "most LP steps"})
-    tie_break: str = field(default="none", metadata={
-        "help": "none (as published) | closest | least-compressed | min-lambda | on-oscillation (see fixed-point)"})
-    algorithm: str = field(default="auto", metadata={"help": "HiGHS: auto | simplex | dual-simplex | primal-simplex | ipm"})
-    time_limit: float = field(default=600.0, metadata={
-        "help": "seconds for the whole iteration (each LP gets the time left; the loop checks the clock); "
-                "default 600: finite, the fixed point's default (same LP loop), inf for none"})
 
     def __post_init__(self) -> None:
-        from blockmpec.solvers.engines.lp_engine import BASIS_ALGORITHMS
-        from blockmpec.solvers.engines.lp_sequence import TIE_BREAKS
-
+        super().__post_init__()
         check.interval(self, "alpha", 0, 1, closed="both")
         check.choice(self, "alpha_schedule", ALPHA_SCHEDULES)
         check.interval(self, "beta", 0, 1, closed="right")
         check.positive(self, "tol")
         check.integer(self, "max_iterations", minimum=2)
+
+
+@dataclass
+class SLPSettings:
+    """Engine settings of the SLP (experiments: ``studies/lab``): a tie-break rule of the fixed point's
+    (:data:`~blockmpec.solvers.engines.lp_sequence.TIE_BREAKS`; ``"none"`` as published) and the HiGHS algorithm."""
+
+    tie_break: str = "none"
+    algorithm: str = "auto"
+
+    def __post_init__(self) -> None:
+        from blockmpec.solvers.engines.lp_sequence import TIE_BREAKS
+
         check.choice(self, "tie_break", TIE_BREAKS)
         check.choice(self, "algorithm", BASIS_ALGORITHMS)
-        check.positive(self, "time_limit", finite=False)
 
 
 @register_solver
@@ -108,25 +115,30 @@ class SLP(SolverBase):
     summary = "SLP heuristic (Gilbert et al. 2006): LP sequence stopped on the multiplier; friction not enforced"
     requires = ("highspy", "pyomo")
     Options = SLPOptions
+    Settings = SLPSettings
 
     def setup(self, ops):
+        from blockmpec.formulations import step_lps
         from blockmpec.solvers.engines.lp_sequence import LPSequence
+        from blockmpec.solvers.engines.scaling import LoadUnits
 
         self.ops = ops
-        o = self.options
-        self.sequence = LPSequence(ops, alpha=o.alpha, tie_break=o.tie_break, algorithm=o.algorithm,
-                                   need_associative=True)
+        o, st = self.options, self.settings
+        lps = step_lps(ops, alpha=o.alpha, tie_break=st.tie_break != "none", associative=True)
+        self.sequence = LPSequence(lps, LoadUnits.of(ops), alpha=o.alpha, tie_break=st.tie_break,
+                                   algorithm=st.algorithm)
 
-    def run(self) -> RunOutput:
+    def run(self, deadline) -> RunOutput:
         from blockmpec.solvers.engines.lp_sequence import run_sequence
 
         o = self.options
         out, facts = run_sequence(self.sequence, start="associative", relaxation=o.beta, stop_on="multiplier",
-                                  tol=o.tol, max_iterations=o.max_iterations, time_limit=o.time_limit,
+                                  tol=o.tol, max_iterations=o.max_iterations, deadline=deadline,
                                   min_iterations=2,
                                   alpha_schedule=None if o.alpha_schedule == "constant"
                                   else (lambda k: alpha_of_step(o.alpha, o.alpha_schedule, k)))
-        out.extra.update({ASSOCIATIVE_MULTIPLIER: facts["lam_start"], "tie_break_failures": facts["tie_break_failures"]})
+        out.extra.update({ASSOCIATIVE_MULTIPLIER: facts["lam_start"], "tie_break_failures": facts["tie_break_failures"],
+                          "plan": [f"SLP: {self.sequence.lp_solves} HiGHS LPs (alpha {o.alpha:g}, {o.alpha_schedule})"]})
         if out.trace:
             last = out.trace[-1]
             out.extra["friction_admissibility"] = last["friction_admissibility"]

@@ -10,33 +10,41 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 from blockmpec import options as check
+from blockmpec.errors import OptionError
+from blockmpec.options import CommonOptions
 from blockmpec.registry import register_solver
 from blockmpec.result import Solution, Status
-from blockmpec.solver import RunOutput, SolverBase
+from blockmpec.result import RunOutput
+from blockmpec.solver import SolverBase
+from blockmpec.solvers.plan import LP_ALGORITHMS
 
 
 @dataclass
-class LPOptions:
-    """Options of the HiGHS LP adapters."""
+class LPOptions(CommonOptions):
+    """Options of ``static-lp``."""
 
     algorithm: str = field(default="auto", metadata={
-        "help": "auto | simplex | dual-simplex | primal-simplex | ipm (HiGHS) | block-ipm (blockmpec.solvers.engines.block_ipm)"})
-    time_limit: float = field(default=check.DEFAULT_TIME_LIMIT_S, metadata={
-        "help": "seconds (HiGHS time_limit; the block IPM checks its clock every iteration); default 600 "
-                "(blockmpec.options.DEFAULT_TIME_LIMIT_S: finite, ~13x the 10,046-block wall's LP), inf for none"})
-    factor_processes: int | str = field(default="auto", metadata={
-        "help": "auto | 1 | 2: processes for the block IPM's supernodal Cholesky (K of 30,000 rows or more, about "
-                "10,000 blocks); 2 starts a worker process that factorises and solves one subtree half; auto: 2 "
-                "with the supernodal Cholesky when two CPUs are usable, else 1 "
-                "(studies/lp_timing.py --ipm-settings one_process,default). Other engines run as with 1"})
+        "help": "auto (HiGHS's dual simplex for small LPs, the block interior-point method for large or stiff ones) "
+                "| simplex | dual-simplex | primal-simplex | ipm (HiGHS) | block-ipm"})
 
     def __post_init__(self) -> None:
-        from blockmpec.solvers.engines.block_ipm import FACTOR_PROCESSES
-        from blockmpec.solvers.engines.lp_engine import ALGORITHMS
+        super().__post_init__()
+        check.choice(self, "algorithm", LP_ALGORITHMS)
 
-        check.choice(self, "algorithm", ALGORITHMS)
-        check.positive(self, "time_limit", finite=False)
-        check.choice(self, "factor_processes", FACTOR_PROCESSES)
+
+@dataclass
+class LPSettings:
+    """Engine settings of ``static-lp`` (experiments: ``studies/lab``).
+
+    Attributes
+    ----------
+    factor_processes : {"auto", 1, 2}
+        Processes of the block IPM's supernodal Cholesky (``K`` of 30,000 rows or more, about 10,000 blocks):
+        2 starts a worker process that factorises and solves one subtree half; ``"auto"``: 2 when two CPUs are
+        usable (``studies/lab/lp_timing.py --ipm-settings one_process,default``).
+    """
+
+    factor_processes: int | str = "auto"
 
 
 @register_solver
@@ -44,8 +52,8 @@ class StaticLP(SolverBase):
     """Associative limit analysis by the static theorem (1).
 
     ``algorithm="auto"``: HiGHS's dual simplex for small LPs, the block interior-point
-    method (:mod:`blockmpec.solvers.engines.block_ipm`) for large or stiff LPs: the one rule is
-    :func:`blockmpec.solvers.engines.lp_engine.select_algorithm`.
+    method (:mod:`blockmpec.solvers.linalg.block_ipm`) for large or stiff LPs: the one rule is
+    :func:`blockmpec.solvers.plan.lp_algorithm`.
     """
 
     name = "static-lp"
@@ -53,27 +61,34 @@ class StaticLP(SolverBase):
     summary = "associative static LP (1) with HiGHS or a block IPM; mechanism from the duals"
     requires = ("highspy", "pyomo")
     Options = LPOptions
+    Settings = LPSettings
 
     def setup(self, ops):
         from blockmpec.formulations import static_lp
         from blockmpec.formulations._pyomo import compiled_linear
-        from blockmpec.solvers.engines.block_ipm import BlockIPM
+        from blockmpec.solvers.engines.block_lp import BlockLP
         from blockmpec.solvers.engines.highs import HighsLP, set_feasibility_tolerances
         from blockmpec.solvers.engines.lp_engine import cold_lp_engine
+        from blockmpec.solvers.engines.scaling import LoadUnits
 
+        if self.settings.factor_processes not in ("auto", 1, 2):
+            raise OptionError(f"static-lp setting factor_processes must be auto, 1 or 2; got "
+                              f"{self.settings.factor_processes!r}")
         self.ops = ops
         self.lp = compiled_linear(static_lp, ops)  # cached per structure (content hash of ops)
-        self.engine = cold_lp_engine(self.lp, self.options.algorithm, self.options.time_limit, ops=ops)
-        if isinstance(self.engine, BlockIPM):
-            self.engine.settings(factor_processes=self.options.factor_processes)
+        self.engine = cold_lp_engine(self.lp, self.options.algorithm, LoadUnits.of(ops))
+        if isinstance(self.engine, BlockLP):
+            self.engine.settings(factor_processes=self.settings.factor_processes)
         if isinstance(self.engine, HighsLP):
             # the mechanism's z >= 0 are duals, held by HiGHS to its dual feasibility tolerance (FEASIBILITY_TOL)
             set_feasibility_tolerances(self.engine.highs)
 
-    def run(self) -> RunOutput:
+    def run(self, deadline) -> RunOutput:
+        from blockmpec.solvers.engines.block_lp import BlockLP
         from blockmpec.solvers.engines.highs import static_lp_solution
+        from blockmpec.solvers.plan import describe_block_ipm
 
-        out = self.engine.solve()
+        out = self.engine.solve(deadline=deadline)
         sol = static_lp_solution(self.lp, out) if out.status.is_success else Solution()
         message = out.message
         if out.status is Status.UNBOUNDED:
@@ -83,9 +98,13 @@ class StaticLP(SolverBase):
         elif out.status is Status.INFEASIBLE_OR_UNBOUNDED:
             message = (f"the static LP is infeasible or unbounded ({out.raw_status}): the structure may be unstable "
                        "under dead load, or no mechanism exists")
-        extra = {}
+        extra: dict = {}
+        if isinstance(self.engine, BlockLP):
+            extra["plan"] = [f"static LP (1): {describe_block_ipm(self.engine)}"]
+        else:
+            extra["plan"] = [f"static LP (1): HiGHS {self.engine.last_algorithm}"]
         factoriser = getattr(self.engine, "_factoriser", None)
         if getattr(factoriser, "processes", 1) == 2:  # the worker process's CPU is not in this process's clock
-            extra = {"factor_processes": 2, "factor_worker_cpu_s": factoriser.worker_cpu_s,
-                     "factor_worker_factorisations": factoriser.worker_factorisations}
+            extra.update({"factor_processes": 2, "factor_worker_cpu_s": factoriser.worker_cpu_s,
+                          "factor_worker_factorisations": factoriser.worker_factorisations})
         return RunOutput(out.status, sol, out.iterations, message=message, raw_status=out.raw_status, extra=extra)

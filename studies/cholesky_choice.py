@@ -11,9 +11,9 @@ comparison), the nonzeros of the factors and the relative residual
 ``||K x - b|| / ||b||``.  Candidates that are not installed are skipped:
 
 * ``supernodal-metis``, ``supernodal-mmd``: the block IPM's default
-  (:class:`blockmpec.solvers.engines.cholesky.SupernodalCholesky`, a multifrontal Cholesky
+  (:class:`blockmpec.solvers.linalg.cholesky.SupernodalCholesky`, a multifrontal Cholesky
   on scipy's LAPACK/BLAS; the ordering column includes its symbolic analysis);
-* ``superlu-mmd``, ``superlu-metis``: :class:`~blockmpec.solvers.engines.cholesky.SymmetricFactoriser`
+* ``superlu-mmd``, ``superlu-metis``: :class:`~blockmpec.solvers.linalg.cholesky.SymmetricFactoriser`
   (scipy's SuperLU, natural order after a symmetric permutation from the
   structural pattern; METIS via ``pymetis``), the fallback;
 * ``superlu-colamd``: SuperLU's own column ordering, with its partial-pivoting defaults
@@ -25,7 +25,7 @@ comparison), the nonzeros of the factors and the relative residual
   License): supernodal Cholesky (``mtype=2``) with numeric refactorisation;
 * ``supernodal-compiled`` (numba installed): the default's factorisation and solves by the compiled loops over
   supernodes that call the same LAPACK and BLAS routines (``compiled_factorisation`` and ``compiled_solves``,
-  :mod:`blockmpec.solvers.engines.cholesky_kernels`; what the block IPM runs with compiled kernels): the same
+  :mod:`blockmpec.solvers.linalg.cholesky_kernels`; what the block IPM runs with compiled kernels): the same
   factors and solutions bit for bit, without the Python loop's cost per supernode;
 * ``supernodal-numba`` (``pip install numba``, BSD-2; not a dependency of blockmpec): the default's
   factorisation, its solve compiled instead of a Python loop over supernodes calling BLAS (the
@@ -76,8 +76,8 @@ from threadpoolctl import threadpool_limits
 import blockmpec as bm
 from blockmpec.formulations import compile_linear, static_lp
 from blockmpec.formulations._pyomo import pause_gc
-from blockmpec.solvers.engines.block_ipm import IPMIterate, compiled_kernels_available
-from blockmpec.solvers.engines.cholesky import (
+from blockmpec.solvers.linalg.block_ipm import IPMIterate, compiled_kernels_available
+from blockmpec.solvers.linalg.cholesky import (
     SupernodalCholesky,
     SymmetricFactoriser,
     metis_available,
@@ -345,7 +345,7 @@ def _answer(connection) -> float:
 
 def side_by_side(K: sp.csc_array, engine, rounds: int = 5) -> dict:
     """Times of the supernodal factorisation of ``K``: whole and its two halves
-    (:meth:`~blockmpec.solvers.engines.cholesky.SupernodalCholesky.subtree_halves`) in this process, the top
+    (:meth:`~blockmpec.solvers.linalg.cholesky.SupernodalCholesky.subtree_halves`) in this process, the top
     after them, the halves alone and side by side in two worker processes (medians of ``rounds``, wall-clock s).  ``speedup`` = (top + both halves alone) / (top + the slower half side by side)."""
     import multiprocessing
 

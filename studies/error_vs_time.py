@@ -1,6 +1,6 @@
 r"""Every method on running-bond walls of growing size: error of lam against run time.
 
-The error of a run is measured against the reference of :mod:`blockmpec.compare`:
+The error of a run is measured against the reference of :mod:`blockmpec.bench.compare`:
 a closed form, else the certified minimum of (4) where ``milp`` proves one, else the
 smallest verified multiplier of *another* method (an upper bound on the minimum);
 never against a value only the run's own method produced.  Associative and
@@ -20,9 +20,9 @@ import argparse
 from pathlib import Path
 
 import blockmpec as bm
-from blockmpec.compare import compare, text_table
-from blockmpec.plot import error_vs_time, method_style
-from blockmpec.profiles import plot_profiles, summary_table, summary_text
+from blockmpec.bench.compare import compare, text_table
+from blockmpec.bench.plots import error_vs_time, method_style
+from blockmpec.bench.profiles import plot_profiles, summary_table, summary_text
 
 OUT = Path(__file__).resolve().parent / "output" / "error_vs_time"
 HEAVY = ("milp", "nlp", "mcp-newton")

@@ -92,7 +92,7 @@ from pathlib import Path
 import numpy as np
 
 import blockmpec as bm
-from blockmpec.solvers.engines.block_ipm import BlockIPM, IPMIterate
+from blockmpec.solvers.linalg.block_ipm import BlockIPM, IPMIterate
 from blockmpec.solvers.engines.interior_fixed_point import InteriorFixedPoint, continue_central_path
 
 sys.path.insert(0, str(Path(__file__).parent))

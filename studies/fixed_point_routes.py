@@ -228,7 +228,7 @@ def route_steps(ops, args) -> list[dict]:
 
 def route_path(ops, args) -> list[dict]:
     """Infeasible path following on (3) in the neighbourhood ``s_i y_i >= gamma mu``."""
-    from blockmpec.solvers.engines.block_ipm import IPMIterate, single_blas_thread
+    from blockmpec.solvers.linalg.block_ipm import IPMIterate, single_blas_thread
     from blockmpec.solvers.engines.highs import static_lp_solution
     from blockmpec.solvers.engines.interior_fixed_point import InteriorFixedPoint
 
@@ -336,7 +336,7 @@ def route_trust(ops, args) -> list[dict]:
 
 
 def route_active_set(ops, args) -> list[dict]:
-    from blockmpec.solvers.engines.block_ipm import IPMIterate, single_blas_thread
+    from blockmpec.solvers.linalg.block_ipm import IPMIterate, single_blas_thread
     from blockmpec.solvers.engines.highs import static_lp_solution
     from blockmpec.solvers.engines.interior_fixed_point import InteriorFixedPoint
 

@@ -60,7 +60,7 @@ Usage::
     python studies/ipm_crawl.py --arc 20x50,100x100 --ipm-settings default
 
 Every run uses the block IPM with every inner direction corrected to the absolute target
-(``--ipm-settings exact_inner``, :data:`blockmpec.solvers.engines.block_ipm.EXACT_INNER_SETTINGS`): the settings
+(``--ipm-settings exact_inner``, :data:`blockmpec.solvers.linalg.block_ipm.EXACT_INNER_SETTINGS`): the settings
 all of this study's tables were measured with, the LP default before ``inner_tolerance`` 1e-6.  The question here,
 how many iterations the central path takes, does not depend on it; ``--ipm-settings default`` runs the present
 default (1,010 / 10,050 / 100,014 blocks: 21 / 49 / 79 iterations against 21 / 53 / 82, ``studies/lp_timing.py``).
@@ -80,8 +80,8 @@ import numpy as np
 
 import blockmpec as bm
 from blockmpec.formulations import compile_linear, static_lp
-from blockmpec.solvers.engines import block_ipm
-from blockmpec.solvers.engines.block_ipm import BlockIPM, IPMIterate
+from blockmpec.solvers.linalg import block_ipm
+from blockmpec.solvers.linalg.block_ipm import BlockIPM, IPMIterate
 from blockmpec.solvers.engines.lp_engine import cold_lp_engine
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))

@@ -139,7 +139,7 @@ def time_one(wall: str, algorithm: str, time_limit: float = float("inf"), orderi
     """One cold solve of the static LP of ``wall`` (a size ``"1000"`` or ``"CxB"`` courses x blocks per course);
     ``factor_processes``, ``compiled_solves`` and ``compiled_factorisation`` (block IPM), when given, override those
     of ``ipm_settings``."""
-    from blockmpec.solvers.engines.block_ipm import BlockIPM
+    from blockmpec.solvers.linalg.block_ipm import BlockIPM
     from blockmpec.solvers.engines.highs import static_lp_solution
 
     t0 = time.perf_counter()
@@ -160,7 +160,7 @@ def time_one(wall: str, algorithm: str, time_limit: float = float("inf"), orderi
     if isinstance(engine, BlockIPM):
         engine.ordering = ordering
         engine.factorisation = factorisation
-        from blockmpec.solvers.engines import block_ipm
+        from blockmpec.solvers.linalg import block_ipm
 
         engine.settings(**{**block_ipm.named_settings(ipm_settings), "kernels": kernels})
         if factor_processes is not None:

@@ -25,7 +25,7 @@ import time
 from pathlib import Path
 
 import blockmpec as bm
-from blockmpec.cli import BENCHMARK_SUITE
+from blockmpec.bench.suite import BENCHMARK_SUITE
 
 sys.path.insert(0, str(Path(__file__).parent))
 import heuristic_suite  # noqa: E402

@@ -32,7 +32,7 @@ import math
 from pathlib import Path
 
 import blockmpec as bm
-from blockmpec.compare import BENCHMARK_METHOD_OPTIONS, compare, pivot, text_table
+from blockmpec.bench.compare import BENCHMARK_METHOD_OPTIONS, compare, pivot, text_table
 
 OUT = Path(__file__).resolve().parent / "output" / "reproduce_table1"
 

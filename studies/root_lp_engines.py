@@ -13,7 +13,7 @@ above ``LP_TOL`` = 1e-9 the bound is ``-inf`` unless its least-squares correctio
 
 * ``ipx``: HiGHS's IPX without crossover on the lifted LP, what ``root_lp="ipm"`` ran before the null-space
   coordinates (``root_lp="ipm-lifted"`` now);
-* ``ipx-null-space``: the same LP in null-space coordinates (:mod:`blockmpec.solvers.engines.null_space`:
+* ``ipx-null-space``: the same LP in null-space coordinates (:mod:`blockmpec.solvers.linalg.null_space`:
   equilibrium and compatibility solved once, ``W = x u^T`` and every copy's equilibrium rows gone), by IPX
   without crossover at feasibility tolerances ``NULL_SPACE_IPM_TOL``: what ``root_lp="ipm"`` runs now;
   ``ipx-null-space-cycles``: the same with the short-cycle basis of self-stresses (``basis="cycles"``);
@@ -94,8 +94,8 @@ def _emit(rows: list[dict], row: dict) -> None:
 
 def root_lp(spec: str, lifting: str = "rlt-full", null_space: str | None = None):
     """``(A, c, row_lower, row_upper, col_lower, col_upper)`` of the root's lifted LP of the wall ``spec``; with
-    ``null_space`` (a basis of :data:`~blockmpec.solvers.engines.null_space.BASES`) the same LP in the null-space
-    coordinates that ``root_lp="ipm"`` solves (:mod:`blockmpec.solvers.engines.null_space`, basis ``"tree"``)."""
+    ``null_space`` (a basis of :data:`~blockmpec.solvers.linalg.null_space.BASES`) the same LP in the null-space
+    coordinates that ``root_lp="ipm"`` solves (:mod:`blockmpec.solvers.linalg.null_space`, basis ``"tree"``)."""
     from blockmpec.solvers.milp import MILPSolver
 
     solver = MILPSolver(engine="bnb", lifting=lifting, root_lp="ipm")

@@ -1,7 +1,7 @@
 r"""The two-block problem over the (eta, mu) plane: collapse mechanisms and multipliers (paper Figs 5-6).
 
 For each point of a grid of slenderness ``eta = h/b`` and friction ``mu`` (psi = 0)
-the comparator (:func:`blockmpec.compare.compare`) runs
+the comparator (:func:`blockmpec.bench.compare.compare`) runs
 
 * ``static-lp``: associative friction (Fig. 5a / 6a);
 * ``milp``: the certified minimum non-associative multiplier (Fig. 5b / 6b);
@@ -46,7 +46,7 @@ from pathlib import Path
 import numpy as np
 
 import blockmpec as bm
-from blockmpec.compare import compare
+from blockmpec.bench.compare import compare
 
 OUT = Path(__file__).resolve().parent / "output" / "two_block_maps"
 

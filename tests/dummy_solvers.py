@@ -1,7 +1,7 @@
 """Throw-away methods for the comparator's tests, registered on import.
 
 They live in a module (not inside a test) so that the comparator's worker processes can
-import them too (:class:`blockmpec.runner.Task` carries the module name and ``sys.path``).
+import them too (:class:`blockmpec.bench.runner.Task` carries the module name and ``sys.path``).
 """
 
 from __future__ import annotations
@@ -13,7 +13,8 @@ import time
 from blockmpec import registry
 from blockmpec.errors import BlockmpecError
 from blockmpec.result import Solution, Status
-from blockmpec.solver import RunOutput, SolverBase
+from blockmpec.result import RunOutput
+from blockmpec.solver import SolverBase
 
 
 class _Base(SolverBase):
@@ -68,13 +69,13 @@ class Hangs(_Base):
 
 
 class ReportsCpus(_Base):
-    """Reports the CPUs its solve may use: :data:`blockmpec.runner.CPUS_VARIABLE` as the solve sees it and what the
+    """Reports the CPUs its solve may use: :data:`blockmpec.bench.runner.CPUS_VARIABLE` as the solve sees it and what the
     block IPM's automatic settings read from it."""
 
     name = "test-reports-cpus"
 
     def run(self):
-        from blockmpec.runner import CPUS_VARIABLE, usable_cpus
+        from blockmpec.bench.runner import CPUS_VARIABLE, usable_cpus
 
         return RunOutput(Status.CONVERGED, Solution(multiplier=1.0),
                          extra={"cpus_variable": os.environ.get(CPUS_VARIABLE), "usable_cpus": usable_cpus()})

@@ -126,13 +126,13 @@ def wall_block_ipm_off_path(spread: float, seed: int, courses: int = 10, blocks_
     Mehrotra's starting point with ``s`` and ``y`` each multiplied by ``exp(N(0, spread))``, so the products
     ``s y`` spread over many decades, as near the optimum."""
     from blockmpec.formulations import compile_linear, static_lp
-    from blockmpec.solvers.engines.block_ipm import BlockIPM
+    from blockmpec.solvers.engines.block_lp import BlockLP
     from blockmpec.solvers.engines.lp_engine import cold_lp_engine
 
     ops = bm.assemble(bm.cases.wall(courses, blocks_per_course))
     lp = compile_linear(static_lp(ops))
     ipm = cold_lp_engine(lp, "block-ipm", ops=ops)
-    assert isinstance(ipm, BlockIPM)
+    assert isinstance(ipm, BlockLP)
     it = ipm.initial_point()
     rng = np.random.default_rng(seed)
     it.s *= np.exp(rng.normal(0.0, spread, it.s.size))

@@ -12,7 +12,8 @@ import scipy.sparse as sp
 
 import blockmpec as bm
 from blockmpec.formulations import compile_linear, static_lp
-from blockmpec.solvers.engines.block_ipm import DEFAULT_SETTINGS, EXACT_INNER_SETTINGS, BlockIPM, interface_blocks
+from blockmpec.solvers.engines.block_lp import BlockLP, interface_blocks
+from blockmpec.solvers.linalg.block_ipm import DEFAULT_SETTINGS, EXACT_INNER_SETTINGS
 from blockmpec.solvers.engines.lp_engine import cold_lp_engine
 from helpers import wall_block_ipm_off_path
 
@@ -175,7 +176,7 @@ def test_gmres_direction_equals_the_direct_one(mild_wall_ipm):
     exact factors solve the same Newton system: the same direction, to the refinement's target.  The factors
     are those of ``K + 1e-12 diag(K)`` (the former diagonal shift), whose first reduced solve misses the target,
     so that GMRES runs."""
-    from blockmpec.solvers.engines.block_ipm import WIDE_DIAGONAL_SHIFT
+    from blockmpec.solvers.linalg.block_ipm import WIDE_DIAGONAL_SHIFT
 
     ipm, it = mild_wall_ipm
     ipm.settings(diagonal_shift=WIDE_DIAGONAL_SHIFT)
@@ -247,7 +248,7 @@ def test_solve_runs_blas_on_one_thread_and_restores_it():
 
     seen = []
 
-    class Recording(BlockIPM):
+    class Recording(BlockLP):
         def before_iteration(self, it):
             seen.append(blas_threads())
 
@@ -274,7 +275,7 @@ def test_reduced_values_on_the_pattern_equal_the_sparse_product(wall_ipm):
 
 def test_settings_sets_are_found_by_name():
     """Studies name the settings sets (``--ipm-settings``): a known name gives that set, an unknown one a clear error."""
-    from blockmpec.solvers.engines.block_ipm import named_settings
+    from blockmpec.solvers.linalg.block_ipm import named_settings
 
     assert named_settings("default") is DEFAULT_SETTINGS
     assert named_settings("exact_inner") is EXACT_INNER_SETTINGS
@@ -286,7 +287,7 @@ def test_diagonal_shift_changes_the_path_never_the_optimum():
     """The diagonal shift of ``K`` only changes how well its factors precondition the refinement: with the default
     (round-off level) and the former 1e-12 the LP ends optimal at the same lambda, and ``K``'s diagonal carries the
     shift (relative to the unshifted product)."""
-    from blockmpec.solvers.engines.block_ipm import WIDE_SHIFT_SETTINGS
+    from blockmpec.solvers.linalg.block_ipm import WIDE_SHIFT_SETTINGS
 
     ops = bm.assemble(bm.cases.wall(10, 20))
     lp = compile_linear(static_lp(ops))
@@ -311,7 +312,7 @@ def test_diagonal_shift_changes_the_path_never_the_optimum():
 def test_auto_correctors_follow_the_size_of_k(monkeypatch):
     """``correctors="auto"`` (the default): two Gondzio correctors below ``AUTO_CORRECTOR_ROWS`` rows of ``K``, four
     from there; a count is taken as given, anything else is one clear error.  The interior fixed point keeps two."""
-    from blockmpec.solvers.engines import block_ipm
+    from blockmpec.solvers.linalg import block_ipm
 
     assert DEFAULT_SETTINGS["correctors"] == "auto" and EXACT_INNER_SETTINGS["correctors"] == 2
     ops = bm.assemble(bm.cases.wall(4, 5))
@@ -330,7 +331,7 @@ def test_auto_correctors_follow_the_size_of_k(monkeypatch):
 def test_a_singular_k_ends_the_solve_with_a_status(monkeypatch):
     """A factorisation that meets an exactly zero pivot (SuperLU's "Factor is exactly singular") ends the solve with
     the best iterate and a status that says so, never an exception; at the starting point, ``numerical``."""
-    from blockmpec.solvers.engines.cholesky import SingularMatrixError, SymmetricFactoriser
+    from blockmpec.solvers.linalg.cholesky import SingularMatrixError, SymmetricFactoriser
 
     ops = bm.assemble(bm.cases.wall(4, 5))
     lp = compile_linear(static_lp(ops))

@@ -1,4 +1,4 @@
-"""The block IPM's compiled per-interface kernels (:mod:`blockmpec.solvers.engines.block_kernels`, numba).
+"""The block IPM's compiled per-interface kernels (:mod:`blockmpec.solvers.linalg.block_kernels`, numba).
 
 Each kernel is checked against the numpy expression it replaces, on the engine's own blocks at an iterate whose
 ``y/s`` spans many decades (as near the optimum), and whole solves with each choice of kernels must end at the
@@ -11,13 +11,13 @@ import pytest
 
 import blockmpec as bm
 from blockmpec.formulations import compile_linear, static_lp
-from blockmpec.solvers.engines import block_ipm
-from blockmpec.solvers.engines.block_ipm import COMPILED_KERNEL_BLOCKS
+from blockmpec.solvers.linalg import block_ipm
+from blockmpec.solvers.linalg.block_ipm import COMPILED_KERNEL_BLOCKS
 from blockmpec.solvers.engines.lp_engine import cold_lp_engine
 from helpers import wall_block_ipm_off_path
 
 pytest.importorskip("numba")
-from blockmpec.solvers.engines import block_kernels  # noqa: E402
+from blockmpec.solvers.linalg import block_kernels  # noqa: E402
 
 
 @pytest.fixture(scope="module")

@@ -15,8 +15,9 @@ import scipy.sparse as sp
 
 import blockmpec as bm
 from blockmpec.formulations import compile_linear, static_lp
-from blockmpec.solvers.engines.block_ipm import BlockIPM, IPMIterate
-from blockmpec.solvers.engines.cholesky import (
+from blockmpec.solvers.engines.block_lp import BlockLP
+from blockmpec.solvers.linalg.block_ipm import IPMIterate
+from blockmpec.solvers.linalg.cholesky import (
     SupernodalCholesky,
     SymmetricFactoriser,
     column_structures,
@@ -57,7 +58,7 @@ def test_column_structures_match_dense_elimination(seed):
 def test_compiled_symbolic_factorisation_matches_the_python_loop(seed):
     """Counts, elimination tree and the rows of chosen columns, compiled (row subtrees) and by the Python loop."""
     pytest.importorskip("numba")
-    from blockmpec.solvers.engines.cholesky_kernels import symbolic_factorisation
+    from blockmpec.solvers.linalg.cholesky_kernels import symbolic_factorisation
 
     for n, density in ((60, 0.04), (300, 0.01), (200, 0.0)):
         lower = sp.tril(_random_pattern(n, density, seed), format="csc")
@@ -101,7 +102,7 @@ def wall_K():
 @pytest.mark.parametrize("ordering", ["metis", "mmd"])
 @pytest.mark.parametrize("relax", [0.0, 1.0, 4.0])
 def test_supernodal_cholesky_solves_K_to_round_off(wall_K, ordering, relax):
-    from blockmpec.solvers.engines.cholesky import metis_available
+    from blockmpec.solvers.linalg.cholesky import metis_available
 
     if ordering == "metis" and not metis_available():
         pytest.skip("pymetis not installed")
@@ -182,7 +183,7 @@ def test_block_ipm_unknown_factorisation_is_one_clear_error():
     ops = bm.assemble(bm.cases.wall(3, 4))
     lp = compile_linear(static_lp(ops))
     engine = cold_lp_engine(lp, "block-ipm", ops=ops)
-    assert isinstance(engine, BlockIPM)
+    assert isinstance(engine, BlockLP)
     engine.factorisation = "cholmod"
     with pytest.raises(ValueError, match="unknown factorisation 'cholmod'"):
         engine.factoriser
@@ -299,7 +300,7 @@ def test_static_lp_factor_processes_reaches_the_block_ipm(monkeypatch):
     the default (``"auto"``) keeps one process on a small ``K``; 3, True and 1.5 are one clear option error each, and
     2.0 is taken as 2 (``blockmpec.options.choice``)."""
     from blockmpec.errors import OptionError
-    from blockmpec.solvers.engines import block_ipm
+    from blockmpec.solvers.linalg import block_ipm
 
     monkeypatch.setattr(block_ipm, "AUTO_SUPERNODAL_ROWS", 0)  # the supernodal Cholesky on any size
     _worker_ready_at_once(monkeypatch)
@@ -324,7 +325,7 @@ def test_static_lp_factor_processes_reaches_the_block_ipm(monkeypatch):
 def test_auto_factor_processes_takes_two_from_its_threshold_with_two_cpus(monkeypatch):
     """``factor_processes="auto"`` (the default) is 2 for a supernodal ``K`` of at least ``AUTO_TWO_PROCESS_ROWS``
     rows when two CPUs are usable, and 1 below the threshold or on one CPU; an explicit 1 or 2 is kept."""
-    from blockmpec.solvers.engines import block_ipm
+    from blockmpec.solvers.linalg import block_ipm
 
     ops = bm.assemble(bm.cases.wall(10, 20))
     lp = compile_linear(static_lp(ops))
@@ -355,7 +356,7 @@ def test_factorisations_stay_serial_until_the_worker_is_ready(wall_K, monkeypatc
     The solves made here meanwhile have the worker's arithmetic: a vector and a matrix are solved to the numbers
     of the two-process solve bit for bit (so a run's iterates do not depend on when the worker is ready), which
     differ from the serial solve's in round-off only."""
-    from blockmpec.solvers.engines import cholesky
+    from blockmpec.solvers.linalg import cholesky
 
     if compiled:
         pytest.importorskip("numba")
@@ -388,7 +389,7 @@ def test_the_first_factorisation_waits_for_a_starting_worker(wall_K, monkeypatch
     """The first factorisation waits (at most ``FIRST_WORKER_WAIT`` s, here long enough) for the worker, having warmed
     this process's half meanwhile (compiled: its plan is made), and is then shared: the serial factors' solutions to
     round-off, and the same numbers as a shared factorisation made later."""
-    from blockmpec.solvers.engines import cholesky
+    from blockmpec.solvers.linalg import cholesky
 
     if compiled:
         pytest.importorskip("numba")
@@ -416,7 +417,7 @@ def test_a_worker_stops_with_its_cholesky_before_any_factorisation(wall_K):
     assert split._worker.chol is split
     split.close()
     assert process.poll() is not None
-    from blockmpec.solvers.engines.cholesky import _HalfWorker
+    from blockmpec.solvers.linalg.cholesky import _HalfWorker
 
     waiting = _HalfWorker()
     assert waiting.chol is None and not waiting.ready()
@@ -570,7 +571,7 @@ def test_block_ipm_compiled_solves_follow_the_kernels_and_keep_the_iterates(monk
     factorisation with the compiled kernels only; True and False choose.  The solutions and factors are the same
     bit for bit, so a whole LP takes the same iterates either way."""
     pytest.importorskip("numba")
-    from blockmpec.solvers.engines import block_ipm
+    from blockmpec.solvers.linalg import block_ipm
 
     monkeypatch.setattr(block_ipm, "AUTO_SUPERNODAL_ROWS", 0)  # the supernodal Cholesky on a small wall
     ops = bm.assemble(bm.cases.wall(10, 20))
@@ -620,7 +621,7 @@ def test_two_process_lp_iterates_do_not_depend_on_when_the_worker_is_ready(monke
     """A whole block-IPM LP with ``factor_processes=2``: whether the worker is ready from the first factorisation or
     only from the fourth (the solves before then made here), the iterates, the solution and the duals are the same
     bit for bit -- so one LP's iteration count and digits do not vary with the machine's load."""
-    from blockmpec.solvers.engines import block_ipm, cholesky
+    from blockmpec.solvers.linalg import block_ipm, cholesky
 
     monkeypatch.setattr(block_ipm, "AUTO_SUPERNODAL_ROWS", 0)  # the supernodal Cholesky on any size
     ops = bm.assemble(bm.cases.wall(10, 20))

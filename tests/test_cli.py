@@ -146,7 +146,7 @@ def test_compare_takes_builtin_cases_and_structure_files(tmp_path):
     assert (out / "results.parquet").exists() and (out / "summary.csv").exists()
     meta = json.loads((out / "run.json").read_text())
     assert meta["settings"]["jobs"] == 2 and meta["rows"] == 6 and meta["versions"]["highspy"]
-    from blockmpec.runner import usable_cpus
+    from blockmpec.bench.runner import usable_cpus
 
     assert meta["settings"]["cpus_per_solve"] == max(1, usable_cpus() // 2)  # two solves side by side share them
     assert "Summary (solved" in p.stdout
@@ -167,7 +167,7 @@ def test_compare_reads_a_study_file(tmp_path):
     df = pd.read_csv(tmp_path / "out" / "results.csv")
     assert list(df["method_label"]) == ["static-lp", "static-lp", "fp-relaxed", "fp-relaxed"]
     # static-lp: the default outside limit, room for its own default time_limit; fixed-point: the study's
-    from blockmpec.runner import default_wall_limit
+    from blockmpec.bench.runner import default_wall_limit
 
     assert list(df["wall_limit_s"]) == [default_wall_limit({}, "static-lp")] * 2 + [100.0, 100.0]
     assert (df["p_method_relaxation"].dropna() == 0.5).all() and len(df["p_method_relaxation"].dropna()) == 2
@@ -180,7 +180,7 @@ def test_compare_reads_a_study_file(tmp_path):
 def test_the_example_study_file_is_valid():
     from pathlib import Path
 
-    from blockmpec.study import load_study
+    from blockmpec.bench.study import load_study
 
     study = load_study(Path(__file__).resolve().parents[1] / "studies" / "example_study.toml")
     assert len(study.cases) >= 3 and len(study.methods) >= 3 and study.repeat >= 1

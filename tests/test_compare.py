@@ -12,7 +12,7 @@ import pytest
 
 import blockmpec as bm
 from blockmpec import registry
-from blockmpec.compare import add_references, cell_mark, compare, normalise_methods, parametrised_label, text_table
+from blockmpec.bench.compare import add_references, cell_mark, compare, normalise_methods, parametrised_label, text_table
 
 TWO_BLOCKS = {"two-blocks": ("two-blocks", {"eta": 3.0, "mu": 0.65})}
 NA_MIN = 1.0 / 3.0  # closed form, paper Sect. 3: mu > 1/eta -> lam_min = 1/eta
@@ -206,7 +206,7 @@ def test_labels_options_repeat_and_columns(tmp_path):
     # closed form of the single block: lam = min(mu, b/h) = 0.25 for both problems
     np.testing.assert_allclose(df["multiplier"], 0.25, rtol=1e-8)
     assert (df["rel_error"] < 1e-8).all() and set(df["reference_source"]) == {"closed-form"}
-    from blockmpec.runner import default_wall_limit
+    from blockmpec.bench.runner import default_wall_limit
 
     assert list(df["wall_limit_s"]) == [default_wall_limit({}, "static-lp")] * 2 + [
         default_wall_limit({"relaxation": 0.5}, "fixed-point")] * 2
@@ -242,7 +242,7 @@ def test_rows_are_saved_as_they_finish_and_resume_skips_them(tmp_path):
 
 
 def test_overwrite_leaves_no_stale_figure_and_a_live_run_locks_the_folder(tmp_path):
-    from blockmpec.study import LOCK_NAME, ResultsFolder
+    from blockmpec.bench.study import LOCK_NAME, ResultsFolder
 
     out = tmp_path / "o"
     out.mkdir()
@@ -263,7 +263,7 @@ def test_overwrite_leaves_no_stale_figure_and_a_live_run_locks_the_folder(tmp_pa
 
 
 def test_metadata_sidecar():
-    from blockmpec.study import run_metadata
+    from blockmpec.bench.study import run_metadata
 
     meta = run_metadata(["blockmpec", "compare"], {"jobs": 2})
     assert meta["command"] == ["blockmpec", "compare"] and meta["settings"] == {"jobs": 2}
@@ -288,7 +288,7 @@ def test_solves_side_by_side_share_the_cpus(monkeypatch):
     here unset, and the comparing process's own environment is unchanged either way."""
     import dummy_solvers
 
-    from blockmpec.runner import CPUS_VARIABLE, shared_cpus, usable_cpus
+    from blockmpec.bench.runner import CPUS_VARIABLE, shared_cpus, usable_cpus
 
     monkeypatch.delenv(CPUS_VARIABLE, raising=False)
     registry.register_solver(dummy_solvers.ReportsCpus)
@@ -308,10 +308,10 @@ def test_solves_side_by_side_share_the_cpus(monkeypatch):
 def test_cpus_variable_caps_the_automatic_settings(monkeypatch):
     """``BLOCKMPEC_CPUS`` caps what the block IPM's ``"auto"`` counts (it reads ``usable_cpus``); a bad value is one
     clear error naming the variable."""
-    from blockmpec.runner import CPUS_VARIABLE, cpu_budget, usable_cpus
-    from blockmpec.solvers.engines import block_ipm, cholesky
+    from blockmpec.bench.runner import CPUS_VARIABLE, cpu_budget, usable_cpus
+    from blockmpec.solvers.linalg import block_ipm, cholesky, cpus as linalg_cpus
 
-    assert block_ipm.usable_cpus is usable_cpus and cholesky.usable_cpus is usable_cpus
+    assert block_ipm.usable_cpus is linalg_cpus.usable_cpus and cholesky.usable_cpus is linalg_cpus.usable_cpus
 
     monkeypatch.delenv(CPUS_VARIABLE, raising=False)
     cpus = usable_cpus()
@@ -363,7 +363,7 @@ def test_progress_shows_the_running_solve_its_elapsed_time_and_failures(tmp_path
     import io
     import time
 
-    from blockmpec.compare import Progress
+    from blockmpec.bench.compare import Progress
 
     bar = Progress(3, {7: "arch · milp"}, str(tmp_path), enabled=True)
     stream = io.StringIO()
@@ -381,7 +381,7 @@ def test_outside_wall_limit_leaves_room_for_the_methods_own_time_limit():
     """A method run with its default time_limit must report time_limit itself before the runner kills it."""
     import dataclasses
 
-    from blockmpec.runner import DEFAULT_WALL_LIMIT_S, default_wall_limit
+    from blockmpec.bench.runner import DEFAULT_WALL_LIMIT_S, default_wall_limit
 
     for method in bm.list_solvers():
         fields = {f.name: f.default for f in dataclasses.fields(registry.get_solver(method).Options)}

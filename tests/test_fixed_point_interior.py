@@ -263,7 +263,7 @@ def test_central_path_continuation_from_an_early_iterate_reaches_a_solution_of_3
 def test_continuation_ends_at_its_last_point_when_k_is_singular(monkeypatch):
     """A singular ``K`` during the continuation (SuperLU's zero pivot) ends it at its last accepted point, with
     the steps made so far, instead of an exception."""
-    from blockmpec.solvers.engines.cholesky import SingularMatrixError
+    from blockmpec.solvers.linalg.cholesky import SingularMatrixError
     from blockmpec.solvers.engines.interior_fixed_point import continue_central_path
 
     ops = bm.assemble(bm.cases.wall(courses=10, blocks_per_course=10))

@@ -12,7 +12,7 @@ import pytest
 
 import blockmpec as bm
 from blockmpec.formulations import compile_linear, kinematic_lp, static_lp
-from blockmpec.solvers.engines.block_ipm import BlockIPM, interface_blocks
+from blockmpec.solvers.engines.block_lp import BlockLP, interface_blocks
 from blockmpec.solvers.engines.highs import HighsLP
 from blockmpec.solvers.engines.lp_engine import AUTO_BLOCK_IPM_ROWS, cold_lp_engine
 from helpers import assert_success, block_on_block, two_block_associative
@@ -81,13 +81,13 @@ def test_block_ipm_rejects_lp_without_block_structure():
     ops = bm.assemble(bm.cases.wall())
     lp = compile_linear(kinematic_lp(ops))
     with pytest.raises(ValueError, match="free"):
-        BlockIPM(lp, np.arange(3).reshape(1, 3))
+        BlockLP(lp, np.arange(3).reshape(1, 3))
 
 
 def test_block_ipm_time_limit_gives_a_status():
     ops = bm.assemble(bm.cases.wall(10, 20))
     lp = compile_linear(static_lp(ops))
-    ipm = BlockIPM(lp, interface_blocks(lp), time_limit=1e-9)
+    ipm = BlockLP(lp, interface_blocks(lp), time_limit=1e-9)
     out = ipm.solve()
     assert out.status is bm.Status.TIME_LIMIT
 
@@ -97,7 +97,7 @@ def test_block_ipm_set_row_upper_changes_the_cohesion():
     ops = bm.assemble(bm.cases.two_blocks(eta=3, mu=0.3))
     c = ops.n_interfaces
     lp = compile_linear(static_lp(ops, cohesion=np.zeros(c)))
-    ipm = BlockIPM(lp, interface_blocks(lp))
+    ipm = BlockLP(lp, interface_blocks(lp))
     lam0 = -ipm.solve().objective
     ipm.set_row_upper(lp.rows["friction"], np.full(2 * c, 0.05))
     lam1 = -ipm.solve().objective
@@ -111,12 +111,12 @@ def test_auto_engine_uses_the_block_ipm_above_the_threshold():
     large = compile_linear(static_lp(bm.assemble(bm.cases.wall(20, 30))))
     assert small.A.shape[0] <= AUTO_BLOCK_IPM_ROWS < large.A.shape[0]
     assert isinstance(cold_lp_engine(small, "auto"), HighsLP)
-    assert isinstance(cold_lp_engine(large, "auto"), BlockIPM)
+    assert isinstance(cold_lp_engine(large, "auto"), BlockLP)
     # a small LP whose block loads span more than AUTO_BLOCK_IPM_LOAD_SPREAD also goes to the block IPM
     stiff_ops = bm.assemble(block_on_block(1.0, 1e-3))
     stiff = compile_linear(static_lp(stiff_ops))
     assert stiff.A.shape[0] <= AUTO_BLOCK_IPM_ROWS
-    assert isinstance(cold_lp_engine(stiff, "auto", ops=stiff_ops), BlockIPM)
+    assert isinstance(cold_lp_engine(stiff, "auto", ops=stiff_ops), BlockLP)
     assert isinstance(cold_lp_engine(small, "auto", ops=bm.assemble(bm.cases.wall())), HighsLP)
 
 
@@ -192,7 +192,7 @@ def test_load_scaling_puts_each_block_in_its_own_units():
 
 def _interior_point(engine, seed):
     """A generic interior point of the block IPM: every entry of H^{-1} nonzero."""
-    from blockmpec.solvers.engines.block_ipm import IPMIterate
+    from blockmpec.solvers.linalg.block_ipm import IPMIterate
 
     rng = np.random.default_rng(seed)
     p = engine.h.size
@@ -206,8 +206,8 @@ def test_block_ipm_ordering_has_the_fill_of_a_fresh_ordering(ordering):
     starting point (s = y = 1) H^{-1} has exact zeros, that K is sparser than every later one, and its
     minimum-degree ordering gave 17x more fill at 1,000 blocks (here, 600 blocks: 10x; METIS 2x).  Fill (nonzeros of the factors) of the engine's cached
     ordering on a later K is that of a fresh ordering of that K."""
-    from blockmpec.solvers.engines.block_ipm import IPMIterate
-    from blockmpec.solvers.engines.cholesky import SymmetricFactoriser, metis_available, structural_pattern
+    from blockmpec.solvers.linalg.block_ipm import IPMIterate
+    from blockmpec.solvers.linalg.cholesky import SymmetricFactoriser, metis_available, structural_pattern
 
     if ordering == "metis" and not metis_available():
         pytest.skip("pymetis not installed")
@@ -216,7 +216,7 @@ def test_block_ipm_ordering_has_the_fill_of_a_fresh_ordering(ordering):
     ops = bm.assemble(bm.cases.wall(20, 30))
     lp = compile_linear(static_lp(ops))
     row_scale, column_scale = load_scaling(lp, ops)  # as static-lp runs it
-    engine = BlockIPM(lp, interface_blocks(lp), ordering=ordering, row_scale=row_scale, column_scale=column_scale)
+    engine = BlockLP(lp, interface_blocks(lp), ordering=ordering, row_scale=row_scale, column_scale=column_scale)
     p, n = engine.h.size, engine.c.size
     start = IPMIterate(np.zeros(n), np.ones(p), np.zeros(engine.b.size), np.ones(p))
     K_start, _ = engine.reduced_matrix(start)
@@ -245,11 +245,11 @@ def test_block_ipm_ordering_has_the_fill_of_a_fresh_ordering(ordering):
 def test_block_ipm_factorises_every_iteration_with_one_ordering():
     """A whole solve: the ordering is made once, and the final factors have no more fill than a fresh
     ordering of a generic K (the fill of the structural pattern)."""
-    from blockmpec.solvers.engines.cholesky import SymmetricFactoriser
+    from blockmpec.solvers.linalg.cholesky import SymmetricFactoriser
 
     ops = bm.assemble(bm.cases.wall(20, 30))
     lp = compile_linear(static_lp(ops))
-    engine = BlockIPM(lp, interface_blocks(lp), ordering="mmd")
+    engine = BlockLP(lp, interface_blocks(lp), ordering="mmd")
     assert engine.solve().status is bm.Status.OPTIMAL
     perm = engine.factoriser.perm.copy()
     K_later, _ = engine.reduced_matrix(_interior_point(engine, 1))
@@ -264,7 +264,7 @@ def test_block_ipm_factorises_every_iteration_with_one_ordering():
 def test_block_ipm_lazy_refinement_saves_solves_with_the_same_lam():
     """Refining only the final direction of each iteration (not the predictor, corrector and each
     Gondzio corrector on their own) needs fewer solves with K and gives the same lam."""
-    from blockmpec.solvers.engines.block_ipm import DEFAULT_SETTINGS, PREVIOUS_SETTINGS
+    from blockmpec.solvers.linalg.block_ipm import DEFAULT_SETTINGS, PREVIOUS_SETTINGS
     from blockmpec.solvers.engines.scaling import load_scaling
 
     ops = bm.assemble(bm.cases.wall(20, 30))
@@ -272,7 +272,7 @@ def test_block_ipm_lazy_refinement_saves_solves_with_the_same_lam():
     row_scale, column_scale = load_scaling(lp, ops)
     runs = {}
     for name, settings in (("previous", PREVIOUS_SETTINGS), ("default", DEFAULT_SETTINGS)):
-        engine = BlockIPM(lp, interface_blocks(lp), row_scale=row_scale, column_scale=column_scale)
+        engine = BlockLP(lp, interface_blocks(lp), row_scale=row_scale, column_scale=column_scale)
         engine.settings(**settings)
         out = engine.solve()
         assert out.status is bm.Status.OPTIMAL
@@ -296,7 +296,7 @@ def test_block_ipm_rejects_an_unknown_setting():
     ops = bm.assemble(bm.cases.wall())
     lp = compile_linear(static_lp(ops))
     with pytest.raises(ValueError, match="unknown setting"):
-        BlockIPM(lp, interface_blocks(lp)).settings(corectors=3)
+        BlockLP(lp, interface_blocks(lp)).settings(corectors=3)
 
 
 @pytest.mark.parametrize("method", ["static-lp", "kinematic-lp"])

@@ -1,4 +1,4 @@
-"""The root LP of ``milp`` in null-space coordinates (``solvers/engines/null_space.py``) is derived, not trusted.
+"""The root LP of ``milp`` in null-space coordinates (``solvers/linalg/null_space.py``) is derived, not trusted.
 
 Its basis solves equilibrium and compatibility to round-off; a certified minimiser, lifted and written in its
 coordinates, satisfies every row; the map back reproduces the lifted point; and its interior-point bound equals the
@@ -13,7 +13,7 @@ import pytest
 import scipy.linalg as sla
 
 import blockmpec as bm
-from blockmpec.solvers.engines.null_space import null_space_lp, static_null_space
+from blockmpec.solvers.linalg.null_space import null_space_lp, static_null_space
 from helpers import CERTIFIED_TOL, LIFTING_CASES, assert_certified, margin
 
 #: small structures of every family, two with a minimum below the associative multiplier
@@ -154,7 +154,7 @@ def test_an_unknown_basis_is_one_clear_error():
 def test_a_null_space_lp_that_fails_its_check_leaves_the_lifted_root(monkeypatch):
     """If a row that should vanish on the null space did not hold (``null_space_lp`` raises), the root keeps the
     lifted LP and still gives its bound: the reformulation is an acceleration, never a source of wrong bounds."""
-    import blockmpec.solvers.engines.null_space as ns
+    import blockmpec.solvers.linalg.null_space as ns
 
     def broken(*args, **kwargs):
         raise ValueError("null-space LP: a row of equilibrium or compatibility does not hold on the null space")

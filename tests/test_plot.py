@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 
 import blockmpec as bm
-from blockmpec.compare import compare
-from blockmpec.plot import (
+from blockmpec.bench.compare import compare
+from blockmpec.bench.plots import (
     METHOD_STYLES,
     comparison_figures,
     convergence,

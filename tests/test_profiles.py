@@ -8,7 +8,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from blockmpec.profiles import SHIFT_S, profile_data, rho, solved, summary_table
+from blockmpec.bench.profiles import SHIFT_S, profile_data, rho, solved, summary_table
 
 
 def _rows():

@@ -77,7 +77,7 @@ simplex on the remaining rows: 4.0 s (4x2), 7.5-36 s (5x2), > 200 s (4x3).
 
 Null-space coordinates (``root_lp="ipm"`` with ``lifting="rlt-full"``).  Most rows of the lifted LP say that
 the static field, every copy and the products with ``u`` are static or kinematic fields.
-:mod:`~blockmpec.solvers.engines.null_space` solves equilibrium and compatibility once (a spanning tree of the
+:mod:`~blockmpec.solvers.linalg.null_space` solves equilibrium and compatibility once (a spanning tree of the
 contact graph gives a sparse basis of self-stresses) and writes the root LP in the remaining coordinates: the same
 LP, the same minimum, with every copy's equilibrium rows and all of ``W = x u^T`` gone (2x15 running-bond wall:
 166,078 x 87,359 -> 105,535 x 38,906).  IPX solves it 3-4x faster (``python studies/root_lp_engines.py --engines
@@ -118,7 +118,16 @@ import scipy.sparse as sp
 
 from blockmpec.formulations.compiled import FRICTION
 from blockmpec.result import Status
-from blockmpec.solvers.engines.highs import highs_lp, set_feasibility_tolerances, use_interior_point
+from blockmpec.deadline import NEVER, Deadline
+from blockmpec.solvers.engines.highs import (
+    change_applied,
+    highs_lp,
+    highs_status,
+    new_highs,
+    set_deadline,
+    set_feasibility_tolerances,
+    use_interior_point,
+)
 from blockmpec.solvers.engines.mip import MIPRun, _Tracer
 
 #: a node is pruned when its bound is within this (times max(1, |incumbent|)) of the incumbent
@@ -137,7 +146,7 @@ SEPARATION_TOL = 1e-9
 #: re-solves of one node LP after waking violated dormant rows
 SEPARATION_ROUNDS = 3
 #: ``"ipm"``: the root LP by the interior point, in the null-space coordinates of
-#: :mod:`~blockmpec.solvers.engines.null_space` where the lifting allows (``rlt-full``; the lifted LP otherwise);
+#: :mod:`~blockmpec.solvers.linalg.null_space` where the lifting allows (``rlt-full``; the lifted LP otherwise);
 #: ``"ipm-lifted"``: the same on the lifted LP itself (``"ipm"`` before the null-space coordinates);
 #: ``"ipm-rows"``: row generation on the lifted LP
 ROOT_LPS = ("simplex", "ipm", "ipm-rows", "ipm-lifted")
@@ -172,17 +181,9 @@ def _meets(bound: float, target: float) -> bool:
     return bool(np.isfinite(target) and target - bound <= INTERIOR_CLOSE_TOL * max(1.0, abs(target)))
 
 
-def highspy_status(name: str):
-    import highspy
-
-    return getattr(highspy.HighsModelStatus, name)
-
-
 def _checked(status) -> None:
     """A HiGHS model change that was not applied (e.g. repeated indices) must not go unnoticed."""
-    import highspy
-
-    if status == highspy.HighsStatus.kError:
+    if not change_applied(status):
         raise RuntimeError("HiGHS rejected a change of the lifted LP")
 
 
@@ -431,8 +432,6 @@ class ComplementarityBnB:
     def __init__(self, form, B, lam_lower, lam_upper, polish, fixed_active=None, fixed_idle=None, strong=4,
                  slack_max=None, lam_branching=False, all_copies=False, lam_mechanism=False, force_mechanism=False,
                  own_pair_active=True, static_copies="all", root_lp="simplex"):
-        import highspy
-
         if root_lp not in ROOT_LPS:
             raise ValueError(f"root_lp must be one of {ROOT_LPS}; got {root_lp!r}")
 
@@ -441,9 +440,8 @@ class ComplementarityBnB:
                                                  static_copies=static_copies)
         self.form, self.B, self.layout, self.polish = form, B, layout, polish
         self.rl0, self.ru0, self.cl0, self.cu0 = rl, ru, cl, cu
-        h = highspy.Highs()
-        h.setOptionValue("output_flag", False)
-        self.deadline = np.inf
+        h = new_highs()
+        self.deadline: Deadline = NEVER
         h.passModel(highs_lp(A, c, rl, ru, cl, cu))
         self.h = h
         self.root_lp = root_lp
@@ -522,8 +520,6 @@ class ComplementarityBnB:
     def _node_lp(self, state: np.ndarray, a: float, b: float):
         """(status, bound, point) of the node LP; any status but optimal (or the time limit) is confirmed by a
         cold re-solve."""
-        from blockmpec.solvers.engines.highs import highs_status
-
         if a > min(b, self.lam_cap):
             return Status.INFEASIBLE, None, None
         self._apply(state, a, b)
@@ -647,10 +643,10 @@ class ComplementarityBnB:
         return bound
 
     def _null_space_lp(self, c, rl, ru, cl, cu, basis: str = "tree"):
-        """The root LP in the null-space coordinates of :mod:`~blockmpec.solvers.engines.null_space` (self-stress
+        """The root LP in the null-space coordinates of :mod:`~blockmpec.solvers.linalg.null_space` (self-stress
         ``basis``), or None where the lifting does not allow them (not every force tied, copies without statics) or
         the structure has no checked basis."""
-        from blockmpec.solvers.engines.null_space import layout_allows, null_space_lp, static_null_space
+        from blockmpec.solvers.linalg.null_space import layout_allows, null_space_lp, static_null_space
 
         lay = self.layout
         if self.static_copies != "all" or not layout_allows(lay, self.form.n_pairs):
@@ -734,7 +730,7 @@ class ComplementarityBnB:
         fallback; its basic duals pick more rows dormant (any choice keeps the bound valid)."""
         y = self._interior_solution(A, c, rl, ru, cl, cu, tolerance=tolerance)[0]
         bound = -np.inf if y is None else dual_bound(A, c, rl, ru, cl, cu, y)
-        if bound == -np.inf and time.perf_counter() < self.deadline:
+        if bound == -np.inf and not self.deadline.expired():
             self.crossover_runs += 1
             y2 = self._interior_solution(A, c, rl, ru, cl, cu, crossover=True, tolerance=tolerance)[0]
             bound2 = -np.inf if y2 is None else dual_bound(A, c, rl, ru, cl, cu, y2)
@@ -747,21 +743,19 @@ class ComplementarityBnB:
         """``(row duals, column values)`` of the LP by HiGHS's interior point at its default tolerances (primal and
         dual feasibility ``tolerance`` if given), without crossover unless ``crossover`` (``(None, None)`` if it
         gave no duals; the values None if it gave none)."""
-        import highspy
-
-        g = highspy.Highs()
-        g.setOptionValue("output_flag", False)
+        g = new_highs()
         g.passModel(highs_lp(A, c, rl, ru, cl, cu))
         use_interior_point(g, crossover=crossover, solver=INTERIOR_SOLVER)
         if tolerance is not None:
             set_feasibility_tolerances(g, tolerance)
-        g.setOptionValue("time_limit", max(self.deadline - time.perf_counter(), 1e-3))
+        if not set_deadline(g, self.deadline):
+            return None, None
         g.run()
         self.n_lps += 1
         # kUnknown: the interior point stopped near the optimum without meeting its tolerances (seen on small
         # walls with an opening); its duals still tell the rows apart and give a bound
         sol = g.getSolution()
-        if g.getModelStatus() in (highspy_status("kOptimal"), highspy_status("kUnknown")) and sol.dual_valid:
+        if g.getModelStatus().name in ("kOptimal", "kUnknown") and sol.dual_valid:
             return (np.asarray(sol.row_dual, float),
                     np.asarray(sol.col_value, float) if sol.value_valid else None)
         return None, None
@@ -773,10 +767,12 @@ class ComplementarityBnB:
         h = self.h
         for tol in (LOOSE_LP_TOL, LP_TOL):
             set_feasibility_tolerances(h, tol)
-            h.setOptionValue("time_limit", h.getRunTime() + max(self.deadline - time.perf_counter(), 1e-3))
+            if not set_deadline(h, self.deadline):
+                # no time left: the model status stays the previous solve's, so mark the run as timed out
+                h.setOptionValue("time_limit", 0.0)
             h.run()
             self.n_lps += 1
-            if h.getModelStatus() == highspy_status("kTimeLimit"):
+            if highs_status(h)[0] is Status.TIME_LIMIT:
                 return
 
     def root_bound(self, a: float | None = None, b: float | None = None) -> float:
@@ -840,10 +836,10 @@ class ComplementarityBnB:
                 kids.append((max(cbound, nb, ca), child, ca, cb, cv, self.last_basis))
         return kids, found
 
-    def solve(self, time_limit: float, incumbent=None, t0: float | None = None, sign: float = 1.0) -> tuple:
-        """Returns (MIPRun in lam units, best Solution or None)."""
+    def solve(self, deadline: Deadline = NEVER, incumbent=None, t0: float | None = None, sign: float = 1.0) -> tuple:
+        """Returns (MIPRun in lam units, best Solution or None), within ``deadline``."""
         t0 = time.perf_counter() if t0 is None else t0
-        deadline = self.deadline = time.perf_counter() + time_limit
+        self.deadline = deadline
         tracer = _Tracer(1.0, t0)
         best = incumbent
         best_val = incumbent.multiplier if incumbent is not None else np.inf
@@ -899,7 +895,7 @@ class ComplementarityBnB:
             if best_val - global_bound <= tol():
                 global_bound = min(global_bound, best_val)
                 break
-            if time.perf_counter() > deadline:
+            if deadline.expired():
                 status = Status.TIME_LIMIT
                 break
             self._restrict_to_improvements(best_val)

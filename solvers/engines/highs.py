@@ -14,9 +14,10 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.sparse as sp
 
+from blockmpec.deadline import NEVER, Deadline
 from blockmpec.formulations import LinearProgram
 from blockmpec.result import Solution, Status
-from blockmpec.solvers.engines.lp_engine import BASIS_ALGORITHMS, select_algorithm
+from blockmpec.solvers.plan import BASIS_ALGORITHMS, lp_algorithm
 
 
 @dataclass
@@ -30,6 +31,8 @@ class LPOutcome:
     row_dual: np.ndarray
     iterations: int
     message: str = ""
+    #: the solve holds a feasible primal point (whatever the status: a time limit with an incumbent)
+    has_feasible_point: bool = False
 
 
 #: HiGHS model status -> :class:`Status`, for LPs and MILPs alike; any other status is ``ERROR``.
@@ -62,6 +65,39 @@ def highs_lp(A, c, row_lower, row_upper, col_lower, col_upper):
     model.a_matrix_.format_ = highspy.MatrixFormat.kColwise
     model.a_matrix_.start_, model.a_matrix_.index_, model.a_matrix_.value_ = A.indptr, A.indices, A.data
     return model
+
+
+def new_highs():
+    """A ``highspy.Highs`` instance, its log on only while a run is verbose (:func:`blockmpec.progress.verbose_enabled`)."""
+    import highspy
+
+    from blockmpec.progress import verbose_enabled
+
+    h = highspy.Highs()
+    h.setOptionValue("output_flag", verbose_enabled())
+    return h
+
+
+def change_applied(status) -> bool:
+    """Whether a model change of a ``highspy.Highs`` (its ``HighsStatus`` return value) was applied."""
+    import highspy
+
+    return status != highspy.HighsStatus.kError
+
+
+def set_deadline(highs, deadline: Deadline) -> bool:
+    """Give a ``highspy.Highs`` the time left before ``deadline``; False when none is left.
+
+    HiGHS compares its ``time_limit`` with the instance's cumulative run clock, so the limit is that clock plus the
+    time left (``inf`` without a deadline)."""
+    if not deadline.finite:
+        highs.setOptionValue("time_limit", float("inf"))
+        return True
+    remaining = deadline.remaining()
+    if remaining <= 0:
+        return False
+    highs.setOptionValue("time_limit", float(highs.getRunTime() + remaining))
+    return True
 
 
 def use_interior_point(highs, crossover: bool, solver: str = "ipx") -> None:
@@ -110,14 +146,33 @@ def set_threads(highs, threads: int) -> None:
     highs.setOptionValue("threads", int(threads))
 
 
-def highs_status(highs) -> tuple[Status, str]:
+def highs_status(highs, interior_without_crossover: bool = False) -> tuple[Status, str]:
     """``(status, raw_name)`` of a ``highspy.Highs`` after ``run()``: the one HiGHS status map.
 
     ``raw_name`` is HiGHS's own name (``"kOptimal"``, ``"kUnboundedOrInfeasible"`` ...), kept for
-    ``Result.raw_status`` and messages; callers branch on ``status`` only.
+    ``Result.raw_status`` and messages; callers branch on ``status`` only.  HiGHS's interior point without
+    crossover ends ``kUnknown`` when it stops at its tolerances without a basis: with
+    ``interior_without_crossover`` that run is ``OPTIMAL`` when HiGHS calls both its primal and dual points
+    feasible.  Whether a run holds a feasible point at all (a time-limited MIP with an incumbent) is the other
+    axis: :func:`has_feasible_point`.
     """
     raw = highs.getModelStatus().name
+    if interior_without_crossover and raw == "kUnknown" and has_feasible_point(highs, dual=True):
+        return Status.OPTIMAL, raw
     return HIGHS_STATUS.get(raw, Status.ERROR), raw
+
+
+def has_feasible_point(highs, dual: bool = False) -> bool:
+    """Whether a ``highspy.Highs`` holds a feasible primal point after ``run()`` (and, with ``dual``, a feasible
+    dual point too), whatever its model status (an incumbent of a MIP stopped at its time limit)."""
+    info = highs.getInfo()
+    feasible = int(FEASIBLE_SOLUTION_STATUS)
+    primal = int(info.primal_solution_status) == feasible
+    return primal and (not dual or int(info.dual_solution_status) == feasible)
+
+
+#: HiGHS's ``SolutionStatus.kSolutionStatusFeasible``
+FEASIBLE_SOLUTION_STATUS = 2
 
 
 @dataclass(frozen=True)
@@ -142,14 +197,67 @@ class MipInfo:
 
 def mip_info(highs) -> MipInfo:
     """:class:`MipInfo` of a ``highspy.Highs`` after ``run()`` on a model with integer columns."""
-    import highspy
-
     status, raw = highs_status(highs)
     info = highs.getInfo()
-    has_solution = int(info.primal_solution_status) == int(highspy.SolutionStatus.kSolutionStatusFeasible)
+    has_solution = has_feasible_point(highs)
     primal = float(info.objective_function_value) if has_solution else float("inf")
     return MipInfo(status, raw, highs.modelStatusToString(highs.getModelStatus()), primal,
                    float(info.mip_dual_bound), float(info.mip_gap), int(info.mip_node_count), has_solution)
+
+
+def highs_mip(A, c, row_lower, row_upper, col_lower, col_upper, integer, *, deadline: Deadline = NEVER,
+              rel_gap: float, abs_gap: float, feasibility_tol: float, threads: int = 1, start=None,
+              record=None) -> tuple[MipInfo, np.ndarray | None]:
+    """``min c^T v`` over the rows and bounds with ``v_j`` integer where ``integer``, by HiGHS's branch and cut
+    within ``deadline``: its :class:`MipInfo` and its best point (None without one).
+
+    ``start``: a point to start from; ``record(dual_bound, primal_bound, force=False)``: called from HiGHS's MIP
+    callbacks (periodically, and with ``force=True`` at every improving solution)."""
+    import highspy
+
+    h = new_highs()
+    set_threads(h, threads)
+    h.setOptionValue("mip_rel_gap", float(rel_gap))
+    h.setOptionValue("mip_abs_gap", float(abs_gap))
+    h.setOptionValue("mip_feasibility_tolerance", float(feasibility_tol))
+    h.setOptionValue("primal_feasibility_tolerance", float(feasibility_tol))
+    if not set_deadline(h, deadline):
+        h.setOptionValue("time_limit", 0.0)
+    model = highs_lp(A, c, row_lower, row_upper, col_lower, col_upper)
+    model.integrality_ = [highspy.HighsVarType.kInteger if k else highspy.HighsVarType.kContinuous for k in integer]
+    h.passModel(model)
+    if start is not None:
+        sol = highspy.HighsSolution()
+        sol.col_value = np.asarray(start, float).tolist()
+        sol.value_valid = True
+        h.setSolution(sol)
+    if record is not None:
+        def on_interrupt(e):
+            d = e.data_out
+            record(float(d.mip_dual_bound), float(d.mip_primal_bound))
+
+        def on_improving(e):
+            d = e.data_out
+            record(float(d.mip_dual_bound), float(d.objective_function_value), force=True)
+
+        h.cbMipInterrupt.subscribe(on_interrupt)
+        h.cbMipImprovingSolution.subscribe(on_improving)
+    h.run()
+    info = mip_info(h)
+    point = np.asarray(h.getSolution().col_value, float) if info.has_solution else None
+    return info, point
+
+
+def small_lp(c, A_ub, b_ub, col_lower, col_upper) -> tuple[Status, float]:
+    """``min c^T x`` s.t. ``A_ub x <= b_ub``, ``col_lower <= x <= col_upper`` (dense, small) by HiGHS's dual
+    simplex: ``(status, optimum)``."""
+    A = sp.csc_array(np.atleast_2d(np.asarray(A_ub, float)))
+    h = new_highs()
+    h.passModel(highs_lp(A, c, np.full(A.shape[0], -np.inf), np.asarray(b_ub, float), col_lower, col_upper))
+    h.run()
+    status, _ = highs_status(h)
+    value = float(h.getInfo().objective_function_value) if status is Status.OPTIMAL else float("nan")
+    return status, value
 
 
 def static_lp_solution(lp: LinearProgram, outcome: LPOutcome) -> Solution:
@@ -178,18 +286,12 @@ class HighsLP:
     :mod:`blockmpec.solvers.engines.scaling`.
     """
 
-    def __init__(self, lp: LinearProgram, algorithm: str = "auto", time_limit: float = float("inf"),
-                 threads: int = 0, row_scale: np.ndarray | None = None,
-                 column_scale: np.ndarray | None = None) -> None:
-        import highspy
-
+    def __init__(self, lp: LinearProgram, algorithm: str = "auto", threads: int = 0,
+                 row_scale: np.ndarray | None = None, column_scale: np.ndarray | None = None) -> None:
         if algorithm not in BASIS_ALGORITHMS:
             raise ValueError(f"algorithm must be one of {BASIS_ALGORITHMS}; got {algorithm!r}")
         self.lp = lp
-        h = highspy.Highs()
-        h.setOptionValue("output_flag", False)
-        if np.isfinite(time_limit):
-            h.setOptionValue("time_limit", float(time_limit))
+        h = new_highs()
         if threads:
             set_threads(h, threads)
         m, n = lp.A.shape
@@ -200,13 +302,15 @@ class HighsLP:
                          lp.col_lower / self.column_scale, lp.col_upper / self.column_scale)
         h.passModel(model)
         self.highs = h
-        self._highspy = highspy
         self.algorithm = algorithm
+        self.last_algorithm = algorithm
         self._first = True
 
     def _set_algorithm(self, algorithm: str) -> None:
         h = self.highs
-        algorithm = select_algorithm(algorithm, self.lp.A.shape[0], need_basis=True, warm=not self._first)
+        algorithm = lp_algorithm(algorithm, self.lp.A.shape[0], need_basis=True, warm=not self._first)
+        #: the algorithm of the latest solve (for the run's plan)
+        self.last_algorithm = algorithm
         if algorithm == "ipm":
             use_interior_point(h, crossover=True)
         else:
@@ -224,7 +328,8 @@ class HighsLP:
 
     def set_basis(self, col_status: np.ndarray, row_status: np.ndarray) -> bool:
         """Install a basis (integer ``HighsBasisStatus`` values); the next solve starts from it."""
-        hs = self._highspy
+        import highspy as hs
+
         basis = hs.HighsBasis()
         basis.col_status = [hs.HighsBasisStatus(int(v)) for v in col_status]
         basis.row_status = [hs.HighsBasisStatus(int(v)) for v in row_status]
@@ -234,9 +339,15 @@ class HighsLP:
             self._first = False
         return ok
 
-    def solve(self, algorithm: str | None = None) -> LPOutcome:
-        """Solve (warm from the previous basis if there is one); ``algorithm`` overrides once."""
+    def solve(self, algorithm: str | None = None, deadline: Deadline = NEVER) -> LPOutcome:
+        """Solve within ``deadline`` (warm from the previous basis if there is one); ``algorithm`` overrides once.
+
+        A deadline already passed returns ``TIME_LIMIT`` without running HiGHS."""
         h = self.highs
+        if not set_deadline(h, deadline):
+            nan = np.full(self.lp.c.size, np.nan)
+            return LPOutcome(Status.TIME_LIMIT, "kTimeLimit", float("nan"), nan, np.full(self.lp.A.shape[0], np.nan),
+                             0, message="time limit reached before the LP")
         self._set_algorithm(algorithm or self.algorithm)
         h.run()
         self._first = False
@@ -250,7 +361,8 @@ class HighsLP:
             v = np.full(self.lp.c.size, np.nan)
             y = np.full(self.lp.A.shape[0], np.nan)
         obj = float(info.objective_function_value) if status is Status.OPTIMAL else float("nan")
-        return LPOutcome(status, raw, obj, v, y, iterations, message=h.modelStatusToString(h.getModelStatus()))
+        return LPOutcome(status, raw, obj, v, y, iterations, message=h.modelStatusToString(h.getModelStatus()),
+                         has_feasible_point=has_feasible_point(h))
 
     def set_row_upper(self, rows: np.ndarray, upper: np.ndarray) -> None:
         """Change the upper bounds of ``rows`` (lower bounds kept)."""

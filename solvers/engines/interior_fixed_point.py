@@ -146,7 +146,9 @@ from __future__ import annotations
 import numpy as np
 import scipy.sparse as sp
 
-from blockmpec.solvers.engines.block_ipm import EXACT_INNER_SETTINGS, BlockIPM, IPMIterate, interface_blocks
+from blockmpec.deadline import NEVER, Deadline
+from blockmpec.solvers.engines.block_lp import BlockLP, interface_blocks
+from blockmpec.solvers.linalg.block_ipm import EXACT_INNER_SETTINGS, IPMIterate
 
 COUPLINGS = ("exact", "lagged", "fixed")
 #: the aim term's weight is constant down to mu = FOLD_KNEE * mu_0, then falls with mu, and is
@@ -163,22 +165,28 @@ CORRECTOR_TOL = 0.3
 CONTINUATION_MU_RISE = 1e3
 
 
-class InteriorFixedPoint(BlockIPM):
+class InteriorFixedPoint(BlockLP):
     """:class:`BlockIPM` for the MCP (3) written as the step LP (5) with ``n* = n``.
 
     Parameters
     ----------
     lp : LinearProgram
         The compiled step LP (5) (:func:`blockmpec.formulations.modified_lp` with slope
-        ``tan(psi)``, any ``n*``: its cohesion is overwritten).
-    ops : Operators
+        ``tan(psi)``, any ``n*``: its cohesion is overwritten): its friction rows, ``tan(psi)``, are the dual's.
+    coulomb_lp : LinearProgram
+        The compiled static LP (1) (:func:`blockmpec.formulations.static_lp`): the same rows and columns, its
+        friction rows with ``tan(phi)``; ``coulomb_lp - lp`` on the friction rows is the cohesion factor
+        ``tan(phi) - tan(psi)`` that moves to the primal rows (``n* = n``).  Both come from
+        :func:`blockmpec.formulations.step_lps`, the one statement of these LPs.
+    units : LoadUnits
+        The problem's load units (:class:`~blockmpec.solvers.engines.scaling.LoadUnits`).
     coupling : ``"exact"`` (Newton on (3)), ``"lagged"`` (``n* := n`` before each LP iteration) or
         ``"fixed"`` (the LP (5) at the ``n*`` of :meth:`set_n_star`: one fixed-point step)
     fold_weight, fold_knee, fold_off : float
         The least-compressed objective term, where its weight starts to fall with ``mu`` and
         where it is switched off (module docstring); it is also switched off once the
         residuals are within ``1e3 tol``, so a run never stops on the aimed problem.
-    **ipm : options of :class:`BlockIPM` (``tol``, ``max_iterations``, ``time_limit``, ``ordering``).
+    **ipm : options of :class:`BlockIPM` (``tol``, ``max_iterations``, ``deadline``, ``ordering``).
     """
 
     #: Newton on (3) was measured (and its stall studied) with every inner direction corrected to the absolute
@@ -188,24 +196,23 @@ class InteriorFixedPoint(BlockIPM):
     #: (with the continuation) default 316 instead of 258 iterations (42.4 s against 37.8 s), no aim 242 instead
     #: of 208: mixed, so the engine keeps the setting it was measured with
     default_settings = EXACT_INNER_SETTINGS
-    #: a run takes hundreds of iterations, so the compiled kernels (numba installed) pay from ~2,000 free blocks:
-    #: 2,420 blocks 50-53 s against 62-73 s with numpy (two runs each, bm.solve(wall, "fixed-point"))
-    compiled_kernel_blocks = 4_000
 
-    def __init__(self, lp, ops, coupling: str = "exact", fold_weight: float = 0.0, fold_off: float = FOLD_OFF,
-                 fold_knee: float = FOLD_KNEE, **ipm) -> None:
-        from blockmpec.solvers.engines.scaling import load_scaling
+    def __init__(self, lp, coulomb_lp, units, coupling: str = "exact", fold_weight: float = 0.0,
+                 fold_off: float = FOLD_OFF, fold_knee: float = FOLD_KNEE, **ipm) -> None:
+        from blockmpec.solvers.plan import INTERIOR_FIXED_POINT_RULES
 
         if coupling not in COUPLINGS:
             raise ValueError(f"interior fixed point: unknown coupling {coupling!r}; use one of {', '.join(COUPLINGS)}")
-        row_scale, column_scale = load_scaling(lp, ops)
+        row_scale, column_scale = units.static(lp)
+        ipm.setdefault("rules", INTERIOR_FIXED_POINT_RULES)
         super().__init__(lp, interface_blocks(lp), row_scale=row_scale, column_scale=column_scale, **ipm)
-        self.ops = ops
         self.coupling = coupling
-        factor = np.broadcast_to(ops.friction - ops.dilatancy, (ops.n_interfaces,)).astype(float)
-        self.cohesion_factor = factor
         self.friction_position = self._in_position[lp.rows["friction"]]
         self.normal_columns = lp.columns["x"][1::3]
+        # the cohesion factor tan(phi) - tan(psi) of each friction row's normal force, read off the two compiled LPs
+        difference = _friction_difference(lp, coulomb_lp)
+        factor = difference[lp.rows["friction"][0::2], self.normal_columns]
+        self.cohesion_factor = factor
         self.fold_weight = float(fold_weight)
         self.fold_off = float(fold_off)
         self.fold_knee = float(fold_knee)
@@ -217,15 +224,18 @@ class InteriorFixedPoint(BlockIPM):
         #: (a measurement of ``studies/fixed_point_continuation.py``)
         self.keep_aim = False
         self.mu0: float | None = None
-        self.n_star = np.zeros(ops.n_interfaces)
+        self.n_star = np.zeros(factor.size)
         self.set_n_star(self.n_star)  # exact coupling: h = 0 on the friction rows, for good
         #: the dual rows' inequality matrix (tan(psi)); self.G becomes the primal one (tan(phi))
         self.G_dual = self.G
         self.g_dual_blocks = self.g_blocks
         if coupling == "exact":
+            # the primal rows are the static LP's (Coulomb, tan(phi)): the step LP's plus the difference, scaled as
+            # the step LP's rows are (the same numbers as the rows of the static LP itself, scaled alike)
             rows = self.friction_position
             cols = np.repeat(self.normal_columns, 2)
-            extra = sp.csr_array((self.in_scale[rows] * np.repeat(factor, 2) * self.column_scale[cols], (rows, cols)),
+            values = np.asarray(difference[lp.rows["friction"], cols]).ravel()
+            extra = sp.csr_array((self.in_scale[rows] * values * self.column_scale[cols], (rows, cols)),
                                  shape=self.G.shape)
             self.G = (self.G + extra).tocsr()
             self.g_blocks = self.dense_blocks(self.G)
@@ -310,7 +320,7 @@ class InteriorFixedPoint(BlockIPM):
             self.max_iterations, self.start_iterate, self.criterion = saved
 
 
-def continue_central_path(engine: InteriorFixedPoint, start: IPMIterate, *, tol: float, time_limit: float,
+def continue_central_path(engine: InteriorFixedPoint, start: IPMIterate, *, tol: float, deadline: Deadline = NEVER,
                           max_steps: int = CONTINUATION_STEPS, corrector_tol: float = CORRECTOR_TOL,
                           record=None) -> tuple[IPMIterate, dict]:
     r"""Pseudo-arclength continuation of the weighted central path of (3) through ``start``.
@@ -325,7 +335,7 @@ def continue_central_path(engine: InteriorFixedPoint, start: IPMIterate, *, tol:
     ``max |s o y - mu w| / (mu w) <= corrector_tol``; ``h`` doubles after a one-correction step.
     The tangent keeps the previous one's orientation, so a turning point (``dmu/ds`` changing
     sign) would be followed.  Stops when the relative residuals of (3) are at most ``tol``,
-    after ``max_steps`` steps, after ``time_limit`` seconds (wall clock), when no step of
+    after ``max_steps`` steps, at ``deadline``, when no step of
     length ``h > 1e-8`` is accepted, when ``mu`` has risen to :data:`CONTINUATION_MU_RISE`
     times its start (the path has turned back towards ``mu = inf``), or when ``K`` is singular in floating point
     (at the last accepted point).
@@ -339,10 +349,9 @@ def continue_central_path(engine: InteriorFixedPoint, start: IPMIterate, *, tol:
     """
     import time
 
-    from blockmpec.solvers.engines.block_ipm import single_blas_thread
-    from blockmpec.solvers.engines.cholesky import SingularMatrixError
+    from blockmpec.solvers.linalg.block_ipm import single_blas_thread
+    from blockmpec.solvers.linalg.cholesky import SingularMatrixError
 
-    t_start = time.perf_counter()
     mu0 = float(start.s @ start.y) / start.s.size
     weights = start.s * start.y / mu0
     r0 = engine.residuals(start)
@@ -368,7 +377,7 @@ def continue_central_path(engine: InteriorFixedPoint, start: IPMIterate, *, tol:
             factors = engine._factorise(z)
             t = tangent(z, mu, factors)
             h = 0.1
-            while (steps < max_steps and time.perf_counter() - t_start < time_limit and max(engine.measures(z)) > tol
+            while (steps < max_steps and not deadline.expired() and max(engine.measures(z)) > tol
                    and mu < CONTINUATION_MU_RISE * mu0):
                 accepted, corrections = False, 0
                 while h > 1e-8 and not accepted:
@@ -415,9 +424,11 @@ def continue_central_path(engine: InteriorFixedPoint, start: IPMIterate, *, tol:
     return z, {"steps": steps, "factorisations": factorisations, "mu": mu}
 
 
-def run_interior(ops, lp, *, tol: float, max_iterations: int, time_limit: float, fold_weight: float,
-                 fold_off: float = FOLD_OFF, ordering: str = "auto", continuation: bool = True):
+def run_interior(lp, coulomb_lp, units, *, tol: float, max_iterations: int, deadline: Deadline = NEVER,
+                 fold_weight: float, fold_off: float = FOLD_OFF, ordering: str = "auto", continuation: bool = True):
     r"""The interior-point fixed point on the compiled step LP ``lp``: ``(RunOutput, facts)``.
+
+    ``coulomb_lp`` and ``units`` as for :class:`InteriorFixedPoint`; ``deadline``: the run's.
 
     One :class:`InteriorFixedPoint` run with the aim term ``fold_weight``; if it does not
     end with a success (``OPTIMAL`` or ``ACCEPTABLE``) and ``fold_weight > 0``, a second
@@ -435,27 +446,26 @@ def run_interior(ops, lp, *, tol: float, max_iterations: int, time_limit: float,
         1e-6 after the residuals stalled; the verifier decides), or the IPM's failure
         status; facts: ``lp_solves`` (interior runs), ``lp_time_s`` (``{"interior": s}``,
         continuation included), ``fold_weight_used``, ``continuation_steps`` and
-        ``continuation_factorisations`` (0 when it was not needed).
+        ``continuation_factorisations`` (0 when it was not needed), ``plan`` (what the block IPM chose).
     """
     import time
 
     from blockmpec import facts as fact_names
-    from blockmpec.result import Solution, Status
-    from blockmpec.solver import RunOutput
+    from blockmpec.result import RunOutput, Solution, Status
     from blockmpec.solvers.engines.highs import static_lp_solution
     from blockmpec.solvers.engines.stopping import StoppingCriterion
+    from blockmpec.solvers.plan import describe_block_ipm
 
-    crit = StoppingCriterion(tol, max_iterations, time_limit, measure_name="kkt_residual").start()
+    crit = StoppingCriterion(tol, max_iterations, deadline, measure_name="kkt_residual").start()
     runs, seconds = 0, 0.0
     weights = [fold_weight, 0.0] if fold_weight > 0 else [0.0]
     out = engine = None
     for weight in weights:
-        left = crit.remaining()
-        if left <= 0:
+        if deadline.expired():
             break
         t0 = time.perf_counter()
-        engine = InteriorFixedPoint(lp, ops, fold_weight=weight, fold_off=fold_off, tol=tol,
-                                    max_iterations=max_iterations, time_limit=left, ordering=ordering)
+        engine = InteriorFixedPoint(lp, coulomb_lp, units, fold_weight=weight, fold_off=fold_off, tol=tol,
+                                    max_iterations=max_iterations, deadline=deadline.end, ordering=ordering)
         engine.criterion = crit
         out = engine.solve()
         seconds += time.perf_counter() - t0
@@ -473,7 +483,7 @@ def run_interior(ops, lp, *, tol: float, max_iterations: int, time_limit: float,
             crit.record(kkt_residual=max(values["primal"], values["dual"], values["complementarity"]),
                         fold_weight=0.0, n_change=0.0, stage="continuation", **values)
 
-        end, continued = continue_central_path(engine, engine.best_iterate, tol=tol, time_limit=crit.remaining(),
+        end, continued = continue_central_path(engine, engine.best_iterate, tol=tol, deadline=deadline,
                                                max_steps=max_iterations - crit.iterations, record=record)
         ended = engine.outcome_at(end)
         seconds += time.perf_counter() - t0
@@ -484,9 +494,11 @@ def run_interior(ops, lp, *, tol: float, max_iterations: int, time_limit: float,
              "fold_weight_used": engine.fold_weight if engine is not None else None,
              "continuation_steps": continued["steps"] if continued else 0,
              "continuation_factorisations": continued["factorisations"] if continued else 0}
+    if engine is not None and engine._factoriser is not None:
+        facts["plan"] = describe_block_ipm(engine)
     if out is None:
         return RunOutput(Status.TIME_LIMIT, Solution(), crit.iterations, crit.trace,
-                         f"time limit {time_limit:g} s reached before the interior run", extra=facts), facts
+                         "time limit reached before the interior run", extra=facts), facts
     sol = static_lp_solution(lp, out) if out.status.is_success else Solution()
     # the last iterate recorded is the one that met the tolerance (OPTIMAL); a stalled run returns its best
     error = {Status.OPTIMAL: engine.last_error, Status.ACCEPTABLE: engine.best_error}.get(out.status, np.inf)
@@ -503,3 +515,25 @@ def run_interior(ops, lp, *, tol: float, max_iterations: int, time_limit: float,
     if runs > 1:
         message += " (second run, without the aim term: the first one failed)"
     return RunOutput(status, sol, crit.iterations, crit.trace, message, out.raw_status, extra=facts), facts
+
+
+def _friction_difference(lp, coulomb_lp) -> sp.csr_array:
+    """``coulomb_lp.A - lp.A`` after checking that the two compiled LPs have the same rows and columns and differ on
+    the friction rows' normal-force columns only (the static LP (1) and the step LP (5) of one structure)."""
+    same = (lp.A.shape == coulomb_lp.A.shape and lp.columns.keys() == coulomb_lp.columns.keys()
+            and lp.rows.keys() == coulomb_lp.rows.keys()
+            and all(np.array_equal(lp.columns[k], coulomb_lp.columns[k]) for k in lp.columns)
+            and all(np.array_equal(lp.rows[k], coulomb_lp.rows[k]) for k in lp.rows))
+    if not same:
+        raise ValueError("interior fixed point: the static LP and the step LP have different rows or columns")
+    difference = sp.csr_array(coulomb_lp.A - lp.A)
+    difference.eliminate_zeros()
+    coo = difference.tocoo()
+    friction_rows = np.zeros(lp.A.shape[0], bool)
+    friction_rows[lp.rows["friction"]] = True
+    normal = np.zeros(lp.A.shape[1], bool)
+    normal[lp.columns["x"][1::3]] = True
+    if not (np.all(friction_rows[coo.row]) and np.all(normal[coo.col])):
+        raise ValueError("interior fixed point: the static LP and the step LP differ outside the friction rows' "
+                         "normal forces")
+    return difference

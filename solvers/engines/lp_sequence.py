@@ -64,9 +64,9 @@ from typing import Any
 import numpy as np
 
 from blockmpec import facts as fact_names
-from blockmpec.operators import Operators, normal
-from blockmpec.result import Solution, Status
-from blockmpec.solver import RunOutput
+from blockmpec.deadline import NEVER, Deadline
+from blockmpec.formulations.static_lp import StepLPs
+from blockmpec.result import RunOutput, Solution, Status
 from blockmpec.solvers.engines.highs import FEASIBILITY_TOL, static_lp_solution
 from blockmpec.verify import positive_part_ratio
 
@@ -79,6 +79,11 @@ FOLD_SETTLE_TOL = 1e-6
 FOLD_STALL_STEPS = 8
 #: weight of the closeness term under the weighted tie-break rules (the rule's own costs are scaled to max 1)
 CLOSENESS_WEIGHT = 1e-3
+
+
+def _normal(x: np.ndarray) -> np.ndarray:
+    """The normal forces ``n_k`` of interface forces ``x = (t_k, n_k, m_k)``."""
+    return x[1::3]
 
 
 def tie_break_delta(lam: float) -> float:
@@ -104,16 +109,17 @@ class LPSequence:
 
     Parameters
     ----------
-    ops : Operators
-    alpha : float
-        Tilt of the friction surface (0: eq. (5)).
-    tie_break : one of :data:`TIE_BREAKS`
-        ``"none"`` compiles no tie-break LP.
-    algorithm : str
-        HiGHS algorithm (see :data:`blockmpec.solvers.engines.lp_engine.BASIS_ALGORITHMS`).
-    need_associative : bool
-        Also compile the associative static LP (1) (``"associative"``, ``"dead-load"``
+    lps : StepLPs
+        The compiled LPs (:func:`blockmpec.formulations.step_lps` with the sequence's ``alpha``; its tie-break
+        LP unless ``tie_break`` is ``"none"``, its associative LP for the ``"associative"``, ``"dead-load"``
         and ``"random"`` starts).
+    units : LoadUnits
+        The problem's load units (:class:`~blockmpec.solvers.engines.scaling.LoadUnits`): HiGHS works in them.
+    alpha : float
+        Tilt of the friction surface the LPs were compiled with (0: eq. (5)).
+    tie_break : one of :data:`TIE_BREAKS`
+    algorithm : str
+        HiGHS algorithm (see :data:`blockmpec.solvers.plan.BASIS_ALGORITHMS`).
     feasibility_tol : float
         HiGHS primal and dual feasibility tolerances (HiGHS default 1e-7).  The
         sequence feeds each LP's forces into the next one, and light interfaces
@@ -127,17 +133,18 @@ class LPSequence:
         only as ``"closest"`` in the closing steps (see :func:`run_sequence`).
     """
 
-    def __init__(self, ops: Operators, alpha: float = 0.0, tie_break: str = "closest",
-                 algorithm: str = "auto", need_associative: bool = True, feasibility_tol: float = FEASIBILITY_TOL,
-                 fold_weight: float = 0.0) -> None:
-        from blockmpec.formulations import modified_lp, static_lp, tie_break_lp
-        from blockmpec.formulations._pyomo import compiled_linear
+    def __init__(self, lps: StepLPs, units, alpha: float = 0.0, tie_break: str = "closest",
+                 algorithm: str = "auto", feasibility_tol: float = FEASIBILITY_TOL, fold_weight: float = 0.0) -> None:
         from blockmpec.solvers.engines.highs import HighsLP, set_feasibility_tolerances
 
-        self.ops = ops
-        c = ops.n_interfaces
-        self.slope = ops.dilatancy + alpha * (ops.friction - ops.dilatancy)
-        self.cohesion_factor = ops.friction - self.slope  # cohesion_k = -factor_k n*_k
+        if tie_break != "none" and lps.tie_break is None:
+            raise ValueError(f"LP sequence: tie-break rule {tie_break!r} needs the tie-break LP (step_lps(tie_break=True))")
+        self.lps = lps
+        self.units = units
+        c = lps.friction.size
+        self.n_interfaces = c
+        self.slope = lps.slope
+        self.cohesion_factor = lps.cohesion_factor  # cohesion_k = -factor_k n*_k
         self.lp_solves = 0
         self.lp_time_s = {"associative": 0.0, "step": 0.0, "tie_break": 0.0}
         self.alpha = float(alpha)
@@ -149,27 +156,26 @@ class LPSequence:
         self._last_z_f = None
         self._step_folded = False  # the step LP's objective now carries folded costs
 
-        self.step_lp = compiled_linear(modified_lp, ops, np.zeros(c), slope=self.slope)
-        self.step_highs = HighsLP(self.step_lp, algorithm, **_scales(self.step_lp, ops))
+        self.step_lp = lps.step
+        self.step_highs = HighsLP(self.step_lp, algorithm, **_scales(self.step_lp, units))
 
         self.tie_lp = None
         self.tie_highs = None
         if tie_break != "none":
-            self.tie_lp = compiled_linear(tie_break_lp, ops, np.zeros(c), slope=self.slope)
+            self.tie_lp = lps.tie_break
             row = int(self.tie_lp.rows["floor"][0])
             col = int(self.tie_lp.columns["lam"][0])
             a = self.tie_lp.A[[row], :].toarray().ravel()
             if not (a[col] == -1.0 and np.count_nonzero(a) == 1 and np.isfinite(self.tie_lp.row_upper[row])):
                 raise RuntimeError("tie-break LP: the floor row did not compile to -lam <= -lam_floor")
-            self.tie_highs = HighsLP(self.tie_lp, algorithm, **_scales(self.tie_lp, ops, ("d",)))
+            self.tie_highs = HighsLP(self.tie_lp, algorithm, **_scales(self.tie_lp, units, ("d",)))
             self._normal_columns = self.tie_lp.columns["x"][1::3]
             self._d_columns = self.tie_lp.columns["d"]
 
-        self.assoc_lp = None
+        self.assoc_lp = lps.associative
         self.assoc_highs = None
-        if need_associative:
-            self.assoc_lp = compiled_linear(static_lp, ops)
-            self.assoc_highs = HighsLP(self.assoc_lp, algorithm, **_scales(self.assoc_lp, ops))
+        if self.assoc_lp is not None:
+            self.assoc_highs = HighsLP(self.assoc_lp, algorithm, **_scales(self.assoc_lp, units))
         for highs in (self.step_highs, self.tie_highs, self.assoc_highs):
             if highs is not None:
                 set_feasibility_tolerances(highs.highs, feasibility_tol)
@@ -212,9 +218,9 @@ class LPSequence:
         return "primal-simplex" if self.tie_highs.set_basis(col, row) else None
 
     # ------------------------------------------------------------------ helpers
-    def _timed(self, kind: str, solve, *args):
+    def _timed(self, kind: str, solve, *args, **kwargs):
         t0 = time.perf_counter()
-        out = solve(*args)
+        out = solve(*args, **kwargs)
         self.lp_time_s[kind] += time.perf_counter() - t0
         self.lp_solves += 1
         return out
@@ -223,28 +229,19 @@ class LPSequence:
         """LP solves so far and seconds spent per LP kind (associative start, step, tie-break)."""
         return {fact_names.LP_SOLVES: self.lp_solves, fact_names.LP_TIME_S: {k: round(v, 6) for k, v in self.lp_time_s.items()}}
 
-    def _set_time_limit(self, highs, deadline: float) -> bool:
-        remaining = deadline - time.perf_counter()
-        if remaining <= 0:
-            return False
-        if np.isfinite(remaining):
-            # HiGHS compares time_limit with the instance's cumulative run clock
-            highs.highs.setOptionValue("time_limit", float(highs.highs.getRunTime() + remaining))
-        return True
-
-    def associative(self, deadline: float = float("inf")) -> Step:
+    def associative(self, deadline: Deadline = NEVER) -> Step:
         """Solve the associative static LP (1) (the ``"associative"`` start)."""
         if self.assoc_highs is None:
             raise RuntimeError("the associative LP was not compiled")
-        if not self._set_time_limit(self.assoc_highs, deadline):
+        if deadline.expired():
             return Step(Status.TIME_LIMIT, "", "time limit reached before the associative LP")
-        out = self._timed("associative", self.assoc_highs.solve)
+        out = self._timed("associative", self.assoc_highs.solve, deadline=deadline)
         if out.status is not Status.OPTIMAL:
             return Step(out.status, out.raw_status, f"associative start LP: {out.message}",
                         lp_iterations=out.iterations)
         return Step(Status.OPTIMAL, out.raw_status, out.message, static_lp_solution(self.assoc_lp, out), out.iterations)
 
-    def dead_load(self, deadline: float = float("inf")) -> Step:
+    def dead_load(self, deadline: Deadline = NEVER) -> Step:
         """A statically admissible force field under the dead load alone (the ``"dead-load"`` start).
 
         The associative LP (1) with ``lam`` fixed at 0 (column bounds ``[0, 0]``);
@@ -252,13 +249,13 @@ class LPSequence:
         """
         if self.assoc_highs is None:
             raise RuntimeError("the associative LP was not compiled")
-        if not self._set_time_limit(self.assoc_highs, deadline):
+        if deadline.expired():
             return Step(Status.TIME_LIMIT, "", "time limit reached before the dead-load LP")
         h = self.assoc_highs.highs
         col = int(self.assoc_lp.columns["lam"][0])
         h.changeColBounds(col, 0.0, 0.0)
         try:
-            out = self._timed("associative", self.assoc_highs.solve)
+            out = self._timed("associative", self.assoc_highs.solve, deadline=deadline)
         finally:
             h.changeColBounds(col, -np.inf, np.inf)
         if out.status is not Status.OPTIMAL:
@@ -274,8 +271,9 @@ class LPSequence:
         """
         if alpha == self.alpha:
             return
-        slope = self.ops.dilatancy + alpha * (self.ops.friction - self.ops.dilatancy)
-        slope = np.broadcast_to(slope, (self.ops.n_interfaces,))
+        lps = self.lps
+        slope = lps.dilatancy + alpha * (lps.friction - lps.dilatancy)
+        slope = np.broadcast_to(slope, (self.n_interfaces,))
         for lp, highs in ((self.step_lp, self.step_highs), (self.tie_lp, self.tie_highs)):
             if highs is None:
                 continue
@@ -286,7 +284,7 @@ class LPSequence:
                 highs.highs.changeCoeff(r, col, v)
         self.alpha = float(alpha)
         self.slope = slope
-        self.cohesion_factor = self.ops.friction - slope
+        self.cohesion_factor = lps.friction - slope
 
     def set_sensitivity(self, z_f: np.ndarray | None) -> None:
         """Friction multipliers for the first folded ``"min-lambda"`` step (e.g. the associative LP's)."""
@@ -294,7 +292,7 @@ class LPSequence:
 
     def _rule_weights(self, rule: str, z_f: np.ndarray | None) -> np.ndarray:
         """Weights ``w >= 0`` (max 1) of a weighted rule: the objective term is ``-sum_k w_k n_k``."""
-        c = self.ops.n_interfaces
+        c = self.n_interfaces
         weight = self.cohesion_factor * np.ones(c)
         if rule == "min-lambda":
             zeta = np.zeros(c) if z_f is None else np.maximum(z_f[0::2], 0.0) + np.maximum(z_f[1::2], 0.0)
@@ -313,7 +311,7 @@ class LPSequence:
         """Load the tie-break LP's costs for ``rule`` (see the module docstring)."""
         if rule == "closest" and self._tie_rule == "closest":
             return
-        c = self.ops.n_interfaces
+        c = self.n_interfaces
         if rule == "closest":
             n_cost, d_cost = np.zeros(c), np.ones(c)
         else:
@@ -323,7 +321,7 @@ class LPSequence:
         self.tie_highs.highs.changeColsCost(cols.size, cols, cost)
         self._tie_rule = rule
 
-    def step(self, n_star: np.ndarray, deadline: float = float("inf"), rule: str | None = None,
+    def step(self, n_star: np.ndarray, deadline: Deadline = NEVER, rule: str | None = None,
              first_from_associative: bool = True) -> Step:
         """Solve the step LP at ``n_star`` (then the tie-break LP under ``rule``).
 
@@ -342,13 +340,13 @@ class LPSequence:
         elif self._step_folded:
             self._fold_costs(None)
         self.step_highs.set_row_upper(lp.rows["friction"], rhs)
-        if not self._set_time_limit(self.step_highs, deadline):
+        if deadline.expired():
             return Step(Status.TIME_LIMIT, "", "time limit reached before a step LP")
         first_algorithm = None
         if self._step_cold and first_from_associative and self.assoc_highs is not None and self.alpha == 0.0:
             first_algorithm = self._start_from_associative_basis()
         self._step_cold = False
-        out = self._timed("step", self.step_highs.solve, first_algorithm)
+        out = self._timed("step", self.step_highs.solve, first_algorithm, deadline=deadline)
         if out.status is not Status.OPTIMAL:
             return Step(out.status, out.raw_status, f"modified LP: {out.message}", lp_iterations=out.iterations)
         sol = static_lp_solution(lp, out)
@@ -364,11 +362,11 @@ class LPSequence:
         self.tie_highs.set_row_upper(tie.rows["deviation_down"], -n_star)
         lam = sol.multiplier
         self.tie_highs.set_row_upper(tie.rows["floor"], np.array([-(lam - tie_break_delta(lam))]))
-        if not self._set_time_limit(self.tie_highs, deadline):
+        if deadline.expired():
             return Step(Status.TIME_LIMIT, "", "time limit reached before a tie-break LP", sol, iterations)
-        first_algorithm = self._start_tie_break_from_step_basis(normal(sol.x), n_star) if self._tie_cold else None
+        first_algorithm = self._start_tie_break_from_step_basis(_normal(sol.x), n_star) if self._tie_cold else None
         self._tie_cold = False
-        tout = self._timed("tie_break", self.tie_highs.solve, first_algorithm)
+        tout = self._timed("tie_break", self.tie_highs.solve, first_algorithm, deadline=deadline)
         iterations += tout.iterations
         if tout.status is not Status.OPTIMAL:
             # keep the step LP's own point; the caller records the failure
@@ -378,11 +376,10 @@ class LPSequence:
         return Step(Status.OPTIMAL, out.raw_status, out.message, sol, iterations, True)
 
 
-def _scales(lp, ops, normal_like=()) -> dict:
-    """HiGHS works in load units (:mod:`blockmpec.solvers.engines.scaling`): each block's tolerances its own."""
-    from blockmpec.solvers.engines.scaling import load_scaling
-
-    row_scale, column_scale = load_scaling(lp, ops, normal_like)
+def _scales(lp, units, normal_like=()) -> dict:
+    """HiGHS works in load units (:class:`~blockmpec.solvers.engines.scaling.LoadUnits`): each block's tolerances
+    its own."""
+    row_scale, column_scale = units.static(lp, normal_like)
     return {"row_scale": row_scale, "column_scale": column_scale}
 
 
@@ -446,7 +443,7 @@ def run_sequence(
     stop_on: str,
     tol: float,
     max_iterations: int,
-    time_limit: float,
+    deadline: Deadline = NEVER,
     min_iterations: int = 1,
     acceleration: str = "none",
     memory: int = 5,
@@ -470,8 +467,8 @@ def run_sequence(
         ``"multiplier"``: stop when ``|lam_k - lam_{k-1}| <= tol`` and ``k >= min_iterations``.
     tol : float
     max_iterations : int
-    time_limit : float
-        Seconds for the whole loop (the start LP included).
+    deadline : Deadline
+        The run's deadline (the start LP included).
     min_iterations : int
         Fewest step LPs before the stopping test may succeed.
     acceleration : {"none", "anderson"}
@@ -492,9 +489,7 @@ def run_sequence(
     from blockmpec.solvers.engines.stopping import StoppingCriterion
 
     measure = "n_change" if stop_on == "normal" else "lam_change"
-    crit = StoppingCriterion(tol, max_iterations, time_limit, measure_name=measure).start()
-    deadline = crit.t0 + time_limit
-    ops = seq.ops
+    crit = StoppingCriterion(tol, max_iterations, deadline, measure_name=measure).start()
     facts: dict[str, Any] = {"lam_start": None, "tie_break_failures": 0, "start_used": start}
 
     def output(status, sol, message, raw=""):
@@ -508,7 +503,7 @@ def run_sequence(
             return output(first.status, None, first.message, first.raw_status)
         facts["lam_start"] = first.solution.multiplier
         seq.set_sensitivity(first.solution.z_f)
-        n_star = np.minimum(normal(first.solution.x), 0.0)
+        n_star = np.minimum(_normal(first.solution.x), 0.0)
         if start == "random":
             n_star = n_star * np.random.default_rng(seed).uniform(0.0, 1.0, n_star.size)
     elif start == "dead-load":
@@ -522,9 +517,9 @@ def run_sequence(
                 seq.set_sensitivity(first.solution.z_f)
         if first.status is not Status.OPTIMAL:
             return output(first.status, None, first.message, first.raw_status)
-        n_star = np.minimum(normal(first.solution.x), 0.0)
+        n_star = np.minimum(_normal(first.solution.x), 0.0)
     else:
-        n_star = np.zeros(ops.n_interfaces)
+        n_star = np.zeros(seq.n_interfaces)
 
     anderson = Anderson(memory, relaxation) if acceleration == "anderson" else None
     rule = None if seq.tie_break != "on-oscillation" else "none"
@@ -549,18 +544,18 @@ def run_sequence(
             k = crit.iterations + 1
             msg = f"iteration {k}: {step.message}"
             if step.status is Status.TIME_LIMIT:
-                msg = f"time limit {time_limit:g} s reached at iteration {k}; returning the last iterate"
+                msg = f"time limit reached at iteration {k}; returning the last iterate"
             return output(step.status, last, msg, step.raw_status)
         if step.tie_break_used is False:
             facts["tie_break_failures"] += 1
         sol = step.solution
-        n = normal(sol.x)
+        n = _normal(sol.x)
         n_norm = float(np.linalg.norm(n))
         n_change = float(np.linalg.norm(n - n_star)) / n_norm if n_norm > 0 else float(np.linalg.norm(n - n_star))
         lam = float(sol.multiplier)
         lam_change = None if lam_prev is None else abs(lam - lam_prev)
         value = n_change if stop_on == "normal" else (np.inf if lam_change is None else lam_change)
-        values = {"multiplier": lam, "friction_admissibility": positive_part_ratio(ops.N_f.T @ sol.x),
+        values = {"multiplier": lam, "friction_admissibility": positive_part_ratio(seq.lps.coulomb @ sol.x),
                   "lp_iterations": step.lp_iterations}
         values["n_change" if stop_on != "normal" else "lam_change"] = n_change if stop_on != "normal" else lam_change
         if not np.isfinite(value):  # no lam_change at the first SLP step: record without a decision
@@ -583,8 +578,8 @@ def run_sequence(
         if status is Status.ITERATION_LIMIT:
             return output(status, sol, f"no convergence in {max_iterations} iterations; returning the last iterate",
                           step.raw_status)
-        if status is Status.TIME_LIMIT or time.perf_counter() >= deadline:
-            return output(Status.TIME_LIMIT, sol, f"time limit {time_limit:g} s reached after iteration "
+        if status is Status.TIME_LIMIT or deadline.expired():
+            return output(Status.TIME_LIMIT, sol, f"time limit reached after iteration "
                           f"{crit.iterations}; returning the last iterate", step.raw_status)
         if status is not None:
             return output(status, sol, f"iteration {crit.iterations}: non-finite convergence measure", step.raw_status)

@@ -21,6 +21,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from blockmpec.deadline import NEVER, Deadline
 from blockmpec.result import Status
 
 #: seconds between two trace records of a periodic callback
@@ -65,53 +66,22 @@ class _Tracer:
         self.records.append({"time_s": now - self.t0, "bound": b, "incumbent": inc, "gap_abs": gap})
 
 
-def solve_highs(mip, time_limit: float, *, rel_gap: float, abs_gap: float, feasibility_tol: float,
-                threads: int = 1, verbose: bool = False, start: np.ndarray | None = None,
-                t0: float | None = None) -> MIPRun:
-    """HiGHS on the big-M model (integer columns = binaries)."""
-    import highspy
-
-    from blockmpec.solvers.engines.highs import highs_lp, highs_status, mip_info, set_threads
+def solve_highs(mip, deadline: Deadline = NEVER, *, rel_gap: float, abs_gap: float, feasibility_tol: float,
+                threads: int = 1, start: np.ndarray | None = None, t0: float | None = None) -> MIPRun:
+    """HiGHS on the big-M model (integer columns = binaries), within ``deadline``
+    (:func:`blockmpec.solvers.engines.highs.highs_mip` runs it)."""
+    from blockmpec.solvers.engines.highs import highs_mip
 
     t0 = time.perf_counter() if t0 is None else t0
     tracer = _Tracer(mip.objective_sign, t0)
-    h = highspy.Highs()
-    h.setOptionValue("output_flag", bool(verbose))
-    set_threads(h, threads)
-    h.setOptionValue("mip_rel_gap", float(rel_gap))
-    h.setOptionValue("mip_abs_gap", float(abs_gap))
-    h.setOptionValue("mip_feasibility_tolerance", float(feasibility_tol))
-    h.setOptionValue("primal_feasibility_tolerance", float(feasibility_tol))
-    h.setOptionValue("time_limit", float(max(time_limit, 1e-3)))
-    model = highs_lp(mip.A, mip.c, mip.row_lower, mip.row_upper, mip.col_lower, mip.col_upper)
-    model.integrality_ = [highspy.HighsVarType.kInteger if k else highspy.HighsVarType.kContinuous
-                          for k in mip.integer]
-    h.passModel(model)
-    if start is not None:
-        sol = highspy.HighsSolution()
-        sol.col_value = np.asarray(start, float).tolist()
-        sol.value_valid = True
-        h.setSolution(sol)
-
-    def on_interrupt(e):
-        d = e.data_out
-        tracer.record(float(d.mip_dual_bound), float(d.mip_primal_bound))
-
-    def on_improving(e):
-        d = e.data_out
-        tracer.record(float(d.mip_dual_bound), float(d.objective_function_value), force=True)
-
-    h.cbMipInterrupt.subscribe(on_interrupt)
-    h.cbMipImprovingSolution.subscribe(on_improving)
     t1 = time.perf_counter()
-    h.run()
+    info, point = highs_mip(mip.A, mip.c, mip.row_lower, mip.row_upper, mip.col_lower, mip.col_upper, mip.integer,
+                            deadline=deadline, rel_gap=rel_gap, abs_gap=abs_gap, feasibility_tol=feasibility_tol,
+                            threads=threads, start=start, record=tracer.record)
     run_s = time.perf_counter() - t1
-    info = mip_info(h)
-    status, raw = highs_status(h)
-    point = np.asarray(h.getSolution().col_value, float) if info.has_solution else None
     tracer.record(info.dual_bound, info.primal_bound, force=True)
-    return MIPRun(status, raw, info.message, point, info.primal_bound, info.dual_bound, info.nodes, run_s,
-                  tracer.records)
+    return MIPRun(info.status, info.raw_status, info.message, point, info.primal_bound, info.dual_bound, info.nodes,
+                  run_s, tracer.records)
 
 
 #: SCIP status -> Status (anything else: ERROR)
@@ -127,9 +97,9 @@ SCIP_STATUS = {
 }
 
 
-def solve_scip(mip, time_limit: float, *, rel_gap: float, abs_gap: float, feasibility_tol: float,
-               threads: int = 1, verbose: bool = False, start: np.ndarray | None = None,
-               t0: float | None = None, bilinear: bool = False) -> MIPRun:
+def solve_scip(mip, deadline: Deadline = NEVER, *, rel_gap: float, abs_gap: float, feasibility_tol: float,
+               threads: int = 1, start: np.ndarray | None = None, t0: float | None = None,
+               bilinear: bool = False) -> MIPRun:
     """SCIP on the model: binaries as ``B`` variables, each SOS1 set as an SOS1 constraint.
 
     ``bilinear=True`` adds the work identity (W) itself, ``q = sum`` over the
@@ -139,12 +109,15 @@ def solve_scip(mip, time_limit: float, *, rel_gap: float, abs_gap: float, feasib
     """
     import pyscipopt as scip
 
+    from blockmpec.progress import verbose_enabled
+
     t0 = time.perf_counter() if t0 is None else t0
     tracer = _Tracer(mip.objective_sign, t0)
     m = scip.Model()
-    if not verbose:
+    if not verbose_enabled():
         m.hideOutput()
-    m.setParam("limits/time", float(max(time_limit, 1e-3)))
+    if deadline.finite:
+        m.setParam("limits/time", float(max(deadline.remaining(), 1e-3)))
     m.setParam("limits/gap", float(rel_gap))
     m.setParam("limits/absgap", float(abs_gap))
     m.setParam("numerics/feastol", float(max(feasibility_tol, 1e-9)))

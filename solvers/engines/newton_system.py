@@ -13,12 +13,12 @@ with ``w = (lam, x, u, z)``, ``c`` interfaces and ``b`` free blocks.
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
 import numpy as np
 import scipy.sparse as sp
 
+from blockmpec.deadline import NEVER, Deadline
 from blockmpec.formulations import CompiledMCP
 from blockmpec.result import Solution, Status
 from blockmpec.solvers.engines.stopping import StoppingCriterion
@@ -150,7 +150,7 @@ class MCPSystem:
 def semismooth_newton(system: MCPSystem, w0: np.ndarray, *, tol: float = 1e-10, max_iterations: int = 100,
                       sigma: float = 1e-4, backtrack: float = 0.5, max_backtracks: int = 40,
                       regularisation: float = 1.0, descent_rho: float = 1e-8, descent_power: float = 2.1,
-                      newton_refinements: int = 3, time_limit: float = math.inf,
+                      newton_refinements: int = 3, deadline: Deadline = NEVER,
                       stop: StoppingCriterion | None = None, **record) -> NewtonOutcome:
     r"""Globalised semismooth Newton method on ``Phi(w) = 0`` (De Luca–Facchinei–Kanzow style).
 
@@ -176,12 +176,12 @@ def semismooth_newton(system: MCPSystem, w0: np.ndarray, *, tol: float = 1e-10, 
     (trace keys ``iteration, time_s, residual, merit, step, direction, multiplier``
     and ``record``): ``stop`` when given (a caller's run-wide criterion: its time and
     iteration limits and its ``tol`` apply too, and the records go to its trace),
-    else a new one with ``tol``, ``max_iterations`` and ``time_limit``.
+    else a new one with ``tol``, ``max_iterations`` and ``deadline``.
     """
     from scipy.sparse.linalg import splu
 
     if stop is None:
-        stop = StoppingCriterion(tol, max_iterations, time_limit, measure_name="residual").start()
+        stop = StoppingCriterion(tol, max_iterations, deadline, measure_name="residual").start()
     first_record = len(stop.trace)
     w = np.asarray(w0, float).copy()
     Phi, J = system.residual(w, jacobian=True)

@@ -48,11 +48,12 @@ positive, the pair goes to its relatively smaller side and the LP is solved agai
 ends without a solution of (3), a coarser threshold is tried (:data:`AMBIGUOUS`).  The split route lets
 the first mechanism use the same pairs (slack the smaller side, or ambiguous).
 
-LP algorithms.  Whole route: dual simplex (a vertex, exact zeros) below ``IPM_PAIRS`` pairs; above,
+LP algorithms.  Whole route: dual simplex (a vertex, exact zeros) below
+:data:`~blockmpec.solvers.plan.PIECE_LP_IPM_PAIRS` pairs; above,
 HiGHS's interior point without crossover (measured on the 2,032-block wall, first piece: dual simplex
 110 s CPU, interior point with crossover 102 s, without 34 s).  Split route: mechanisms by HiGHS's dual
 simplex (warm; primal feasibility 1e-10); static halves by HiGHS's dual simplex below
-:data:`BLOCK_IPM_PAIRS` pairs and by the block interior-point method above (:func:`static_piece_ipm`;
+:data:`~blockmpec.solvers.plan.PIECE_LP_BLOCK_IPM_PAIRS` pairs and by the block interior-point method above (:func:`static_piece_ipm`;
 measured on the 2,032-block wall, first static half: dual simplex 32 s CPU, block IPM ~2 s).
 
 Units: HiGHS solves in the units of :func:`blockmpec.solvers.nlp.nlp_scaling` (each block's rows
@@ -70,7 +71,10 @@ from typing import TYPE_CHECKING
 import numpy as np
 import scipy.sparse as sp
 
+from blockmpec.deadline import NEVER, Deadline
 from blockmpec.result import Status
+from blockmpec.solvers.engines.highs import highs_status, set_deadline
+from blockmpec.solvers.plan import BLOCK_IPM_RULES, piece_lp_static_engine, piece_lp_whole_engine
 
 if TYPE_CHECKING:
     from blockmpec.formulations._pyomo import LinearProgram
@@ -104,14 +108,14 @@ class PieceLP:
     form : CompiledMCP
     column_scale, row_scale, slack_scale : ndarray
         The units of :func:`blockmpec.solvers.nlp.nlp_scaling`.
-    time_limit : float
-        Seconds for every LP together (HiGHS ``time_limit`` of each solve is the time left).
+    deadline : Deadline
+        The run's deadline (HiGHS's time limit of each solve is the time left).
     interior : bool
         HiGHS's interior point without crossover (else dual simplex, warm after a bound change).
     """
 
     def __init__(self, form, column_scale: np.ndarray, row_scale: np.ndarray, slack_scale: np.ndarray,
-                 time_limit: float = math.inf, interior: bool = False) -> None:
+                 deadline: Deadline = NEVER, interior: bool = False) -> None:
         from blockmpec.formulations._pyomo import LinearProgram
         from blockmpec.solvers.engines.highs import HighsLP, use_interior_point
 
@@ -139,7 +143,7 @@ class PieceLP:
         else:
             h.setOptionValue("solver", "simplex")
             h.setOptionValue("simplex_strategy", 1)  # dual
-        self.deadline = time.perf_counter() + time_limit
+        self.deadline = deadline
         self.lp_solves = 0
         self.lp_time_s = 0.0
 
@@ -181,10 +185,9 @@ class PieceLP:
         Measured on the 510-block wall: after relaxing the biactive pairs' bounds the warm dual simplex
         took 14,514 iterations (10.9 s), a cold solve 4,118 (2.3 s); (RLP) is solved cold.
         """
-        remaining = self.deadline - time.perf_counter()
-        if remaining <= 0:
-            return None
         h = self.lp.highs
+        if not set_deadline(h, self.deadline):
+            return None
         if cold:
             h.clearSolver()
         # HiGHS's presolve declared the 2,032-block wall's relaxed LP infeasible before its interior point
@@ -192,23 +195,12 @@ class PieceLP:
         # solves (kOptimal, lam 0.42265 < the piece's 0.42327).  The pieces keep presolve (without it the
         # first piece took 2x longer)
         h.setOptionValue("presolve", "off" if (cold and self.interior) else "choose")
-        h.setOptionValue("time_limit", float(remaining) if math.isfinite(remaining) else math.inf)
         t0 = time.perf_counter()
         h.run()
         self.lp_time_s += time.perf_counter() - t0
         self.lp_solves += 1
-        raw = h.getModelStatus().name
-        info = h.getInfo()
-        # HiGHS's interior point without crossover ends "kUnknown" when it stops at its tolerances
-        # without a basis; its point counts when HiGHS calls both primal and dual solutions feasible
-        feasible = info.primal_solution_status == 2 and info.dual_solution_status == 2
-        if raw == "kOptimal" or (self.interior and raw == "kUnknown" and feasible):
-            status = Status.OPTIMAL
-        elif raw == "kTimeLimit":
-            status = Status.TIME_LIMIT
-        elif raw == "kInfeasible":
-            status = Status.INFEASIBLE
-        else:
+        status, raw = highs_status(h, interior_without_crossover=self.interior)
+        if status not in (Status.OPTIMAL, Status.TIME_LIMIT, Status.INFEASIBLE):
             status = Status.NUMERICAL
         sol = h.getSolution()
         w = self.lp.column_scale * np.asarray(sol.col_value, float)
@@ -227,8 +219,6 @@ class LPSolution:
     row_dual: np.ndarray
 
 
-#: pairs from which the piece LPs use HiGHS's interior point (no crossover) instead of the dual simplex
-IPM_PAIRS = 10_000
 #: a side of a pair counts as zero at most this (units); the certificate's relative tolerance on lam
 ZERO_TOL = {False: 1e-9, True: 1e-7}
 LAM_TOL = {False: 1e-9, True: 1e-7}
@@ -243,7 +233,7 @@ def _relative(v: np.ndarray) -> np.ndarray:
     return v / max(float(v.max(initial=0.0)), 1e-300)
 
 
-def whole_piece_descent(form, scaling, w_start: np.ndarray, time_limit: float = math.inf, rounds: int = 10,
+def whole_piece_descent(form, scaling, w_start: np.ndarray, deadline: Deadline = NEVER, rounds: int = 10,
                         interior: bool | None = None) -> PieceOutcome:
     """Local descent over the pieces of (4) from ``w_start``, each piece solved as one whole LP (:class:`PieceLP`).
 
@@ -254,7 +244,7 @@ def whole_piece_descent(form, scaling, w_start: np.ndarray, time_limit: float = 
     sides ``<= ZERO_TOL``) are checked: if the piece's duals are feasible for (RLP), or (RLP) solved
     cold does not go below ``lam`` by more than ``LAM_TOL max(1, |lam|)``, the point is a certified local
     minimum; otherwise each biactive pair that (RLP) put on one side moves to it.
-    ``interior``: None chooses by size (:data:`IPM_PAIRS`).
+    ``interior``: None chooses by size (:func:`blockmpec.solvers.plan.piece_lp_whole_engine`).
 
     Returns
     -------
@@ -263,8 +253,8 @@ def whole_piece_descent(form, scaling, w_start: np.ndarray, time_limit: float = 
         LPs without a certificate; ``w`` the best complementary point, if any), ``TIME_LIMIT``, or the
         failure of an LP (``w`` None when no complementary point was found).
     """
-    interior = form.n_pairs >= IPM_PAIRS if interior is None else interior
-    plp = PieceLP(form, *scaling, time_limit=time_limit, interior=interior)
+    interior = piece_lp_whole_engine(form.n_pairs) == "ipm" if interior is None else interior
+    plp = PieceLP(form, *scaling, deadline=deadline, interior=interior)
     z, s = plp.sides(np.asarray(w_start, float))
     zr, sr = _relative(z), _relative(s)
     trace: list[dict] = []
@@ -398,16 +388,7 @@ def _set_cost(hl, cost: np.ndarray) -> None:
     hl.highs.changeColsCost(cost.size, np.arange(cost.size, dtype=np.int32), hl.column_scale * np.asarray(cost, float))
 
 
-def _set_time(hl, deadline: float) -> bool:
-    """HiGHS's time limit to the time left before ``deadline`` (perf_counter); False when none is left."""
-    if not math.isfinite(deadline):
-        return True
-    remaining = deadline - time.perf_counter()
-    hl.highs.setOptionValue("time_limit", float(max(remaining, 1e-3)))
-    return remaining > 0
-
-
-def static_piece(hl, slack_zero: np.ndarray, sense: float = 1.0, deadline: float = math.inf):
+def static_piece(hl, slack_zero: np.ndarray, sense: float = 1.0, deadline: Deadline = NEVER):
     """``min sense * lam`` over the static half of the piece: ``G_i x = 0`` where ``slack_zero``, else ``<= 0``.
 
     ``hl`` is a :class:`~blockmpec.solvers.engines.highs.HighsLP` of :func:`static_program` (any scaling);
@@ -421,12 +402,12 @@ def static_piece(hl, slack_zero: np.ndarray, sense: float = 1.0, deadline: float
     cost = np.zeros(lp.c.size)
     cost[lp.columns["lam"][0]] = sense
     _set_cost(hl, cost)
-    if not _set_time(hl, deadline):
+    if deadline.expired():
         return None
-    return hl.solve()
+    return hl.solve(deadline=deadline)
 
 
-def mechanism_piece(hl, allowed: np.ndarray, cost: np.ndarray | None = None, deadline: float = math.inf):
+def mechanism_piece(hl, allowed: np.ndarray, cost: np.ndarray | None = None, deadline: Deadline = NEVER):
     """A mechanism of the kinematic half of the piece: ``f_l^T u = 1``, ``z_i >= 0`` where ``allowed``, else 0.
 
     ``min cost^T z`` (default ``1^T z``, in the LP's units: the mechanism with the least total multiplier,
@@ -444,9 +425,9 @@ def mechanism_piece(hl, allowed: np.ndarray, cost: np.ndarray | None = None, dea
     c = np.zeros(lp.c.size)
     c[zcols] = 1.0 if cost is None else cost
     _set_cost(hl, c)
-    if not _set_time(hl, deadline):
+    if deadline.expired():
         return None
-    return hl.solve()
+    return hl.solve(deadline=deadline)
 
 
 def closed_interfaces(slack_zero: np.ndarray, pair_interface: np.ndarray, pair_kind: np.ndarray,
@@ -467,8 +448,8 @@ def closed_interfaces(slack_zero: np.ndarray, pair_interface: np.ndarray, pair_k
 
 
 def static_piece_ipm(lp: LinearProgram, slack_zero: np.ndarray, row_scale: np.ndarray, column_scale: np.ndarray,
-                     time_limit: float, pair_interface: np.ndarray, pair_kind: np.ndarray, tol: float = 1e-9):
-    """:func:`static_piece` (min ``lam``) by the block interior-point method (:mod:`~blockmpec.solvers.engines.block_ipm`).
+                     deadline: Deadline, pair_interface: np.ndarray, pair_kind: np.ndarray, tol: float = 1e-9):
+    """:func:`static_piece` (min ``lam``) by the block interior-point method (:mod:`~blockmpec.solvers.linalg.block_ipm`).
 
     An interior-point method needs a strictly feasible interior.  An interface that the piece closes
     (:func:`closed_interfaces`: its forces are 0) has none, so its columns and rows are left out (``x_k = 0``).
@@ -484,7 +465,7 @@ def static_piece_ipm(lp: LinearProgram, slack_zero: np.ndarray, row_scale: np.nd
     from scipy.optimize import lsq_linear
 
     from blockmpec.formulations._pyomo import LinearProgram
-    from blockmpec.solvers.engines.block_ipm import BlockIPM
+    from blockmpec.solvers.engines.block_lp import BlockLP
     from blockmpec.solvers.engines.highs import LPOutcome
 
     pairs = lp.rows["pairs"]
@@ -507,8 +488,8 @@ def static_piece_ipm(lp: LinearProgram, slack_zero: np.ndarray, row_scale: np.nd
     n_keep = keep_cols.size
     ipm_lp = LinearProgram(c=c, A=A_ipm, row_lower=lower, row_upper=upper, col_lower=np.full(n_keep, -np.inf),
                            col_upper=np.full(n_keep, np.inf), columns={}, rows={}, objective_sign=1.0)
-    ipm = BlockIPM(ipm_lp, np.arange(1, n_keep).reshape(-1, 3), tol=tol, time_limit=time_limit,
-                   row_scale=row_scale[rows], column_scale=column_scale[keep_cols])
+    ipm = BlockLP(ipm_lp, np.arange(1, n_keep).reshape(-1, 3), tol=tol, deadline=deadline.end,
+                  row_scale=row_scale[rows], column_scale=column_scale[keep_cols], rules=BLOCK_IPM_RULES)
     out = ipm.solve()
     status = Status.OPTIMAL if out.status in (Status.OPTIMAL, Status.ACCEPTABLE) else out.status
     v = np.zeros(lp.c.size)
@@ -543,8 +524,6 @@ IPM_DUAL_TOL = 1e-7
 STATIC_ENGINES = ("auto", "dual-simplex", "block-ipm")
 #: HiGHS's primal feasibility tolerance of the mechanism LPs of :class:`SplitPieces`
 KINEMATIC_FEASIBILITY_TOL = 1e-10
-#: pairs from which ``"auto"`` solves the static halves by the block IPM
-BLOCK_IPM_PAIRS = 4_000
 #: mechanism cost of a pair whose static equality raises lam (its dual, relative to the largest such dual,
 #: times this, plus 1): a vertex then avoids those pairs where it can
 AVOID_WEIGHT = 1e3
@@ -577,18 +556,18 @@ class Certificate:
 class SplitPieces:
     """The two halves of (PLP) as two HiGHS models, re-solved warm: :func:`static_piece` and :func:`mechanism_piece`.
 
-    ``form``, the units ``column_scale, row_scale, slack_scale`` and ``time_limit`` (seconds for every
-    LP together) are those of :class:`PieceLP`.
+    ``form``, the units ``column_scale, row_scale, slack_scale`` and ``deadline`` are those of :class:`PieceLP`;
+    ``static_engine="auto"`` is :func:`blockmpec.solvers.plan.piece_lp_static_engine`.
     """
 
     def __init__(self, form, column_scale: np.ndarray, row_scale: np.ndarray, slack_scale: np.ndarray,
-                 time_limit: float = math.inf, static_engine: str = "auto") -> None:
+                 deadline: Deadline = NEVER, static_engine: str = "auto") -> None:
         from blockmpec.solvers.engines.highs import HighsLP
 
         if static_engine not in STATIC_ENGINES:
             raise ValueError(f"static_engine must be one of {STATIC_ENGINES}; got {static_engine!r}")
         if static_engine == "auto":
-            static_engine = "block-ipm" if form.n_pairs >= BLOCK_IPM_PAIRS else "dual-simplex"
+            static_engine = piece_lp_static_engine(form.n_pairs)
         self.static_engine = static_engine
         interior = static_engine == "block-ipm"
         #: a slack or multiplier counts as zero at most this (units); the certificate's tolerance
@@ -611,7 +590,7 @@ class SplitPieces:
         # HiGHS's default primal feasibility tolerance (1e-7 in units) left the compatibility rows of the 2,032-block
         # wall's mechanism at 8.8e-7 relative in the verifier (tolerance 1e-6); 1e-10 there: 3e-11 (one run)
         self.kinematic.highs.setOptionValue("primal_feasibility_tolerance", KINEMATIC_FEASIBILITY_TOL)
-        self.deadline = time.perf_counter() + time_limit
+        self.deadline = deadline
         self.lp_solves = 0
         self.lp_time_s = 0.0
         self.static_time_s = 0.0
@@ -636,12 +615,11 @@ class SplitPieces:
     def static_lp(self, slack_zero: np.ndarray):
         """:func:`static_piece` (min ``lam``) on this structure's static LP; None past the deadline."""
         if self.static_engine == "block-ipm":
-            remaining = self.deadline - time.perf_counter()
-            if remaining <= 0:
+            if self.deadline.expired():
                 return None
             form = self.form
             return self._timed(lambda: static_piece_ipm(self.static.lp, slack_zero, self.static_row_scale,
-                                                        self.static.column_scale, remaining, form.pair_interface,
+                                                        self.static.column_scale, self.deadline, form.pair_interface,
                                                         form.pair_kind), "static")
         return self._timed(lambda: static_piece(self.static, slack_zero, deadline=self.deadline), "static")
 
@@ -698,7 +676,7 @@ class SplitPieces:
                            lam_gap)
 
 
-def piece_descent(form, scaling, w_start: np.ndarray, time_limit: float = math.inf, rounds: int = 10,
+def piece_descent(form, scaling, w_start: np.ndarray, deadline: Deadline = NEVER, rounds: int = 10,
                   static_engine: str = "auto") -> PieceOutcome:
     """Local descent over the pieces of (4) from ``w_start``, each piece's LP solved as its two halves.
 
@@ -723,7 +701,7 @@ def piece_descent(form, scaling, w_start: np.ndarray, time_limit: float = math.i
         ``NUMERICAL`` with that point when its certificate fails; ``TIME_LIMIT``; or, with ``w`` None, the
         failure of the first LPs (no mechanism or an empty static piece for every rounding).
     """
-    pieces = SplitPieces(form, *scaling, time_limit=time_limit, static_engine=static_engine)
+    pieces = SplitPieces(form, *scaling, deadline=deadline, static_engine=static_engine)
     z, s = pieces.sides(np.asarray(w_start, float))
     zr, sr = _relative(z), _relative(s)
     trace: list[dict] = []

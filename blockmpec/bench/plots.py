@@ -111,7 +111,7 @@ def error_vs_time(df, path: str | Path, *, time_column: str = "solve_time_s", ti
     non-associative references are never mixed), one fixed colour and marker per method.
 
     Filled markers: verified answers (solutions of (3)); open markers: not verified.  The
-    error is ``|lam - lam_ref| / |lam_ref|`` (columns of :func:`blockmpec.compare.compare`),
+    error is ``|lam - lam_ref| / |lam_ref|`` (columns of :func:`blockmpec.bench.compare.compare`),
     floored at :data:`ERROR_FLOOR` so exact answers show on log axes.  Rows without a
     multiplier or reference are left out.  Where ``results`` holds a trace with a bound
     (``milp``), the certificate is drawn as it closes over time: the bound's distance to the
@@ -120,7 +120,7 @@ def error_vs_time(df, path: str | Path, *, time_column: str = "solve_time_s", ti
     Parameters
     ----------
     df : pandas.DataFrame
-        The table of :func:`blockmpec.compare.compare`.
+        The table of :func:`blockmpec.bench.compare.compare`.
     path : path of the PNG.
     time_column : {"solve_time_s", "total_time_s"}
     results : dict, optional
@@ -446,17 +446,17 @@ def comparison_figures(df, results: dict, out_dir: str | Path) -> list[Path]:
 
     * ``error_vs_time.png``: :func:`error_vs_time`, associative and non-associative panels,
       with the certificates' traces;
-    * ``performance_profile.png``: :func:`blockmpec.profiles.plot_profiles`;
+    * ``performance_profile.png``: :func:`blockmpec.bench.profiles.plot_profiles`;
     * ``convergence_<case>.png``: :func:`convergence` of the methods that kept a trace
       (first repetition), naming those that did not;
     * ``mechanism_<case>.png``: :func:`mechanisms`, associative (the first successful
       associative method, ``static-lp`` preferred) beside non-associative (the
       successful non-associative run with the smallest ``lam``).
 
-    ``results`` is the dict filled by :func:`blockmpec.compare.compare` (``results=``).
+    ``results`` is the dict filled by :func:`blockmpec.bench.compare.compare` (``results=``).
     """
     from blockmpec.operators import assemble
-    from blockmpec.profiles import plot_profiles
+    from blockmpec.bench.profiles import plot_profiles
 
     out = Path(out_dir)
     paths = [error_vs_time(df, out / "error_vs_time.png", results=results),

@@ -1,6 +1,6 @@
 r"""Compiled loops (numba) for the supernodal Cholesky: its triangular solves and its numeric factorisation.
 
-A solve with ``L~ L~^T`` (:class:`~blockmpec.solvers.engines.cholesky.SupernodalCholesky`) walks the supernodes
+A solve with ``L~ L~^T`` (:class:`~blockmpec.solvers.linalg.cholesky.SupernodalCholesky`) walks the supernodes
 forward and then backward.  Per supernode ``s`` with ``w`` columns starting at ``f`` and ``r`` rows below:
 
 * forward: ``x[f:f+w] = L11^{-1} x[f:f+w]`` (BLAS ``dtrsv``), then ``x[below] -= L21 x[f:f+w]`` (``dgemv``);
@@ -105,7 +105,7 @@ def _backward(dtrsv, dgemv, x, order, first, width, below_count, below, below_st
 class SolvePanels:
     """The factors of one factorisation as the compiled loops read them: each supernode's ``L11`` and ``L21``
     by address (0 where this process holds none), with the Cholesky's fixed structure
-    (:meth:`~blockmpec.solvers.engines.cholesky.SupernodalCholesky.solve_structure`).  Holds the factor lists, so
+    (:meth:`~blockmpec.solvers.linalg.cholesky.SupernodalCholesky.solve_structure`).  Holds the factor lists, so
     the addresses stay valid while it lives."""
 
     def __init__(self, structure: tuple, diagonal_blocks: list, below_blocks: list) -> None:
@@ -220,7 +220,7 @@ class FactorPlan:
     it (:meth:`_free_factors`).
 
     Per supernode with ``m`` rows of which ``w`` are its own columns (``r = m - w`` below), the same calls on the
-    same data as :meth:`~blockmpec.solvers.engines.cholesky.SupernodalCholesky.factor_supernodes` makes through
+    same data as :meth:`~blockmpec.solvers.linalg.cholesky.SupernodalCholesky.factor_supernodes` makes through
     scipy's wrappers: the lower triangle of the front ``F`` (``m`` by ``m``, column-major) is zeroed, ``K``'s
     entries are written in, the children's update matrices added in the same order; ``dpotrf`` on a copy of
     ``F11`` (``w`` by ``w``), ``dtrsm`` for ``L21 = F21 L11^{-T}`` on a copy of ``F21``, ``dsyrk`` for ``F22 - L21
@@ -379,7 +379,7 @@ def symbolic_factorisation(lower) -> tuple[np.ndarray, np.ndarray, object]:
     """``(counts, parent, rows_of)`` of ``L`` for the lower triangle ``lower`` (CSC, any sparse array) of a symmetric
     pattern: each column's count of rows (diagonal included), the elimination tree, and ``rows_of(columns)``, the
     sorted rows of the given columns (a list of int64 arrays, each starting with its column), by a second pass that
-    stores only those.  The same numbers as :func:`~blockmpec.solvers.engines.cholesky.column_structures`, in
+    stores only those.  The same numbers as :func:`~blockmpec.solvers.linalg.cholesky.column_structures`, in
     ``O(|L|)`` compiled steps and without every column's rows held at once."""
     import scipy.sparse as sp
 

@@ -1,6 +1,6 @@
 r"""Run several methods over several cases and tabulate the answers in one long table.
 
->>> from blockmpec.compare import compare
+>>> from blockmpec.bench.compare import compare
 >>> df = compare({"two-blocks": ("two-blocks", {"eta": 3.0, "mu": 0.65})},
 ...              ["static-lp", "fixed-point", ("fixed-point", {"relaxation": 0.5})],
 ...              n_jobs=2, out="my-study")  # doctest: +SKIP
@@ -10,9 +10,9 @@ One row per (case, method with options, repetition).  Only the solve is timed
 (:func:`blockmpec.solve` times set-up and solve apart; structure generation,
 operator assembly and the residual evaluation are not timed).  Every solve runs in
 a worker process under a wall-clock limit enforced from outside
-(:mod:`blockmpec.runner`): a crash or hang becomes a row with status ``error`` or
+(:mod:`blockmpec.bench.runner`): a crash or hang becomes a row with status ``error`` or
 ``time_limit``.  With ``out=`` every finished row is saved at once
-(:class:`blockmpec.study.ResultsFolder`), so an interrupt keeps it and ``resume=True``
+(:class:`blockmpec.bench.study.ResultsFolder`), so an interrupt keeps it and ``resume=True``
 skips it next time.
 
 Columns
@@ -147,7 +147,7 @@ class MethodRun:
 def normalise_cases(cases: Any) -> list[CaseRun]:
     """Accepted forms of ``cases``.
 
-    * a mapping ``label -> (case name, params)`` (like ``cli.BENCHMARK_SUITE``) or ``label -> Structure``;
+    * a mapping ``label -> (case name, params)`` (like ``blockmpec.bench.suite.BENCHMARK_SUITE``) or ``label -> Structure``;
     * an iterable of: a case name, ``(name, params)``, ``(label, name, params)``, a
       :class:`~blockmpec.geometry.Structure` (label = its ``name``) or a :class:`CaseRun`.
     """
@@ -258,7 +258,7 @@ class Progress:
     time (refreshed twice a second, also during a long solve) and the failures so far.
 
     The running solves are read from start markers that the supervisors write into
-    ``marker_dir`` (:class:`blockmpec.runner.Task`), so the elapsed time is the real one for
+    ``marker_dir`` (:class:`blockmpec.bench.runner.Task`), so the elapsed time is the real one for
     every backend on this machine.
     """
 
@@ -373,16 +373,16 @@ def compare(
         Worker processes (each supervising one solve at a time).
     backend : {None, "loky", "dask"}
         ``None``: serial for ``n_jobs=1``, else ``"loky"`` (joblib); ``"dask"``: a Dask cluster
-        (see :func:`blockmpec.runner.execute`).
+        (see :func:`blockmpec.bench.runner.execute`).
     scheduler : str, optional
         Address of a running Dask scheduler; without it ``backend="dask"`` starts a local
         cluster of ``n_jobs`` workers.
     wall_limit : float or mapping, optional
         Outside wall-clock limit per solve [s]: one number for all, or a mapping from method
-        label or method name to seconds; the default is :func:`blockmpec.runner.default_wall_limit`.
+        label or method name to seconds; the default is :func:`blockmpec.bench.runner.default_wall_limit`.
     isolate : bool
         ``False`` runs the solves in the supervising process (no protection; for debugging).
-    out : path or :class:`~blockmpec.study.ResultsFolder`, optional
+    out : path or :class:`~blockmpec.bench.study.ResultsFolder`, optional
         Save every finished row there at once (``rows.jsonl``, ``solutions/``) and the tables
         at the end (``results.csv``, ``results.parquet``).  A path is opened with ``resume``
         and ``overwrite``; a folder with files is refused without one of them.
@@ -403,8 +403,8 @@ def compare(
     """
     import tempfile
 
-    from blockmpec.runner import Task, check_backend, default_wall_limit, execute
-    from blockmpec.study import ResultsFolder, check_tolerance
+    from blockmpec.bench.runner import Task, check_backend, default_wall_limit, execute
+    from blockmpec.bench.study import ResultsFolder, check_tolerance
 
     if isinstance(repeat, bool) or not isinstance(repeat, int) or repeat < 1:
         raise ValueError(f"repeat must be an integer >= 1; got {repeat!r}")
@@ -746,7 +746,7 @@ def add_references(df, tol: float = ANOMALY_TOL):
 
 def write_tables(df, out_dir: str | Path, stem: str = "results") -> list[Path]:
     """Write ``<stem>.csv`` and ``<stem>.parquet`` into ``out_dir`` (each by rename); returns the paths."""
-    from blockmpec.study import write_frame
+    from blockmpec.bench.study import write_frame
 
     return write_frame(df, out_dir, stem)
 

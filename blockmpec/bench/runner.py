@@ -61,13 +61,11 @@ from collections.abc import Iterable, Iterator
 from pathlib import Path
 from typing import Any
 
+from blockmpec.solvers.linalg import cpus
+from blockmpec.solvers.linalg.cpus import CPUS_VARIABLE
+
 #: wall-clock limit of a solve whose method has no ``time_limit`` option set [s]
 DEFAULT_WALL_LIMIT_S = 600.0
-
-#: the environment variable that caps the CPUs one solve's automatic settings use (the block IPM's
-#: ``factor_processes="auto"``): a positive whole number, unset for every CPU the process may run on
-CPUS_VARIABLE = "BLOCKMPEC_CPUS"
-
 
 def cpu_budget() -> int | None:
     """The CPUs one solve may use by :data:`CPUS_VARIABLE` (None when it is unset or empty).
@@ -78,24 +76,16 @@ def cpu_budget() -> int | None:
     :class:`~blockmpec.errors.OptionError` naming the variable."""
     from blockmpec.errors import OptionError
 
-    value = os.environ.get(CPUS_VARIABLE, "").strip()
-    if not value:
-        return None
     try:
-        budget = int(value)
-    except ValueError:
-        budget = 0
-    if budget < 1:
-        raise OptionError(f"{CPUS_VARIABLE}={value!r}: expected a positive whole number of CPUs")
-    return budget
+        return cpus.cpu_budget()
+    except ValueError as exc:
+        raise OptionError(str(exc)) from None
 
 
 def usable_cpus() -> int:
-    """CPUs this process may run on (its affinity mask where the platform has one), at most :func:`cpu_budget`.
-    The automatic settings of a solve (the block IPM's ``factor_processes="auto"``) read it."""
-    cpus = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count() or 1
-    budget = cpu_budget()
-    return cpus if budget is None else min(cpus, budget)
+    """CPUs this process may run on, at most :func:`cpu_budget` (an OptionError when that is malformed)."""
+    cpu_budget()
+    return cpus.usable_cpus()
 
 
 def default_wall_limit(options: dict[str, Any], method: str | None = None) -> float:
@@ -361,8 +351,8 @@ def _watch_parent() -> None:
     threading.Thread(target=watch, daemon=True).start()
 
 
-#: the child's command line (not ``-m blockmpec.runner``: its classes must unpickle as ``blockmpec.runner.*``)
-_CHILD = "import sys; from blockmpec.runner import _child_main; sys.exit(_child_main(sys.argv[1:]))"
+#: the child's command line (not ``-m blockmpec.bench.runner``: its classes must unpickle as ``blockmpec.bench.runner.*``)
+_CHILD = "import sys; from blockmpec.bench.runner import _child_main; sys.exit(_child_main(sys.argv[1:]))"
 
 
 def _child_main(argv: list[str]) -> int:

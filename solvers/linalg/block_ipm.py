@@ -16,7 +16,7 @@ Mehrotra's predictor-corrector method reduces to
   matrix ``[[0, B^T], [B, -I]]``, ``B = D^{1/2} G`` (never by forming ``H``: near the
   optimum ``d`` spans 1e-10..1e10 within one interface); these per-interface inverses and products run
   as numpy gufuncs or, with the optional numba, as compiled loops (``kernels`` setting,
-  :mod:`blockmpec.solvers.engines.block_kernels`);
+  :mod:`blockmpec.solvers.linalg.block_kernels`);
 * ``K = A_B H^{-1} A_B^T``: sparse, symmetric positive definite, of the size of
   the equilibrium rows (3 per block), with the sparsity of the block contact graph
   (a 2D mesh for walls).  It is assembled on its fixed *structural* pattern: each
@@ -28,7 +28,7 @@ Mehrotra's predictor-corrector method reduces to
   interior fixed point,
   or when a pivot is not positive), with a fill-reducing ordering (METIS nested
   dissection, or minimum degree without pymetis) computed once from that pattern
-  (:mod:`blockmpec.solvers.engines.cholesky`);
+  (:mod:`blockmpec.solvers.linalg.cholesky`);
 * the border columns by a bordered (Schur) solve: ``K W = [r, A_F]`` and a dense
   ``|F| x |F|`` system ``(A_F^T W_F) dv_F = A_F^T W_r + q_F``;
 * the block unknowns ``(dv_i, dy_i)`` by exact per-block solves, and iterative
@@ -74,15 +74,15 @@ so it cannot start HiGHS's warm simplex re-solves (the fixed point needs them).
 
 from __future__ import annotations
 
+import math
 import time
 from dataclasses import dataclass
+from enum import Enum
 
 import numpy as np
 import scipy.sparse as sp
 
-from blockmpec.formulations import LinearProgram
-from blockmpec.result import Status
-from blockmpec.solvers.engines.cholesky import (
+from .cholesky import (
     SingularMatrixError,
     SupernodalCholesky,
     SymmetricFactoriser,
@@ -91,7 +91,35 @@ from blockmpec.solvers.engines.cholesky import (
     two_processes_available,
     usable_cpus,
 )
-from blockmpec.solvers.engines.highs import LPOutcome
+
+class IPMStatus(str, Enum):
+    """Why :meth:`BlockIPM.solve` stopped (the values are the library's status names; the engines map them)."""
+
+    OPTIMAL = "optimal"  #: every residual at most ``tol``
+    ACCEPTABLE = "acceptable"  #: stalled or stopped with the best iterate's residuals at most ``acceptable_tol``
+    ITERATION_LIMIT = "iteration_limit"
+    TIME_LIMIT = "time_limit"
+    NUMERICAL = "numerical"  #: stalled, diverged (an infeasible or unbounded LP) or a singular ``K``
+
+    @property
+    def is_success(self) -> bool:
+        """True for the statuses whose point is an answer (``optimal``, ``acceptable``)."""
+        return self in (IPMStatus.OPTIMAL, IPMStatus.ACCEPTABLE)
+
+
+@dataclass
+class IPMOutcome:
+    """One solve: status, primal column values ``v`` and row duals in HiGHS's sign convention (see the module
+    docstring), and bookkeeping; the fields of :class:`blockmpec.solvers.engines.highs.LPOutcome`."""
+
+    status: IPMStatus
+    raw_status: str
+    objective: float
+    v: np.ndarray
+    row_dual: np.ndarray
+    iterations: int
+    message: str = ""
+
 
 #: iteration parameters (:meth:`BlockIPM.settings`):
 #: ``refinements`` most reduced-system corrections (one solve with ``K`` each) of a refined direction;
@@ -148,14 +176,13 @@ WIDE_DIAGONAL_SHIFT = 1e-12
 EXACT_INNER_SETTINGS = {**DEFAULT_SETTINGS, "inner_tolerance": 0.0, "diagonal_shift": WIDE_DIAGONAL_SHIFT,
                         "correctors": 2}
 #: ``correctors``: the most Gondzio correctors per iteration, or ``"auto"``: :data:`LARGE_CORRECTORS` when ``K``
-#: has at least :data:`AUTO_CORRECTOR_ROWS` rows, else :data:`SMALL_CORRECTORS`.  On large walls more correctors
+#: has at least ``rules.corrector_rows`` (:class:`AutoRules`) rows, else :data:`SMALL_CORRECTORS`.  On large walls more correctors
 #: cut the crawl's iterations by more than they cost: ``python studies/lp_timing.py --walls 100x100,180x181,316x316
 #: --algorithms block-ipm --ipm-settings two_correctors,default`` (README).  On small LPs four correctors made the
 #: 3x4 wall's K singular in floating point before convergence (``acceptable`` instead of ``optimal``) and took 17
 #: iterations against 15 on 10x20 (``--walls 3x4,5x4,10x20 --ipm-settings two_correctors,four_correctors``), so below
 #: that size they stay at two.
 SMALL_CORRECTORS, LARGE_CORRECTORS = 2, 4
-AUTO_CORRECTOR_ROWS = 30_000
 #: the default with two correctors at every size (``correctors`` 2, the default before ``"auto"``;
 #: ``--ipm-settings two_correctors,default``)
 TWO_CORRECTORS_SETTINGS = {**DEFAULT_SETTINGS, "correctors": 2}
@@ -189,7 +216,7 @@ FEWER_SOLVES_SETTINGS = {**DEFAULT_SETTINGS, "correctors": 4, "gondzio_accept": 
 #: the settings before the lazy refinement: every direction refined on the whole system
 PREVIOUS_SETTINGS = {**EXACT_INNER_SETTINGS, "lazy_refinement": False}
 #: the default with one subtree half of every factorisation and solve of K in a worker process
-#: (``factor_processes`` 2; the supernodal Cholesky only: :class:`~blockmpec.solvers.engines.cholesky._HalfWorker`)
+#: (``factor_processes`` 2; the supernodal Cholesky only: :class:`~blockmpec.solvers.linalg.cholesky._HalfWorker`)
 TWO_PROCESS_SETTINGS = {**DEFAULT_SETTINGS, "factor_processes": 2}
 #: the supernodal Cholesky in this process alone (``factor_processes`` 1, the default before ``"auto"``)
 ONE_PROCESS_SETTINGS = {**DEFAULT_SETTINGS, "factor_processes": 1}
@@ -197,57 +224,68 @@ ONE_PROCESS_SETTINGS = {**DEFAULT_SETTINGS, "factor_processes": 1}
 #: (``compiled_solves`` False, as before it existed; ``--ipm-settings python_solves,default`` measures it)
 PYTHON_SOLVES_SETTINGS = {**DEFAULT_SETTINGS, "compiled_solves": False}
 #: ``compiled_solves``: the supernodal Cholesky's solves with vectors by compiled loops calling the same BLAS
-#: (:mod:`blockmpec.solvers.engines.cholesky_kernels`, numba; the same solutions bit for bit): ``"auto"`` (when the
+#: (:mod:`blockmpec.solvers.linalg.cholesky_kernels`, numba; the same solutions bit for bit): ``"auto"`` (when the
 #: kernels are compiled, :attr:`BlockIPM.block_kernels`), True (needs numba) or False
 COMPILED_SOLVES = ("auto", True, False)
 #: the default with the supernodal Cholesky's factorisations by the Python loop over supernodes even with compiled
 #: kernels (``compiled_factorisation`` False, as before it existed; ``--ipm-settings python_factorisation,default``)
 PYTHON_FACTORISATION_SETTINGS = {**DEFAULT_SETTINGS, "compiled_factorisation": False}
 #: ``compiled_factorisation``: the supernodal Cholesky's numeric factorisation by a compiled loop over supernodes
-#: calling the same LAPACK/BLAS on the same fronts (:class:`~blockmpec.solvers.engines.cholesky_kernels.FactorPlan`;
+#: calling the same LAPACK/BLAS on the same fronts (:class:`~blockmpec.solvers.linalg.cholesky_kernels.FactorPlan`;
 #: the same factors bit for bit): ``"auto"`` (when the kernels are compiled), True (needs numba) or False
 COMPILED_FACTORISATION = COMPILED_SOLVES
 #: the default with scipy's sparse products even with compiled kernels (``compiled_products`` False, as before it
 #: existed; ``--ipm-settings scipy_products,default``)
 SCIPY_PRODUCTS_SETTINGS = {**DEFAULT_SETTINGS, "compiled_products": False}
 #: ``compiled_products``: the products with ``A``, ``A_B``, ``G`` and their transposes by compiled row loops on the
-#: CPUs this process may use (:class:`~blockmpec.solvers.engines.block_kernels.SparseProducts`; scipy's sums in
+#: CPUs this process may use (:class:`~blockmpec.solvers.linalg.block_kernels.SparseProducts`; scipy's sums in
 #: scipy's order, the same numbers bit for bit) and the first block solve of a direction without ``dy`` (the same
 #: ``dv``): ``"auto"`` (when the kernels are compiled), True (needs numba) or False
 COMPILED_PRODUCTS = COMPILED_SOLVES
-#: ``factor_processes``: ``"auto"`` (2 for a supernodal ``K`` of at least :data:`AUTO_TWO_PROCESS_ROWS` rows when
+#: ``factor_processes``: ``"auto"`` (2 for a supernodal ``K`` of at least ``rules.two_process_rows`` (:class:`AutoRules`) rows when
 #: this process may run on two or more CPUs, else 1), 1 or 2
 FACTOR_PROCESSES = ("auto", 1, 2)
 
 #: factorisations of K: ``"auto"`` (the supernodal Cholesky for a symmetric K of at least
-#: :data:`AUTO_SUPERNODAL_ROWS` rows, SuperLU otherwise), ``"supernodal"``, ``"superlu"``
-#: (:mod:`blockmpec.solvers.engines.cholesky`)
+#: ``rules.supernodal_rows`` (:class:`AutoRules`) rows, SuperLU otherwise), ``"supernodal"``, ``"superlu"``
+#: (:mod:`blockmpec.solvers.linalg.cholesky`)
 FACTORISATIONS = ("auto", "supernodal", "superlu")
-#: Below this size SuperLU wins: the supernodal factorisation is faster from ~4,000 blocks on (12,060 rows:
-#: 52 against 74 ms), but its solves, a Python loop over supernodes, are slower (8.1 against 4.7 ms) and
-#: there are ~9 per factorisation; from ~10,000 blocks on it wins per iteration (32,670 blocks: 2.35 s
-#: against 3.0 s CPU; studies/lp_timing.py --factorisations)
-AUTO_SUPERNODAL_ROWS = 30_000
-#: ``factor_processes="auto"`` takes two processes from this size of K, the supernodal Cholesky's own threshold.
-#: Wall-clock of the solve, one process -> two (``python studies/lp_timing.py --walls 100x100,140x141,180x181
-#: --algorithms block-ipm --ipm-settings one_process,two_process`` and ``--walls 316x316 ... one_process,default``,
-#: one run each, compiled kernels, the worker started in the background): 10,050 blocks (30,150 rows)
-#: 19.5 -> 14.1 s (another run: 16.3 -> 10.2 s), 19,810 blocks 33.3 -> 27.7 s (34.3 -> 28.5 s), 32,670 blocks
-#: 77.1 -> 59.1 s, 100,014 blocks 339 -> 251 s.  The worker adds 40-50 % of the one-process CPU time.  Before the
-#: background start (the first factorisation waited 1-3 s for the worker's imports) 10,050 blocks gained
-#: 0.79-1.04x, which is why a first version started at 90,000 rows.
-AUTO_TWO_PROCESS_ROWS = 30_000
-
 #: the per-interface work (``kernels`` setting): the block inverses, the block products and the assembly of
 #: ``K``'s values.  ``"numpy"``: numpy's gufuncs (LAPACK/BLAS once per 7-by-7 block); ``"compiled"``: one compiled
-#: loop each (:mod:`blockmpec.solvers.engines.block_kernels`, needs the optional numba); ``"auto"``: compiled when
-#: numba is installed and the LP has at least :data:`COMPILED_KERNEL_BLOCKS` interface blocks, numpy otherwise
+#: loop each (:mod:`blockmpec.solvers.linalg.block_kernels`, needs the optional numba); ``"auto"``: compiled when
+#: numba is installed and the LP has at least ``rules.compiled_kernel_blocks`` (:class:`AutoRules`) interface blocks, numpy otherwise
 KERNELS = ("auto", "numpy", "compiled")
-#: Below this many interface blocks (about 4,000 free blocks on a wall; an LP of ~8 s) ``"auto"`` keeps numpy:
-#: the kernels save 22-43 % of the per-interface work per iteration, and importing numba and loading the cached
-#: kernels costs 0.5-1 s and ~100 MB (their first compilation on a machine, a few seconds more); at 2,420 blocks
-#: the LP took 3.3 s compiled against 2.8 s with numpy (studies/lp_timing.py --kernels numpy,compiled)
-COMPILED_KERNEL_BLOCKS = 8_000
+
+
+@dataclass(frozen=True)
+class AutoRules:
+    """The sizes at which the ``"auto"`` settings switch (the library's are :data:`blockmpec.solvers.plan.BLOCK_IPM_RULES`,
+    with their measurements).  :meth:`never` keeps every ``"auto"`` on the simple path.
+
+    Attributes
+    ----------
+    supernodal_rows : float
+        ``factorisation="auto"``: the supernodal Cholesky for a symmetric ``K`` of at least this many rows, SuperLU below.
+    two_process_rows : float
+        ``factor_processes="auto"``: two processes from this many rows of ``K`` (two usable CPUs, POSIX).
+    corrector_rows : float
+        ``correctors="auto"``: :data:`LARGE_CORRECTORS` from this many rows of ``K``, :data:`SMALL_CORRECTORS` below.
+    compiled_kernel_blocks : float
+        ``kernels="auto"``: the compiled kernels (numba installed) from this many interface blocks, numpy below.
+    compiled_symbolic_rows : float
+        The supernodal Cholesky's symbolic factorisation compiled (numba installed) from this many rows.
+    """
+
+    supernodal_rows: float
+    two_process_rows: float
+    corrector_rows: float
+    compiled_kernel_blocks: float
+    compiled_symbolic_rows: float
+
+    @classmethod
+    def never(cls) -> AutoRules:
+        """Rules under which no ``"auto"`` setting ever switches: SuperLU, one process, two correctors, numpy."""
+        return cls(math.inf, math.inf, math.inf, math.inf, math.inf)
 
 
 def named_settings(name: str) -> dict:
@@ -260,9 +298,6 @@ def named_settings(name: str) -> dict:
         raise ValueError(f"block IPM: unknown settings set {name!r}; use one of {', '.join(known)}")
     return settings
 
-
-#: seconds per solve when none is given: a 100,000-block wall takes about 5 minutes (studies/lp_timing.py)
-DEFAULT_TIME_LIMIT = 3600.0
 
 #: smallest s/y in the block systems (a primal regularisation of fully active blocks)
 SLACK_RATIO_FLOOR = 1e-14
@@ -286,18 +321,21 @@ class BlockIPM:
 
     Parameters
     ----------
-    lp : LinearProgram
-        All columns must be free; every row an equality or one-sided inequality.
+    lp : LP in matrix form
+        Any object with ``c`` (n,), ``A`` (sparse, m x n), ``row_lower``, ``row_upper`` (m,), ``col_lower``,
+        ``col_upper`` (n,), as :class:`blockmpec.formulations.LinearProgram`: ``min c^T v`` s.t.
+        ``row_lower <= A v <= row_upper``.  All columns must be free; every row an equality or one-sided
+        inequality.  ``row_upper`` is written by :meth:`set_row_upper`.
     block_columns : ndarray of int, shape (n_blocks, k)
         Columns of each block (e.g. ``x[3i:3i+3]`` of interface ``i``).  Every
         column not listed is a border column and must appear in no inequality row.
     tol : float
         Relative primal, dual and gap tolerance (see the module docstring).
     max_iterations : int
-    time_limit : float
-        Seconds per :meth:`solve`; a non-finite value means :data:`DEFAULT_TIME_LIMIT`.  The
-        clock is read before and after each factorisation and before each corrector, so a
-        solve overshoots its limit by at most one factorisation and one direction.
+    deadline : float
+        End time of the solves on :func:`time.perf_counter`'s clock (``inf``: none; :meth:`solve` may move it).
+        The clock is read before and after each factorisation and before each corrector, so a
+        solve overshoots its deadline by at most one factorisation and one direction.
     row_scale, column_scale : ndarray, optional
         Positive diagonal scalings ``R`` of the rows and ``C`` of the columns, as for
         :class:`blockmpec.solvers.engines.highs.HighsLP`: the method works on ``R A C``, ``R b``, ``C c``
@@ -307,24 +345,25 @@ class BlockIPM:
         relative to its own loads (see :mod:`blockmpec.solvers.engines.scaling`).
     ordering : str
         Fill-reducing ordering of ``K``: ``"auto"``, ``"metis"`` or ``"mmd"``
-        (:data:`blockmpec.solvers.engines.cholesky.ORDERINGS`).
+        (:data:`blockmpec.solvers.linalg.cholesky.ORDERINGS`).
+    rules : AutoRules, optional
+        The sizes at which the ``"auto"`` settings switch (default :meth:`AutoRules.never`).
     """
 
     #: the iteration parameters a new engine starts from (:meth:`settings` changes them)
     default_settings = DEFAULT_SETTINGS
-    #: interface blocks from which ``kernels="auto"`` compiles (None: :data:`COMPILED_KERNEL_BLOCKS`); a subclass
-    #: whose runs take many more iterations than one LP pays the import sooner
-    compiled_kernel_blocks: int | None = None
 
-    def __init__(self, lp: LinearProgram, block_columns: np.ndarray, tol: float = 1e-9,
-                 max_iterations: int = 200, time_limit: float = DEFAULT_TIME_LIMIT,
+    def __init__(self, lp, block_columns: np.ndarray, tol: float = 1e-9,
+                 max_iterations: int = 200, deadline: float = math.inf,
                  row_scale: np.ndarray | None = None, column_scale: np.ndarray | None = None,
-                 ordering: str = "auto") -> None:
+                 ordering: str = "auto", rules: AutoRules | None = None) -> None:
         self.lp = lp
         self.ordering = ordering
+        #: the sizes at which the "auto" settings switch
+        self.rules = AutoRules.never() if rules is None else rules
         self.tol = float(tol)
         self.max_iterations = int(max_iterations)
-        self.time_limit = float(time_limit) if np.isfinite(time_limit) else DEFAULT_TIME_LIMIT
+        self.deadline = float(deadline)
         self.settings(**self.default_settings)
         #: directions refined by GMRES after the stationary refinement stalled (all solves), and
         #: the solves with K that GMRES made for them
@@ -459,26 +498,26 @@ class BlockIPM:
 
     @property
     def block_kernels(self):
-        """The compiled kernels module (:mod:`blockmpec.solvers.engines.block_kernels`) when the ``kernels`` setting
-        chooses them for this LP (``"auto"``: numba installed and at least :attr:`compiled_kernel_blocks` interface
+        """The compiled kernels module (:mod:`blockmpec.solvers.linalg.block_kernels`) when the ``kernels`` setting
+        chooses them for this LP (``"auto"``: numba installed and at least ``rules.compiled_kernel_blocks`` interface
         blocks), else None (numpy)."""
-        threshold = COMPILED_KERNEL_BLOCKS if self.compiled_kernel_blocks is None else self.compiled_kernel_blocks
         compiled = self.kernels == "compiled" or (
-            self.kernels == "auto" and self.n_blocks >= threshold and compiled_kernels_available())
+            self.kernels == "auto" and self.n_blocks >= self.rules.compiled_kernel_blocks
+            and compiled_kernels_available())
         if not compiled:
             return None
-        from blockmpec.solvers.engines import block_kernels
+        from . import block_kernels
 
         return block_kernels
 
     def _sparse_products(self, M):
         """The compiled products of the sparse matrix ``M``
-        (:class:`~blockmpec.solvers.engines.block_kernels.SparseProducts`, made once per matrix object: a subclass
+        (:class:`~blockmpec.solvers.linalg.block_kernels.SparseProducts`, made once per matrix object: a subclass
         or study that replaces ``self.G`` gets new ones), or None where scipy multiplies (``compiled_products``:
         ``"auto"`` with the compiled kernels, True, or False)."""
         if not self._products_compiled():
             return None
-        from blockmpec.solvers.engines.block_kernels import SparseProducts
+        from .block_kernels import SparseProducts
 
         products = self._products_cache.get(id(M))
         if products is None or products.matrix is not M:
@@ -661,17 +700,19 @@ class BlockIPM:
     def factoriser(self) -> SymmetricFactoriser | SupernodalCholesky:
         """The factoriser of ``K``, its ordering computed once from ``K``'s structural pattern:
         :class:`SupernodalCholesky` for a symmetric ``K`` (``factorisation`` ``"supernodal"``, or
-        ``"auto"`` from :data:`AUTO_SUPERNODAL_ROWS` rows on), SuperLU (:class:`SymmetricFactoriser`) otherwise."""
+        ``"auto"`` from ``rules.supernodal_rows`` rows on), SuperLU (:class:`SymmetricFactoriser`) otherwise."""
         if self._factoriser is None:
             if self.factorisation not in FACTORISATIONS:
                 raise ValueError(f"block IPM: unknown factorisation {self.factorisation!r}; "
                                  f"use one of {', '.join(FACTORISATIONS)}")
             supernodal = self.symmetric and (self.factorisation == "supernodal" or (
-                self.factorisation == "auto" and self._K_pattern.shape[0] >= AUTO_SUPERNODAL_ROWS))
+                self.factorisation == "auto" and self._K_pattern.shape[0] >= self.rules.supernodal_rows))
             if self.factorisation == "supernodal" and not supernodal:
                 raise ValueError("block IPM: the supernodal Cholesky needs a symmetric K")
             self._factoriser = (SupernodalCholesky(self._K_pattern, self.ordering,
-                                                   processes=self.supernodal_processes, **self._cholesky_choices())
+                                                   processes=self.supernodal_processes,
+                                                   compiled_symbolic_rows=self.rules.compiled_symbolic_rows,
+                                                   **self._cholesky_choices())
                                 if supernodal
                                 else SymmetricFactoriser(self._K_pattern, self.ordering))
         return self._factoriser
@@ -686,19 +727,19 @@ class BlockIPM:
     @property
     def corrector_count(self) -> int:
         """Gondzio correctors per iteration at most: the ``correctors`` setting, ``"auto"`` resolved by the size of
-        ``K`` (:data:`AUTO_CORRECTOR_ROWS`)."""
+        ``K`` (``rules.corrector_rows``)."""
         if self.correctors != "auto":
             return int(self.correctors)
-        return LARGE_CORRECTORS if self._K_pattern.shape[0] >= AUTO_CORRECTOR_ROWS else SMALL_CORRECTORS
+        return LARGE_CORRECTORS if self._K_pattern.shape[0] >= self.rules.corrector_rows else SMALL_CORRECTORS
 
     @property
     def supernodal_processes(self) -> int:
         """Processes of the supernodal Cholesky: the ``factor_processes`` setting, ``"auto"`` resolved to 2 when
-        ``K`` has at least :data:`AUTO_TWO_PROCESS_ROWS` rows, this process may run on two CPUs or more and the
+        ``K`` has at least ``rules.two_process_rows`` rows, this process may run on two CPUs or more and the
         platform is POSIX."""
         if self.factor_processes != "auto":
             return int(self.factor_processes)
-        return 2 if (self._K_pattern.shape[0] >= AUTO_TWO_PROCESS_ROWS and usable_cpus() >= 2
+        return 2 if (self._K_pattern.shape[0] >= self.rules.two_process_rows and usable_cpus() >= 2
                      and two_processes_available()) else 1
 
     def _factorise(self, it: IPMIterate):
@@ -1002,11 +1043,14 @@ class BlockIPM:
         it.y += max(0.5 * sy / max(it.s.sum(), 1e-300), 1e-8)
         return it
 
-    def solve(self) -> LPOutcome:
+    def solve(self, deadline: float | None = None) -> IPMOutcome:
         """Run Mehrotra's method from :meth:`initial_point`; the outcome in HiGHS's conventions.
 
+        ``deadline``: a new end time (perf_counter's clock; None keeps the one given before).
         BLAS runs on one thread meanwhile (:func:`single_blas_thread`).
         """
+        if deadline is not None:
+            self.deadline = float(deadline)
         with single_blas_thread():
             try:
                 return self._solve()
@@ -1014,19 +1058,19 @@ class BlockIPM:
                 if isinstance(self._factoriser, SupernodalCholesky):
                     self._factoriser.close()  # its worker process, if any (``factor_processes`` 2)
 
-    def _solve(self) -> LPOutcome:
+    def _solve(self) -> IPMOutcome:
         t0 = time.perf_counter()
-        deadline = t0 + self.time_limit
+        deadline = self.deadline
         self.trace = []
         try:
             it = self.initial_point()
         except SingularMatrixError:
-            return LPOutcome(Status.NUMERICAL, "block-ipm: numerical", float("nan"), np.full(self.lp.c.size, np.nan),
+            return IPMOutcome(IPMStatus.NUMERICAL, "block-ipm: numerical", float("nan"), np.full(self.lp.c.size, np.nan),
                              np.full(self.lp.A.shape[0], np.nan), 0,
                              "K is singular in floating point at the starting point")
         correctors = self.corrector_count
         p = self.h.size
-        status, message = Status.ITERATION_LIMIT, f"no convergence in {self.max_iterations} iterations"
+        status, message = IPMStatus.ITERATION_LIMIT, f"no convergence in {self.max_iterations} iterations"
         best, best_error, best_k = it.copy(), np.inf, 0
         best_measures = (np.inf, np.inf, np.inf)
         #: one row per iteration: residuals, mu, step lengths, sigma, correctors and K solves used
@@ -1043,19 +1087,19 @@ class BlockIPM:
                 best, best_error, best_k = it.copy(), error, k
                 best_measures = (primal, dual, gap)
             if error <= self.tol:
-                status, message = Status.OPTIMAL, "optimal"
+                status, message = IPMStatus.OPTIMAL, "optimal"
                 break
             # near the optimum the reduced matrix K loses accuracy (its scaling y/s spans
             # ~1e-24..1e24); when the residuals stop improving, keep the best iterate
             if error > 1e3 * best_error or k - best_k >= 8:
-                status = Status.ACCEPTABLE if best_error <= self.acceptable_tol else Status.NUMERICAL
+                status = IPMStatus.ACCEPTABLE if best_error <= self.acceptable_tol else IPMStatus.NUMERICAL
                 message = (f"stopped at relative residual {best_error:.1e} (primal {best_measures[0]:.1e}, dual "
                            f"{best_measures[1]:.1e}, gap {best_measures[2]:.1e}; tolerance {self.tol:g}): "
                            "the reduced system lost accuracy")
                 break
             big = max(_inf(it.v), _inf(it.w), _inf(it.y))
             if not np.isfinite(big) or big > 1e13:
-                status = Status.NUMERICAL
+                status = IPMStatus.NUMERICAL
                 message = ("interior-point iterates diverge (|v|, |w| or |y| > 1e13): the LP is probably "
                            "infeasible or unbounded")
                 break
@@ -1068,14 +1112,14 @@ class BlockIPM:
                     factors = self._factorise(it)
                 except SingularMatrixError:
                     # K singular in floating point (its LDL^T met a zero pivot): no Newton step from here
-                    status = Status.ACCEPTABLE if best_error <= self.acceptable_tol else Status.NUMERICAL
+                    status = IPMStatus.ACCEPTABLE if best_error <= self.acceptable_tol else IPMStatus.NUMERICAL
                     message = (f"K is singular in floating point at iteration {k}; best relative residual "
                                f"{best_error:.1e} (tolerance {self.tol:g})")
                     break
             if factors is None or time.perf_counter() > deadline:
                 # checked before and after the factorisation (the costliest step): the run
                 # overshoots its limit by at most one factorisation
-                status, message = Status.TIME_LIMIT, f"time limit {self.time_limit:g} s reached"
+                status, message = IPMStatus.TIME_LIMIT, f"time limit reached after {time.perf_counter() - t0:.3g} s"
                 break
             lazy = self.lazy_refinement
             inner = self.inner_refinements if lazy else None
@@ -1136,17 +1180,17 @@ class BlockIPM:
             it.s += ap * ds
             it.w += ad * dw
             it.y += ad * dy
-        if status is not Status.OPTIMAL and best_error < np.inf:
+        if status is not IPMStatus.OPTIMAL and best_error < np.inf:
             it = best
-            if status is Status.ITERATION_LIMIT and best_error <= self.acceptable_tol:
-                status = Status.ACCEPTABLE
+            if status is IPMStatus.ITERATION_LIMIT and best_error <= self.acceptable_tol:
+                status = IPMStatus.ACCEPTABLE
                 message += f"; best relative residual {best_error:.1e}"
         # back to the compiled LP's units: v = C v^, w = R w^, y = S y^
         row_dual = np.zeros(self.lp.A.shape[0])
         row_dual[self.eq_rows] = self.row_scale * it.w
         row_dual[self.in_rows] = -self.in_sign * self.in_scale * it.y
         objective = float(self.c @ it.v) if status.is_success else float("nan")
-        return LPOutcome(status, f"block-ipm: {status.value}", objective, self.column_scale * it.v, row_dual, k, message)
+        return IPMOutcome(status, f"block-ipm: {status.value}", objective, self.column_scale * it.v, row_dual, k, message)
 
 
 def single_blas_thread():
@@ -1164,8 +1208,3 @@ def single_blas_thread():
 
 def _inf(a: np.ndarray) -> float:
     return float(np.max(np.abs(a))) if a.size else 0.0
-
-
-def interface_blocks(lp: LinearProgram) -> np.ndarray:
-    """Columns of ``x = (t_k, n_k, m_k)`` per interface, shape (c, 3), for a static LP."""
-    return lp.columns["x"].reshape(-1, 3)

@@ -48,6 +48,7 @@ from __future__ import annotations
 
 import contextlib
 import functools
+import math
 import os
 import threading
 import time
@@ -56,7 +57,7 @@ import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
-from blockmpec.runner import usable_cpus  # noqa: F401 - the CPUs "auto" counts, capped by BLOCKMPEC_CPUS
+from .cpus import usable_cpus  # noqa: F401 - the CPUs "auto" counts, capped by BLOCKMPEC_CPUS
 
 ORDERINGS = ("auto", "metis", "mmd")
 
@@ -191,19 +192,10 @@ RELAXED_ZEROS = (0.8, 0.1, 0.05)
 #: runs against 0.12 with 8; 100,014 blocks 1.57 against 1.74, its flat indices 429 MB against 350 MB and
 #: its analysis 10.0 s against 6.2 s.  (Adding with ``flat[index] += ...``, which buffers, 8 runs was the best.)
 EXTEND_ADD_RUNS = 2
-#: fronts with at least this many rows get ``front_threads`` BLAS threads (smaller ones stay on one:
-#: multithreaded BLAS on every front made a 32,670-block factorisation 11x slower in CPU and 21x in wall
-#: time, its threads spinning between thousands of tiny calls)
-THREADED_FRONT_ROWS = 1000
 
 
 #: seconds the first factorisation waits for a starting worker process (:meth:`SupernodalCholesky._wait_for_worker`)
 FIRST_WORKER_WAIT = 2.0
-
-#: ``compiled_symbolic="auto"`` runs the symbolic factorisation compiled (numba, when installed) from this many rows
-#: on: at 300,042 rows (100,014 blocks) it took 0.16 s against 1.7 s for :func:`column_structures`' Python loop
-#: (the same counts, tree and rows: tests); below, importing numba would cost more than it saves
-COMPILED_SYMBOLIC_ROWS = 20_000
 
 
 @functools.cache
@@ -275,12 +267,18 @@ class SupernodalCholesky:
 
     ``K`` must be symmetric positive definite: a nonpositive pivot (a matrix the diagonal shift does not
     keep definite in floating point) makes :meth:`factorise_values` return ``None``.
+
+    Sizes: ``front_threads`` BLAS threads for the fronts of at least ``threaded_front_rows`` rows (others one;
+    multithreaded BLAS on every front made a 32,670-block factorisation 11x slower in CPU, its threads spinning
+    between thousands of tiny calls); ``compiled_symbolic="auto"`` compiles the symbolic factorisation (numba
+    installed) for a pattern of at least ``compiled_symbolic_rows`` rows.  The library's values are in
+    :mod:`blockmpec.solvers.plan`.
     """
 
     def __init__(self, pattern: sp.sparray, ordering: str = "auto", relax: float = 4.0, front_threads: int = 1,
-                 threaded_front_rows: int = THREADED_FRONT_ROWS, extend_add_runs: int = EXTEND_ADD_RUNS,
+                 threaded_front_rows: float = 0, extend_add_runs: int = EXTEND_ADD_RUNS,
                  processes: int = 1, compiled_symbolic: str | bool = "auto", compiled_solves: bool = False,
-                 compiled_factorisation: bool = False) -> None:
+                 compiled_factorisation: bool = False, compiled_symbolic_rows: float = math.inf) -> None:
         t0 = time.process_time()
         if processes not in (1, 2):
             raise ValueError(f"supernodal Cholesky: processes must be 1 or 2, not {processes!r}")
@@ -301,12 +299,12 @@ class SupernodalCholesky:
         self.threaded_front_rows = int(threaded_front_rows)
         #: children whose rows fall into at most this many runs of their parent's are added by slices
         self.extend_add_runs = int(extend_add_runs)
-        #: solves with vectors by the compiled loops of :mod:`blockmpec.solvers.engines.cholesky_kernels` (numba;
+        #: solves with vectors by the compiled loops of :mod:`blockmpec.solvers.linalg.cholesky_kernels` (numba;
         #: the same BLAS calls, the same solutions bit for bit) instead of a Python loop over the supernodes
         self.compiled_solves = bool(compiled_solves)
         self._solve_structure: tuple | None = None
         #: factorisations by the compiled loop over supernodes of
-        #: :class:`~blockmpec.solvers.engines.cholesky_kernels.FactorPlan` (numba; the same LAPACK/BLAS calls on the
+        #: :class:`~blockmpec.solvers.linalg.cholesky_kernels.FactorPlan` (numba; the same LAPACK/BLAS calls on the
         #: same fronts, the same factors bit for bit) instead of the Python loop, when ``front_threads`` is 1
         self.compiled_factorisation = bool(compiled_factorisation)
         self._factor_plans: dict = {}
@@ -326,10 +324,10 @@ class SupernodalCholesky:
         self._pattern = pattern
         # structure of L (symbolic factorisation) and the elimination tree
         lower = sp.tril(permuted, format="csc")
-        self.compiled_symbolic = (n >= COMPILED_SYMBOLIC_ROWS and compiled_kernels_available() if compiled_symbolic == "auto"
-                                  else bool(compiled_symbolic))
+        self.compiled_symbolic = (n >= compiled_symbolic_rows and compiled_kernels_available()
+                                  if compiled_symbolic == "auto" else bool(compiled_symbolic))
         if self.compiled_symbolic:
-            from blockmpec.solvers.engines.cholesky_kernels import symbolic_factorisation
+            from blockmpec.solvers.linalg.cholesky_kernels import symbolic_factorisation
 
             counts, parent, rows_of = symbolic_factorisation(lower)
         else:
@@ -693,9 +691,9 @@ class SupernodalCholesky:
 
     def factor_plan(self, supernodes):
         """The compiled factorisation's plan for this set of supernodes
-        (:class:`~blockmpec.solvers.engines.cholesky_kernels.FactorPlan`), made on first use and kept with its
+        (:class:`~blockmpec.solvers.linalg.cholesky_kernels.FactorPlan`), made on first use and kept with its
         workspace."""
-        from blockmpec.solvers.engines.cholesky_kernels import FactorPlan
+        from .cholesky_kernels import FactorPlan
 
         members = np.fromiter(supernodes, dtype=np.int64)
         key = members.tobytes()
@@ -711,7 +709,7 @@ class SupernodalCholesky:
     def solve_structure(self) -> tuple:
         """``(first, width, below_count, below, below_start)``: each supernode's first column, its columns, its rows
         below them (all int64, by supernode) and those rows, concatenated (``below[below_start[s]:][:below_count[s]]``);
-        what :class:`~blockmpec.solvers.engines.cholesky_kernels.SolvePanels` reads.  Made once."""
+        what :class:`~blockmpec.solvers.linalg.cholesky_kernels.SolvePanels` reads.  Made once."""
         if self._solve_structure is None:
             counts = np.array([b.size for b in self._below], dtype=np.int64)
             self._solve_structure = (self.first.astype(np.int64), (self.end - self.first).astype(np.int64), counts,
@@ -723,7 +721,7 @@ class SupernodalCholesky:
         """The factors of one factorisation for the compiled solves (:attr:`compiled_solves`), else None."""
         if not self.compiled_solves:
             return None
-        from blockmpec.solvers.engines.cholesky_kernels import SolvePanels
+        from .cholesky_kernels import SolvePanels
 
         return SolvePanels(self.solve_structure(), diagonal_blocks, below_blocks)
 
@@ -841,13 +839,12 @@ class _HalfWorker:
         fd = _shared_file(0)  # sized by set_up, before the worker maps it
         #: the shared memory's file until :meth:`set_up` maps and closes it (closed by :func:`_stop_worker` if never)
         self._unmapped_fds = [fd]
-        # the worker imports this very package (the directory that holds it comes first on its path)
-        import blockmpec
-
-        package_root = os.path.dirname(os.path.dirname(os.path.abspath(blockmpec.__file__)))
+        # the worker imports this very module (the directory that holds its top-level package comes first on its
+        # path): found through sys.modules, so that this module imports nothing outside its own package
+        package_root = os.path.dirname(os.path.dirname(os.path.abspath(sys.modules[__name__.split(".")[0]].__file__)))
         here, there = socket.socketpair()
         code = (f"import sys; sys.path.insert(0, {package_root!r}); "
-                "from blockmpec.solvers.engines.cholesky import _serve_half; "
+                f"from {__name__} import _serve_half; "
                 f"_serve_half({there.fileno()}, {fd})")
         try:
             process = subprocess.Popen([sys.executable, "-c", code], pass_fds=(there.fileno(), fd),
@@ -1108,7 +1105,7 @@ def _serve_half(socket_fd: int, memory_fd: int) -> None:  # pragma: no cover - r
 
     connection = Connection(socket_fd)
     if compiled_kernels_available():  # the compiled kernels loaded while the set-up is made and sent
-        import blockmpec.solvers.engines.cholesky_kernels  # noqa: F401
+        from . import cholesky_kernels  # noqa: F401
     try:
         setup = pickle.loads(connection.recv_bytes())
     except (EOFError, OSError):

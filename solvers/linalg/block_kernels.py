@@ -1,6 +1,6 @@
 r"""Compiled kernels (numba) for the block interior-point method's per-interface work.
 
-Each iteration of :class:`~blockmpec.solvers.engines.block_ipm.BlockIPM` inverts one small augmented
+Each iteration of :class:`~blockmpec.solvers.linalg.block_ipm.BlockIPM` inverts one small augmented
 matrix per interface, ``M_i = [[0, B_dual_i^T], [B_i, -I]]`` (``q = k + r``: 7 by 7 on a 2D wall), assembles
 ``K`` from the products ``a_i H_i^{-1} a_i^T``, and multiplies stacks of the inverses with right-hand sides
 several times.  numpy does each of these as a gufunc loop that calls LAPACK or BLAS once per 7-by-7 block, whose
@@ -25,7 +25,7 @@ per-call overhead dominates: on 20,100 interfaces ``np.linalg.inv`` takes ~28 ms
 measurably, 2.11-2.18 s for one factorisation at 100,014 blocks with either, three of each in one process.)
 
 :func:`inverse_scaled_blocks`, :func:`block_solve`, :class:`ReducedAssembly` and :class:`SparseProducts` run their
-blocks (or rows) on the CPUs this process may use (numba's ``prange``; :func:`blockmpec.runner.usable_cpus`).  Each
+blocks (or rows) on the CPUs this process may use (numba's ``prange``; :func:`blockmpec.solvers.linalg.cpus.usable_cpus`).  Each
 block is independent, so the numbers are the same on any number of threads.  In the block IPM they run while the
 supernodal Cholesky's worker process waits, so its CPU is free.
 
@@ -45,7 +45,7 @@ import numba
 import numpy as np
 from numba import njit, prange
 
-from blockmpec.runner import usable_cpus
+from .cpus import usable_cpus
 
 _JIT = {"cache": True, "nogil": True, "error_model": "numpy"}
 
@@ -161,7 +161,7 @@ _PARALLEL_LAUNCH = threading.Lock()
 
 
 def _parallel(kernel, *args):
-    """``kernel(*args)`` on the CPUs this process may use (:func:`blockmpec.runner.usable_cpus`, which the
+    """``kernel(*args)`` on the CPUs this process may use (:func:`blockmpec.solvers.linalg.cpus.usable_cpus`, which the
     comparator's CPU share caps), at most ``NUMBA_NUM_THREADS``; one launch at a time."""
     with _PARALLEL_LAUNCH:
         numba.set_num_threads(max(1, min(usable_cpus(), numba.config.NUMBA_NUM_THREADS)))
@@ -309,7 +309,7 @@ def _block_solve(M_inv, sqrt_d, rhs_dual, rhs_primal, block_rows, with_dy):  # p
 
 def block_solve(M_inv: np.ndarray, sqrt_d: np.ndarray, rhs_dual: np.ndarray, rhs_primal: np.ndarray,
                 block_rows: np.ndarray, with_dy: bool = True) -> tuple[np.ndarray, np.ndarray | None]:
-    r"""The block solves of :meth:`~blockmpec.solvers.engines.block_ipm.BlockIPM._block_solve` in one pass:
+    r"""The block solves of :meth:`~blockmpec.solvers.linalg.block_ipm.BlockIPM._block_solve` in one pass:
     per block ``(x, z) = M_i^{-1} (rhs_dual_i, D_i^{1/2} rhs_primal[rows_i])``, ``dv_i = x``,
     ``dy[rows_i] = D_i^{1/2} z`` (``block_rows`` must cover every inequality row once).  ``with_dy=False``: ``dv``
     alone (the same numbers), from the first ``k`` rows of each ``M_i^{-1}`` (3 of 7 on a wall: less than half the

@@ -284,7 +284,7 @@ def run_metadata(command: list[str] | None = None, settings: dict[str, Any] | No
 
 @dataclasses.dataclass
 class Study:
-    """A study read from a TOML file: arguments of :func:`blockmpec.compare.compare`."""
+    """A study read from a TOML file: arguments of :func:`blockmpec.bench.compare.compare`."""
 
     cases: list[Any]
     methods: list[Any]
@@ -309,7 +309,7 @@ def _unknown(keys, allowed, where: str) -> None:
 
 def load_study(path: str | Path) -> Study:
     """Read a study file (format in the module docstring); every error names the file and the entry."""
-    from blockmpec.compare import CaseRun, MethodRun, parametrised_label
+    from blockmpec.bench.compare import CaseRun, MethodRun, parametrised_label
 
     try:
         import tomllib
@@ -334,7 +334,7 @@ def load_study(path: str | Path) -> Study:
         if len(given) != 1:
             raise OptionError(f"{where}: give exactly one of case, suite or file")
         if "suite" in entry:
-            from blockmpec.cli import BENCHMARK_SUITE
+            from blockmpec.bench.suite import BENCHMARK_SUITE
 
             label = entry["suite"]
             if label not in BENCHMARK_SUITE:
@@ -345,7 +345,7 @@ def load_study(path: str | Path) -> Study:
         elif "case" in entry:
             cases.append(CaseRun(entry.get("label", parametrised_label(entry["case"], params)), entry["case"], params))
         else:
-            from blockmpec.cli import load_case
+            from blockmpec.cases import load_case
 
             file = (path.parent / entry["file"]) if not Path(entry["file"]).is_absolute() else Path(entry["file"])
             structure = load_case(str(file), params)

@@ -4,7 +4,7 @@ Solved
 ------
 A run *solves* its case when it is verified (every residual of (3) within the
 tolerance) and its multiplier is within ``tol`` (relative) of the row's reference
-(``rel_error`` of :func:`blockmpec.compare.compare`).  For a non-associative row whose
+(``rel_error`` of :func:`blockmpec.bench.compare.compare`).  For a non-associative row whose
 reference is not exact (source ``best``: the smallest verified value of another
 method, an upper bound on the minimum of (4)) a verified multiplier *below* the
 reference also solves the case: it is a better answer, not an error.  A row with no
@@ -151,7 +151,7 @@ def summary_text(table, tol: float = SOLVED_TOL, shift: float = SHIFT_S) -> str:
 
 def plot_profiles(df, path: str | Path, tol: float = SOLVED_TOL) -> Path:
     """Dolan--Moré performance profiles, one panel per problem, in the methods' fixed styles."""
-    from blockmpec.plot import _pyplot, _save, method_style
+    from blockmpec.bench.plots import _pyplot, _save, method_style
 
     plt = _pyplot()
     data = profile_data(df, tol)
