@@ -29,6 +29,7 @@ from blockmpec.errors import BlockmpecError, OptionError
 from blockmpec.geometry import Structure
 from blockmpec.operators import Operators, assemble
 from blockmpec.registry import get_solver
+from blockmpec.report import StructureMap
 from blockmpec.result import Result, Solution, Status
 from blockmpec.verify import residuals
 
@@ -183,6 +184,8 @@ def solve(
                    f"load alone; only the live load reversed and scaled by |lam| holds it. {message}").strip()
     extra = dict(out.extra)
     extra[facts.ASSEMBLY_TIME_S] = t_assembly
+    # after the timed part: references only, the frames are built when read (Result.forces, .mechanism)
+    structure_map = StructureMap.of(ops) if getattr(ops, "structure", None) is not None else None
     return Result(
         status=status,
         multiplier=out.solution.multiplier,
@@ -196,5 +199,6 @@ def solve(
         message=message,
         raw_status=out.raw_status,
         extra=extra,
+        structure_map=structure_map,
         **base,
     )
