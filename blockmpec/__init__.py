@@ -51,8 +51,8 @@ from blockmpec.verify import residuals
 __all__ = [
     "BlockmpecError", "GeometryError", "Interfaces", "Operators", "OptionError", "PointLoad", "PrecisionWarning", "Result",
     "RunOutput", "Solution", "SolverBase", "SolverUnavailableError", "Status", "Structure", "StructureError",
-    "StructureFileError", "StructureMap", "UnknownNameError", "Units", "assemble", "build_case", "cases", "forces_frame",
-    "get_solver", "list_solvers", "load_structure", "make_structure", "mechanism_frame", "register_solver", "residuals", "save_structure", "solve",
-    "structure_from_dict", "structure_to_dict",
+    "StructureFileError", "StructureMap", "UnknownNameError", "Units", "assemble", "build_case", "cases",
+    "forces_frame", "get_solver", "list_solvers", "load_structure", "make_structure", "mechanism_frame",
+    "register_solver", "residuals", "save_structure", "solve", "structure_from_dict", "structure_to_dict",
 ]
 __version__ = "0.1.0"

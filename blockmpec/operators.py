@@ -102,7 +102,8 @@ class Operators:
     structure : Structure or None
         The structure these operators were assembled from (set by :func:`assemble`; a reference,
         not a copy), so that results can be reported in its ids, frame and units
-        (:mod:`blockmpec.report`).
+        (:mod:`blockmpec.report`); operators changed after assembly (``dataclasses.replace``)
+        keep it, and their results are reported against it.
     minus_dof, plus_dof : ndarray of int, shape (c,)
         Free-block index (row block of ``E``) of each interface's minus and plus
         block, -1 for a fixed block.

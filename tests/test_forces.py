@@ -287,3 +287,14 @@ def test_cli_a_bad_output_path_is_one_line_before_the_solve(tmp_path, capsys, mo
     err = capsys.readouterr().err
     assert code == 2
     assert err == f"blockmpec: error: {message.format(tmp=tmp_path)}\n"
+
+
+def test_the_docs_example_prints_what_the_page_shows(capsys):
+    import re
+    from pathlib import Path
+
+    page = (Path(__file__).resolve().parents[1] / "docs" / "results.md").read_text()
+    code = re.search(r"```python\n(.+?)\n```", page, re.S).group(1)
+    shown = re.search(r"```text\n(.+?)\n```", page, re.S).group(1)
+    exec(compile(code, "docs/results.md", "exec"), {})
+    assert capsys.readouterr().out.strip() == shown.strip()
