@@ -175,7 +175,8 @@ class Result:
         plus, ``tau`` = ``nu`` rotated by -90 degrees; ``normal <= 0`` in compression; forces in
         the units of ``density x area``, moments times the length unit.  An interface between two
         fixed blocks has NaN forces (it carries no unknown).  Empty (same columns) when the result
-        has no forces.  See :func:`blockmpec.report.forces_frame`.
+        has no forces; for a result that is not a :attr:`success`, the solver's last iterate, as
+        unverified as its multiplier.  See :func:`blockmpec.report.forces_frame`.
 
         Raises
         ------
@@ -183,7 +184,9 @@ class Result:
             When the result has forces but no :attr:`structure_map` (operators not assembled
             from a structure).
         """
-        return self._frame("x", "forces_frame")
+        from blockmpec.report import forces_frame
+
+        return forces_frame(self._structure_map_for("x"), self.solution)
 
     @property
     def mechanism(self):
@@ -193,7 +196,8 @@ class Result:
         columns ``block, u_x, u_y, rotation``: the velocity of the block's centroid and its
         rotation rate (counter-clockwise positive), *normalised* so that the live load's power is
         one, ``f_l^T u = 1`` in the structure's units (one force unit times one length unit per
-        unit time).  Empty (same columns) when the result has no mechanism.  See
+        unit time).  Empty (same columns) when the result has no mechanism; for a result that is
+        not a :attr:`success`, the solver's last iterate.  See
         :func:`blockmpec.report.mechanism_frame`.
 
         Raises
@@ -201,19 +205,18 @@ class Result:
         StructureError
             When the result has a mechanism but no :attr:`structure_map`.
         """
-        return self._frame("u", "mechanism_frame")
+        from blockmpec.report import mechanism_frame
 
-    def _frame(self, name: str, builder: str):
-        from blockmpec import report
+        return mechanism_frame(self._structure_map_for("u"), self.solution)
 
-        build = getattr(report, builder)
-        value = getattr(self.solution, name)
-        if value is not None and self.structure_map is None:
+    def _structure_map_for(self, name: str) -> StructureMap | None:
+        """:attr:`structure_map`, which the solution's array ``name`` needs when it has one."""
+        if getattr(self.solution, name) is not None and self.structure_map is None:
             raise StructureError(
                 f"result of {self.method!r}: no structure map (its operators were not assembled from a Structure), "
                 "so its solution cannot be reported in a structure's ids and units; solve a Structure or "
                 "bm.assemble(structure)")
-        return build(self.structure_map, value)
+        return self.structure_map
 
     @property
     def max_residual(self) -> float:
