@@ -10,6 +10,7 @@ import time.
 >>> wall = bm.cases.wall(courses=4, blocks_per_course=3)
 >>> res = bm.solve(wall, "static-lp")
 >>> res.success, round(res.multiplier, 5)  # doctest: +SKIP
+>>> res.forces.head()  # interface forces in the structure's ids and units  # doctest: +SKIP
 """
 
 from pathlib import Path as _Path
@@ -40,6 +41,7 @@ from blockmpec.errors import (
 from blockmpec.geometry import Interfaces, PointLoad, Structure, make_structure
 from blockmpec.operators import Operators, assemble
 from blockmpec.registry import get_solver, list_solvers, register_solver
+from blockmpec.report import StructureMap, forces_frame, mechanism_frame
 from blockmpec.result import Result, Solution, Status
 from blockmpec.result import RunOutput
 from blockmpec.solver import SolverBase, run_solver, solve
@@ -50,8 +52,8 @@ from blockmpec.verify import residuals
 __all__ = [
     "BlockmpecError", "GeometryError", "Interfaces", "Operators", "OptionError", "PointLoad", "PrecisionWarning", "Result",
     "RunOutput", "Solution", "SolverBase", "SolverUnavailableError", "Status", "Structure", "StructureError",
-    "StructureFileError", "UnknownNameError", "Units", "assemble", "build_case", "cases", "get_solver", "list_solvers",
-    "load_structure", "make_structure", "register_solver", "residuals", "save_structure", "solve",
-    "structure_from_dict", "structure_to_dict",
+    "StructureFileError", "StructureMap", "UnknownNameError", "Units", "assemble", "build_case", "cases",
+    "forces_frame", "get_solver", "list_solvers", "load_structure", "make_structure", "mechanism_frame",
+    "register_solver", "residuals", "save_structure", "solve", "structure_from_dict", "structure_to_dict",
 ]
 __version__ = "0.1.0"

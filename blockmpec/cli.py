@@ -87,10 +87,35 @@ def _stdout_to_stderr():
         os.close(saved)
 
 
+def _output_file(path: str | None, flag: str, example: str) -> Path | None:
+    """The file a ``solve`` table will be written to, checked before the solve (a bad path: OptionError)."""
+    if path is None:
+        return None
+    out = Path(path)
+    if out.is_dir():
+        raise OptionError(f"{flag} {path}: is a folder; give a file name such as {out / example}")
+    if not out.parent.is_dir():
+        raise OptionError(f"{flag} {path}: folder {out.parent} does not exist")
+    if not os.access(out if out.exists() else out.parent, os.W_OK):
+        raise OptionError(f"{flag} {path}: cannot write there (permission denied)")
+    return out
+
+
+def _write_table(frame: Any, path: Path, flag: str) -> None:
+    try:
+        frame.to_csv(path, index=False)
+    except OSError as exc:
+        raise OptionError(f"{flag} {path}: cannot write ({exc.strerror or exc})") from None
+
+
 def cmd_solve(args: argparse.Namespace) -> int:
     from blockmpec.bench.study import check_tolerance
 
     verify_tol = check_tolerance(args.verify_tol)
+    forces_path = _output_file(args.forces, "--forces", "forces.csv")
+    mechanism_path = _output_file(args.mechanism, "--mechanism", "mechanism.csv")
+    if forces_path is not None and mechanism_path is not None and forces_path.resolve() == mechanism_path.resolve():
+        raise OptionError(f"--forces and --mechanism: both name {args.forces}; give two files")
     params = parse_pairs(args.param, "-p")
     options = parse_pairs(args.option, "-O")
     get_solver(args.method)(**options)  # unknown method / bad option: exit 2 before building anything
@@ -106,6 +131,15 @@ def cmd_solve(args: argparse.Namespace) -> int:
         print(_format_result(args.case, result))
         for name, value in result.residuals.items():
             print(f"  {name:28s} {value:.3e}")
+    for path, flag, frame, rows, what in (
+            (forces_path, "--forces", lambda: result.forces, "interfaces", "interface forces"),
+            (mechanism_path, "--mechanism", lambda: result.mechanism, "free blocks", "mechanism")):
+        if path is not None:
+            table = frame()
+            _write_table(table, path, flag)
+            if not args.json:
+                print(f"wrote {path} ({len(table)} {rows})" if len(table) else
+                      f"wrote {path} (column names only: the result has no {what})")
     return 0 if result.success else 1
 
 
@@ -376,6 +410,10 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("-O", "--option", action="append", metavar="KEY=VALUE", help="method option")
     p.add_argument("--json", action="store_true", help="print one JSON object")
     p.add_argument("--verify-tol", default=1e-6, help="largest residual accepted as success (finite, > 0)")
+    p.add_argument("--forces", metavar="FILE.csv", help="write the interface forces (one row per interface, the "
+                   "structure's ids, frame and units; see docs/results.md)")
+    p.add_argument("--mechanism", metavar="FILE.csv", help="write the collapse mechanism (one row per free block, "
+                   "velocities normalised to a live-load power of 1)")
     p.set_defaults(func=cmd_solve)
 
     p = sub.add_parser("export", help="write a built-in case as a structure file")

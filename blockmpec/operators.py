@@ -99,6 +99,11 @@ class Operators:
         to ``-x``), else +1; see :meth:`velocities_to_structure`.
     units : Units
         :class:`blockmpec.units.Units` of the problem (computed on first use).
+    structure : Structure or None
+        The structure these operators were assembled from (set by :func:`assemble`; a reference,
+        not a copy), so that results can be reported in its ids, frame and units
+        (:mod:`blockmpec.report`); operators changed after assembly (``dataclasses.replace``)
+        keep it, and their results are reported against it.
     minus_dof, plus_dof : ndarray of int, shape (c,)
         Free-block index (row block of ``E``) of each interface's minus and plus
         block, -1 for a fixed block.
@@ -125,6 +130,7 @@ class Operators:
     interface_flipped: np.ndarray | None = None
     block_area: np.ndarray | None = None
     mirror: float = 1.0
+    structure: Structure | None = None
 
     @cached_property
     def units(self) -> Units:
@@ -133,7 +139,9 @@ class Operators:
         return Units.of(self)
 
     def forces_to_physical(self, x: np.ndarray) -> np.ndarray:
-        """Interface forces ``x`` in the structure's units (``t, n`` x force_scale, ``m`` x force*length)."""
+        """Interface forces ``x`` in the structure's units (``t, n`` x force_scale, ``m`` x force*length),
+        still in canonical order and signs (for the structure's ids and signs:
+        :func:`blockmpec.report.forces_frame`)."""
         out = np.asarray(x, float) * self.force_scale
         out[2::3] *= self.length_scale
         return out
@@ -416,6 +424,7 @@ def assemble(structure: Structure) -> Operators:
         interface_flipped=flipped,
         block_area=area[free_blocks],
         mirror=mirror,
+        structure=structure,
     )
 
 

@@ -11,9 +11,14 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 from enum import Enum
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
+
+from blockmpec.errors import StructureError
+
+if TYPE_CHECKING:
+    from blockmpec.report import StructureMap
 
 
 class Status(str, Enum):
@@ -50,6 +55,11 @@ _SUCCESS = frozenset({Status.OPTIMAL, Status.LOCALLY_OPTIMAL, Status.CONVERGED, 
 @dataclass
 class Solution:
     """A solver's raw iterate; any field may be ``None`` if the solver has none.
+
+    *Internal*: the arrays are those of the canonical problem (:mod:`blockmpec.operators`):
+    canonical order of blocks and interfaces, canonical frame (``x`` along the live load) and
+    scaled units.  Read them in the structure's terms with :attr:`Result.forces` and
+    :attr:`Result.mechanism` (:mod:`blockmpec.report`).
 
     Attributes
     ----------
@@ -96,6 +106,11 @@ class RunOutput:
 class Result:
     """The outcome of one solve.
 
+    The answer in the structure's own ids, order, frame and units is in :attr:`multiplier`,
+    :attr:`forces` and :attr:`mechanism` (DataFrames, see :mod:`blockmpec.report`).
+    :attr:`solution` is internal: the solver's arrays in the canonical problem's order, frame
+    (``x`` along the live load) and scaled units, as the verifier checks them.
+
     Attributes
     ----------
     method : str
@@ -106,6 +121,8 @@ class Result:
     multiplier : float or None
         Collapse load multiplier ``lam``.
     solution : Solution
+        Internal: the raw iterate of the canonical problem (canonical frame, scaled units,
+        canonical order); read :attr:`forces` and :attr:`mechanism` instead.
     residuals : dict[str, float]
         Relative residuals from :func:`blockmpec.verify.residuals`.
     verified : bool
@@ -121,6 +138,9 @@ class Result:
         The options the method ran with.
     extra : dict
         Open-ended diagnostics (gap, bounds, number of LP solves...).
+    structure_map : StructureMap or None
+        How :attr:`solution` maps onto the structure (set by :func:`blockmpec.solve`; references
+        to the structure's interface arrays and the canonical permutations, no operator).
     """
 
     method: str
@@ -139,6 +159,7 @@ class Result:
     raw_status: str = ""
     options: dict[str, Any] = field(default_factory=dict)
     extra: dict[str, Any] = field(default_factory=dict)
+    structure_map: StructureMap | None = field(default=None, repr=False, compare=False)
 
     def __repr__(self) -> str:
         """One line a REPL can show: what was solved, how well, how fast (the arrays are in :attr:`solution`,
@@ -156,6 +177,60 @@ class Result:
     def success(self) -> bool:
         """True only when the status claims success *and* the verifier agrees."""
         return self.status.is_success and self.verified
+
+    @property
+    def forces(self):
+        """Interface forces in the structure's ids, order, frame and units (built on each access).
+
+        A :class:`pandas.DataFrame`, one row per interface of the structure (row ``k`` is its
+        interface ``k``), columns ``interface, minus, plus, start_x, start_y, end_x, end_y, shear,
+        normal, moment``: the force ``shear tau + normal nu`` and the moment about the midpoint that
+        the plus block exerts on the minus block, ``nu = rot90(end - start) / L`` from minus into
+        plus, ``tau`` = ``nu`` rotated by -90 degrees; ``normal <= 0`` in compression; forces in
+        the units of ``density x area``, moments times the length unit.  An interface between two
+        fixed blocks has NaN forces (it carries no unknown).  Empty (same columns) when the result
+        has no forces; for a result that is not a :attr:`success`, the solver's last iterate, as
+        unverified as its multiplier.  See :func:`blockmpec.report.forces_frame`.
+
+        Raises
+        ------
+        StructureError
+            When the result has forces but no :attr:`structure_map` (operators not assembled
+            from a structure).
+        """
+        from blockmpec.report import forces_frame
+
+        return forces_frame(self._structure_map_for("x"), self.solution)
+
+    @property
+    def mechanism(self):
+        """The collapse mechanism in the structure's ids, order, frame and units (built on each access).
+
+        A :class:`pandas.DataFrame`, one row per free block in the structure's block order,
+        columns ``block, u_x, u_y, rotation``: the velocity of the block's centroid and its
+        rotation rate (counter-clockwise positive), *normalised* so that the live load's power is
+        one, ``f_l^T u = 1`` in the structure's units (one force unit times one length unit per
+        unit time).  Empty (same columns) when the result has no mechanism; for a result that is
+        not a :attr:`success`, the solver's last iterate.  See
+        :func:`blockmpec.report.mechanism_frame`.
+
+        Raises
+        ------
+        StructureError
+            When the result has a mechanism but no :attr:`structure_map`.
+        """
+        from blockmpec.report import mechanism_frame
+
+        return mechanism_frame(self._structure_map_for("u"), self.solution)
+
+    def _structure_map_for(self, name: str) -> StructureMap | None:
+        """:attr:`structure_map`, which the solution's array ``name`` needs when it has one."""
+        if getattr(self.solution, name) is not None and self.structure_map is None:
+            raise StructureError(
+                f"result of {self.method!r}: no structure map (its operators were not assembled from a Structure), "
+                "so its solution cannot be reported in a structure's ids and units; solve a Structure or "
+                "bm.assemble(structure)")
+        return self.structure_map
 
     @property
     def max_residual(self) -> float:

@@ -38,6 +38,7 @@ from blockmpec.operators import Operators, assemble
 from blockmpec.options import CommonOptions
 from blockmpec.progress import verbose
 from blockmpec.registry import get_solver
+from blockmpec.report import StructureMap
 from blockmpec.result import Result, RunOutput, Status
 from blockmpec.verify import residuals
 
@@ -195,6 +196,8 @@ def run_solver(solver: SolverBase, case: Structure | Operators, *, verify_tol: f
                    f"load alone; only the live load reversed and scaled by |lam| holds it. {message}").strip()
     extra = dict(out.extra)
     extra[facts.ASSEMBLY_TIME_S] = t_assembly
+    # after the timed part: references only, the frames are built when read (Result.forces, .mechanism)
+    structure_map = StructureMap.of(ops) if getattr(ops, "structure", None) is not None else None
     return Result(
         status=status,
         multiplier=out.solution.multiplier,
@@ -208,5 +211,6 @@ def run_solver(solver: SolverBase, case: Structure | Operators, *, verify_tol: f
         message=message,
         raw_status=out.raw_status,
         extra=extra,
+        structure_map=structure_map,
         **base,
     )
