@@ -42,8 +42,7 @@ from blockmpec.geometry import Interfaces, PointLoad, Structure, make_structure
 from blockmpec.operators import Operators, assemble
 from blockmpec.registry import get_solver, list_solvers, register_solver
 from blockmpec.report import StructureMap, forces_frame, mechanism_frame
-from blockmpec.result import Result, Solution, Status
-from blockmpec.result import RunOutput
+from blockmpec.result import Result, RunOutput, Solution, Status
 from blockmpec.solver import SolverBase, run_solver, solve
 from blockmpec.structure_file import load_structure, save_structure, structure_from_dict, structure_to_dict
 from blockmpec.units import Units
@@ -54,6 +53,6 @@ __all__ = [
     "RunOutput", "Solution", "SolverBase", "SolverUnavailableError", "Status", "Structure", "StructureError",
     "StructureFileError", "StructureMap", "UnknownNameError", "Units", "assemble", "build_case", "cases",
     "forces_frame", "get_solver", "list_solvers", "load_structure", "make_structure", "mechanism_frame",
-    "register_solver", "residuals", "save_structure", "solve", "structure_from_dict", "structure_to_dict",
+    "register_solver", "residuals", "run_solver", "save_structure", "solve", "structure_from_dict", "structure_to_dict",
 ]
 __version__ = "0.1.0"

@@ -21,7 +21,8 @@ from blockmpec.formulations.compiled import CompiledMCP, compile_mcp
 from blockmpec.formulations.kinematic_lp import kinematic_lp
 from blockmpec.formulations.mcp import evaluate_mcp, mcp
 from blockmpec.formulations.mpec import mpec
-from blockmpec.formulations.static_lp import StepLPs, modified_lp, static_lp, step_lps
+from blockmpec.formulations.sequence import StepLPs, step_lps
+from blockmpec.formulations.static_lp import modified_lp, static_lp
 from blockmpec.formulations.tie_break import tie_break_lp
 
 __all__ = [

@@ -455,8 +455,8 @@ def comparison_figures(df, results: dict, out_dir: str | Path) -> list[Path]:
 
     ``results`` is the dict filled by :func:`blockmpec.bench.compare.compare` (``results=``).
     """
-    from blockmpec.operators import assemble
     from blockmpec.bench.profiles import plot_profiles
+    from blockmpec.operators import assemble
 
     out = Path(out_dir)
     paths = [error_vs_time(df, out / "error_vs_time.png", results=results),
