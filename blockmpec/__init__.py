@@ -1,10 +1,11 @@
 """blockmpec: limit analysis of rigid-block masonry with non-associative Coulomb friction.
 
-Core package: structures, operators, the result type, the verifier, the solver
-registry and the CLI.  Pyomo models live in ``blockmpec.formulations`` and solver
-adapters in ``blockmpec.solvers`` (the repository's top-level ``formulations/`` and
-``solvers/`` folders, installed under ``blockmpec``); the core never imports them at
-import time.
+What lives here: the problem (geometry, cases, structure files, units, operators), ``Result`` and the verifier,
+the plug-in contract and ``solve()`` with the method registry; the comparator in ``blockmpec.bench``; the CLI.
+It imports numpy, scipy and pandas, and ``formulations``/``solvers`` only when a method runs (never at import).
+
+The repository's top-level ``formulations/`` and ``solvers/`` folders install as ``blockmpec.formulations`` and
+``blockmpec.solvers``.  The layers and the arrows between them are checked by ``tests/test_layering.py``.
 
 >>> import blockmpec as bm
 >>> wall = bm.cases.wall(courses=4, blocks_per_course=3)
