@@ -56,4 +56,12 @@ __all__ = [
     "forces_frame", "get_solver", "list_solvers", "load_structure", "make_structure", "mechanism_frame",
     "register_solver", "residuals", "run_solver", "save_structure", "solve", "structure_from_dict", "structure_to_dict",
 ]
-__version__ = "0.1.0"
+
+try:  # the installed distribution's version (pyproject.toml), so that one number is kept in one place
+    from importlib.metadata import PackageNotFoundError as _NotFound
+    from importlib.metadata import version as _version
+
+    __version__ = _version("blockmpec")
+except _NotFound:  # pragma: no cover - a source tree imported without installing it
+    __version__ = "0+unknown"
+del _NotFound, _version
