@@ -30,11 +30,11 @@ from typing import Any
 from blockmpec.bench.suite import BENCHMARK_SUITE
 from blockmpec.cases import CASES, load_case
 from blockmpec.errors import BlockmpecError, OptionError
-from blockmpec.geometry import Structure
 from blockmpec.registry import get_solver, list_solvers
 from blockmpec.result import Result
 from blockmpec.solver import option_fields, solve
 from blockmpec.structure_file import save_structure
+
 
 def parse_value(text: str) -> Any:
     """A ``-p``/``-O`` value: JSON if it parses (numbers, lists, true/false), else the string."""

@@ -114,31 +114,6 @@ def _axes(ax=None, **subplots: Any):
     return plt.subplots(**subplots)[1]
 
 
-def _figure(fig=None, **kw: Any):
-    """``fig``, or a new figure outside pyplot (constrained layout; nothing to close, no backend needed)."""
-    if fig is not None:
-        return fig
-    from matplotlib.figure import Figure
-
-    kw.setdefault("layout", "constrained")
-    return Figure(**kw)
-
-
-def _save(fig, path, dpi: int = 150):
-    """Write ``fig`` to ``path`` (folders made) and release it; returns the path."""
-    from pathlib import Path
-
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    # constrained layout already fits the labels: a "tight" bounding box would draw everything twice
-    fig.savefig(path, dpi=dpi, bbox_inches=None if fig.get_layout_engine() is not None else "tight")
-    if getattr(fig.canvas, "manager", None) is not None:  # a pyplot figure: release it
-        import matplotlib.pyplot as plt
-
-        plt.close(fig)
-    return path
-
-
 def _finite(v: Any) -> bool:
     try:
         return v is not None and not isinstance(v, bool) and math.isfinite(float(v))

@@ -12,7 +12,14 @@ import pytest
 
 import blockmpec as bm
 from blockmpec import registry
-from blockmpec.bench.compare import add_references, cell_mark, compare, normalise_methods, parametrised_label, text_table
+from blockmpec.bench.compare import (
+    add_references,
+    cell_mark,
+    compare,
+    normalise_methods,
+    parametrised_label,
+    text_table,
+)
 
 TWO_BLOCKS = {"two-blocks": ("two-blocks", {"eta": 3.0, "mu": 0.65})}
 NA_MIN = 1.0 / 3.0  # closed form, paper Sect. 3: mu > 1/eta -> lam_min = 1/eta
@@ -409,7 +416,8 @@ def test_cpus_variable_caps_the_automatic_settings(monkeypatch):
     """``BLOCKMPEC_CPUS`` caps what the block IPM's ``"auto"`` counts (it reads ``usable_cpus``); a bad value is one
     clear error naming the variable."""
     from blockmpec.bench.runner import CPUS_VARIABLE, cpu_budget, usable_cpus
-    from blockmpec.solvers.linalg import block_ipm, cholesky, cpus as linalg_cpus
+    from blockmpec.solvers.linalg import block_ipm, cholesky
+    from blockmpec.solvers.linalg import cpus as linalg_cpus
 
     assert block_ipm.usable_cpus is linalg_cpus.usable_cpus and cholesky.usable_cpus is linalg_cpus.usable_cpus
 

@@ -26,7 +26,7 @@ import numpy as np
 
 from blockmpec.bench.compare import _finite, _true
 from blockmpec.plot import FLOOR as ERROR_FLOOR
-from blockmpec.plot import METHOD_STYLES, _axes, _figure, _num, _save, method_style
+from blockmpec.plot import METHOD_STYLES, method_style
 
 __all__ = ["ERROR_FLOOR", "METHOD_STYLES", "comparison_figures", "convergence", "error_vs_time", "mechanisms",
            "method_style"]
@@ -42,6 +42,42 @@ def _style():
     import matplotlib
 
     return matplotlib.rc_context(STYLE)
+
+
+def _axes(ax=None):
+    """``ax``, or the axes of a new pyplot figure (so that it shows in a notebook or a window)."""
+    if ax is not None:
+        return ax
+    import matplotlib.pyplot as plt
+
+    return plt.subplots(layout="constrained")[1]
+
+
+def _figure(fig=None, **kw: Any):
+    """``fig``, or a new figure outside pyplot (constrained layout; nothing to close, no backend needed)."""
+    if fig is not None:
+        return fig
+    from matplotlib.figure import Figure
+
+    kw.setdefault("layout", "constrained")
+    return Figure(**kw)
+
+
+def _save(fig, path, dpi: int = 150) -> Path:
+    """Write ``fig`` to ``path`` (folders made) and release it if pyplot holds it; returns the path."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    # constrained layout already fits the labels: a "tight" bounding box would draw everything twice
+    fig.savefig(path, dpi=dpi, bbox_inches=None if fig.get_layout_engine() is not None else "tight")
+    if getattr(fig.canvas, "manager", None) is not None:
+        import matplotlib.pyplot as plt
+
+        plt.close(fig)
+    return path
+
+
+def _num(v: Any) -> float:
+    return float(v) if _finite(v) else math.nan
 
 
 # --------------------------------------------------------------------------- error vs time

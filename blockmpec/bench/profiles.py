@@ -306,7 +306,7 @@ def performance_profile(df, problem: str = "non-associative", *, ax=None, tol: f
     >>> performance_profile(df, "non-associative", ax=ax)                 # doctest: +SKIP
     >>> fig.savefig("profile.pdf")                                        # doctest: +SKIP
     """
-    from blockmpec.plot import _axes, method_style
+    from blockmpec.bench.plots import _axes, method_style
 
     ax = _axes(ax)
     data = profile_data(df, tol, budget).get(problem)
@@ -342,7 +342,7 @@ def plot_profiles(df, path: str | Path | None = None, tol: float = SOLVED_TOL, *
 
     Returns the figure, or with ``path`` the path of the PNG written there (the comparator's use).
     """
-    from blockmpec.plot import _figure, _save
+    from blockmpec.bench.plots import _figure, _save
 
     data = profile_data(df, tol, budget)
     problems = [p for p in ("associative", "non-associative") if p in data]
