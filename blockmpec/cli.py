@@ -1,4 +1,7 @@
-"""Command line: ``blockmpec solve | export | cases | methods | compare``.
+"""Command line: ``blockmpec solve | export | cases | methods | compare`` (and ``blockmpec --version``).
+
+``blockmpec methods --json`` prints every method's name, problem, summary, availability and user-facing options
+(name, type, default, help) as one JSON list (:func:`method_listing`).
 
 The spellings here are a contract with scripts outside this repo: extend, never rename.
 Errors go to stderr as one line, with exit code 2 (bad input) or 3 (internal error),

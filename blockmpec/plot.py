@@ -538,7 +538,7 @@ def convergence(results: Mapping[str, Any] | Sequence[Any], *, y: str = "multipl
         for label, colour, pts in bound_lines:
             keep = pts[:, 1] >= floor
             if not keep.any():
-                missing.append((f"{label} bound", f"below {floor:.4g} throughout (not drawn)"))
+                missing.append((f"{label}'s lower bound", f"stayed below {floor:.4g}, far below the answers"))
                 continue
             bx = np.maximum(pts[keep, 0], 1e-4) if x == "time" else pts[keep, 0]
             bkw = dict(ls="--", lw=1.0, color=colour, marker="o", ms=4, mfc="white", mec=colour)
@@ -547,10 +547,8 @@ def convergence(results: Mapping[str, Any] | Sequence[Any], *, y: str = "multipl
             handles.append(Line2D([], [], label=f"{label}: lower bound", **bkw))
     label_y, log_y = CONVERGENCE_MEASURES[y]
     if x == "time":
-        from matplotlib.ticker import NullFormatter
-
         ax.set_xscale("log")
-        ax.xaxis.set_minor_formatter(NullFormatter())
+        _log_ticks(ax.xaxis, [v for line in ax.lines for v in np.asarray(line.get_xdata(), float)])
     if log_y:
         ax.set_yscale("log")
     if drawn_y:
@@ -576,6 +574,19 @@ def convergence(results: Mapping[str, Any] | Sequence[Any], *, y: str = "multipl
     ax.convergence_missing = missing
     ax.convergence_handles = handles
     return ax
+
+
+def _log_ticks(axis, values) -> None:
+    """Readable labels on a log axis: minor labels 2 and 5 (as plain numbers) when the data span about a decade
+    or less, none otherwise (matplotlib's own crowd each other on a narrow range)."""
+    from matplotlib.ticker import FuncFormatter, LogLocator, NullFormatter
+
+    values = [v for v in values if math.isfinite(v) and v > 0]
+    if values and max(values) / min(values) < 15.0:
+        axis.set_minor_locator(LogLocator(subs=(2.0, 5.0)))
+        axis.set_minor_formatter(FuncFormatter(lambda v, _: f"{v:g}"))
+    else:
+        axis.set_minor_formatter(NullFormatter())
 
 
 # --------------------------------------------------------------------------- multiplier map
