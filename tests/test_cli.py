@@ -218,6 +218,14 @@ def test_compare_main_job_prints_tables_summary_and_budget(cli, tmp_path):
     assert list(pd.read_csv(tmp_path / "b" / "results.csv")["budget_s"]) == [20.0, 5.0]
 
 
+def test_wall_limit_inf_means_none(cli, tmp_path):
+    code, _, err = cli("compare", "--cases", "single-block", "--methods", "static-lp,kinematic-lp", "--wall-limit",
+                       "inf", "--wall-limit", "kinematic-lp=30", "--out", tmp_path / "o", "--quiet", "--no-figures")
+    assert code == 0, err
+    df = pd.read_csv(tmp_path / "o" / "results.csv")
+    assert list(df["wall_limit_s"]) == [float("inf"), 30.0] and list(df["budget_s"]) == [30.0, 30.0]
+
+
 def test_compare_refuses_a_folder_with_results_unless_told(cli, tmp_path):
     (tmp_path / "results.csv").write_text("an earlier run")
     args = ("compare", "--cases", "single-block", "--methods", "static-lp", "--out", tmp_path, "--no-figures")
