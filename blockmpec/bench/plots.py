@@ -161,7 +161,7 @@ def error_vs_time(df, path: str | Path | None = None, *, ax=None, problem: str |
             "error = |lam - reference| / |reference|; reference by rank: closed form > certified minimum > best "
             "verified value of another method; a new best (↓) lies below that reference, its height is its "
             f"distance below it; errors below {ERROR_FLOOR:.0e} are drawn on the dotted line; filled markers: "
-            "verified, open: not verified", 70 * len(problems) + 40),
+            "verified, open: not verified", int(fig.get_figwidth() * 16)),
             transform=notes.transAxes, va="top", ha="left", fontsize=7, color="0.3")
         fig.suptitle(title or "Error of the collapse multiplier against run time")
         return _save(fig, path) if path is not None else fig
@@ -314,7 +314,8 @@ def convergence(traces: Mapping[str, Any], path: str | Path | None = None, *, ti
                      "point of its answer")
         notes = fig.add_subplot(grid[2, :])
         notes.set_axis_off()
-        notes.text(0.0, 1.0, "\n".join(_wrap(t, 190) for t in lines), transform=notes.transAxes, va="top",
+        width = int(fig.get_figwidth() * 16)  # characters of 7-point text across the figure
+        notes.text(0.0, 1.0, "\n".join(_wrap(t, width) for t in lines), transform=notes.transAxes, va="top",
                    ha="left", fontsize=7, color="0.3")
         fig.suptitle(title or "Convergence")
         return _save(fig, path) if path is not None else fig

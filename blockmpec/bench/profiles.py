@@ -319,10 +319,12 @@ def performance_profile(df, problem: str = "non-associative", *, ax=None, tol: f
     top = max([float(f.max()) for f in finite if f.size] + [2.0]) * 1.5
     tau = np.geomspace(1.0, top, 400)
     methods = dict(zip(df["method_label"], df["method"])) if "method" in df.columns else {}
-    for label, r in ratios.items():
+    for j, (label, r) in enumerate(ratios.items()):
         colour, marker = method_style(label, methods.get(label))
         y = rho(r, tau)
-        ax.step(tau, y, where="post", color=colour, lw=1.4, label=label, marker=marker, markevery=80, ms=5)
+        # markers staggered between methods, so that coinciding curves (e.g. all at 0) stay told apart
+        ax.step(tau, y, where="post", color=colour, lw=1.4, label=label, marker=marker,
+                markevery=((17 * j) % 80, 80), ms=5)
     ax.set_xscale("log", base=2)
     ax.set_ylim(-0.02, 1.02)
     ax.set_xlim(1.0, top)
@@ -348,7 +350,7 @@ def plot_profiles(df, path: str | Path | None = None, tol: float = SOLVED_TOL, *
     problems = [p for p in ("associative", "non-associative") if p in data]
     n = max(len(problems), 1)
     fig = _figure(fig, figsize=(6.4 * n, 4.6))
-    grid = fig.add_gridspec(2, n, height_ratios=[1.0, 0.12])
+    grid = fig.add_gridspec(2, n, height_ratios=[1.0, 0.16])
     axes = [fig.add_subplot(grid[0, j]) for j in range(n)]
     for ax, problem in zip(axes, problems):
         performance_profile(df, problem, ax=ax, tol=tol, budget=budget)
@@ -357,7 +359,9 @@ def plot_profiles(df, path: str | Path | None = None, tol: float = SOLVED_TOL, *
     notes = fig.add_subplot(grid[1, :])
     notes.set_axis_off()
     budgets = {c: b for d in data.values() for c, b in d["budgets"].items()}
-    notes.text(0.0, 1.0, _wrap(solved_definition(tol)) + "\n" + _wrap(budget_text(budgets, budget is not None)),
+    width = int(fig.get_figwidth() * 16)  # characters of 7-point text across the figure
+    notes.text(0.0, 1.0, _wrap(solved_definition(tol), width) + "\n" + _wrap(budget_text(budgets, budget is not None),
+                                                                           width),
                transform=notes.transAxes, va="top", ha="left", fontsize=7, color="0.3")
     fig.suptitle("Performance profiles")
     return _save(fig, path) if path is not None else fig
