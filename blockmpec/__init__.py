@@ -28,6 +28,7 @@ if not (_here / "solvers").is_dir() and all(
 del _Path, _here
 
 from blockmpec import cases  # noqa: E402
+from blockmpec import plot  # noqa: E402 - drawings (matplotlib is imported when one is drawn)
 from blockmpec.cases import build_case
 from blockmpec.errors import (
     BlockmpecError,
@@ -53,7 +54,7 @@ __all__ = [
     "BlockmpecError", "GeometryError", "Interfaces", "Operators", "OptionError", "PointLoad", "PrecisionWarning", "Result",
     "RunOutput", "Solution", "SolverBase", "SolverUnavailableError", "Status", "Structure", "StructureError",
     "StructureFileError", "StructureMap", "UnknownNameError", "Units", "assemble", "build_case", "cases",
-    "forces_frame", "get_solver", "list_solvers", "load_structure", "make_structure", "mechanism_frame",
+    "forces_frame", "get_solver", "list_solvers", "load_structure", "make_structure", "mechanism_frame", "plot",
     "register_solver", "residuals", "run_solver", "save_structure", "solve", "structure_from_dict", "structure_to_dict",
 ]
 
