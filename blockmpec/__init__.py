@@ -27,8 +27,10 @@ if not (_here / "solvers").is_dir() and all(
     __path__.append(str(_here.parent))  # noqa: F821 - the package's own search path
 del _Path, _here
 
-from blockmpec import cases  # noqa: E402
-from blockmpec import plot  # noqa: E402 - drawings (matplotlib is imported when one is drawn)
+from blockmpec import (
+    cases,  # noqa: E402
+    plot,  # noqa: E402 - drawings (matplotlib is imported when one is drawn)
+)
 from blockmpec.cases import build_case
 from blockmpec.errors import (
     BlockmpecError,

@@ -217,7 +217,7 @@ def test_error_vs_time_into_the_researchers_axes_marks_new_bests():
 
 
 def test_performance_profile_into_the_given_axes():
-    from blockmpec.bench.profiles import performance_profile
+    from blockmpec.bench.plots import performance_profile
 
     df = pd.DataFrame([
         {"case": c, "problem": "non-associative", "method": m, "method_label": m, "multiplier": 0.5,

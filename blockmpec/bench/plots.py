@@ -11,7 +11,7 @@ pyplot (:class:`matplotlib.figure.Figure`), so they need no display and change n
   forces against time and against LP steps);
 * :func:`mechanisms`: collapse mechanisms side by side, from :func:`blockmpec.plot.mechanism` (hinges
   and sliding joints marked);
-* :func:`blockmpec.bench.profiles.performance_profile` / :func:`~blockmpec.bench.profiles.plot_profiles`:
+* :func:`performance_profile` / :func:`plot_profiles`:
   performance profiles.
 """
 
@@ -24,7 +24,8 @@ from typing import Any
 
 import numpy as np
 
-from blockmpec.bench.compare import _finite, _true
+from blockmpec.bench.profiles import SOLVED_TOL, budget_text, profile_data, rho, solved_definition
+from blockmpec.bench.runs import _finite, _true
 from blockmpec.plot import FLOOR as ERROR_FLOOR
 from blockmpec.plot import METHOD_STYLES, method_style
 
@@ -386,7 +387,7 @@ def comparison_figures(df, results: dict, out_dir: str | Path, *, budget: Any = 
 
     * ``error_vs_time.png``: :func:`error_vs_time`, associative and non-associative panels,
       with the certificates' traces;
-    * ``performance_profile.png``: :func:`blockmpec.bench.profiles.plot_profiles` (``budget`` as there);
+    * ``performance_profile.png``: :func:`plot_profiles` (``budget`` as there);
     * ``convergence_<case>.png``: :func:`convergence` of every method of the case (first repetition),
       naming under the panels those with nothing to draw;
     * ``mechanism_<case>.png``: :func:`mechanisms`, associative (the first successful
@@ -395,8 +396,6 @@ def comparison_figures(df, results: dict, out_dir: str | Path, *, budget: Any = 
 
     ``results`` is the dict filled by :func:`blockmpec.bench.compare.compare` (``results=``).
     """
-    from blockmpec.bench.profiles import plot_profiles
-    from blockmpec.operators import assemble
 
     out = Path(out_dir)
     paths = [error_vs_time(df, out / "error_vs_time.png", results=results)]
@@ -438,3 +437,87 @@ def comparison_figures(df, results: dict, out_dir: str | Path, *, budget: Any = 
             paths.append(mechanisms(structure, panels, out / f"mechanism_{_slug(case)}.png",
                                     title=f"Collapse mechanisms: {case}"))
     return paths
+
+
+def performance_profile(df, problem: str = "non-associative", *, ax=None, tol: float = SOLVED_TOL,
+                        budget: float | Mapping[str, float] | None = None, legend: bool = True):
+    """Draw the Dolan--Moré performance profile of one problem into ``ax`` (see the module docstring).
+
+    Parameters
+    ----------
+    df : pandas.DataFrame
+        A comparison table (:func:`blockmpec.bench.compare.compare`).
+    problem : {"associative", "non-associative"}
+    ax : matplotlib.axes.Axes, optional
+        Where to draw (default: a new figure).
+    tol, budget
+        As for :func:`solved`.
+    legend : bool
+        Add a legend of the methods.
+
+    Returns
+    -------
+    matplotlib.axes.Axes
+
+    Examples
+    --------
+    >>> import matplotlib.pyplot as plt
+    >>> fig, ax = plt.subplots()                                          # doctest: +SKIP
+    >>> performance_profile(df, "non-associative", ax=ax)                 # doctest: +SKIP
+    >>> fig.savefig("profile.pdf")                                        # doctest: +SKIP
+    """
+    ax = _axes(ax)
+    data = profile_data(df, tol, budget).get(problem)
+    if data is None:
+        ax.text(0.5, 0.5, f"no {problem} runs", ha="center", transform=ax.transAxes)
+        ax.set_axis_off()
+        return ax
+    ratios = data["ratios"]
+    finite = [r[np.isfinite(r)] for r in ratios.values()]
+    top = max([float(f.max()) for f in finite if f.size] + [2.0]) * 1.5
+    tau = np.geomspace(1.0, top, 400)
+    methods = dict(zip(df["method_label"], df["method"])) if "method" in df.columns else {}
+    for j, (label, r) in enumerate(ratios.items()):
+        colour, marker = method_style(label, methods.get(label))
+        y = rho(r, tau)
+        # markers staggered between methods, so that coinciding curves (e.g. all at 0) stay told apart
+        ax.step(tau, y, where="post", color=colour, lw=1.4, label=label, marker=marker,
+                markevery=((17 * j) % 80, 80), ms=5)
+    ax.set_xscale("log", base=2)
+    ax.set_ylim(-0.02, 1.02)
+    ax.set_xlim(1.0, top)
+    ax.set_xlabel(r"$\tau$ (solve time within $\tau\times$ the fastest)")
+    ax.set_ylabel(r"$\rho(\tau)$: fraction of cases solved")
+    ax.set_title(f"{problem} problem ({len(data['cases'])} case{'s' if len(data['cases']) != 1 else ''})")
+    ax.grid(True, alpha=0.3)
+    if legend:  # beside the axes: the curves run along the bottom and right edges
+        ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), frameon=False)
+    return ax
+
+
+def plot_profiles(df, path: str | Path | None = None, tol: float = SOLVED_TOL, *, fig=None,
+                  budget: float | Mapping[str, float] | None = None):
+    """Dolan--Moré performance profiles, one panel per problem (:func:`performance_profile`), in the methods'
+    fixed styles, with the definition of "solved" and the budgets under the panels.
+
+    Returns the figure, or with ``path`` the path of the PNG written there (the comparator's use).
+    """
+    data = profile_data(df, tol, budget)
+    problems = [p for p in ("associative", "non-associative") if p in data]
+    n = max(len(problems), 1)
+    fig = _figure(fig, figsize=(6.4 * n, 4.6))
+    grid = fig.add_gridspec(2, n, height_ratios=[1.0, 0.16])
+    axes = [fig.add_subplot(grid[0, j]) for j in range(n)]
+    for ax, problem in zip(axes, problems):
+        performance_profile(df, problem, ax=ax, tol=tol, budget=budget)
+    if not problems:
+        axes[0].text(0.5, 0.5, "no runs", ha="center", transform=axes[0].transAxes)
+    notes = fig.add_subplot(grid[1, :])
+    notes.set_axis_off()
+    budgets = {c: b for d in data.values() for c, b in d["budgets"].items()}
+    width = int(fig.get_figwidth() * 16)  # characters of 7-point text across the figure
+    notes.text(0.0, 1.0, _wrap(solved_definition(tol), width) + "\n" + _wrap(budget_text(budgets, budget is not None),
+                                                                           width),
+               transform=notes.transAxes, va="top", ha="left", fontsize=7, color="0.3")
+    fig.suptitle("Performance profiles")
+    return _save(fig, path) if path is not None else fig

@@ -58,13 +58,12 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping
-from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from blockmpec import OptionError
-from blockmpec.bench.compare import MATCH_TOL, _finite, _true, relative_error
+from blockmpec.bench.runs import MATCH_TOL, _finite, _true, relative_error
 
 #: shift of the shifted geometric mean of times [s] (our solves take milliseconds to minutes)
 SHIFT_S = 0.01
@@ -277,97 +276,3 @@ def summary_text(table, tol: float = SOLVED_TOL, shift: float = SHIFT_S) -> str:
                      f"{r['sgm_time_s']:>14.3g}{r['sgm_time_ratio']:>9.3g}{err:>14}")
     lines.append("median error: the median signed rel_error of the method's runs (negative: below the reference)")
     return "\n".join(lines)
-
-
-def performance_profile(df, problem: str = "non-associative", *, ax=None, tol: float = SOLVED_TOL,
-                        budget: float | Mapping[str, float] | None = None, legend: bool = True):
-    """Draw the Dolan--Moré performance profile of one problem into ``ax`` (see the module docstring).
-
-    Parameters
-    ----------
-    df : pandas.DataFrame
-        A comparison table (:func:`blockmpec.bench.compare.compare`).
-    problem : {"associative", "non-associative"}
-    ax : matplotlib.axes.Axes, optional
-        Where to draw (default: a new figure).
-    tol, budget
-        As for :func:`solved`.
-    legend : bool
-        Add a legend of the methods.
-
-    Returns
-    -------
-    matplotlib.axes.Axes
-
-    Examples
-    --------
-    >>> import matplotlib.pyplot as plt
-    >>> fig, ax = plt.subplots()                                          # doctest: +SKIP
-    >>> performance_profile(df, "non-associative", ax=ax)                 # doctest: +SKIP
-    >>> fig.savefig("profile.pdf")                                        # doctest: +SKIP
-    """
-    from blockmpec.bench.plots import _axes, method_style
-
-    ax = _axes(ax)
-    data = profile_data(df, tol, budget).get(problem)
-    if data is None:
-        ax.text(0.5, 0.5, f"no {problem} runs", ha="center", transform=ax.transAxes)
-        ax.set_axis_off()
-        return ax
-    ratios = data["ratios"]
-    finite = [r[np.isfinite(r)] for r in ratios.values()]
-    top = max([float(f.max()) for f in finite if f.size] + [2.0]) * 1.5
-    tau = np.geomspace(1.0, top, 400)
-    methods = dict(zip(df["method_label"], df["method"])) if "method" in df.columns else {}
-    for j, (label, r) in enumerate(ratios.items()):
-        colour, marker = method_style(label, methods.get(label))
-        y = rho(r, tau)
-        # markers staggered between methods, so that coinciding curves (e.g. all at 0) stay told apart
-        ax.step(tau, y, where="post", color=colour, lw=1.4, label=label, marker=marker,
-                markevery=((17 * j) % 80, 80), ms=5)
-    ax.set_xscale("log", base=2)
-    ax.set_ylim(-0.02, 1.02)
-    ax.set_xlim(1.0, top)
-    ax.set_xlabel(r"$\tau$ (solve time within $\tau\times$ the fastest)")
-    ax.set_ylabel(r"$\rho(\tau)$: fraction of cases solved")
-    ax.set_title(f"{problem} problem ({len(data['cases'])} case{'s' if len(data['cases']) != 1 else ''})")
-    ax.grid(True, alpha=0.3)
-    if legend:  # beside the axes: the curves run along the bottom and right edges
-        ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), frameon=False)
-    return ax
-
-
-def plot_profiles(df, path: str | Path | None = None, tol: float = SOLVED_TOL, *, fig=None,
-                  budget: float | Mapping[str, float] | None = None):
-    """Dolan--Moré performance profiles, one panel per problem (:func:`performance_profile`), in the methods'
-    fixed styles, with the definition of "solved" and the budgets under the panels.
-
-    Returns the figure, or with ``path`` the path of the PNG written there (the comparator's use).
-    """
-    from blockmpec.bench.plots import _figure, _save
-
-    data = profile_data(df, tol, budget)
-    problems = [p for p in ("associative", "non-associative") if p in data]
-    n = max(len(problems), 1)
-    fig = _figure(fig, figsize=(6.4 * n, 4.6))
-    grid = fig.add_gridspec(2, n, height_ratios=[1.0, 0.16])
-    axes = [fig.add_subplot(grid[0, j]) for j in range(n)]
-    for ax, problem in zip(axes, problems):
-        performance_profile(df, problem, ax=ax, tol=tol, budget=budget)
-    if not problems:
-        axes[0].text(0.5, 0.5, "no runs", ha="center", transform=axes[0].transAxes)
-    notes = fig.add_subplot(grid[1, :])
-    notes.set_axis_off()
-    budgets = {c: b for d in data.values() for c, b in d["budgets"].items()}
-    width = int(fig.get_figwidth() * 16)  # characters of 7-point text across the figure
-    notes.text(0.0, 1.0, _wrap(solved_definition(tol), width) + "\n" + _wrap(budget_text(budgets, budget is not None),
-                                                                           width),
-               transform=notes.transAxes, va="top", ha="left", fontsize=7, color="0.3")
-    fig.suptitle("Performance profiles")
-    return _save(fig, path) if path is not None else fig
-
-
-def _wrap(text: str, width: int = 150) -> str:
-    import textwrap
-
-    return "\n".join(textwrap.wrap(text, width))

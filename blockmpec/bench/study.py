@@ -314,7 +314,7 @@ def _unknown(keys, allowed, where: str) -> None:
 
 def load_study(path: str | Path) -> Study:
     """Read a study file (format in the module docstring); every error names the file and the entry."""
-    from blockmpec.bench.compare import CaseRun, MethodRun, parametrised_label
+    from blockmpec.bench.runs import CaseRun, MethodRun, parametrised_label
 
     try:
         import tomllib
