@@ -6,8 +6,8 @@ along their mechanism the multiplier falls (a rocking block's ``lam = tan(alpha 
 (:mod:`blockmpec.contacts`: edge-to-edge interfaces and vertex-to-edge point contacts), solves
 the limit problem with any registered method (``static-lp`` for the associative problem,
 ``fixed-point`` for the non-associative one, ...) through :func:`blockmpec.solve`, whose
-verifier checks every step, and moves the blocks along the mechanism found, so far that the
-control point advances by one step.
+verifier checks every configuration, and moves the blocks along the mechanism found, so far
+that the control point advances by one step.
 
 The step
 --------
@@ -24,22 +24,41 @@ one ``s`` for all blocks, solved (Brent) so that the control point's displacemen
 live load, ``e . (q - q_0)`` with ``e = (+-1, 0)``, reaches the next multiple of the step
 ``max_displacement / steps``.
 
-Blocks that turn about different centres drift apart at their common hinges by
-``O(s^2)`` per step.  So after the move the contacts the mechanism keeps closed are closed again
-by a least-norm correction (Gauss-Newton, ``lsqr``): a contact point is kept closed when its
-normal velocity is what the flow rule's dilatancy gives its slip, ``v_n <= tan(psi) |v_t|``
-(``tan(phi)`` for the associative problem: the associative flow's dilatancy is a rate of the
-limit state, and a sliding joint does not climb by ``tan(phi)`` times its slip; a sliding block
-stays on its support), and it is also held against slipping when ``v_t = 0`` (a hinge).  Contacts
-that open are left to open.  If the move makes two blocks overlap by more than the contact
-tolerance (a corner closing onto another block), the step is cut back by bisection to the
-moment they touch, recorded as an extra row, and the next step resumes towards the same target.
+Second-order correction
+-----------------------
+Blocks that turn about different centres drift apart at their common hinges by ``O(s^2)``, and a
+corner can dip into a face it slides along.  So the move is followed by a least-norm correction
+of the block positions (Gauss-Newton, damped ``lsqr``; :func:`_close_contacts`) in which
 
-The curve ends at ``max_displacement``, when ``lam <= 0`` (the structure no longer stands under
-its dead load in that configuration; the displacement where ``lam`` crosses 0 is interpolated
-into ``attrs["ultimate_displacement"]``), when a solve fails (its status is the last row's), when
-a free block loses every contact, or when the control point no longer advances along the live
-load.
+* every *hinge* (a touching point whose relative velocity is zero) keeps its gap and does not slip;
+* every other touching point may open but not overlap beyond its gap at the start of the step
+  (an active set);
+* the control point keeps its advance;
+* *sliding* points (``v_n <= tan(psi) |v_t|``: they open by no more than the flow rule's
+  dilatancy, ``tan(phi)`` for the associative problem) keep their gap as far as the rest allows
+  (weighted rows, then the hard rows restored): a block sliding on its support stays on it, and
+  an associative mechanism that needs its dilatancy (a running-bond wall) keeps the part it needs.
+
+A step whose correction cannot meet the hinges and the advance is halved (``event = "substep"``).
+If the move makes two blocks overlap deeper than the contact tolerance (a corner closing onto
+another block), the step is cut back by bisection to the moment they touch (``"contact"``).  Either
+way the next row resumes towards the same target.
+
+When no multiplier holds a configuration
+----------------------------------------
+If the solve fails, a small LP looks for a mechanism ``u`` with ``E^T u + N_u z_u + N_f z_f = 0``,
+``z >= 0``, ``f_l^T u = 0`` and ``f_d^T u > 0`` (:func:`_dead_load_mechanism`): by Farkas' lemma it
+exists exactly when the static LP is infeasible, and it is the proof.  The structure then falls
+along it, whatever ``lam`` is, until a contact closes (``"snap"`` rows, multiplier NaN): an arch
+whose thrust line leaves a joint between its pinned hinges snaps through, closing the opened
+wedge of one hinge, and goes on.  Snaps that move a vertex by more than half the smallest
+block's shorter side without reaching a configuration that stands are a collapse: the curve
+ends.  Without such a proof the method failed where an answer exists; :data:`RETRY_OPTIONS` are
+tried, and the curve ends with the failure if none succeeds.
+
+The curve ends at ``max_displacement``, when ``lam <= 0`` (the displacement where ``lam`` crosses 0
+is interpolated into ``attrs["ultimate_displacement"]``), at a collapse, when a solve fails, or when
+the control point no longer advances along the live load.
 """
 
 from __future__ import annotations
@@ -70,6 +89,9 @@ MAX_ROWS_PER_STEP = 10
 
 #: Bisections of a step at a contact event.
 MAX_BISECTIONS = 60
+
+#: Bisections of a step that ends where no ``lam`` holds the structure, to find where it stops standing.
+INSTABILITY_BISECTIONS = 10
 
 #: Options tried in turn, per method, when a moved configuration's solve fails (those the caller set are
 #: not overridden).  The fixed point's default "dead-load" start needs the configuration to stand at
@@ -568,6 +590,8 @@ def pushover(
     target_step = 0
     event = "start"
     snaps, snap_motion = 0, 0.0
+    last_push = None  # (poses of a step as a function of s, the s taken) of the last push step
+    pending = None  # poses just past an instability, to go to after recording the last ones that stand
 
     def record(res, contacts, elapsed, retried=""):
         q = None if control_block is None else _place(control_point[None, :], np.array([control_block]),
@@ -619,6 +643,18 @@ def pushover(
                     continue
                 res = solve(ops, method, verify_tol=verify_tol, **{**options, **retry})
                 retried = ",".join(f"{k}={v}" for k, v in retry.items())
+        if fall is not None and last_push is not None:
+            # the step went past the configuration where the structure stops standing: cut it back there
+            before, after = _cut_at_instability(structure, fixed, last_push, c0, contact_tolerance, contact_length)
+            last_push = None
+            if before is not None:
+                poses, pending, event = before, after, "instability"
+                displacement = control_at(poses)
+                continue
+            poses = after
+            displacement = control_at(poses)
+            continue
+        last_push = None
         if direction is None:
             direction = float(ops.mirror)
             e = np.array([direction, 0.0])
@@ -636,6 +672,10 @@ def pushover(
             if res.multiplier <= 0:
                 stop_reason = "the load multiplier reached 0"
                 break
+            if pending is not None:  # just past the instability, where the structure falls
+                poses, pending, event = pending, None, "step"
+                displacement = control_at(poses)
+                continue
             if target_step >= steps:
                 break
             twist = _mechanism(ops, res.solution.u, n)
@@ -692,7 +732,7 @@ def pushover(
         cut_trial = lambda s: trial(s)[0]  # noqa: E731
         overlap = _overlaps(structure, new, c0, contact_tolerance)
         if overlap is not None:
-            new = _cut_at_contact(structure, cut_trial, s_full, overlap, c0, contact_tolerance)
+            new, s_full = _cut_at_contact(structure, cut_trial, s_full, overlap, c0, contact_tolerance)
             if new is None:
                 stop_reason = "blocks overlap and the step could not be cut back to their contact"
                 break
@@ -701,6 +741,8 @@ def pushover(
             target_step += 1
         if event == "snap":
             snap_motion += float(np.max(np.linalg.norm(_vertices(structure, new, c0) - vertices, axis=-1)))
+        else:
+            last_push = (cut_trial, s_full)
         poses = new
         displacement = control_at(poses)
         target_step = max(target_step, min(steps, int(math.floor(displacement / step_size + 1e-6))))
@@ -763,9 +805,36 @@ def _cut_at_contact(structure, trial, s_full, overlap, c0, tolerance):
         sep_a, _, sep_b, _ = pair_separation(_vertices(structure, poses, c0), structure.n_vertices, a, b)
         gap = np.maximum(sep_a, sep_b) / np.minimum(side[a], side[b])
         if np.all(gap <= tolerance):
-            return poses
+            return poses, mid
         lo = mid
-    return None
+    return None, None
+
+
+def _stands(structure: Structure, poses: _Poses, c0: np.ndarray, tolerance: float, length: float) -> bool:
+    """Whether some ``lam`` holds the configuration (no dead-load mechanism, :func:`_dead_load_mechanism`)."""
+    from blockmpec.operators import assemble
+
+    vertices = _vertices(structure, poses, c0)
+    contacts = find_contacts(vertices, structure.n_vertices, structure.fixed, tolerance=tolerance,
+                             contact_length=length)
+    if _lonely_block(structure, contacts) is not None:
+        return False
+    return _dead_load_mechanism(assemble(_contact_structure(structure, vertices, contacts))) is None
+
+
+def _cut_at_instability(structure, fixed, last_push, c0, tolerance, length):
+    """``(before, after)``: poses of the last step cut back to the last configuration that stands
+    (None when that is where the step started) and just past it, by :data:`INSTABILITY_BISECTIONS`
+    bisections of ``s``."""
+    trial, s_used = last_push
+    lo, hi = 0.0, s_used
+    for _ in range(INSTABILITY_BISECTIONS):
+        mid = 0.5 * (lo + hi)
+        if _stands(structure, trial(mid), c0, tolerance, length):
+            lo = mid
+        else:
+            hi = mid
+    return (trial(lo) if lo > 0 else None), trial(hi)
 
 
 def _ultimate(curve) -> float | None:
