@@ -39,6 +39,7 @@ from blockmpec.errors import (
 )
 from blockmpec.geometry import Interfaces, PointLoad, Structure, make_structure
 from blockmpec.operators import Operators, assemble
+from blockmpec.pushover import pushover
 from blockmpec.registry import get_solver, list_solvers, register_solver
 from blockmpec.result import Result, Solution, Status
 from blockmpec.solver import RunOutput, SolverBase, solve
@@ -50,7 +51,7 @@ __all__ = [
     "BlockmpecError", "GeometryError", "Interfaces", "Operators", "OptionError", "PointLoad", "PrecisionWarning", "Result",
     "RunOutput", "Solution", "SolverBase", "SolverUnavailableError", "Status", "Structure", "StructureError",
     "StructureFileError", "UnknownNameError", "Units", "assemble", "build_case", "cases", "get_solver", "list_solvers",
-    "load_structure", "make_structure", "register_solver", "residuals", "save_structure", "solve",
+    "load_structure", "make_structure", "pushover", "register_solver", "residuals", "save_structure", "solve",
     "structure_from_dict", "structure_to_dict",
 ]
 __version__ = "0.1.0"

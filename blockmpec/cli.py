@@ -1,4 +1,4 @@
-"""Command line: ``blockmpec solve | export | cases | methods | compare``.
+"""Command line: ``blockmpec solve | export | cases | methods | compare | pushover``.
 
 The spellings here are a contract with scripts outside this repo: extend, never rename.
 Errors go to stderr as one line, with exit code 2 (bad input) or 3 (internal error),
@@ -10,8 +10,9 @@ Exit codes
 2 = bad input or usage; 3 = internal error.  ``compare``: 0 when every run finished,
 whatever the statuses; 2 = bad input (every value, including the output folder, is
 checked before any solve runs); 130 after Ctrl-C (143 after SIGTERM), once the finished
-rows are saved.  ``export``, ``cases``, ``methods``: 0, 2 or 3.  Any command whose output's reader
-has gone (``blockmpec methods | head``) stops quietly with 141, the shell's code for a SIGPIPE.
+rows are saved.  ``pushover``: 0 when every curve's undeformed structure was solved, whatever
+ended the curve (:mod:`blockmpec.pushover`), 1 otherwise.  ``export``, ``cases``, ``methods``: 0, 2 or 3.
+Any command whose output's reader has gone (``blockmpec methods | head``) stops quietly with 141, the shell's code for a SIGPIPE.
 """
 
 from __future__ import annotations
@@ -473,6 +474,10 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--no-figures", action="store_true", help="write the tables only")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=cmd_compare)
+
+    from blockmpec.pushover import add_parser as add_pushover_parser
+
+    add_pushover_parser(sub)
     return parser
 
 
