@@ -98,9 +98,11 @@ INSTABILITY_BISECTIONS = 10
 #: not overridden).  The fixed point's default "dead-load" start needs the configuration to stand at
 #: lam = 0; a moved one often stands only at its lam > 0 (a block on its toe), and HiGHS then fails
 #: without saying "infeasible"; its simplex engine also fails now and then on moved walls where the
-#: interior engine converges.
+#: interior engine converges.  HiGHS's dual simplex (``static-lp``'s choice for small LPs) now and then
+#: stops with status "Not Set" on a moved wall that its primal simplex and interior point solve.
 RETRY_OPTIONS: dict[str, tuple[dict[str, Any], ...]] = {
     "fixed-point": ({"start": "associative"}, {"engine": "interior"}),
+    "static-lp": ({"algorithm": "primal-simplex"}, {"algorithm": "ipm"}),
 }
 
 #: Consecutive dead-load moves (snaps) before the curve stops.
@@ -704,9 +706,9 @@ def pushover(
             snaps += 1
         else:
             stop_reason = f"{method} did not succeed: {res.status.value}" + (f" ({res.message})" if res.message else "")
-            if snaps:
-                stop_reason += (f"; {snaps} moves under the dead load (up to {snap_motion:.3g}) reached no "
-                                "configuration that stands: the structure collapses")
+            if fall is not None and snaps:
+                stop_reason = (f"the structure collapses: no lam holds it, and {snaps} moves under its dead load "
+                               f"(up to {snap_motion:.3g}) reached no configuration that stands")
             break
 
         push = event == "step"
