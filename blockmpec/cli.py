@@ -184,6 +184,15 @@ def cmd_export(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_pushover(args: argparse.Namespace) -> int:
+    from blockmpec.pushover import run_command
+    from blockmpec.study import check_tolerance
+
+    verify_tol = check_tolerance(args.verify_tol)
+    pairs = parse_pairs(args.option, "-O")
+    return run_command(args, lambda: load_case(args.case, parse_pairs(args.param, "-p")), pairs, verify_tol)
+
+
 def cmd_cases(args: argparse.Namespace) -> int:
     for spec in CASES.values():
         print(f"{spec.name}: {spec.summary}")
@@ -477,7 +486,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     from blockmpec.pushover import add_parser as add_pushover_parser
 
-    add_pushover_parser(sub)
+    add_pushover_parser(sub, cmd_pushover)
     return parser
 
 

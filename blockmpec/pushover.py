@@ -866,8 +866,8 @@ def block_polygons(structure: Structure, curve, row: int) -> list[np.ndarray]:
 # --------------------------------------------------------------------------- command line
 
 
-def add_parser(sub) -> None:
-    """Add ``blockmpec pushover`` to the CLI's subparsers (:mod:`blockmpec.cli`)."""
+def add_parser(sub, command) -> None:
+    """Add ``blockmpec pushover`` to the CLI's subparsers (:mod:`blockmpec.cli`), run by ``command(args)``."""
     p = sub.add_parser("pushover", help="capacity curve: the load multiplier as the structure moves along its "
                        "mechanism (incremental limit analysis)")
     p.add_argument("case", help="built-in case name or structure file (.json)")
@@ -899,7 +899,7 @@ def add_parser(sub) -> None:
                         "FILE-METHOD.gif, when several")
     p.add_argument("--length-unit", default="length unit", help="the structure's length unit, for the axis label")
     p.add_argument("--verify-tol", default=1e-6, help="largest residual accepted as success (finite, > 0)")
-    p.set_defaults(func=run_command)
+    p.set_defaults(func=command)
 
 
 def _parse_control(text: str | None):
@@ -939,20 +939,21 @@ def _output_path(text: str, default_dir: Path, suffixes: tuple[str, ...], flag: 
     return path
 
 
-def run_command(args) -> int:
-    """``blockmpec pushover``: curves, CSV, figure and animation; 0 when every curve's undeformed
-    structure was solved (whatever ended the curve), 1 otherwise (bad input raises: exit 2)."""
+def run_command(args, load, option_pairs: dict[str, Any], verify_tol: float) -> int:
+    """``blockmpec pushover``: curves, CSV, figure and animation.
+
+    ``load()`` builds the structure (after every option is checked), ``option_pairs`` are the parsed
+    ``-O`` pairs and ``verify_tol`` the checked ``--verify-tol`` (:mod:`blockmpec.cli` parses them).
+    Returns 0 when every curve's undeformed structure was solved, whatever ended the curve, else 1;
+    bad input raises (exit 2)."""
     import pandas as pd
 
-    from blockmpec.cli import load_case, parse_pairs
     from blockmpec.registry import get_solver
-    from blockmpec.study import check_tolerance
 
-    verify_tol = check_tolerance(args.verify_tol)
     methods = [m.strip() for m in args.method.split(",") if m.strip()]
     if not methods:
         raise OptionError("--method: give at least one method")
-    options = _method_options(methods, parse_pairs(args.option, "-O"))
+    options = _method_options(methods, option_pairs)
     for m in methods:
         get_solver(m)(**options[m])
     control = _parse_control(args.control)
@@ -968,7 +969,7 @@ def run_command(args) -> int:
         if not mpl_animation.writers.is_available("ffmpeg"):
             raise OptionError(f"--animation {animation_path}: an MP4 needs ffmpeg, which is not installed; "
                               "write a .gif instead")
-    structure = load_case(args.case, parse_pairs(args.param, "-p"))
+    structure = load()
     # every input is checked (pushover raises on a bad control or step) before any file is written
     curves = {}
     for m in methods:
