@@ -85,7 +85,8 @@ CURVE_COLUMNS = ("step", "displacement", "rotation", "multiplier", "status", "ev
 #: this fraction of the mechanism's largest vertex speed (the solvers' duals are exact to ~1e-9).
 VELOCITY_TOL = 1e-6
 
-#: At most this many solves per requested step (extra rows come from steps cut at contact events).
+#: At most this many solves per requested step (extra rows come from halved steps, steps cut at contact
+#: events and at instabilities, and snaps).
 MAX_ROWS_PER_STEP = 10
 
 #: Bisections of a step at a contact event.
@@ -559,6 +560,7 @@ def pushover(
     if isinstance(steps, bool) or not isinstance(steps, (int, np.integer)) or steps < 1:
         raise OptionError(f"steps: must be an integer >= 1; got {steps!r}")
     steps = int(steps)
+    verify_tol = _check_number("verify_tol", verify_tol)
     contact_tolerance = _check_number("contact_tolerance", contact_tolerance)
     contact_length = _check_number("contact_length", contact_length)
     if contact_tolerance > 0.1:
@@ -603,8 +605,8 @@ def pushover(
             "step": len(rows),
             "displacement": displacement,
             "rotation": np.nan if control_block is None else float(poses.angle[control_block]),
-            "multiplier": float(res.multiplier) if res is not None and res.success else np.nan,
-            "status": "no contact" if res is None else res.status.value,
+            "multiplier": float(res.multiplier) if res.success else np.nan,
+            "status": res.status.value,
             "event": event,
             "control_x": np.nan if q is None else float(q[0]),
             "control_y": np.nan if q is None else float(q[1]),
@@ -619,6 +621,10 @@ def pushover(
             row[f"block_{i}_y"] = float(centre[i, 1])
             row[f"block_{i}_angle"] = float(poses.angle[i])
         rows.append(row)
+
+    def reached(d: float) -> int:
+        """The steps completed at the control displacement ``d`` (the next row aims at the next one)."""
+        return min(steps, max(0, int(math.floor(d / step_size + 1e-6))))
 
     def control_at(p: _Poses) -> float:
         return float(e @ (_place(control_point[None, :], np.array([control_block]), p, c0)[0] - control_point))
@@ -652,10 +658,10 @@ def pushover(
             last_push = None
             if before is not None:
                 poses, pending, event = before, after, "instability"
-                displacement = control_at(poses)
-                continue
-            poses = after
+            else:
+                poses = after
             displacement = control_at(poses)
+            target_step = reached(displacement)
             continue
         last_push = None
         if direction is None:
@@ -678,6 +684,7 @@ def pushover(
             if pending is not None:  # just past the instability, where the structure falls
                 poses, pending, event = pending, None, "step"
                 displacement = control_at(poses)
+                target_step = reached(displacement)
                 continue
             if target_step >= steps:
                 break
@@ -740,15 +747,13 @@ def pushover(
                 stop_reason = "blocks overlap and the step could not be cut back to their contact"
                 break
             event = "contact" if event in ("step", "substep") else event
-        elif event == "step":
-            target_step += 1
         if event == "snap":
             snap_motion += float(np.max(np.linalg.norm(_vertices(structure, new, c0) - vertices, axis=-1)))
         else:
             last_push = (cut_trial, s_full)
         poses = new
         displacement = control_at(poses)
-        target_step = max(target_step, min(steps, int(math.floor(displacement / step_size + 1e-6))))
+        target_step = reached(displacement)
 
     curve = pd.DataFrame(rows)
     curve.attrs.update(
