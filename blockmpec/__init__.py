@@ -44,6 +44,7 @@ from blockmpec.errors import (
 )
 from blockmpec.geometry import Interfaces, PointLoad, Structure, make_structure
 from blockmpec.operators import Operators, assemble
+from blockmpec.pushover import pushover
 from blockmpec.registry import get_solver, list_solvers, register_solver
 from blockmpec.report import StructureMap, forces_frame, mechanism_frame
 from blockmpec.result import Result, RunOutput, Solution, Status
@@ -57,7 +58,8 @@ __all__ = [
     "RunOutput", "Solution", "SolverBase", "SolverUnavailableError", "Status", "Structure", "StructureError",
     "StructureFileError", "StructureMap", "UnknownNameError", "Units", "assemble", "build_case", "cases",
     "forces_frame", "get_solver", "list_solvers", "load_structure", "make_structure", "mechanism_frame", "plot",
-    "register_solver", "residuals", "run_solver", "save_structure", "solve", "structure_from_dict", "structure_to_dict",
+    "pushover", "register_solver", "residuals", "run_solver", "save_structure", "solve", "structure_from_dict",
+    "structure_to_dict",
 ]
 
 try:  # the installed distribution's version (pyproject.toml), so that one number is kept in one place

@@ -1,4 +1,4 @@
-"""Command line: ``blockmpec solve | export | cases | methods | compare`` (and ``blockmpec --version``).
+"""Command line: ``blockmpec solve | export | cases | methods | compare | pushover`` (and ``blockmpec --version``).
 
 ``blockmpec methods --json`` prints every method's name, problem, summary, availability and user-facing options
 (name, type, default, help) as one JSON list (:func:`method_listing`).
@@ -13,8 +13,9 @@ Exit codes
 2 = bad input or usage; 3 = internal error.  ``compare``: 0 when every run finished,
 whatever the statuses; 2 = bad input (every value, including the output folder, is
 checked before any solve runs); 130 after Ctrl-C (143 after SIGTERM), once the finished
-rows are saved.  ``export``, ``cases``, ``methods``: 0, 2 or 3.  Any command whose output's reader
-has gone (``blockmpec methods | head``) stops quietly with 141, the shell's code for a SIGPIPE.
+rows are saved.  ``pushover``: 0 when every curve's undeformed structure was solved, whatever
+ended the curve (:mod:`blockmpec.pushover`), 1 otherwise.  ``export``, ``cases``, ``methods``: 0, 2 or 3.
+Any command whose output's reader has gone (``blockmpec methods | head``) stops quietly with 141, the shell's code for a SIGPIPE.
 """
 
 from __future__ import annotations
@@ -160,6 +161,15 @@ def cmd_export(args: argparse.Namespace) -> int:
         raise OptionError(f"-o {args.output}: cannot write ({exc.strerror or exc})") from None
     print(f"wrote {args.output} ({structure.n_blocks} blocks, {len(structure.interfaces)} interfaces)")
     return 0
+
+
+def cmd_pushover(args: argparse.Namespace) -> int:
+    from blockmpec.bench.study import check_tolerance
+    from blockmpec.pushover_cli import run_command
+
+    verify_tol = check_tolerance(args.verify_tol)
+    pairs = parse_pairs(args.option, "-O")
+    return run_command(args, lambda: load_case(args.case, parse_pairs(args.param, "-p")), pairs, verify_tol)
 
 
 def cmd_cases(args: argparse.Namespace) -> int:
@@ -541,6 +551,10 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--no-figures", action="store_true", help="write the tables only")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=cmd_compare)
+
+    from blockmpec.pushover_cli import add_parser as add_pushover_parser
+
+    add_pushover_parser(sub, cmd_pushover)
     return parser
 
 

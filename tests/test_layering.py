@@ -44,9 +44,9 @@ LAYERS = [
     ("blockmpec.solvers.engines", "blockmpec.solvers.plan"),
     ("blockmpec.method", "blockmpec.registry"),
     ("blockmpec.solvers",),
-    ("blockmpec.solver", "blockmpec.pushover", "blockmpec.plot", "blockmpec"),
+    ("blockmpec.solver", "blockmpec.pushover", "blockmpec.pushover_plot", "blockmpec.plot", "blockmpec"),
     ("blockmpec.bench",),
-    ("blockmpec.cli", "blockmpec.__main__"),
+    ("blockmpec.cli", "blockmpec.pushover_cli", "blockmpec.__main__"),
 ]
 
 
