@@ -1,4 +1,4 @@
-"""Command line: ``blockmpec solve | export | cases | methods | compare``.
+"""Command line: ``blockmpec solve | export | import | cases | methods | compare``.
 
 The spellings here are a contract with scripts outside this repo: extend, never rename.
 Errors go to stderr as one line, with exit code 2 (bad input) or 3 (internal error),
@@ -103,6 +103,10 @@ def load_case(case: str, params: dict[str, Any]) -> Structure:
         except (TypeError, ValueError, ArithmeticError, IndexError, KeyError) as exc:
             raise OptionError(f"case {case!r} with {params}: {type(exc).__name__}: {exc}") from None
     path = Path(case)
+    from blockmpec.drawings import is_drawing, read_structure
+
+    if is_drawing(path):  # DXF, SVG or image: -p sets the reader's options (blockmpec import --help)
+        return read_structure(path, **params)
     if path.suffix.lower() == ".json" or path.exists():
         structure = load_structure(path)
         unknown = sorted(set(params) - {"mu", "dilatancy"})
@@ -110,7 +114,8 @@ def load_case(case: str, params: dict[str, Any]) -> Structure:
             raise OptionError(f"structure file {case}: only mu and dilatancy can be set with -p; got {unknown[0]!r}")
         check_case_params(case, params, {"mu": None, "dilatancy": None})
         return structure.with_material(params.get("mu"), params.get("dilatancy"))
-    raise OptionError(f"unknown case {case!r}: not a built-in case ({', '.join(CASES)}) nor a structure file")
+    raise OptionError(f"unknown case {case!r}: not a built-in case ({', '.join(CASES)}) nor a structure file "
+                      "(.json) nor a drawing (.dxf, .svg, an image)")
 
 
 def _format_result(label: str, r: Result) -> str:
@@ -153,6 +158,10 @@ def cmd_solve(args: argparse.Namespace) -> int:
     params = parse_pairs(args.param, "-p")
     options = parse_pairs(args.option, "-O")
     get_solver(args.method)(**options)  # unknown method / bad option: exit 2 before building anything
+    if args.export_drawing:
+        from blockmpec.drawings.export import check_export_path
+
+        check_export_path(args.export_drawing)
     structure = load_case(args.case, params)
     with _stdout_to_stderr() if args.json else contextlib.nullcontext():
         result = solve(structure, args.method, verify_tol=verify_tol, **options)
@@ -165,6 +174,12 @@ def cmd_solve(args: argparse.Namespace) -> int:
         print(_format_result(args.case, result))
         for name, value in result.residuals.items():
             print(f"  {name:28s} {value:.3e}")
+    if args.export_drawing:
+        from blockmpec.drawings import export_drawing, is_drawing
+
+        written = export_drawing(structure, result, args.export_drawing,
+                                 source=args.case if is_drawing(args.case) else None)
+        print(f"wrote {written}", file=sys.stderr if args.json else sys.stdout)
     return 0 if result.success else 1
 
 
@@ -181,6 +196,40 @@ def cmd_export(args: argparse.Namespace) -> int:
         raise OptionError(f"-o {args.output}: cannot write ({exc.strerror or exc})") from None
     print(f"wrote {args.output} ({structure.n_blocks} blocks, {len(structure.interfaces)} interfaces)")
     return 0
+
+
+def cmd_import(args: argparse.Namespace) -> int:
+    """``blockmpec import DRAWING -o FILE.json``: a drawing or image as a structure file."""
+    from blockmpec.drawings import is_drawing, read_structure
+
+    if not is_drawing(args.drawing):
+        from blockmpec.drawings import SUFFIXES
+
+        raise OptionError(f"{args.drawing}: not a drawing or image (suffixes: {', '.join(SUFFIXES)})")
+    out = Path(args.output)
+    if out.is_dir() or not out.parent.is_dir():
+        raise OptionError(f"-o {args.output}: " + ("is a folder" if out.is_dir() else f"folder {out.parent} does not exist"))
+    structure = read_structure(args.drawing, **parse_pairs(args.param, "-p"))
+    try:
+        save_structure(structure, args.output)
+    except OSError as exc:
+        raise OptionError(f"-o {args.output}: cannot write ({exc.strerror or exc})") from None
+    snapping = structure.metadata.get("snapping", {})
+    moved = len(snapping.get("vertices", []))
+    print(f"wrote {args.output} ({structure.n_blocks} blocks, {int(structure.fixed.sum())} fixed, "
+          f"{len(structure.interfaces)} interfaces; snapped {moved} vertices"
+          + (f", largest move {snapping['largest']:.3g}" if moved else "") + ")")
+    return 0
+
+
+def _import_epilog() -> str:
+    from blockmpec.drawings import READERS, reader_options
+
+    lines = ["options (-p KEY=VALUE) of each kind of file:"]
+    for suffix in (".dxf", ".svg", ".png"):
+        kinds = ", ".join(s for s, r in READERS.items() if r == READERS[suffix])
+        lines.append(f"  {kinds}: " + ", ".join(f"{k}={v!r}" for k, v in reader_options(suffix).items()))
+    return "\n".join(lines)
 
 
 def cmd_cases(args: argparse.Namespace) -> int:
@@ -429,13 +478,22 @@ def build_parser() -> argparse.ArgumentParser:
     sub = parser.add_subparsers(dest="command", required=True)
 
     p = sub.add_parser("solve", help="solve one case with one method")
-    p.add_argument("case", help="built-in case name or structure file (.json)")
+    p.add_argument("case", help="built-in case name, structure file (.json) or drawing (.dxf, .svg, an image)")
     p.add_argument("--method", "-m", required=True, help="method name (see `blockmpec methods`)")
     p.add_argument("-p", "--param", action="append", metavar="KEY=VALUE", help="case parameter")
     p.add_argument("-O", "--option", action="append", metavar="KEY=VALUE", help="method option")
     p.add_argument("--json", action="store_true", help="print one JSON object")
     p.add_argument("--verify-tol", default=1e-6, help="largest residual accepted as success (finite, > 0)")
+    p.add_argument("--export-drawing", metavar="FILE.dxf|FILE.svg", help="draw the mechanism and the interface "
+                   "forces into a DXF or SVG file (a copy of the drawing solved, if it is one)")
     p.set_defaults(func=cmd_solve)
+
+    p = sub.add_parser("import", help="read a drawing (DXF, SVG) or an image of stones into a structure file",
+                       epilog=_import_epilog(), formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("drawing", help="a .dxf, .svg, .png, .tif, .bmp or .npy file")
+    p.add_argument("-o", "--output", required=True, metavar="FILE.json")
+    p.add_argument("-p", "--param", action="append", metavar="KEY=VALUE", help="reader option (see below)")
+    p.set_defaults(func=cmd_import)
 
     p = sub.add_parser("export", help="write a built-in case as a structure file")
     p.add_argument("case")
