@@ -337,7 +337,8 @@ def snap_polygons(vertices: np.ndarray, n_vertices: np.ndarray, snap: float) -> 
         x_before, y_before, x_after, y_after], ...]}``: every vertex of a snapped polygon that is
         not on its block's original outline, with where it was: the block's own vertex that moved
         there (one within ``d``), else the nearest point of the outline (a vertex of a neighbour
-        inserted into an edge).
+        inserted into an edge); and every vertex of the original polygon that is not on the new
+        outline, with the new vertex it went to (one within ``d``), else its nearest point.
 
     Raises
     ------
@@ -388,6 +389,17 @@ def snap_polygons(vertices: np.ndarray, n_vertices: np.ndarray, snap: float) -> 
                 before = shapely.get_coordinates(shapely.shortest_line(polygons[i].exterior, shapely.Point(q[j])))[0]
             moved.append([i, *frame.back(before).tolist(), *frame.back(q[j]).tolist(),
                           float(np.hypot(*(q[j] - before)) * frame.length_scale)])
+        # the block's own vertices that left its outline (moved along an edge of theirs, say)
+        outline = shapely.Polygon(q).exterior
+        lost = shapely.distance(shapely.points(originals[i]), outline)
+        for j in np.flatnonzero(lost > 1e-12 * size[i]):
+            gap = np.hypot(*(q - originals[i][j]).T)
+            after = q[int(np.argmin(gap))] if gap.min() <= distance else shapely.get_coordinates(
+                shapely.shortest_line(outline, shapely.Point(originals[i][j])))[0]
+            entry = [i, *frame.back(originals[i][j]).tolist(), *frame.back(after).tolist(),
+                     float(np.hypot(*(after - originals[i][j])) * frame.length_scale)]
+            if entry[:5] not in [m[:5] for m in moved]:
+                moved.append(entry)
         out.append(frame.back(q))
     record = {
         "snap": snap,

@@ -126,10 +126,12 @@ def read_dxf(
     if isinstance(arc_tolerance, bool) or not isinstance(arc_tolerance, (int, float)) or not 0 < arc_tolerance < 1:
         raise OptionError(f"arc_tolerance: must be a number in (0, 1); got {arc_tolerance!r}")
     p = Path(path)
+    if not p.is_file():
+        raise StructureFileError(f"{p}: cannot read ({'a folder' if p.is_dir() else 'no such file'})")
     try:
         doc = ezdxf.readfile(p)
-    except OSError as exc:
-        raise StructureFileError(f"{p}: cannot read ({exc.strerror or exc})") from None
+    except OSError as exc:  # ezdxf's "is not a DXF file" is an IOError
+        raise StructureFileError(f"{p}: not a readable DXF file ({exc.strerror or exc})") from None
     except ezdxf.DXFStructureError as exc:
         raise StructureFileError(f"{p}: not a valid DXF file ({exc})") from None
     except Exception as exc:  # ezdxf raises several types for broken files
