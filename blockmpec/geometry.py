@@ -1030,6 +1030,9 @@ def make_structure(
     metadata = dict(metadata or {})
     if not (isinstance(snap, (int, float, np.floating)) and np.isfinite(snap) and snap >= 0):
         raise GeometryError(f"snap: must be a finite number >= 0 (a fraction of the median block size); got {snap!r}")
+    if snap > 0 and interfaces is not None:
+        raise GeometryError("snap: snapping moves vertices, so it works with detected interfaces only; "
+                            "give interfaces=None or snap=0")
     if snap > 0:
         snapped, record = snap_polygons(vertices, n_vertices, float(snap))
         vertices, n_vertices = pad_polygons(snapped)
