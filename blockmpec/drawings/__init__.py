@@ -24,10 +24,9 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
+from blockmpec.drawings.export import export_drawing
 from blockmpec.errors import OptionError
 from blockmpec.geometry import Structure
-
-from blockmpec.drawings.export import export_drawing  # noqa: E402  (after the core imports)
 
 #: File suffix -> ``(module, reader)`` of blockmpec.drawings.
 READERS = {
