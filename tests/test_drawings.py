@@ -158,6 +158,7 @@ def test_png_labels_and_binary_png_with_joints(tmp_path):
     assert bm.solve(s, "static-lp").multiplier == pytest.approx(closed_forms(3.0, 0.65)[0], rel=1e-2)
 
 
+@pytest.mark.slow
 def test_rasterised_stone_wall_keeps_its_stones_and_contacts(tmp_path):
     """A stone wall drawn as a label image 80 pixels per stone: the same stones, every contact longer
     than 3 pixels found again, and lam within 2 % of the vector wall's (pixel outlines, simplified)."""
