@@ -1,4 +1,4 @@
-"""Command line: ``blockmpec solve | export | cases | methods | compare | pushover`` (and ``blockmpec --version``).
+"""Command line: ``blockmpec solve | export | import | cases | methods | compare | pushover`` (and ``blockmpec --version``).
 
 ``blockmpec methods --json`` prints every method's name, problem, summary, availability and user-facing options
 (name, type, default, help) as one JSON list (:func:`method_listing`).
@@ -124,6 +124,10 @@ def cmd_solve(args: argparse.Namespace) -> int:
     params = parse_pairs(args.param, "-p")
     options = parse_pairs(args.option, "-O")
     get_solver(args.method)(**options)  # unknown method / bad option: exit 2 before building anything
+    if args.export_drawing:
+        from blockmpec.drawings.export import check_export_path
+
+        check_export_path(args.export_drawing)
     structure = load_case(args.case, params)
     with _stdout_to_stderr() if args.json else contextlib.nullcontext():
         result = solve(structure, args.method, verify_tol=verify_tol, **options)
@@ -145,6 +149,12 @@ def cmd_solve(args: argparse.Namespace) -> int:
             if not args.json:
                 print(f"wrote {path} ({len(table)} {rows})" if len(table) else
                       f"wrote {path} (column names only: the result has no {what})")
+    if args.export_drawing:
+        from blockmpec.drawings import export_drawing, is_drawing
+
+        written = export_drawing(structure, result, args.export_drawing,
+                                 source=args.case if is_drawing(args.case) else None)
+        print(f"wrote {written}", file=sys.stderr if args.json else sys.stdout)
     return 0 if result.success else 1
 
 
@@ -170,6 +180,40 @@ def cmd_pushover(args: argparse.Namespace) -> int:
     verify_tol = check_tolerance(args.verify_tol)
     pairs = parse_pairs(args.option, "-O")
     return run_command(args, lambda: load_case(args.case, parse_pairs(args.param, "-p")), pairs, verify_tol)
+
+
+def cmd_import(args: argparse.Namespace) -> int:
+    """``blockmpec import DRAWING -o FILE.json``: a drawing or image as a structure file."""
+    from blockmpec.drawings import is_drawing, read_structure
+
+    if not is_drawing(args.drawing):
+        from blockmpec.drawings import SUFFIXES
+
+        raise OptionError(f"{args.drawing}: not a drawing or image (suffixes: {', '.join(SUFFIXES)})")
+    out = Path(args.output)
+    if out.is_dir() or not out.parent.is_dir():
+        raise OptionError(f"-o {args.output}: " + ("is a folder" if out.is_dir() else f"folder {out.parent} does not exist"))
+    structure = read_structure(args.drawing, **parse_pairs(args.param, "-p"))
+    try:
+        save_structure(structure, args.output)
+    except OSError as exc:
+        raise OptionError(f"-o {args.output}: cannot write ({exc.strerror or exc})") from None
+    snapping = structure.metadata.get("snapping", {})
+    moved = len(snapping.get("vertices", []))
+    print(f"wrote {args.output} ({structure.n_blocks} blocks, {int(structure.fixed.sum())} fixed, "
+          f"{len(structure.interfaces)} interfaces; snapped {moved} vertices"
+          + (f", largest move {snapping['largest']:.3g}" if moved else "") + ")")
+    return 0
+
+
+def _import_epilog() -> str:
+    from blockmpec.drawings import READERS, reader_options
+
+    lines = ["options (-p KEY=VALUE) of each kind of file:"]
+    for suffix in (".dxf", ".svg", ".png"):
+        kinds = ", ".join(s for s, r in READERS.items() if r == READERS[suffix])
+        lines.append(f"  {kinds}: " + ", ".join(f"{k}={v!r}" for k, v in reader_options(suffix).items()))
+    return "\n".join(lines)
 
 
 def cmd_cases(args: argparse.Namespace) -> int:
@@ -497,7 +541,7 @@ def build_parser() -> argparse.ArgumentParser:
     sub = parser.add_subparsers(dest="command", required=True)
 
     p = sub.add_parser("solve", help="solve one case with one method")
-    p.add_argument("case", help="built-in case name or structure file (.json)")
+    p.add_argument("case", help="built-in case name, structure file (.json) or drawing (.dxf, .svg, an image)")
     p.add_argument("--method", "-m", required=True, help="method name (see `blockmpec methods`)")
     p.add_argument("-p", "--param", action="append", metavar="KEY=VALUE", help="case parameter")
     p.add_argument("-O", "--option", action="append", metavar="KEY=VALUE", help="method option")
@@ -507,7 +551,16 @@ def build_parser() -> argparse.ArgumentParser:
                    "structure's ids, frame and units; see docs/results.md)")
     p.add_argument("--mechanism", metavar="FILE.csv", help="write the collapse mechanism (one row per free block, "
                    "velocities normalised to a live-load power of 1)")
+    p.add_argument("--export-drawing", metavar="FILE.dxf|FILE.svg", help="draw the mechanism and the interface "
+                   "forces into a DXF or SVG file (a copy of the drawing solved, if it is one)")
     p.set_defaults(func=cmd_solve)
+
+    p = sub.add_parser("import", help="read a drawing (DXF, SVG) or an image of stones into a structure file",
+                       epilog=_import_epilog(), formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("drawing", help="a .dxf, .svg, .png, .tif, .bmp or .npy file")
+    p.add_argument("-o", "--output", required=True, metavar="FILE.json")
+    p.add_argument("-p", "--param", action="append", metavar="KEY=VALUE", help="reader option (see below)")
+    p.set_defaults(func=cmd_import)
 
     p = sub.add_parser("export", help="write a built-in case as a structure file")
     p.add_argument("case")
