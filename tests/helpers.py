@@ -20,6 +20,14 @@ def load_study(name: str):
     return module
 
 
+def solve_with(case, method: str, settings: dict | None = None, *, verify_tol: float = 1e-6, **options) -> bm.Result:
+    """:func:`bm.solve` with engine settings: the method's ``Settings(**settings)`` (its experiment knobs, not options)
+    on a configured instance, run by :func:`bm.run_solver`; ``options`` are the method's options as for ``bm.solve``."""
+    cls = bm.get_solver(method)
+    configured = cls(settings=cls.Settings(**settings) if settings else None, **options)
+    return bm.run_solver(configured, case, verify_tol=verify_tol)
+
+
 def two_block_associative(eta: float, mu: float) -> float:
     """Closed-form associative multiplier of the paper's two-block problem (Sect. 3)."""
     return bm.cases.closed_form("two-blocks", "associative", eta=eta, mu=mu)
@@ -128,10 +136,11 @@ def wall_block_ipm_off_path(spread: float, seed: int, courses: int = 10, blocks_
     from blockmpec.formulations import compile_linear, static_lp
     from blockmpec.solvers.engines.block_lp import BlockLP
     from blockmpec.solvers.engines.lp_engine import cold_lp_engine
+    from blockmpec.solvers.engines.scaling import LoadUnits
 
     ops = bm.assemble(bm.cases.wall(courses, blocks_per_course))
     lp = compile_linear(static_lp(ops))
-    ipm = cold_lp_engine(lp, "block-ipm", ops=ops)
+    ipm = cold_lp_engine(lp, "block-ipm", LoadUnits.of(ops))
     assert isinstance(ipm, BlockLP)
     it = ipm.initial_point()
     rng = np.random.default_rng(seed)

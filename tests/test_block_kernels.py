@@ -13,6 +13,7 @@ import blockmpec as bm
 from blockmpec.formulations import compile_linear, static_lp
 from blockmpec.solvers.linalg import block_ipm
 from blockmpec.solvers.linalg.block_ipm import COMPILED_KERNEL_BLOCKS
+from blockmpec.solvers.engines.scaling import LoadUnits
 from blockmpec.solvers.engines.lp_engine import cold_lp_engine
 from helpers import wall_block_ipm_off_path
 
@@ -30,7 +31,7 @@ def test_inverse_blocks_as_accurate_as_lapack(wall_ipm):
     """Gauss-Jordan with partial pivoting inverts every augmented block as accurately as LAPACK's LU (numpy):
     the residual ``M X - I`` of each block is within a small factor of LAPACK's, relative to ``|M| |X|``."""
     ipm, it = wall_ipm
-    M, _ = ipm._block_systems(it)
+    M, _ = ipm.block_systems(it)
     assert np.ptp(np.log10(np.abs(M[M != 0]))) > 6  # the blocks are badly scaled
     compiled, lapack = block_kernels.inverse_blocks(M), np.linalg.inv(M)
 
@@ -56,7 +57,7 @@ def test_inverse_scaled_blocks_are_the_stacked_path_bit_for_bit(wall_ipm):
     the stack ``M`` (numpy) and inverting it, bit for bit, for a symmetric LP and for ``G_dual != G`` (the interior
     fixed point's blocks, ``H^{-1} = H~``), and the IPM's compiled path returns them; a singular block raises."""
     ipm, it = wall_ipm
-    M, sqrt_d = ipm._block_systems(it)
+    M, sqrt_d = ipm.block_systems(it)
     stacked = block_kernels.inverse_blocks(M)
     top_left = np.ascontiguousarray(stacked[:, :ipm.k, :ipm.k])
     X, fused_top_left, H = block_kernels.inverse_scaled_blocks(ipm.g_blocks, ipm.g_dual_blocks, sqrt_d, True)
@@ -108,9 +109,9 @@ def test_max_step_is_numpys(wall_ipm):
     z = 10.0 ** rng.uniform(-8, 2, 1000)
     for dz in (rng.normal(size=1000), np.abs(rng.normal(size=1000)), -1e-12 * z, np.zeros(1000)):
         ipm.settings(kernels="numpy")
-        expected = ipm._max_step(z, dz)
+        expected = ipm.max_step(z, dz)
         ipm.settings(kernels="compiled")
-        assert ipm._max_step(z, dz) == expected == block_kernels.max_step(z, dz)
+        assert ipm.max_step(z, dz) == expected == block_kernels.max_step(z, dz)
     ipm.settings(kernels="auto")
     assert block_kernels.max_step(np.zeros(0), np.zeros(0)) == 1.0
 
@@ -144,7 +145,7 @@ def test_block_product_and_reduced_values_match_numpy(wall_ipm):
 
 
 def _solve(lp, ops, kernels, engine=None):
-    ipm = engine or cold_lp_engine(lp, "block-ipm", ops=ops)
+    ipm = engine or cold_lp_engine(lp, "block-ipm", LoadUnits.of(ops))
     ipm.settings(kernels=kernels)
     assert (ipm.block_kernels is None) == (kernels == "numpy")
     return ipm.solve()
@@ -252,7 +253,7 @@ def test_compiled_products_leave_the_iterates_bit_for_bit():
     lp = compile_linear(static_lp(ops))
     outs, traces = [], []
     for products in (False, True):
-        ipm = cold_lp_engine(lp, "block-ipm", ops=ops)
+        ipm = cold_lp_engine(lp, "block-ipm", LoadUnits.of(ops))
         ipm.settings(kernels="compiled", compiled_products=products)
         assert ipm._products_compiled() is products
         outs.append(ipm.solve())

@@ -23,6 +23,7 @@ from blockmpec.solvers.linalg.cholesky import (
     column_structures,
     structural_pattern,
 )
+from blockmpec.solvers.engines.scaling import LoadUnits
 from blockmpec.solvers.engines.lp_engine import cold_lp_engine
 
 
@@ -90,7 +91,7 @@ def wall_K():
     """K of a 15x30 wall's static LP at a generic interior point (every structural entry nonzero)."""
     ops = bm.assemble(bm.cases.wall(15, 30))
     lp = compile_linear(static_lp(ops))
-    engine = cold_lp_engine(lp, "block-ipm", ops=ops)
+    engine = cold_lp_engine(lp, "block-ipm", LoadUnits.of(ops))
     rng = np.random.default_rng(3)
     p = engine.h.size
     it = IPMIterate(np.zeros(engine.c.size), 10.0 ** rng.uniform(-3, 3, p), np.zeros(engine.b.size),
@@ -164,7 +165,7 @@ def test_block_ipm_same_lambda_with_either_factorisation(monkeypatch):
     lp = compile_linear(static_lp(ops))
     lams = {}
     for factorisation, processes in (("supernodal", 1), ("supernodal", 2), ("superlu", 1)):
-        engine = cold_lp_engine(lp, "block-ipm", ops=ops)
+        engine = cold_lp_engine(lp, "block-ipm", LoadUnits.of(ops))
         engine.factorisation = factorisation
         engine.settings(factor_processes=processes)
         out = engine.solve()
@@ -182,7 +183,7 @@ def test_block_ipm_same_lambda_with_either_factorisation(monkeypatch):
 def test_block_ipm_unknown_factorisation_is_one_clear_error():
     ops = bm.assemble(bm.cases.wall(3, 4))
     lp = compile_linear(static_lp(ops))
-    engine = cold_lp_engine(lp, "block-ipm", ops=ops)
+    engine = cold_lp_engine(lp, "block-ipm", LoadUnits.of(ops))
     assert isinstance(engine, BlockLP)
     engine.factorisation = "cholmod"
     with pytest.raises(ValueError, match="unknown factorisation 'cholmod'"):
@@ -329,7 +330,7 @@ def test_auto_factor_processes_takes_two_from_its_threshold_with_two_cpus(monkey
 
     ops = bm.assemble(bm.cases.wall(10, 20))
     lp = compile_linear(static_lp(ops))
-    engine = cold_lp_engine(lp, "block-ipm", ops=ops)
+    engine = cold_lp_engine(lp, "block-ipm", LoadUnits.of(ops))
     assert engine.factor_processes == "auto"
     n = engine._K_pattern.shape[0]
     for threshold, cpus, setting, expected in ((n, 2, "auto", 2), (n + 1, 2, "auto", 1), (n, 1, "auto", 1),
@@ -580,7 +581,7 @@ def test_block_ipm_compiled_solves_follow_the_kernels_and_keep_the_iterates(monk
         outs = []
         for setting, kernels, expected in (("auto", "compiled", True), (False, "compiled", False),
                                            ("auto", "numpy", False), (True, "numpy", True)):
-            engine = cold_lp_engine(lp, "block-ipm", ops=ops)
+            engine = cold_lp_engine(lp, "block-ipm", LoadUnits.of(ops))
             engine.settings(kernels=kernels, factor_processes=1, **{name: setting})
             outs.append(engine.solve())
             assert getattr(engine.factoriser, name) is expected, (name, setting, kernels)
@@ -628,7 +629,7 @@ def test_two_process_lp_iterates_do_not_depend_on_when_the_worker_is_ready(monke
     lp = compile_linear(static_lp(ops))
 
     def run(late: int):
-        engine = cold_lp_engine(lp, "block-ipm", ops=ops)
+        engine = cold_lp_engine(lp, "block-ipm", LoadUnits.of(ops))
         engine.settings(factor_processes=2)
         ready = cholesky._HalfWorker.ready
 

@@ -269,7 +269,7 @@ def test_continuation_ends_at_its_last_point_when_k_is_singular(monkeypatch):
     ops = bm.assemble(bm.cases.wall(courses=10, blocks_per_course=10))
     early = InteriorFixedPoint(_step_lp(ops), ops, max_iterations=3)
     early.solve()
-    factorise, calls = early._factorise, [0]
+    factorise, calls = early.factorise, [0]
 
     def failing(z):
         calls[0] += 1

@@ -10,6 +10,7 @@ import pytest
 
 import blockmpec as bm
 from blockmpec.solvers.engines.highs import static_lp_solution
+from blockmpec.solvers.engines.scaling import LoadUnits
 from blockmpec.solvers.engines.lp_engine import cold_lp_engine
 from helpers import load_study
 
@@ -20,7 +21,7 @@ def crawl():
 
 
 def _engine(lp, ops, weights=None):
-    engine = cold_lp_engine(lp, "block-ipm", ops=ops)
+    engine = cold_lp_engine(lp, "block-ipm", LoadUnits.of(ops))
     engine.path_weights = weights
     return engine
 
@@ -91,11 +92,11 @@ def test_einsum_block_products_are_the_engine_block_solve_to_round_off(crawl):
     """``--roundoff`` swaps only the order of the per-block sums: one block product agrees with the engine's to
     round-off, and the whole run reaches the same lambda."""
     lp, ops = crawl.wall_lp("8x10")
-    engine = cold_lp_engine(lp, "block-ipm", ops=ops)
-    blocks, *_ = engine._factorise(engine.initial_point())
+    engine = cold_lp_engine(lp, "block-ipm", LoadUnits.of(ops))
+    blocks, *_ = engine.factorise(engine.initial_point())
     M_inv = blocks[0]
     rhs = np.random.default_rng(0).standard_normal(M_inv.shape[:2])
-    ours, theirs = engine._block_product(M_inv, rhs), crawl.einsum_block_product(M_inv, rhs)
+    ours, theirs = engine.block_product(M_inv, rhs), crawl.einsum_block_product(M_inv, rhs)
     assert np.allclose(ours, theirs, rtol=1e-12, atol=1e-12 * np.abs(ours).max())
     rows = crawl.roundoff("8x10")
     assert [row["status"] for row in rows] == ["optimal", "optimal"]

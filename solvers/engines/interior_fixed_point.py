@@ -364,7 +364,7 @@ def continue_central_path(engine: InteriorFixedPoint, start: IPMIterate, *, tol:
         return IPMIterate(z.v + step * d[0], z.s + step * d[1], z.w + step * d[2], z.y + step * d[3])
 
     def tangent(z, mu, factors, previous=None):
-        t = [*engine._refined_direction(z, factors, *slope, weights), 1.0]
+        t = [*engine.refined_direction(z, factors, *slope, weights), 1.0]
         norm = np.sqrt(metric(t, t, z, mu))
         t = [x / norm for x in t]
         if previous is None:
@@ -374,7 +374,7 @@ def continue_central_path(engine: InteriorFixedPoint, start: IPMIterate, *, tol:
     z, mu, steps, factorisations = start, mu0, 0, 1
     with single_blas_thread():
         try:
-            factors = engine._factorise(z)
+            factors = engine.factorise(z)
             t = tangent(z, mu, factors)
             h = 0.1
             while (steps < max_steps and not deadline.expired() and max(engine.measures(z)) > tol
@@ -387,17 +387,17 @@ def continue_central_path(engine: InteriorFixedPoint, start: IPMIterate, *, tol:
                         continue
                     zc, mc = zp, mp
                     for corrections in range(1, 5):
-                        factors = engine._factorise(zc)
+                        factors = engine.factorise(zc)
                         factorisations += 1
                         r_b, r_h, r_c = engine.residuals(zc)
                         theta = mc / mu0
-                        a = [*engine._refined_direction(zc, factors, r_b - theta * r0[0], r_h - theta * r0[1],
+                        a = [*engine.refined_direction(zc, factors, r_b - theta * r0[0], r_h - theta * r0[1],
                                                         r_c - theta * r0[2], mc * weights - zc.s * zc.y), 0.0]
-                        b = [*engine._refined_direction(zc, factors, *slope, weights), 1.0]
+                        b = [*engine.refined_direction(zc, factors, *slope, weights), 1.0]
                         offset = metric(t, [zc.v - zp.v, zc.s - zp.s, zc.w - zp.w, zc.y - zp.y, mc - mp], z, mu)
                         dmu = (-offset - metric(t, a, z, mu)) / metric(t, b, z, mu)
                         d = [a[i] + dmu * b[i] for i in range(4)] + [dmu]
-                        longest = min(engine._max_step(zc.s, d[1]), engine._max_step(zc.y, d[3]))
+                        longest = min(engine.max_step(zc.s, d[1]), engine.max_step(zc.y, d[3]))
                         full = longest >= 1.0 and (zc.s + d[1]).min() > 0 and (zc.y + d[3]).min() > 0
                         step = 1.0 if full else 0.9 * longest
                         zc, mc = moved(zc, d, step), mc + step * dmu

@@ -159,7 +159,7 @@ def interface_rows(engine: BlockIPM, structure: bm.Structure) -> tuple[np.ndarra
     """Each inequality row's interface, its row within the interface, the interface's midpoint scaled to the
     unit square and whether it is a bed joint (normal within 45 degrees of vertical)."""
     # each row's place in the (interface, row) block layout: the map the engine keeps for its block solves
-    position = engine._dy_of_solution
+    position = engine.dy_of_solution
     interface, local = position // engine.rows_per_block, position % engine.rows_per_block
     midpoint = structure.interfaces.midpoint
     low, span = midpoint.min(axis=0), np.ptp(midpoint, axis=0)
@@ -193,12 +193,12 @@ IPM_SETTINGS = "exact_inner"
 def run(lp, ops, weights: np.ndarray | None = None, diagnose: bool = False, rule: str = "none",
         clip: float = 10.0, block_product=None, settings: dict | None = None) -> tuple[dict, Recorder]:
     """One cold block-IPM solve with :data:`IPM_SETTINGS` (and ``settings`` over them); returns its summary row
-    and the recorder.  ``block_product``: replaces the engine's :meth:`~BlockIPM._block_product` (None: the
+    and the recorder.  ``block_product``: replaces the engine's :meth:`~BlockIPM.block_product` (None: the
     engine's own)."""
     engine = _engine(lp, ops, settings)
     engine.path_weights = weights
     if block_product is not None:
-        engine._block_product = block_product
+        engine.block_product = block_product
         engine.settings(kernels="numpy")  # the compiled kernels (numba installed) would bypass the override
     recorder = Recorder(engine, diagnose=diagnose, rule=rule, clip=clip)
     cpu = time.process_time()
@@ -271,14 +271,14 @@ def arc_search(lp, ops, max_iterations: int = 300) -> dict:
             if k == max_iterations:
                 break
             mu = float(it.s @ it.y) / p
-            factors = engine._factorise(it)
-            dv, ds, dw, dy = engine._refined_direction(it, factors, r_b, r_h, r_c, -it.s * it.y)
+            factors = engine.factorise(it)
+            dv, ds, dw, dy = engine.refined_direction(it, factors, r_b, r_h, r_c, -it.s * it.y)
             zero = (np.zeros_like(r_b), np.zeros_like(r_h), np.zeros_like(r_c))
-            curvature = engine._refined_direction(it, factors, *zero, -2.0 * ds * dy)
+            curvature = engine.refined_direction(it, factors, *zero, -2.0 * ds * dy)
             a_p, a_d = arc_step(it.s, ds, curvature[1]), arc_step(it.y, dy, curvature[3])
             s_a, y_a = arc_point(it.s, ds, curvature[1], a_p), arc_point(it.y, dy, curvature[3], a_d)
             sigma = min(1.0, (float(s_a @ y_a) / p / mu) ** 3)
-            centring = engine._refined_direction(it, factors, *zero, np.full(p, sigma * mu))
+            centring = engine.refined_direction(it, factors, *zero, np.full(p, sigma * mu))
             vv, ss, ww, yy = (c + e for c, e in zip(curvature, centring))
             a_p = engine.step_fraction * arc_step(it.s, ds, ss)
             a_d = engine.step_fraction * arc_step(it.y, dy, yy)
@@ -365,7 +365,7 @@ def transfer(spec: str, mu: float, targets: list[float], clip: float = 10.0) -> 
 
 
 def einsum_block_product(M_inv: np.ndarray, rhs: np.ndarray) -> np.ndarray:
-    """:meth:`BlockIPM._block_product` by ``einsum`` instead of ``matmul``: the same sums in another order."""
+    """:meth:`BlockIPM.block_product` by ``einsum`` instead of ``matmul``: the same sums in another order."""
     return np.einsum("bij,bj->bi", M_inv, rhs)
 
 
@@ -402,8 +402,8 @@ def face_projection(engine: BlockIPM, it: IPMIterate, active: np.ndarray, ratio:
     big = ratio * float(d_kept.max(initial=1.0))
     scaling = IPMIterate(it.v, np.where(active, 1.0, it.s), it.w, np.where(active, big, 1.0 / it.s))  # y/s = d
     r_b, r_h, _ = engine.residuals(IPMIterate(it.v, s_hat, it.w, it.y))
-    factors = engine._factorise(scaling)
-    dv, _, _, _ = engine._refined_direction(scaling, factors, r_b, r_h, np.zeros(engine.c.size),
+    factors = engine.factorise(scaling)
+    dv, _, _, _ = engine.refined_direction(scaling, factors, r_b, r_h, np.zeros(engine.c.size),
                                             np.zeros_like(it.s), sweeps=4)
     v = it.v + dv
     violation = max(float(np.max(engine.G @ v - engine.h, initial=0.0)) / (1 + float(np.max(np.abs(engine.h)))),

@@ -113,7 +113,7 @@ class ProximalInteriorFixedPoint(InteriorFixedPoint):
     = h``) gives ``rho_k n_k^2 + delta_k |y_k|^2 - n_k a_k . y_k >= 0`` when
     ``rho_k delta_k >= |a_k|^2 / 4``.  In the block systems this is ``rho`` on the top-left
     diagonal and ``-(I + delta D)`` on the bottom-right one (``[[rho, B_psi^T], [B_phi, -I]]``
-    scaled as in :meth:`BlockIPM._block_systems`); ``ds = -r_h - G dv + delta dy``.  The
+    scaled as in :meth:`BlockIPM.block_systems`); ``ds = -r_h - G dv + delta dy``.  The
     whole-system refinement of :class:`BlockIPM` does not know these terms, so it is off
     (``final_sweeps`` 0); the block equations hold exactly and the reduced refinement
     corrects the equality rows.  The stopping test reads the residuals of (3) itself.
@@ -135,15 +135,15 @@ class ProximalInteriorFixedPoint(InteriorFixedPoint):
         self.centre: tuple[np.ndarray, np.ndarray] | None = None
         self.settings(final_sweeps=0)
 
-    def _block_systems(self, it: IPMIterate):
-        M, sqrt_d = super()._block_systems(it)
+    def block_systems(self, it: IPMIterate):
+        M, sqrt_d = super().block_systems(it)
         k, r = self.k, np.arange(self.rows_per_block)
         M[:, np.arange(k), np.arange(k)] += self.prox_v[self.block_columns]
         M[:, k + r, k + r] -= self.prox_y[self.block_rows] * sqrt_d ** 2
         return M, sqrt_d
 
-    def _direction(self, it, factors, r_b, r_h, r_c, r_mu, refinements=None, tolerance=0.0):
-        dv, ds, dw, dy = super()._direction(it, factors, r_b, r_h, r_c, r_mu, refinements, tolerance)
+    def direction(self, it, factors, r_b, r_h, r_c, r_mu, refinements=None, tolerance=0.0):
+        dv, ds, dw, dy = super().direction(it, factors, r_b, r_h, r_c, r_mu, refinements, tolerance)
         return dv, ds + self.prox_y * dy, dw, dy
 
     def residuals(self, it: IPMIterate):

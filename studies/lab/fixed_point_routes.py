@@ -245,14 +245,14 @@ def route_path(ops, args) -> list[dict]:
             mu = float(z.s @ z.y) / p
             if max(primal, dual, comp) <= 1e-9 or time.process_time() - t0 > args.time_limit:
                 break
-            factors = engine._factorise(z)
-            dv, ds, dw, dy = engine._direction(z, factors, r_b, r_h, r_c, -z.s * z.y)
-            a = min(engine._max_step(z.s, ds), engine._max_step(z.y, dy))
+            factors = engine.factorise(z)
+            dv, ds, dw, dy = engine.direction(z, factors, r_b, r_h, r_c, -z.s * z.y)
+            a = min(engine.max_step(z.s, ds), engine.max_step(z.y, dy))
             mu_aff = float((z.s + a * ds) @ (z.y + a * dy)) / p
             sigma = min(1.0, max((max(mu_aff, 0.0) / mu) ** 3, args.sigma_min))
             r_mu = sigma * mu - z.s * z.y - ds * dy
-            dv, ds, dw, dy = engine._refined_direction(z, factors, r_b, r_h, r_c, r_mu)
-            alpha = 0.9995 * min(engine._max_step(z.s, ds), engine._max_step(z.y, dy))
+            dv, ds, dw, dy = engine.refined_direction(z, factors, r_b, r_h, r_c, r_mu)
+            alpha = 0.9995 * min(engine.max_step(z.s, ds), engine.max_step(z.y, dy))
             while alpha > 1e-10:
                 s, y = z.s + alpha * ds, z.y + alpha * dy
                 if (s * y).min() >= args.gamma * float(s @ y) / p:
@@ -352,7 +352,7 @@ def route_active_set(ops, args) -> list[dict]:
             S, Y = np.where(active, args.delta, 1.0), np.where(active, 1.0, args.delta)
             it = IPMIterate(v, S, w, Y)
             r_b, r_h, r_c = engine.residuals(it)
-            dv, ds, dw, dy = engine._refined_direction(it, engine._factorise(it), r_b, r_h, r_c, -S * Y)
+            dv, ds, dw, dy = engine.refined_direction(it, engine.factorise(it), r_b, r_h, r_c, -S * Y)
             v, w, s, y = v + dv, w + dw, S + ds, Y + dy
             switched = (y > s) != active
             z = IPMIterate(v.copy(), np.maximum(s, 0.0), w.copy(), np.maximum(y, 0.0))
