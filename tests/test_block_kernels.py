@@ -3,8 +3,10 @@
 Each kernel is checked against the numpy expression it replaces, on the engine's own blocks at an iterate whose
 ``y/s`` spans many decades (as near the optimum), and whole solves with each choice of kernels must end at the
 same optimum: the static LP (symmetric ``K``) and the interior fixed point (``G_dual != G``).  The choice itself:
-``"auto"`` keeps numpy below :data:`COMPILED_KERNEL_BLOCKS`, and ``"compiled"`` without numba is one clear error.
+``"auto"`` keeps numpy below ``rules.compiled_kernel_blocks`` (:data:`blockmpec.solvers.plan.BLOCK_IPM_RULES`), and ``"compiled"`` without numba is one clear error.
 """
+
+import dataclasses
 
 import numpy as np
 import pytest
@@ -12,9 +14,9 @@ import pytest
 import blockmpec as bm
 from blockmpec.formulations import compile_linear, static_lp
 from blockmpec.solvers.linalg import block_ipm
-from blockmpec.solvers.linalg.block_ipm import COMPILED_KERNEL_BLOCKS
 from blockmpec.solvers.engines.scaling import LoadUnits
 from blockmpec.solvers.engines.lp_engine import cold_lp_engine
+from blockmpec.solvers.plan import BLOCK_IPM_RULES
 from helpers import wall_block_ipm_off_path
 
 pytest.importorskip("numba")
@@ -164,13 +166,13 @@ def test_static_lp_same_optimum_with_either_kernels():
 
 def test_interior_fixed_point_same_solution_with_either_kernels():
     """The non-symmetric blocks of (3) (``G_dual != G``) through the compiled inverse: the same solution."""
-    from blockmpec.formulations import modified_lp
-    from blockmpec.formulations._pyomo import compiled_linear
+    from blockmpec.formulations import step_lps
     from blockmpec.solvers.engines.interior_fixed_point import InteriorFixedPoint
 
     ops = bm.assemble(bm.cases.wall(4, 5))
-    lp = compiled_linear(modified_lp, ops, np.zeros(ops.n_interfaces), slope=ops.dilatancy)
-    outs = [_solve(lp, ops, kernels, engine=InteriorFixedPoint(lp, ops)) for kernels in ("numpy", "compiled")]
+    lps = step_lps(ops, tie_break=False)
+    outs = [_solve(lps.step, ops, kernels, engine=InteriorFixedPoint(lps.step, lps.associative, LoadUnits.of(ops)))
+            for kernels in ("numpy", "compiled")]
     assert all(out.status is bm.Status.OPTIMAL for out in outs)
     assert outs[1].objective == pytest.approx(outs[0].objective, rel=1e-7)
     assert np.allclose(outs[1].v, outs[0].v, rtol=1e-6, atol=1e-6 * np.abs(outs[0].v).max())
@@ -178,10 +180,10 @@ def test_interior_fixed_point_same_solution_with_either_kernels():
 
 def test_auto_compiles_from_the_threshold_on(wall_ipm, monkeypatch):
     ipm, _ = wall_ipm
-    assert ipm.n_blocks < COMPILED_KERNEL_BLOCKS
+    assert ipm.rules == BLOCK_IPM_RULES and ipm.n_blocks < BLOCK_IPM_RULES.compiled_kernel_blocks
     ipm.settings(kernels="auto")
     assert ipm.block_kernels is None
-    monkeypatch.setattr(block_ipm, "COMPILED_KERNEL_BLOCKS", ipm.n_blocks)
+    monkeypatch.setattr(ipm, "rules", dataclasses.replace(BLOCK_IPM_RULES, compiled_kernel_blocks=ipm.n_blocks))
     assert ipm.block_kernels is block_kernels
     ipm.settings(kernels="numpy")
     assert ipm.block_kernels is None
@@ -197,7 +199,7 @@ def test_unknown_or_unavailable_kernels_are_one_clear_error(wall_ipm, monkeypatc
     monkeypatch.setattr(block_ipm, "compiled_kernels_available", lambda: False)
     with pytest.raises(ValueError, match=r"needs numba .*blockmpec\[fast\]"):
         ipm.settings(kernels="compiled")
-    monkeypatch.setattr(block_ipm, "COMPILED_KERNEL_BLOCKS", 0)
+    monkeypatch.setattr(ipm, "rules", dataclasses.replace(BLOCK_IPM_RULES, compiled_kernel_blocks=0))
     ipm.settings(kernels="auto")
     assert ipm.block_kernels is None  # auto without numba: numpy, whatever the size
 
