@@ -155,7 +155,7 @@ _IPOPT_STATUS = {
 }
 
 _INF = 1e20
-#: Ipopt's User_Requested_Stop: returned when :meth:`_RelaxedMPEC.intermediate` keeps the deadline
+#: Ipopt's User_Requested_Stop: returned when :meth:`RelaxedMPEC.intermediate` keeps the deadline
 _USER_STOP = 5
 #: penalty NLP: Ipopt's mu_init, bound_push and bound_frac of the first stage (measured on the 10x10 wall
 #: from the fixed point: 86 iterations, against 315 with Ipopt's defaults and adaptive mu)
@@ -262,7 +262,7 @@ def eps_schedule(options: NLPOptions, settings: NLPSettings) -> list[float]:
     return eps
 
 
-class _RelaxedMPEC:
+class RelaxedMPEC:
     """cyipopt callbacks of the relaxed NLP in units; variables ``v^ = (w^, s^)`` with ``w = D w^``, ``s = S s^``.
 
     ``D`` (``column_scale``, one entry per column of ``w``) and ``S`` (``slack_scale``, one per
@@ -388,7 +388,7 @@ class _RelaxedMPEC:
         return self.form.unpack(self.from_units(v)[self.i_w])
 
 
-class _PenaltyMPEC(_RelaxedMPEC):
+class PenaltyMPEC(RelaxedMPEC):
     """The penalty NLP of (4): ``min lam + rho sum_i z^_i s^_i`` over the linear rows and bounds.
 
     No product rows (``m = m_lin``); the products ``z^_i s^_i = z_i s_i`` are works in ``lam``
@@ -436,7 +436,7 @@ def _typical_work(z: np.ndarray, s: np.ndarray) -> float:
     return (zs if zs > 0 else 1.0) * (ss if ss > 0 else 1.0)
 
 
-def _without_free_sliding(form, solution: Solution) -> Solution:
+def without_free_sliding(form, solution: Solution) -> Solution:
     """The solution with the common part of each zero-dilatancy interface's sliding multipliers removed.
 
     At ``tan(psi_k) = 0`` the two multipliers ``z_f+, z_f-`` of interface ``k`` enter (3) only
@@ -560,7 +560,7 @@ class RelaxedNLP(SolverBase):
             passed_on = (Status.UNBOUNDED, Status.INFEASIBLE, Status.INFEASIBLE_OR_UNBOUNDED, Status.TIME_LIMIT)
             return RunOutput(fail if fail in passed_on else Status.ERROR, message=start_msg,
                              raw_status="static LP" if self.start == "associative" else self.start)
-        nlp = (_PenaltyMPEC if penalty else _RelaxedMPEC)(self.form, scale, *self.scaling)
+        nlp = (PenaltyMPEC if penalty else RelaxedMPEC)(self.form, scale, *self.scaling)
         self.nlp = nlp
         v = np.zeros(nlp.n) if v0 is None else nlp.to_units(v0)
         mult = None
@@ -613,7 +613,7 @@ class RelaxedNLP(SolverBase):
             message = f"stage {k + 1} (eps = {eps:.3g}) ended with Ipopt status {name}: {info.get('status_msg', b'')!r}"
             break
         trace = stop.trace
-        solution = _without_free_sliding(self.form, nlp.split(v))
+        solution = without_free_sliding(self.form, nlp.split(v))
         n_stages = len({t["stage"] for t in trace})
         extra = {"stages": n_stages, "ipopt_solves": len(trace), "scale": scale, "start": self.start, "route": self.route,
                  "start_time_s": self.start_time_s, "complementarity": opt.complementarity,
@@ -637,7 +637,7 @@ class RelaxedNLP(SolverBase):
         return RunOutput(final, solution, iterations=total_iter, trace=trace, message=message, raw_status=raw,
                          extra=extra)
 
-    def _solve_stage(self, cyipopt, nlp: _RelaxedMPEC, eps: float, v: np.ndarray, mult, remaining: float):
+    def _solve_stage(self, cyipopt, nlp: RelaxedMPEC, eps: float, v: np.ndarray, mult, remaining: float):
         """One Ipopt solve of the relaxed NLP at ``eps`` from ``v`` (with multipliers ``mult`` if given)."""
         from blockmpec.progress import verbose_enabled
 
@@ -648,7 +648,7 @@ class RelaxedNLP(SolverBase):
         problem.add_option("sb", "yes")
         problem.add_option("mumps_pivtol", 1e-8)
         problem.add_option("tol", float(opt.tol))
-        penalty = isinstance(nlp, _PenaltyMPEC)
+        penalty = isinstance(nlp, PenaltyMPEC)
         problem.add_option("max_iter", int(opt.max_iter))
         if penalty:
             # the start solves the linear rows: stay near it (push 1e-6, not 1e-2) with a small fixed barrier
@@ -713,8 +713,8 @@ class RelaxedNLP(SolverBase):
             failed = out.status if out.status is Status.TIME_LIMIT else Status.NUMERICAL
             return solution, failed, f"piece LPs found no solution of (3): {out.message}"
         # the interior-point LPs leave the free common part of zero-dilatancy sliding multipliers large
-        # (two blocks: z_f+- = 7519), which _without_free_sliding removes
-        new = _without_free_sliding(self.form, self.form.unpack(out.w))
+        # (two blocks: z_f+- = 7519), which without_free_sliding removes
+        new = without_free_sliding(self.form, self.form.unpack(out.w))
         new.x[self.form.t[self.form.friction == 0]] = 0.0  # tan(phi_k) = 0 forces t_k = 0 (exact zero)
         # not certified: a limit, or an LP failure on a later piece (never a statement that (3) is infeasible)
         status = (Status.LOCALLY_OPTIMAL if out.certified else

@@ -28,7 +28,7 @@ from pathlib import Path
 import numpy as np
 
 import blockmpec as bm
-from blockmpec.solvers.nlp import RelaxedNLP, _RelaxedMPEC
+from blockmpec.solvers.nlp import RelaxedNLP, RelaxedMPEC
 
 sys.path.insert(0, str(Path(__file__).parent))
 from _tables import csv_rows  # noqa: E402
@@ -78,21 +78,21 @@ def profile(config: str, courses: int, per_course: int, time_limit: float, optio
         return solve_stage(self, *args, **kwargs)
 
     stamps = []  # (perf_counter, Ipopt iteration): the wall-clock gaps between iterations
-    intermediate = _RelaxedMPEC.intermediate
+    intermediate = RelaxedMPEC.intermediate
 
     def stamped(self, alg_mod, iter_count, *args):
         stamps.append((time.perf_counter(), int(alg_mod), int(iter_count)))
         return intermediate(self, alg_mod, iter_count, *args)
 
     RelaxedNLP._solve_stage = logged_stage
-    _RelaxedMPEC.intermediate = stamped
+    RelaxedMPEC.intermediate = stamped
     try:
         c0, t0 = time.process_time(), time.perf_counter()
         res = bm.solve(structure, "nlp", time_limit=time_limit, ipopt_options=ipopt, **options)
         wall_s, cpu_s = time.perf_counter() - t0, time.process_time() - c0
     finally:
         RelaxedNLP._solve_stage = solve_stage
-        _RelaxedMPEC.intermediate = intermediate
+        RelaxedMPEC.intermediate = intermediate
     gaps = np.diff([t for t, _, _ in stamps]) if len(stamps) > 1 else np.zeros(1)
     end_gap = t0 + wall_s - stamps[-1][0] if stamps else wall_s
     timers = ipopt_timers("\n".join(p.read_text() for p in logs if p.exists()))

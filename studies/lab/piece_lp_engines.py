@@ -36,7 +36,7 @@ def run(courses: int, per_course: int, engines: list[str], time_limit: float, ap
     """Every engine's descent from one fixed point of one wall."""
     from blockmpec.formulations import compile_mcp
     from blockmpec.solvers.engines.piece_lp import piece_descent, whole_piece_descent
-    from blockmpec.solvers.nlp import _without_free_sliding, nlp_scaling
+    from blockmpec.solvers.nlp import without_free_sliding, nlp_scaling
     from blockmpec.verify import residuals
 
     case = bm.cases.wall(courses=courses, blocks_per_course=per_course)
@@ -55,7 +55,7 @@ def run(courses: int, per_course: int, engines: list[str], time_limit: float, ap
         cpu, wall = time.process_time() - c0, time.perf_counter() - t0
         residual = None
         if out.w is not None:
-            solution = _without_free_sliding(form, form.unpack(out.w))
+            solution = without_free_sliding(form, form.unpack(out.w))
             residual = max(residuals(ops, solution, associative=False).values())
         row = {"wall": f"{courses}x{per_course}", "blocks": case.n_free, "pairs": form.n_pairs, "engine": engine,
                "status": out.status.value, "certified": out.certified, "multiplier": out.multiplier,
