@@ -17,7 +17,12 @@ pytest.importorskip("pyomo")
 
 import blockmpec as bm  # noqa: E402
 from blockmpec.result import Status  # noqa: E402
-from helpers import assert_residuals_within, two_block_associative, two_block_nonassociative_min  # noqa: E402
+from helpers import (  # noqa: E402
+    assert_residuals_within,
+    solve_with,
+    two_block_associative,
+    two_block_nonassociative_min,
+)
 
 TOL = 1e-6
 
@@ -102,17 +107,28 @@ def test_iteration_limit_is_a_status():
 
 
 def test_without_continuation():
-    res = bm.solve(bm.cases.two_blocks(eta=2, mu=0.65), "mcp-newton", start="associative", continuation=False)
+    res = solve_with(bm.cases.two_blocks(eta=2, mu=0.65), "mcp-newton", settings=dict(continuation=False),
+                     start="associative")
     assert_mcp_solution(res)
     assert res.multiplier <= two_block_associative(2, 0.65) + 1e-9
 
 
-@pytest.mark.parametrize("bad", [dict(tol=0.0), dict(sigma=0.7), dict(backtrack=1.0), dict(max_iterations=-1),
-                                 dict(regularisation=-1.0), dict(continuation="yes"), dict(min_step=2.0),
-                                 dict(start="origin"), dict(seed=-1), dict(fallback="no"), dict(time_limit=0.0)])
+@pytest.mark.parametrize("bad", [dict(tol=0.0), dict(max_iterations=-1), dict(start="origin"), dict(seed=-1),
+                                 dict(time_limit=0.0)])
 def test_bad_options(bad):
     with pytest.raises(bm.OptionError, match=next(iter(bad))):
         bm.solve(bm.cases.single_block(), "mcp-newton", **bad)
+
+
+@pytest.mark.parametrize("bad", [dict(sigma=0.7), dict(backtrack=1.0), dict(regularisation=-1.0),
+                                 dict(continuation="yes"), dict(min_step=2.0), dict(fallback="no")])
+def test_bad_settings(bad):
+    """A bad engine setting is one line naming it."""
+    from blockmpec.solvers.mcp_newton import NewtonSettings
+
+    with pytest.raises(ValueError, match=next(iter(bad))) as err:
+        NewtonSettings(**bad)
+    assert "\n" not in str(err.value)
 
 
 def test_fischer_burmeister():

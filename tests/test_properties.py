@@ -25,7 +25,7 @@ from hypothesis import HealthCheck, assume, given, note, settings
 from hypothesis import strategies as st
 
 import blockmpec as bm
-from helpers import CERTIFIED_TOL, HEURISTIC_TOL, HEURISTICS, margin
+from helpers import CERTIFIED_TOL, HEURISTIC_TOL, HEURISTICS, margin, solve_with
 
 SETTINGS = settings(max_examples=25, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 #: the multi-solver properties run seven solves per example (milp up to ~1 s): few examples
@@ -199,12 +199,13 @@ def test_associative_multiplier_bounds_every_non_associative_one(structure):
             maximum.multiplier, assoc.multiplier)
 
 
-#: fixed-point strategies of studies/fixed_point_strategies.py besides the default (run above)
+#: fixed-point strategies of studies/lab/fixed_point_strategies.py besides the default (run above); engine settings
+#: under "settings" (``solve_with``)
 FIXED_POINT_STRATEGIES = [
     {"start": "associative", "tie_break": "closest"},
     {"start": "associative", "tie_break": "min-lambda"},
     {"start": "dead-load", "tie_break": "least-compressed"},
-    {"start": "random", "seed": 1, "tie_break": "least-compressed", "acceleration": "anderson"},
+    {"start": "random", "seed": 1, "tie_break": "least-compressed", "settings": {"acceleration": "anderson"}},
     {"multistart": 3},
 ]
 
@@ -217,7 +218,7 @@ def test_no_fixed_point_strategy_below_the_certified_minimum(structure):
     minimum = bm.solve(ops, "milp", time_limit=MILP_TIME_LIMIT)
     assume(minimum.status is bm.Status.OPTIMAL)
     for options in FIXED_POINT_STRATEGIES:
-        res = bm.solve(ops, "fixed-point", **options)
+        res = solve_with(ops, "fixed-point", **options)
         note(f"{options}: {res.status.value} {res.multiplier}")
         if res.success:
             assert res.multiplier >= minimum.multiplier - margin(HEURISTIC_TOL, minimum.multiplier), (
