@@ -6,15 +6,16 @@ lifted LP's and never exceeds the certified minimum.
 """
 
 import functools
-import time
 
 import numpy as np
 import pytest
 import scipy.linalg as sla
 
 import blockmpec as bm
+from blockmpec.deadline import Deadline
 from blockmpec.solvers.linalg.null_space import null_space_lp, static_null_space
-from helpers import CERTIFIED_TOL, LIFTING_CASES, assert_certified, margin
+from blockmpec.solvers.milp import MILPSettings
+from helpers import CERTIFIED_TOL, LIFTING_CASES, assert_certified, margin, solve_with
 
 #: small structures of every family, two with a minimum below the associative multiplier
 CASES = LIFTING_CASES
@@ -31,10 +32,10 @@ def _root(case_id: str, root_lp: str = "ipm"):
     """``(solver, branch and bound at the root pattern)`` with the rlt-full lifting and 60 s for its LPs."""
     from blockmpec.solvers.milp import MILPSolver
 
-    solver = MILPSolver(engine="bnb", lifting="rlt-full", root_lp=root_lp)
+    solver = MILPSolver(engine="bnb", settings=MILPSettings(lifting="rlt-full", root_lp=root_lp))
     solver.setup(bm.operators.assemble(CASES[case_id]()))
-    bnb = solver._complementarity_bnb(solver._bounds(time.perf_counter() + 60))
-    bnb.deadline = time.perf_counter() + 60
+    bnb = solver._complementarity_bnb(solver._bounds(Deadline(60)))
+    bnb.deadline = Deadline(60)
     bnb._apply(bnb.root, bnb.lam_lower, bnb.lam_cap)
     return solver, bnb
 
@@ -124,12 +125,12 @@ def test_liftings_without_every_force_tied_keep_the_lifted_root():
     the root LP stays the lifted one, and ``milp`` still certifies the same minimum."""
     from blockmpec.solvers.milp import MILPSolver
 
-    solver = MILPSolver(engine="bnb", lifting="rlt", root_lp="ipm")
+    solver = MILPSolver(engine="bnb", settings=MILPSettings(lifting="rlt", root_lp="ipm"))
     solver.setup(bm.operators.assemble(CASES["wall-2x2"]()))
-    bnb = solver._complementarity_bnb(solver._bounds(time.perf_counter() + 60))
+    bnb = solver._complementarity_bnb(solver._bounds(Deadline(60)))
     bnb._apply(bnb.root, bnb.lam_lower, bnb.lam_cap)
     assert bnb._null_space_lp(*bnb._lp_arrays()) is None
-    res = bm.solve(CASES["wall-2x2"](), "milp", lifting="rlt")
+    res = solve_with(CASES["wall-2x2"](), "milp", settings=dict(lifting="rlt"))
     assert_certified(res)
     assert res.multiplier == pytest.approx(certified("wall-2x2").multiplier, abs=1e-7)
 
@@ -137,7 +138,7 @@ def test_liftings_without_every_force_tied_keep_the_lifted_root():
 def test_root_lp_ipm_lifted_certifies_the_same_minimum():
     """``root_lp="ipm-lifted"`` (the root LP before the null-space coordinates) stays available and certifies the
     same minimum as the default."""
-    res = bm.solve(CASES["wall-3x2-opening"](), "milp", root_lp="ipm-lifted")
+    res = solve_with(CASES["wall-3x2-opening"](), "milp", settings=dict(root_lp="ipm-lifted"))
     assert_certified(res)
     assert res.multiplier == pytest.approx(certified("wall-3x2-opening").multiplier, abs=1e-7)
 
