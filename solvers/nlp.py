@@ -94,7 +94,7 @@ straight to the piece LPs, and their outcome is the run's.
 
 Route (``route``).  ``"ipopt"`` runs the options above; ``"pieces"`` starts from the fixed point and goes
 straight to the piece LPs, whatever ``start`` says; ``"auto"`` (default) takes ``"pieces"`` from
-:data:`~blockmpec.solvers.plan.NLP_PIECE_ROUTE_BLOCKS` free blocks on.  Measured (``studies/nlp_scaling.py``, one loaded run):
+:data:`~blockmpec.solvers.plan.NLP_PIECE_ROUTE_BLOCKS` free blocks on.  Measured (``studies/lab/nlp_scaling.py``, one loaded run):
 the Ipopt stages reach at most ~69 blocks within 60 s, while the piece route solves the 2,032-block wall
 (certified local minimum 0.42179, below the fixed point's 0.42633) in ~19 s CPU: the fixed point ~5 s,
 the static halves by the block IPM, the mechanisms by HiGHS.  Below the threshold Ipopt is kept: its

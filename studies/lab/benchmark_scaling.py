@@ -34,14 +34,14 @@ follows whatever the registered methods currently do; ``--lp-options`` and
 
 Usage (the default takes about 4 minutes on 2 cores)::
 
-    python studies/benchmark_scaling.py [--families wall,arch] [--sizes 10,100,1000]
+    python studies/lab/benchmark_scaling.py [--families wall,arch] [--sizes 10,100,1000]
         [--time-limit 120] [--lp-method static-lp] [--fp-method fixed-point]
         [--lp-options KEY=VALUE,...] [--fp-options KEY=VALUE,...]
         [--largest milp,nlp] [--largest-limit 60] [--largest-max 128] [--largest-refine 0]
         [--child-timeout SECONDS] [--tag NAME]
 
     # the full range (hours; needs several GB of memory at 100,000 blocks):
-    python studies/benchmark_scaling.py --sizes 10,100,1000,10000,100000 --time-limit 3600 --largest-max 4096
+    python studies/lab/benchmark_scaling.py --sizes 10,100,1000,10000,100000 --time-limit 3600 --largest-max 4096
 
 Prints markdown tables on stdout (progress on stderr) and writes
 ``studies/output/benchmark_scaling/{scaling,slopes,largest}[_TAG].csv``.
@@ -62,13 +62,13 @@ import numpy as np
 import blockmpec as bm
 
 # sibling studies (this script's folder is sys.path[0] when run as a script)
-sys.path.insert(0, str(Path(__file__).resolve().parent))
+sys.path[:0] = [str(Path(__file__).resolve().parent), str(Path(__file__).resolve().parents[1] / "_common")]
 from _tables import fmt as _fmt  # noqa: E402
 from _tables import markdown, peak_memory_mb, write_csv  # noqa: E402
 from lp_timing import wall_for  # noqa: E402
 from milp_scaling import run_case  # noqa: E402
 
-OUT = Path(__file__).resolve().parent / "output" / "benchmark_scaling"
+OUT = Path(__file__).resolve().parents[1] / "output" / "benchmark_scaling"
 FAMILIES = ("wall", "arch")
 
 #: columns of the per-size table: (CSV key, header, format)

@@ -11,7 +11,7 @@ Three parts, each a table (markdown on stdout, CSV in ``studies/output/certifica
 ``largest``  the largest running-bond wall, stack wall and arch certified within a
              time limit, growing each family until the first size that fails;
 ``suite``    every configuration on the structures the heuristic suite certifies by ``milp``
-             (``studies/heuristic_suite.py``: walls with openings, arches on buttresses,
+             (``studies/lab/heuristic_suite.py``: walls with openings, arches on buttresses,
              psi > 0, ...): certified or not, time, and whether the certified values agree.
 
 ``--before DIR`` adds the method as it was before this work (``git show 9f29e3c``):
@@ -19,15 +19,15 @@ extract it with ``mkdir -p DIR && git archive 9f29e3c solvers/milp.py
 formulations/mpec_bigm.py | tar -x -C DIR`` and it registers as ``milp-before``.
 Usage::
 
-    python studies/certificate_study.py compare --configs highs,scip,before --cases 3x2,6x2s,2x4 --time-limit 60
-    python studies/certificate_study.py targets --configs scip
-    python studies/certificate_study.py largest --configs highs,before --time-limit 60 --families running,stack,arch
-    python studies/certificate_study.py compare --configs bnb-rlt,bnb-rlt-ipm --cases 3x2,2x4,4x2,4x3,5x2
-    python studies/certificate_study.py compare --configs bnb-rlt-ipm,bnb-rlt-ipm-choose \
+    python studies/lab/certificate_study.py compare --configs highs,scip,before --cases 3x2,6x2s,2x4 --time-limit 60
+    python studies/lab/certificate_study.py targets --configs scip
+    python studies/lab/certificate_study.py largest --configs highs,before --time-limit 60 --families running,stack,arch
+    python studies/lab/certificate_study.py compare --configs bnb-rlt,bnb-rlt-ipm --cases 3x2,2x4,4x2,4x3,5x2
+    python studies/lab/certificate_study.py compare --configs bnb-rlt-ipm,bnb-rlt-ipm-choose \
         --cases 4x3,2x4,3x2,4x2,5x2 --time-limit 60 --tag ipx
-    python studies/certificate_study.py compare --configs bnb-rlt-ipm,bnb-rltfull-ipm \
+    python studies/lab/certificate_study.py compare --configs bnb-rlt-ipm,bnb-rltfull-ipm \
         --cases 5x2,4x3,3x4,2x4,3x2,4x2,2x3 --time-limit 60 --tag rltfull2
-    python studies/certificate_study.py suite --configs highs,bnb-rltfull-ipm --time-limit 60
+    python studies/lab/certificate_study.py suite --configs highs,bnb-rltfull-ipm --time-limit 60
 """
 
 from __future__ import annotations
@@ -41,12 +41,13 @@ from pathlib import Path
 
 import blockmpec as bm
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
+sys.path[:0] = [str(Path(__file__).resolve().parent), str(Path(__file__).resolve().parents[1] / "_common")]
+from _methods import solve  # noqa: E402
 from _tables import write_csv  # noqa: E402
 
-OUT = Path(__file__).parent / "output" / "certificate"
+OUT = Path(__file__).resolve().parents[1] / "output" / "certificate"
 
-#: configuration name -> (method, options)
+#: configuration name -> (method, options and engine settings (``_methods.solve`` sends each where it belongs))
 CONFIGS = {
     "auto": ("milp", {}),  # the default: engine="auto"
     "highs": ("milp", {"engine": "highs"}),
@@ -121,7 +122,7 @@ def run_structure(spec: str, structure: bm.Structure, config: str, time_limit: f
     try:
         for name, value in constants.items():
             setattr(complementarity_bnb, name, value)
-        res = bm.solve(structure, method, time_limit=time_limit, **options)
+        res = solve(structure, method, time_limit=time_limit, **options)
     finally:
         for name, value in saved.items():
             setattr(complementarity_bnb, name, value)

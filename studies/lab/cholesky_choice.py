@@ -41,7 +41,7 @@ comparison), the nonzeros of the factors and the relative residual
 
 Usage::
 
-    python studies/cholesky_choice.py [--walls 100x100,316x316] [--methods ...] [--blas-threads 1,2]
+    python studies/lab/cholesky_choice.py [--walls 100x100,316x316] [--methods ...] [--blas-threads 1,2]
                                       [--extend-add-runs 2,8] [--side-by-side [--rounds 5]]
 
 ``--blas-threads 1,2`` measures each method with one and with two BLAS threads (wall and CPU side by side;
@@ -85,11 +85,11 @@ from blockmpec.solvers.linalg.cholesky import (
 )
 from blockmpec.solvers.engines.lp_engine import cold_lp_engine
 
-sys.path.insert(0, str(Path(__file__).parent))
+sys.path[:0] = [str(Path(__file__).resolve().parent), str(Path(__file__).resolve().parents[1] / "_common")]
 from _tables import write_csv  # noqa: E402
 from _walls import wall_shape  # noqa: E402
 
-OUT = Path(__file__).parent / "output" / "cholesky_choice"
+OUT = Path(__file__).resolve().parents[1] / "output" / "cholesky_choice"
 #: our factorisers of K, by the first part of a method name (the second part is the ordering)
 FACTORISERS = {"supernodal": SupernodalCholesky, "superlu": SymmetricFactoriser}
 METHODS = ("supernodal-metis", "supernodal-mmd", "superlu-mmd", "superlu-metis", "superlu-colamd", "qdldl", "cholmod", "pardiso",

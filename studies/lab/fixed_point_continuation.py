@@ -75,7 +75,7 @@ cold block-IPM LP ~3 s CPU; verified = worst residual of (3) at most 1e-8):
 
 Usage::
 
-    python studies/fixed_point_continuation.py --wall 40x60 [--stages interior,proximal,aimed,arclength]
+    python studies/lab/fixed_point_continuation.py --wall 40x60 [--stages interior,proximal,aimed,arclength]
         [--proximal "1:1:every;1:30:every;1:1:converged"] [--aim-weights 0.1,0.001]
         [--start-iteration 5] [--arc-steps 150] [--corrector-tol 0.3] [--time-limit 300]
 
@@ -95,11 +95,11 @@ import blockmpec as bm
 from blockmpec.solvers.linalg.block_ipm import BlockIPM, IPMIterate
 from blockmpec.solvers.engines.interior_fixed_point import InteriorFixedPoint, continue_central_path
 
-sys.path.insert(0, str(Path(__file__).parent))
+sys.path[:0] = [str(Path(__file__).resolve().parent), str(Path(__file__).resolve().parents[1] / "_common")]
 from _tables import markdown, write_csv  # noqa: E402
 from _walls import named_wall  # noqa: E402
 
-OUT = Path(__file__).parent / "output" / "fixed_point_continuation"
+OUT = Path(__file__).resolve().parents[1] / "output" / "fixed_point_continuation"
 RECENTRES = ("every", "converged")
 
 

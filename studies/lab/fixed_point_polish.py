@@ -28,11 +28,11 @@ at a residual of (3) of 1.4e-2 in 4.0 s; cold steps 4 LPs, 25 s, ``||n - n*||/||
 26.6 s CPU) the run stalls at 0.34 in 23.7 s; the restart 0.27 (33 s); warm steps: 2nd LP
 at its 60 s limit (``n`` moved 1.3e-3); cold steps: 2 LPs, 59 s, lam 0.420 then 0.196;
 Newton: out of memory in SuperLU on ``J^T J``.  Proximal regularisation, aimed forces paired
-with LP duals and arclength continuation: ``studies/fixed_point_continuation.py``.
+with LP duals and arclength continuation: ``studies/lab/fixed_point_continuation.py``.
 
 Usage::
 
-    python studies/fixed_point_polish.py --wall 40x60 [--weight 0.1]
+    python studies/lab/fixed_point_polish.py --wall 40x60 [--weight 0.1]
         [--stages newton,cold-steps,warm-steps,restart] [--steps 4] [--time-limit 120]
 
 Prints a markdown table and writes ``studies/output/fixed_point_polish/polish_<wall>.csv``.
@@ -49,11 +49,11 @@ import numpy as np
 
 import blockmpec as bm
 
-sys.path.insert(0, str(Path(__file__).parent))
+sys.path[:0] = [str(Path(__file__).resolve().parent), str(Path(__file__).resolve().parents[1] / "_common")]
 from _tables import markdown, write_csv  # noqa: E402
 from _walls import named_wall  # noqa: E402
 
-OUT = Path(__file__).parent / "output" / "fixed_point_polish"
+OUT = Path(__file__).resolve().parents[1] / "output" / "fixed_point_polish"
 VERIFY_TOL = 1e-8
 
 

@@ -17,12 +17,12 @@ resident memory, ``*_peak_memory_mb``, is its own: imports, assembly, model and 
 
 Example (issue 14: the interior engine against one cold block-IPM LP)::
 
-    python studies/fixed_point_ratio.py --walls 20x50,100x100 --lp-algorithms block-ipm \
+    python studies/lab/fixed_point_ratio.py --walls 20x50,100x100 --lp-algorithms block-ipm \
         --fixed-point "engine=interior;engine=interior,interior_weight=0"
 
 Usage::
 
-    python studies/fixed_point_ratio.py [--sizes 200,1000 | --walls 20x50,100x100] [--lp-algorithms auto,ipm]
+    python studies/lab/fixed_point_ratio.py [--sizes 200,1000 | --walls 20x50,100x100] [--lp-algorithms auto,ipm]
         [--fixed-point "default;start=associative,tie_break=closest"] [--time-limit 600]
 
 Prints a markdown table and writes ``studies/output/fixed_point_ratio/ratio_<walls>.csv``.
@@ -39,11 +39,11 @@ from pathlib import Path
 import blockmpec as bm
 from blockmpec.cli import parse_pairs
 
-sys.path.insert(0, str(Path(__file__).parent))
+sys.path[:0] = [str(Path(__file__).resolve().parent), str(Path(__file__).resolve().parents[1] / "_common")]
 from _tables import markdown, peak_memory_mb, write_csv  # noqa: E402
 from _walls import named_wall  # noqa: E402
 
-OUT = Path(__file__).parent / "output" / "fixed_point_ratio"
+OUT = Path(__file__).resolve().parents[1] / "output" / "fixed_point_ratio"
 
 
 def timed_solve(ops, method: str, **options):

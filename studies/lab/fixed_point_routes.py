@@ -79,16 +79,16 @@ the path taken to it.
 
 Usage::
 
-    python studies/fixed_point_routes.py steps --wall 20x50 --fold 1e-4 --mu-target 1e-7 [--accel anderson]
-    python studies/fixed_point_routes.py path --wall 40x60
-    python studies/fixed_point_routes.py gap --wall 100x100 --fractions 0.92,0.77,0.69,0.46 --mode sweep
-    python studies/fixed_point_routes.py gap --wall 100x100 --fractions 0.77,0.46,0 --mode homotopy
-    python studies/fixed_point_routes.py trust --wall 20x50 --radius 0.1
-    python studies/fixed_point_routes.py active-set --wall 20x50
-    python studies/fixed_point_routes.py pieces --wall 40x60 --fold 0.1 [--static-engine dual-simplex]
-    python studies/fixed_point_routes.py ties --wall 40x60 --fold 0.1 --eps 0,1e-6,1e-4,1e-2
-    python studies/fixed_point_routes.py ties --wall 40x60 --eps 0 --aims 0,0.01,0.03,0.3,1,3
-    python studies/fixed_point_routes.py hybrid --wall 40x60 --share 0.1 [--outside 0.1 --continued]
+    python studies/lab/fixed_point_routes.py steps --wall 20x50 --fold 1e-4 --mu-target 1e-7 [--accel anderson]
+    python studies/lab/fixed_point_routes.py path --wall 40x60
+    python studies/lab/fixed_point_routes.py gap --wall 100x100 --fractions 0.92,0.77,0.69,0.46 --mode sweep
+    python studies/lab/fixed_point_routes.py gap --wall 100x100 --fractions 0.77,0.46,0 --mode homotopy
+    python studies/lab/fixed_point_routes.py trust --wall 20x50 --radius 0.1
+    python studies/lab/fixed_point_routes.py active-set --wall 20x50
+    python studies/lab/fixed_point_routes.py pieces --wall 40x60 --fold 0.1 [--static-engine dual-simplex]
+    python studies/lab/fixed_point_routes.py ties --wall 40x60 --fold 0.1 --eps 0,1e-6,1e-4,1e-2
+    python studies/lab/fixed_point_routes.py ties --wall 40x60 --eps 0 --aims 0,0.01,0.03,0.3,1,3
+    python studies/lab/fixed_point_routes.py hybrid --wall 40x60 --share 0.1 [--outside 0.1 --continued]
 """
 
 from __future__ import annotations
@@ -103,11 +103,11 @@ import numpy as np
 import blockmpec as bm
 from blockmpec.solvers.engines.piece_lp import STATIC_ENGINES
 
-sys.path.insert(0, str(Path(__file__).parent))
+sys.path[:0] = [str(Path(__file__).resolve().parent), str(Path(__file__).resolve().parents[1] / "_common")]
 from _tables import markdown, write_csv  # noqa: E402
 from _walls import lowered_friction, named_wall  # noqa: E402
 
-OUT = Path(__file__).parent / "output" / "fixed_point_routes"
+OUT = Path(__file__).resolve().parents[1] / "output" / "fixed_point_routes"
 VERIFY_TOL = 1e-8
 
 

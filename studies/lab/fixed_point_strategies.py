@@ -1,6 +1,6 @@
 """Fixed-point strategies (starts, tie-breaks, relaxation, Anderson), mcp-newton and slp on the heuristic suite.
 
-Every strategy runs on every structure of ``studies/heuristic_suite.py``; each
+Every strategy runs on every structure of ``studies/lab/heuristic_suite.py``; each
 result goes through the shared verifier (``Result.success``).  The reference of a
 structure is its certified minimum of (4) (closed form or ``milp``), or for the
 large walls the lowest verified multiplier of the run.  Per strategy the table gives:
@@ -16,7 +16,7 @@ large walls the lowest verified multiplier of the run.  Per strategy the table g
 * ``max fric adm``: the worst friction admissibility error of a verified run;
 * ``median time``: median solve time [s] over all runs.
 
-Use ``python studies/fixed_point_strategies.py [--only LABEL,...] [--no-large]``;
+Use ``python studies/lab/fixed_point_strategies.py [--only LABEL,...] [--no-large]``;
 writes ``studies/output/fixed_point_strategies/{runs.csv,table.md}``.  The
 certificates come from the cache of ``heuristic_suite.py`` (run it first; missing
 ones are computed with ``--time-limit``).
@@ -34,10 +34,10 @@ from pathlib import Path
 
 import blockmpec as bm
 
-sys.path.insert(0, str(Path(__file__).parent))
+sys.path[:0] = [str(Path(__file__).resolve().parent), str(Path(__file__).resolve().parents[1] / "_common")]
 from heuristic_suite import certificate, suite  # noqa: E402
 
-OUT = Path(__file__).resolve().parent / "output" / "fixed_point_strategies"
+OUT = Path(__file__).resolve().parents[1] / "output" / "fixed_point_strategies"
 
 FP = "fixed-point"
 STRATEGIES: list[tuple[str, str, dict]] = [

@@ -14,8 +14,8 @@ Certificates are cached on disk (``studies/output/heuristic_suite/certificates.j
 keyed by the entry's label, with a hash of the structure's JSON form; never in git); an uncertified
 ``milp`` run (time limit) leaves its structure out of the certified set and says so.
 
-Use ``python studies/heuristic_suite.py [--time-limit 120]`` to (re)compute and list
-the certificates; :func:`suite` is imported by ``studies/fixed_point_strategies.py``.
+Use ``python studies/lab/heuristic_suite.py [--time-limit 120]`` to (re)compute and list
+the certificates; :func:`suite` is imported by ``studies/lab/fixed_point_strategies.py``.
 """
 
 from __future__ import annotations
@@ -30,7 +30,7 @@ from typing import Callable
 
 import blockmpec as bm
 
-OUT = Path(__file__).resolve().parent / "output" / "heuristic_suite"
+OUT = Path(__file__).resolve().parents[1] / "output" / "heuristic_suite"
 CACHE = OUT / "certificates.json"
 
 ETAS = (1.5, 2.5, 3.0, 4.0, 6.0)

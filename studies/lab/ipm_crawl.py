@@ -49,21 +49,21 @@ that level (geometric mean 1, clipped to ``[1/clip, clip]``) make every row leav
 
 Usage::
 
-    python studies/ipm_crawl.py --diagnose 100x100
-    python studies/ipm_crawl.py --oracle 20x50,100x100
-    python studies/ipm_crawl.py --oracle 316x316 --clips 10 --rules ""
-    python studies/ipm_crawl.py --oracle 100x100 --clips "" --rules "" --coarse 50x50
-    python studies/ipm_crawl.py --transfer 100x100 --mu 0.65 --to 0.5,0.6,0.7
-    python studies/ipm_crawl.py --roundoff 20x50,100x100
-    python studies/ipm_crawl.py --ties 20x50,100x100 --eps 0,1e-6,1e-4,1e-2 --ipm-settings default
-    python studies/ipm_crawl.py --polish 20x50,100x100 --kappas 100,1e4 --ipm-settings default
-    python studies/ipm_crawl.py --arc 20x50,100x100 --ipm-settings default
+    python studies/lab/ipm_crawl.py --diagnose 100x100
+    python studies/lab/ipm_crawl.py --oracle 20x50,100x100
+    python studies/lab/ipm_crawl.py --oracle 316x316 --clips 10 --rules ""
+    python studies/lab/ipm_crawl.py --oracle 100x100 --clips "" --rules "" --coarse 50x50
+    python studies/lab/ipm_crawl.py --transfer 100x100 --mu 0.65 --to 0.5,0.6,0.7
+    python studies/lab/ipm_crawl.py --roundoff 20x50,100x100
+    python studies/lab/ipm_crawl.py --ties 20x50,100x100 --eps 0,1e-6,1e-4,1e-2 --ipm-settings default
+    python studies/lab/ipm_crawl.py --polish 20x50,100x100 --kappas 100,1e4 --ipm-settings default
+    python studies/lab/ipm_crawl.py --arc 20x50,100x100 --ipm-settings default
 
 Every run uses the block IPM with every inner direction corrected to the absolute target
 (``--ipm-settings exact_inner``, :data:`blockmpec.solvers.linalg.block_ipm.EXACT_INNER_SETTINGS`): the settings
 all of this study's tables were measured with, the LP default before ``inner_tolerance`` 1e-6.  The question here,
 how many iterations the central path takes, does not depend on it; ``--ipm-settings default`` runs the present
-default (1,010 / 10,050 / 100,014 blocks: 21 / 49 / 79 iterations against 21 / 53 / 82, ``studies/lp_timing.py``).
+default (1,010 / 10,050 / 100,014 blocks: 21 / 49 / 79 iterations against 21 / 53 / 82, ``studies/lab/lp_timing.py``).
 
 Writes ``studies/output/ipm_crawl/{diagnose,oracle,transfer,roundoff,polish,polish_summary,ties,arc}.csv``.
 """
@@ -84,11 +84,11 @@ from blockmpec.solvers.linalg import block_ipm
 from blockmpec.solvers.linalg.block_ipm import BlockIPM, IPMIterate
 from blockmpec.solvers.engines.lp_engine import cold_lp_engine
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
+sys.path[:0] = [str(Path(__file__).resolve().parent), str(Path(__file__).resolve().parents[1] / "_common")]
 from _tables import write_csv  # noqa: E402
 from _walls import lowered_friction, named_wall  # noqa: E402
 
-OUT = Path(__file__).parent / "output" / "ipm_crawl"
+OUT = Path(__file__).resolve().parents[1] / "output" / "ipm_crawl"
 #: the crawl starts at the first iterate whose relative duality gap is at most this (the residuals
 #: are 1e-6 or below there on every wall measured; the gap is ``p mu`` over ``|lam|``, p ~ 4 rows per interface)
 CRAWL_GAP = 3.0

@@ -21,7 +21,7 @@ alternative, HiGHS's new interior-point solver HiPO (``hipo``: without crossover
 Apache-2.0, not a dependency of blockmpec: ``clarabel`` with its default tolerances 1e-8, ``clarabel-1e-10``
 with gap and feasibility tolerances 1e-10; :class:`ClarabelLP`).  Usage::
 
-    python studies/lp_timing.py [--sizes 100,1000,10000] [--algorithms auto] [--time-limit 600]
+    python studies/lab/lp_timing.py [--sizes 100,1000,10000] [--algorithms auto] [--time-limit 600]
                                 [--walls 100x100,316x316] [--orderings auto,mmd] [--ipm-settings previous,default]
                                 [--factorisations superlu,supernodal] [--kernels numpy,compiled]
                                 [--algorithms block-ipm,hipo,hipo-crossover]
@@ -55,12 +55,12 @@ from blockmpec.result import Status
 from blockmpec.solvers.engines.highs import LPOutcome
 from blockmpec.solvers.engines.lp_engine import cold_lp_engine
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
+sys.path[:0] = [str(Path(__file__).resolve().parent), str(Path(__file__).resolve().parents[1] / "_common")]
 from _clarabel import ClarabelProblem  # noqa: E402
 from _tables import peak_memory_mb, write_csv  # noqa: E402
 from _walls import named_wall  # noqa: E402
 
-OUT = Path(__file__).parent / "output" / "lp_timing"
+OUT = Path(__file__).resolve().parents[1] / "output" / "lp_timing"
 
 
 def wall_for(n_blocks: int) -> bm.Structure:

@@ -1,8 +1,8 @@
 """mcp-newton strategies (starting points, continuation, fallback) on the heuristic suite.
 
-Every strategy runs on every structure of ``studies/heuristic_suite.py`` and is
+Every strategy runs on every structure of ``studies/lab/heuristic_suite.py`` and is
 judged like the fixed-point strategies (same runner and table as
-``studies/fixed_point_strategies.py``, imported from it): the share verified and
+``studies/lab/fixed_point_strategies.py``, imported from it): the share verified and
 within 1 % / 2 % of the certified minimum (all certified structures, and those
 whose minimum lies below the associative multiplier), the large walls against the
 best verified value of the run, median and maximum relative error, runs below a
@@ -15,7 +15,7 @@ continuation in the dilatancy ``tan(phi) -> tan(psi)``; also without continuatio
 without the associative ``fallback``.  The default ``fixed-point`` method is listed
 as a reference row.
 
-Use ``python studies/mcp_newton_strategies.py [--only LABEL,...] [--no-large] [--time-limit 60]``;
+Use ``python studies/lab/mcp_newton_strategies.py [--only LABEL,...] [--no-large] [--time-limit 60]``;
 writes ``studies/output/mcp_newton_strategies/{runs.csv,table.md}``.  Certificates come
 from the cache of ``heuristic_suite.py`` (run it first).
 """
@@ -25,10 +25,10 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
-sys.path.insert(0, str(Path(__file__).parent))
+sys.path[:0] = [str(Path(__file__).resolve().parent), str(Path(__file__).resolve().parents[1] / "_common")]
 from fixed_point_strategies import run_study  # noqa: E402
 
-OUT = Path(__file__).resolve().parent / "output" / "mcp_newton_strategies"
+OUT = Path(__file__).resolve().parents[1] / "output" / "mcp_newton_strategies"
 
 NEWTON = "mcp-newton"
 STRATEGIES: list[tuple[str, str, dict]] = [

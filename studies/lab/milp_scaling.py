@@ -6,7 +6,7 @@ method's timed run: bound LPs + MILP + polish; set-up reported apart), the
 status, lam, the dual bound and gap, the node count and lam of the associative
 LP for comparison.  Usage::
 
-    python studies/milp_scaling.py [--walls 2,3,2x3,3x2,4,5,6,7,8] [--arches 10:8,20:16,30:35]
+    python studies/lab/milp_scaling.py [--walls 2,3,2x3,3x2,4,5,6,7,8] [--arches 10:8,20:16,30:35]
                                    [--time-limit 60] [--options slack_bounds=normal,multiplier_bounds=0] [--tag fast]
 
 ``--arches`` takes ``n_voussoirs:buttress_courses`` pairs.  Writes
@@ -22,10 +22,10 @@ from pathlib import Path
 
 import blockmpec as bm
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
+sys.path[:0] = [str(Path(__file__).resolve().parent), str(Path(__file__).resolve().parents[1] / "_common")]
 from _tables import write_csv  # noqa: E402
 
-OUT = Path(__file__).parent / "output" / "milp"
+OUT = Path(__file__).resolve().parents[1] / "output" / "milp"
 
 COLUMNS = ["case", "size", "blocks", "interfaces", "binaries", "status", "certified", "multiplier",
            "associative", "dual_bound", "gap_abs", "nodes", "bound_s", "milp_s", "solve_s", "setup_s",

@@ -26,7 +26,7 @@ are the same for all); each solve is capped at ``--cap`` CPU seconds (default 60
 by stopping in its residual callback.  "evals" counts residual evaluations /
 Jacobian evaluations (Newton: line-search trials / iterations + 1).
 
-Use ``python studies/newton_vs_scipy.py [--cap 60] [--dense-max 1500] [--only "NAME;..."]``;
+Use ``python studies/lab/newton_vs_scipy.py [--cap 60] [--dense-max 1500] [--only "NAME;..."]``;
 writes ``studies/output/newton_vs_scipy/table.md``.
 """
 
@@ -44,7 +44,7 @@ from blockmpec.solvers.engines.newton_system import MCPSystem, semismooth_newton
 from blockmpec.solvers.static_lp import StaticLP
 from blockmpec.verify import residuals
 
-OUT = Path(__file__).resolve().parent / "output" / "newton_vs_scipy"
+OUT = Path(__file__).resolve().parents[1] / "output" / "newton_vs_scipy"
 TOL = 1e-10
 VERIFY_TOL = 1e-6
 

@@ -9,7 +9,7 @@ function and derivative evaluations (our Python callbacks) against the linear so
 (MUMPS: symbolic analysis, factorisation, back-solves).  Every solve of the run is
 profiled: the log's tables are summed over the stages.  Usage::
 
-    python studies/nlp_profile.py --wall 20x25 --time-limit 60 \
+    python studies/lab/nlp_profile.py --wall 20x25 --time-limit 60 \
         --configs "ipopt={'route': 'ipopt'};penalty-fp={'route': 'ipopt', 'start': 'fixed-point', 'complementarity': 'penalty'}"
 
 (``route='ipopt'``: from 100 free blocks on ``nlp``'s default route has no Ipopt stage to profile.)
@@ -30,12 +30,12 @@ import numpy as np
 import blockmpec as bm
 from blockmpec.solvers.nlp import RelaxedNLP, RelaxedMPEC
 
-sys.path.insert(0, str(Path(__file__).parent))
+sys.path[:0] = [str(Path(__file__).resolve().parent), str(Path(__file__).resolve().parents[1] / "_common")]
 from _tables import csv_rows  # noqa: E402
 from _walls import wall_shape  # noqa: E402
 from nlp_scaling import parse_configs  # noqa: E402
 
-OUT = Path(__file__).parent / "output" / "nlp"
+OUT = Path(__file__).resolve().parents[1] / "output" / "nlp"
 #: Ipopt timing-statistics lines summed over the log ("name ...: cpu  (sys)  wall")
 TIMERS = {
     "ipopt_total": "OverallAlgorithm",

@@ -16,7 +16,7 @@ before the split) and ``pieces`` (``route="pieces"``: the split piece LPs, ``nlp
 ``max_wall_time``, as the runner times a solve), so on a loaded machine a run gets less CPU
 than its limit.  Usage::
 
-    python studies/nlp_scaling.py [--walls 5x4,10x5,10x10,20x10] [--time-limit 60] [--fixed-point]
+    python studies/lab/nlp_scaling.py [--walls 5x4,10x5,10x10,20x10] [--time-limit 60] [--fixed-point]
                                   [--configs "default={};factor-0.01={'eps_factor': 0.01}"] [--tag T]
 
 Writes ``studies/output/nlp/nlp_scaling[_TAG].csv`` and prints a table, then a markdown table
@@ -34,12 +34,12 @@ from pathlib import Path
 import blockmpec as bm
 from blockmpec import facts
 
-sys.path.insert(0, str(Path(__file__).parent))
+sys.path[:0] = [str(Path(__file__).resolve().parent), str(Path(__file__).resolve().parents[1] / "_common")]
 from _tables import csv_rows  # noqa: E402
 from _walls import wall_shapes  # noqa: E402
 from certificate_study import _fmt  # noqa: E402
 
-OUT = Path(__file__).parent / "output" / "nlp"
+OUT = Path(__file__).resolve().parents[1] / "output" / "nlp"
 COLUMNS = ["config", "wall", "blocks", "status", "verified", "multiplier", "associative", "wall_s", "cpu_s",
            "solve_s", "setup_s", "ipopt_iterations", "stages", "route", "certified", "start_s", "lp_s", "static_lp_s",
            "kinematic_lp_s", "message"]

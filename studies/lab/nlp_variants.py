@@ -1,7 +1,7 @@
 """``nlp`` option sets against each other and against certified minima of (4): lam and CPU time.
 
 Cases: the README's suite (``blockmpec compare``'s ``BENCHMARK_SUITE``) and every structure
-of ``studies/heuristic_suite.py`` whose minimum is known without computing anything here
+of ``studies/lab/heuristic_suite.py`` whose minimum is known without computing anything here
 (two-block closed forms; ``milp`` certificates read from the cache
 ``studies/output/heuristic_suite/certificates.json``, never recomputed; structures without
 a cached certificate are left out).  Each option set (``--configs``, as in
@@ -11,7 +11,7 @@ lam table (one column per set, ``*`` = not verified), then per set: verified, wi
 relative and within 1 % of the certified minimum, never below it, median CPU seconds.
 Usage::
 
-    python studies/nlp_variants.py [--configs "ipopt={'route': 'ipopt'};pieces={'route': 'pieces'}"] [--time-limit 60] [--tag T]
+    python studies/lab/nlp_variants.py [--configs "ipopt={'route': 'ipopt'};pieces={'route': 'pieces'}"] [--time-limit 60] [--tag T]
 
 Writes ``studies/output/nlp/nlp_variants[_TAG].csv``.
 """
@@ -27,7 +27,7 @@ from pathlib import Path
 import blockmpec as bm
 from blockmpec.bench.suite import BENCHMARK_SUITE
 
-sys.path.insert(0, str(Path(__file__).parent))
+sys.path[:0] = [str(Path(__file__).resolve().parent), str(Path(__file__).resolve().parents[1] / "_common")]
 import heuristic_suite  # noqa: E402
 from _tables import csv_rows  # noqa: E402
 from nlp_scaling import DEFAULT_CONFIGS, OUT, parse_configs  # noqa: E402

@@ -27,8 +27,8 @@ bound goes, two ways:
 
 Usage::
 
-    python studies/normal_force_bound.py vertices --walls 2x2,3x2 --lam-floors none,0.5,0.6
-    python studies/normal_force_bound.py bnb --walls 2x2,3x2 --time-limit 60
+    python studies/lab/normal_force_bound.py vertices --walls 2x2,3x2 --lam-floors none,0.5,0.6
+    python studies/lab/normal_force_bound.py bnb --walls 2x2,3x2 --time-limit 60
 """
 
 from __future__ import annotations
@@ -46,7 +46,7 @@ from blockmpec.formulations import compile_linear, static_lp
 from blockmpec.formulations.static_lp import modified_lp
 from blockmpec.solvers.engines.highs import HighsLP
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
+sys.path[:0] = [str(Path(__file__).resolve().parent), str(Path(__file__).resolve().parents[1] / "_common")]
 from _walls import named_wall  # noqa: E402
 
 TOL = 1e-9

@@ -8,7 +8,7 @@ descent (:func:`~blockmpec.solvers.engines.piece_lp.piece_descent`) with its sta
 wall seconds, LP solves, seconds in the static and kinematic halves, the verifier's largest residual.
 Usage::
 
-    python studies/piece_lp_engines.py [--walls 10x10,15x15,20x25,32x63] [--engines whole,dual-simplex,block-ipm]
+    python studies/lab/piece_lp_engines.py [--walls 10x10,15x15,20x25,32x63] [--engines whole,dual-simplex,block-ipm]
                                        [--time-limit 120] [--tag T]
 
 Writes ``studies/output/nlp/piece_lp_engines[_TAG].csv`` and prints a markdown table.
@@ -23,11 +23,11 @@ from pathlib import Path
 
 import blockmpec as bm
 
-sys.path.insert(0, str(Path(__file__).parent))
+sys.path[:0] = [str(Path(__file__).resolve().parent), str(Path(__file__).resolve().parents[1] / "_common")]
 from _tables import csv_rows  # noqa: E402
 from _walls import wall_shapes  # noqa: E402
 
-OUT = Path(__file__).parent / "output" / "nlp"
+OUT = Path(__file__).resolve().parents[1] / "output" / "nlp"
 COLUMNS = ["wall", "blocks", "pairs", "engine", "status", "certified", "multiplier", "fixed_point", "cpu_s", "wall_s",
            "lp_solves", "static_s", "kinematic_s", "residual", "message"]
 

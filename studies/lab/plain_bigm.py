@@ -19,7 +19,7 @@ active at it (column ``bigm_active``).  Only the branch and cut is timed for the
 formulation (its build is untimed); ``milp``'s time is its whole timed run (bound LPs,
 incumbent, search, polish).  Usage::
 
-    python studies/plain_bigm.py [--cases 2x2,3x2,2x3,4x2,3x2s,6x2s,arch:20] [--configs highs,bnb-rltfull-ipm]
+    python studies/lab/plain_bigm.py [--cases 2x2,3x2,2x3,4x2,3x2s,6x2s,arch:20] [--configs highs,bnb-rltfull-ipm]
                                  [--time-limit 60] [--bigm 100]
 
 Writes ``studies/output/certificate/plain_bigm.csv`` and prints a table.
@@ -40,11 +40,11 @@ from blockmpec.formulations.mpec_milp import MixedIntegerMPEC
 from blockmpec.operators import assemble
 from blockmpec.solvers.engines.mip import solve_highs
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
+sys.path[:0] = [str(Path(__file__).resolve().parent), str(Path(__file__).resolve().parents[1] / "_common")]
 from _tables import write_csv  # noqa: E402
 from certificate_study import CONFIGS, _fmt, case  # noqa: E402
 
-OUT = Path(__file__).parent / "output" / "certificate"
+OUT = Path(__file__).resolve().parents[1] / "output" / "certificate"
 COLUMNS = [
     "case",
     "blocks",

@@ -46,9 +46,9 @@ solves first, which certifies the two-course walls): IPX's own log (written to `
 summarised as the seconds spent constructing IPX's starting basis (from the last iteration before it to the first after
 it, so one iteration included), the iterations and seconds after it, and the last iteration's gap.
 
-    python studies/root_lp_engines.py --engines 5x2,4x3 --time-limit 300
-    python studies/root_lp_engines.py --liftings 2x8
-    python studies/root_lp_engines.py --profile 2x8,2x15 --time-limit 650
+    python studies/lab/root_lp_engines.py --engines 5x2,4x3 --time-limit 300
+    python studies/lab/root_lp_engines.py --liftings 2x8
+    python studies/lab/root_lp_engines.py --profile 2x8,2x15 --time-limit 650
 """
 
 from __future__ import annotations
@@ -64,11 +64,11 @@ import scipy.sparse as sp
 
 import blockmpec as bm
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
+sys.path[:0] = [str(Path(__file__).resolve().parent), str(Path(__file__).resolve().parents[1] / "_common")]
 from _clarabel import ClarabelProblem  # noqa: E402
 from _walls import named_wall  # noqa: E402
 
-OUT = Path(__file__).parent / "output" / "root_lp_engines"
+OUT = Path(__file__).resolve().parents[1] / "output" / "root_lp_engines"
 ENGINES = ("ipx", "ipx-null-space", "ipx-null-space-cycles", "ipx-null-space-crossover", "ipx-presolve-off", "ipx-tol-1e-4", "ipx-primal", "ipx-filippo", "hipo",
            "hipo-augmented", "hipo-normaleq", "clarabel", "clarabel-faer")
 #: HiGHS options of each HiGHS engine (the interior point without crossover in every case)

@@ -11,9 +11,9 @@ copy removal of idle pairs could drop.
 Part 3 (``--copies``): the root LP's interior-point bound with full static copies for every pair
 (``static_copies="all"``, what ``rlt-full`` builds) against copies with statics for the friction pairs only.
 
-    python studies/root_rows.py --compare 2x4,5x2,4x3,3x4 --time-limit 300
-    python studies/root_rows.py --sizes 2x15,4x7,8x4
-    python studies/root_rows.py --copies 5x2
+    python studies/lab/root_rows.py --compare 2x4,5x2,4x3,3x4 --time-limit 300
+    python studies/lab/root_rows.py --sizes 2x15,4x7,8x4
+    python studies/lab/root_rows.py --copies 5x2
 """
 
 from __future__ import annotations
@@ -28,10 +28,10 @@ import numpy as np
 
 import blockmpec as bm
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
+sys.path[:0] = [str(Path(__file__).resolve().parent), str(Path(__file__).resolve().parents[1] / "_common")]
 from _walls import named_wall  # noqa: E402
 
-OUT = Path(__file__).parent / "output" / "root_rows"
+OUT = Path(__file__).resolve().parents[1] / "output" / "root_rows"
 
 
 def compare(walls: list[str], modes: list[str], time_limit: float) -> list[dict]:

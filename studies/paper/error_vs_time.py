@@ -9,7 +9,7 @@ Heavy methods get time limits (``--time-limit``, default 30 s for ``milp``,
 ``nlp`` and ``mcp-newton``), so on larger walls they may stop without an answer:
 their rows say so (status ``time_limit``) and they are absent from the figure.
 
-Run: ``python studies/error_vs_time.py [--sizes 2x2,3x3,5x4,8x5,10x8] [--time-limit 30] [--jobs N]``.
+Run: ``python studies/paper/error_vs_time.py [--sizes 2x2,3x3,5x4,8x5,10x8] [--time-limit 30] [--jobs N]``.
 Writes ``studies/output/error_vs_time/{results.csv, results.parquet, summary.csv, error_vs_time.png,
 performance_profile.png, time_vs_blocks.png}`` (the folder is replaced on each run).
 """
@@ -24,7 +24,7 @@ from blockmpec.bench.compare import compare, text_table
 from blockmpec.bench.plots import error_vs_time, method_style
 from blockmpec.bench.profiles import plot_profiles, summary_table, summary_text
 
-OUT = Path(__file__).resolve().parent / "output" / "error_vs_time"
+OUT = Path(__file__).resolve().parents[1] / "output" / "error_vs_time"
 HEAVY = ("milp", "nlp", "mcp-newton")
 
 
@@ -66,14 +66,18 @@ def main(argv: list[str] | None = None):
     parser.add_argument("--time-limit", type=float, default=30.0, help="seconds for milp, nlp and mcp-newton")
     parser.add_argument("--repeat", type=int, default=1)
     parser.add_argument("--jobs", type=int, default=1, help="worker processes (timings are noisier with more)")
+    parser.add_argument("--smoke", action="store_true", help="the smallest run: the 2x2 wall only (CI)")
     args = parser.parse_args(argv)
+    if args.smoke:
+        args.sizes = "2x2"
     cases = {}
     for size in args.sizes.split(","):
         c, b = (int(v) for v in size.lower().split("x"))
         cases[f"wall-{c}x{b}"] = ("wall", {"courses": c, "blocks_per_course": b})
     methods = [(m, m, {"time_limit": args.time_limit} if m in HEAVY else {}) for m in bm.list_solvers()]
     results: dict = {}
-    df = compare(cases, methods, repeat=args.repeat, progress=True, n_jobs=args.jobs, out=OUT, overwrite=True,
+    df = compare(cases, methods, repeat=args.repeat, progress=not args.smoke, n_jobs=args.jobs, out=OUT, overwrite=True,
+                 isolate=not args.smoke,
                  results=results)
     summary = (df.groupby(["case", "method_label"], sort=False)
                  .agg(blocks=("blocks", "first"), status=("status", "first"), multiplier=("multiplier", "first"),

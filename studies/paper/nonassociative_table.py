@@ -8,7 +8,7 @@ admissibility error ``||(N_f^T x)_+|| / ||N_f^T x||``, the worst residual of (3)
 the status and the solve time.  Prints a table and writes
 ``studies/output/nonassociative/table.csv``.
 
-Run: ``python studies/nonassociative_table.py``
+Run: ``python studies/paper/nonassociative_table.py [--smoke]`` (``--smoke``: the two-block case only).
 """
 
 from __future__ import annotations
@@ -35,7 +35,7 @@ RUNS = [
     ("slp", "slp", {}),
 ]
 
-OUTPUT = Path(__file__).resolve().parent / "output" / "nonassociative"
+OUTPUT = Path(__file__).resolve().parents[1] / "output" / "nonassociative"
 
 
 def case_label(name: str, params: dict) -> str:
@@ -44,9 +44,14 @@ def case_label(name: str, params: dict) -> str:
     return f"{name}({params['courses']}x{params['blocks_per_course']})"
 
 
-def main() -> list[dict]:
+def main(argv: list[str] | None = None) -> list[dict]:
+    import argparse
+
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--smoke", action="store_true", help="the smallest run: the two-block case only (CI)")
+    args = parser.parse_args(argv)
     rows = []
-    for name, params in CASES:
+    for name, params in CASES[:1] if args.smoke else CASES:
         structure = bm.build_case(name, **params)
         ops = bm.assemble(structure)
         for label, method, options in RUNS:

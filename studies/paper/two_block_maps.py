@@ -34,7 +34,8 @@ Closed forms (paper Sect. 3): associative ``lam = min(mu, [eta(1-mu^2)+mu]^-1,
 A3; non-associative minimum ``mu`` (sliding) if ``mu <= 1/eta`` else ``1/eta``
 (single rocking).
 
-Run: ``python studies/two_block_maps.py [--n 21]``; writes
+Run: ``python studies/paper/two_block_maps.py [--n 21] [--check]`` (``--smoke``: the smallest grid with ``--check``);
+writes
 ``studies/output/two_block_maps/{two_block_maps.csv, mechanisms.png, multipliers.png}``.
 """
 
@@ -48,7 +49,7 @@ import numpy as np
 import blockmpec as bm
 from blockmpec.bench.compare import compare
 
-OUT = Path(__file__).resolve().parent / "output" / "two_block_maps"
+OUT = Path(__file__).resolve().parents[1] / "output" / "two_block_maps"
 
 ASSOCIATIVE_CLASSES = ("A1", "A2-1", "A2-2", "A3")
 NA_CLASSES = ("NA1", "NA2", "NA3")
@@ -141,7 +142,7 @@ RUNS = (("associative", "static-lp", "static-lp", {}),
         ("na_max", "milp-max", "milp", {"sense": "max"}))
 
 
-def sample(etas, mus, *, progress=None):
+def sample(etas, mus, *, progress=None, isolate: bool = True):
     """Run static-lp, milp (min) and milp (max) on every (eta, mu); one row per point.
 
     Returns
@@ -158,7 +159,7 @@ def sample(etas, mus, *, progress=None):
     results: dict = {}
     have_milp = "milp" in bm.list_solvers()
     methods = [(label, method, options) for _, label, method, options in RUNS if have_milp or method != "milp"]
-    df = compare(cases, methods, progress=progress, results=results)
+    df = compare(cases, methods, progress=progress, results=results, isolate=isolate)
     rows = []
     for label, (_, params) in cases.items():
         eta, mu = params["eta"], params["mu"]
@@ -246,16 +247,71 @@ def _maps(table, out: Path) -> list[Path]:
     return [p1, p2]
 
 
+def check(table) -> list[str]:
+    """The paper's statements on the computed table (Sect. 3, Figs 5-6); one line per statement that fails.
+
+    * the certified minimum slides (NA1) iff ``mu < 1/eta``, else single rocking (NA2), at ``min(mu, 1/eta)``;
+    * the associative mechanism is the closed forms' argmin away from region boundaries (the two least candidates
+      more than 1 % apart), and each of A1, A2-1, A2-2, A3 shows up (on a grid crossing every boundary);
+    * the certified maximum equals the associative multiplier, and away from boundaries its mechanism is the
+      non-dilatant counterpart of the associative one (:data:`A_TO_NA`), NA1, NA2 and NA3 each showing up.
+    """
+    failures = []
+    certified = table["na_min_status"] == "optimal"
+    if certified.mean() <= 0.9:
+        failures.append(f"the minimum is certified at {certified.mean():.0%} of the points only")
+    t = table[certified & (np.abs(table["mu"] - 1 / table["eta"]) > 1e-6)]
+    sliding = t["na_min_mechanism"] == "NA1"
+    if not np.array_equal(sliding.values, (t["mu"] < 1 / t["eta"]).values):
+        failures.append("the certified minimum does not slide exactly where mu < 1/eta")
+    if set(t.loc[~sliding, "na_min_mechanism"]) != {"NA2"}:
+        failures.append(f"the rocking minima are {set(t.loc[~sliding, 'na_min_mechanism'])}, not NA2")
+    if not np.allclose(t["na_min_lam"], np.minimum(t["mu"], 1 / t["eta"]), rtol=1e-7):
+        failures.append("the certified minimum is not min(mu, 1/eta)")
+
+    def clear(r) -> bool:
+        values = sorted(closed_form_candidates(r["eta"], r["mu"]).values())
+        return not np.isnan(r["closed_form_associative"]) and (len(values) == 1 or values[1] > values[0] * 1.01)
+
+    rows = table[table.apply(clear, axis=1)]
+    wrong = rows[rows["associative_mechanism"] != rows["closed_form_mechanism"]]
+    if len(wrong):
+        failures.append(f"associative mechanism not the closed forms' argmin at {list(zip(wrong.eta, wrong.mu))}")
+    if not {"A1", "A2-1", "A2-2", "A3"} <= set(table["associative_mechanism"]):
+        failures.append(f"associative mechanisms seen: {sorted(set(table['associative_mechanism']))}")
+    if not (table["na_max_status"] == "optimal").all():
+        failures.append("the maximum is not certified at every point")
+    if not np.allclose(table["na_max_lam"], table["associative_lam"], rtol=1e-7):
+        failures.append("the certified maximum is not the associative multiplier")
+    want = rows["associative_mechanism"].map(A_TO_NA)
+    bad = rows[rows["na_max_mechanism"] != want]
+    if len(bad):
+        failures.append(f"maximum mechanism not the counterpart at {list(zip(bad.eta, bad.mu))}")
+    if set(rows["na_max_mechanism"]) != {"NA1", "NA2", "NA3"}:
+        failures.append(f"maximum mechanisms seen: {sorted(set(rows['na_max_mechanism']))}")
+    return failures
+
+
 def main(argv: list[str] | None = None):
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--n", type=int, default=21, help="grid points per axis")
     parser.add_argument("--eta", default="0.5,5", help="eta range lo,hi")
     parser.add_argument("--mu", default="0.1,1.5", help="mu range lo,hi")
+    parser.add_argument("--check", action="store_true",
+                        help="assert the paper's statements on the table (exit 1 naming each that fails)")
+    parser.add_argument("--smoke", action="store_true",
+                        help="the smallest grid crossing every region boundary (6 x 6 on eta 1.1..5.6, mu 0.15..1.4, "
+                             "plus the paper's point 3, 0.65), solved in this process, with --check (CI)")
     args = parser.parse_args(argv)
-    e0, e1 = (float(v) for v in args.eta.split(","))
-    m0, m1 = (float(v) for v in args.mu.split(","))
-    etas, mus = np.linspace(e0, e1, args.n), np.linspace(m0, m1, args.n)
-    table, long = sample(etas, mus, progress=True)
+    if args.smoke:
+        etas = list(np.linspace(1.1, 5.6, 6)) + [3.0]
+        mus = list(np.linspace(0.15, 1.4, 6)) + [0.65]
+        args.check = True
+    else:
+        e0, e1 = (float(v) for v in args.eta.split(","))
+        m0, m1 = (float(v) for v in args.mu.split(","))
+        etas, mus = np.linspace(e0, e1, args.n), np.linspace(m0, m1, args.n)
+    table, long = sample(etas, mus, progress=not args.smoke, isolate=not args.smoke)
     OUT.mkdir(parents=True, exist_ok=True)
     table.to_csv(OUT / "two_block_maps.csv", index=False)
     long.to_csv(OUT / "runs.csv", index=False)
@@ -283,6 +339,13 @@ def main(argv: list[str] | None = None):
                   f"{secs.max() * 1e3:.0f} ms max per point")
     for p in paths:
         print(f"wrote {p}")
+    if args.check:
+        failures = check(table)
+        for line in failures:
+            print(f"check failed: {line}")
+        if failures:
+            raise SystemExit(1)
+        print("check: every statement of the paper holds on this grid")
     return table
 
 
