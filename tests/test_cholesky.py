@@ -225,7 +225,7 @@ def test_subtree_halves_factorised_apart_give_the_same_factors():
         for c in kids:
             assert owner[s] == -1 or owner[c] == owner[s], (s, c)  # a half's supernode has only its half's children
     whole: list = []
-    f._solver = lambda diagonal, below: whole.extend([diagonal, below])  # capture the whole factorisation's factors
+    f.solver = lambda diagonal, below: whole.extend([diagonal, below])  # capture the whole factorisation's factors
     assert f.factorise(K) is None and len(whole) == 2
     values = f.pattern_values(K)
     blocks: list = [None] * f.supernodes

@@ -64,6 +64,7 @@ Writes ``studies/output/cholesky_choice/cholesky_choice.csv``.
 from __future__ import annotations
 
 import argparse
+import math
 import sys
 import time
 from pathlib import Path
@@ -75,7 +76,7 @@ from threadpoolctl import threadpool_limits
 
 import blockmpec as bm
 from blockmpec.formulations import compile_linear, static_lp
-from blockmpec.formulations._pyomo import pause_gc
+from blockmpec.formulations import pause_gc
 from blockmpec.solvers.linalg.block_ipm import IPMIterate, compiled_kernels_available
 from blockmpec.solvers.linalg.cholesky import (
     SupernodalCholesky,
@@ -84,6 +85,7 @@ from blockmpec.solvers.linalg.cholesky import (
     structural_pattern,
 )
 from blockmpec.solvers.engines.lp_engine import cold_lp_engine
+from blockmpec.solvers.engines.scaling import LoadUnits
 
 sys.path[:0] = [str(Path(__file__).resolve().parent), str(Path(__file__).resolve().parents[1] / "_common")]
 from _tables import write_csv  # noqa: E402
@@ -108,7 +110,7 @@ def reduced_matrix(courses: int, per_course: int, seed: int = 0):
     """``(K, engine)`` at a random interior point of the wall's static LP in load units."""
     ops = bm.assemble(bm.cases.wall(courses=courses, blocks_per_course=per_course))
     lp = compile_linear(pause_gc(static_lp)(ops))
-    engine = cold_lp_engine(lp, "block-ipm", ops=ops)
+    engine = cold_lp_engine(lp, "block-ipm", LoadUnits.of(ops))
     rng = np.random.default_rng(seed)
     p = engine.h.size
     it = IPMIterate(np.zeros(engine.c.size), 10.0 ** rng.uniform(-3, 3, p), np.zeros(engine.b.size),
@@ -130,9 +132,9 @@ def compiled_solver(f: SupernodalCholesky, K: sp.csc_array):
     captured = {}
 
     class Capturing(SupernodalCholesky):
-        def _solver(self, diagonal_blocks, below_blocks):
+        def solver(self, diagonal_blocks, below_blocks):
             captured["blocks"] = diagonal_blocks, below_blocks
-            return super()._solver(diagonal_blocks, below_blocks)
+            return super().solver(diagonal_blocks, below_blocks)
 
     f.__class__ = Capturing
     f.factorise(K)
@@ -148,7 +150,7 @@ def compiled_solver(f: SupernodalCholesky, K: sp.csc_array):
         panel[:w] = np.tril(L11)
         if L21 is not None:
             panel[w:] = L21
-    below = np.concatenate(f._below).astype(np.int64)
+    below = np.concatenate(f.below_rows).astype(np.int64)
     below_offsets = np.concatenate([[0], np.cumsum(heights)]).astype(np.int64)
     kernel = _compiled_kernel(numba)
     first = f.first.astype(np.int64)
@@ -394,6 +396,42 @@ def side_by_side(K: sp.csc_array, engine, rounds: int = 5) -> dict:
             "speedup": one_core / bound, "rounds": rounds}
 
 
+def smoke() -> None:
+    """The smallest runs, checked (CI): on a 6x8 wall the default method, the SuperLU fallback and (numba installed)
+    the compiled solve solve ``K x = b`` to round-off, with the rates as documented; ``--side-by-side`` on a 12x16
+    wall: both workers answer every round and the supernodes it reports add up to the whole tree."""
+    failures = []
+    K, engine = reduced_matrix(6, 8)
+    for method in ("supernodal-metis", "superlu-mmd", "supernodal-numba"):
+        row = measure(method, K, engine)
+        if row is None:
+            if method != "supernodal-numba":  # numba (or pymetis) not installed: skipped, as the study says
+                failures.append(f"{method}: not measured")
+            continue
+        if not (row["residual"] <= 1e-10 and row["rows"] == K.shape[0] and row["solve_s"] > 0):
+            failures.append(f"{method}: residual {row['residual']:.1e}, rows {row['rows']}, solve {row['solve_s']}")
+        # the factor's two reads per solve, as a rate: bytes of both reads over the solve's wall-clock
+        if not math.isclose(row["solve_read_gb_s"], 16 * row["factor_nnz"] / row["solve_wall_s"] / 1e9, rel_tol=1e-6):
+            failures.append(f"{method}: solve_read_gb_s is not the factor's two reads over the solve's time")
+        if (row["factor_gflop"] is None) != (not method.startswith("supernodal")):
+            failures.append(f"{method}: factor_gflop {row['factor_gflop']}")
+    if not copy_rate(megabytes=8, rounds=2) > 0:
+        failures.append("copy_rate is not positive")
+    row = side_by_side(*reduced_matrix(12, 16), rounds=2)
+    halves = [int(v) for v in row["half_supernodes"].split("/")]
+    if not (sum(halves) + row["top_supernodes"] == row["supernodes"] and min(halves) > 0):
+        failures.append(f"side by side: supernodes {row['half_supernodes']} + {row['top_supernodes']} != "
+                        f"{row['supernodes']}")
+    times = [row[f"{key}_{half}_s"] for key in ("alone", "side_by_side") for half in (0, 1)]
+    if not (all(t > 0 for t in times) and row["two_core_bound_s"] > 0 and row["speedup"] > 0):
+        failures.append(f"side by side: times {times}, bound {row['two_core_bound_s']}, speed-up {row['speedup']}")
+    for line in failures:
+        print(f"smoke check failed: {line}")
+    if failures:
+        raise SystemExit(1)
+    print("smoke: every method measured solves K x = b to round-off; the side-by-side halves add up")
+
+
 def main(argv: list[str] | None = None) -> list[dict]:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--walls", default="100x100", help="comma-separated CxB walls (courses x blocks per course)")
@@ -404,7 +442,11 @@ def main(argv: list[str] | None = None) -> list[dict]:
     parser.add_argument("--side-by-side", action="store_true",
                         help="time the supernodal factorisation's two subtree halves alone and in two processes at once")
     parser.add_argument("--rounds", type=int, default=5, help="--side-by-side: rounds (medians are reported)")
+    parser.add_argument("--smoke", action="store_true", help="the smallest runs, with their checks (CI)")
     args = parser.parse_args(argv)
+    if args.smoke:
+        smoke()
+        return []
     if args.side_by_side:
         rows = []
         for wall in args.walls.split(","):

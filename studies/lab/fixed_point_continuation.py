@@ -185,7 +185,7 @@ def result_row(stage, ops, sol, cpu, count, status, **extra) -> dict:
 
 def main(argv: list[str] | None = None) -> list[dict]:
     from blockmpec.formulations import modified_lp
-    from blockmpec.formulations._pyomo import compiled_linear
+    from blockmpec.formulations import compiled_linear
     from blockmpec.result import Solution
     from blockmpec.solvers.engines.highs import static_lp_solution
 

@@ -98,7 +98,7 @@ def lp_steps(ops, lp, first_iterate, n_first, steps: int, warm: bool, time_limit
 
 def main(argv: list[str] | None = None) -> list[dict]:
     from blockmpec.formulations import compile_mcp, modified_lp
-    from blockmpec.formulations._pyomo import compiled_linear
+    from blockmpec.formulations import compiled_linear
     from blockmpec.solvers.engines.highs import static_lp_solution
     from blockmpec.solvers.engines.interior_fixed_point import InteriorFixedPoint
     from blockmpec.solvers.engines.newton_system import MCPSystem, semismooth_newton

@@ -159,7 +159,7 @@ def set_dual_slope(engine, slope, base_slope) -> None:
 
 def step_lp(ops):
     from blockmpec.formulations import modified_lp
-    from blockmpec.formulations._pyomo import compiled_linear
+    from blockmpec.formulations import compiled_linear
 
     return compiled_linear(modified_lp, ops, np.zeros(ops.n_interfaces), slope=ops.dilatancy)
 

@@ -50,7 +50,7 @@ import blockmpec as bm
 from blockmpec.cli import parse_pairs
 from blockmpec.errors import OptionError
 from blockmpec.formulations import compile_linear, static_lp
-from blockmpec.formulations._pyomo import pause_gc
+from blockmpec.formulations import pause_gc
 from blockmpec.result import Status
 from blockmpec.solvers.engines.highs import LPOutcome
 from blockmpec.solvers.engines.lp_engine import cold_lp_engine
