@@ -119,9 +119,9 @@ class ProximalInteriorFixedPoint(InteriorFixedPoint):
     corrects the equality rows.  The stopping test reads the residuals of (3) itself.
     """
 
-    def __init__(self, lp, ops, proximal: float = 1.0, balance: float = 1.0, recentre: str = "every",
+    def __init__(self, lp, coulomb_lp, units, proximal: float = 1.0, balance: float = 1.0, recentre: str = "every",
                  recentre_ratio: float = 0.1, **options) -> None:
-        super().__init__(lp, ops, **options)
+        super().__init__(lp, coulomb_lp, units, **options)
         if recentre not in RECENTRES:
             raise ValueError(f"proximal fixed point: unknown recentre {recentre!r}; use one of {', '.join(RECENTRES)}")
         self.recentre, self.recentre_ratio, self.recentres = recentre, float(recentre_ratio), 0
@@ -184,10 +184,11 @@ def result_row(stage, ops, sol, cpu, count, status, **extra) -> dict:
 
 
 def main(argv: list[str] | None = None) -> list[dict]:
-    from blockmpec.formulations import modified_lp
-    from blockmpec.formulations import compiled_linear
+    from blockmpec.deadline import Deadline
+    from blockmpec.formulations import step_lps
     from blockmpec.result import Solution
     from blockmpec.solvers.engines.highs import static_lp_solution
+    from blockmpec.solvers.engines.scaling import LoadUnits
 
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--wall", default="40x60", help="CxB: courses x blocks per course")
@@ -205,10 +206,14 @@ def main(argv: list[str] | None = None) -> list[dict]:
                         help="seconds per stage (the continuation: wall clock)")
     args = parser.parse_args(argv)
     ops = bm.assemble(named_wall(args.wall))
-    lp = compiled_linear(modified_lp, ops, np.zeros(ops.n_interfaces), slope=ops.dilatancy)
+    lps = step_lps(ops, tie_break=False)  # the step LP (5) and the static LP (1): the engine's dual and primal rows
+    lp, units = lps.step, LoadUnits.of(ops)
     print(f"{args.wall}: {ops.n_free_blocks} free blocks", flush=True)
-    common = {"tol": 1e-9, "time_limit": args.time_limit}
     rows = []
+
+    def interior(cls=InteriorFixedPoint, **options):
+        """The engine on this wall, ``--time-limit`` seconds from now (each stage its own)."""
+        return cls(lp, lps.associative, units, tol=1e-9, deadline=time.perf_counter() + args.time_limit, **options)
 
     def add(row):
         rows.append(row)
@@ -217,7 +222,7 @@ def main(argv: list[str] | None = None) -> list[dict]:
     for stage in args.stages.split(","):
         if stage == "interior":
             t0 = time.process_time()
-            engine = InteriorFixedPoint(lp, ops, fold_weight=args.weight, **common)
+            engine = interior(fold_weight=args.weight)
             out = engine.solve()
             add(result_row(f"interior (aim {args.weight:g})", ops, static_lp_solution(lp, out),
                            time.process_time() - t0, out.iterations, out.status.value))
@@ -225,8 +230,8 @@ def main(argv: list[str] | None = None) -> list[dict]:
             for spec in args.proximal.split(";"):
                 p, balance, recentre = spec.split(":")
                 t0 = time.process_time()
-                engine = ProximalInteriorFixedPoint(lp, ops, proximal=float(p), balance=float(balance),
-                                                    recentre=recentre, **common)
+                engine = interior(ProximalInteriorFixedPoint, proximal=float(p), balance=float(balance),
+                                  recentre=recentre)
                 out = engine.solve()
                 add(result_row(f"proximal p={p} balance={balance} {recentre}", ops, static_lp_solution(lp, out),
                                time.process_time() - t0, out.iterations, out.status.value,
@@ -234,13 +239,13 @@ def main(argv: list[str] | None = None) -> list[dict]:
         elif stage == "aimed":
             for weight in (float(w) for w in args.aim_weights.split(",")):
                 t0 = time.process_time()
-                aimed = InteriorFixedPoint(lp, ops, fold_weight=weight, fold_off=0.0, fold_knee=1e-300, **common)
+                aimed = interior(fold_weight=weight, fold_off=0.0, fold_knee=1e-300)
                 aimed.keep_aim = True
                 out = aimed.solve()
                 sol = static_lp_solution(lp, out)
                 add(result_row(f"aimed {weight:g} (aimed problem)", ops, sol, time.process_time() - t0,
                                out.iterations, out.status.value))
-                step = InteriorFixedPoint(lp, ops, coupling="fixed", **common)
+                step = interior(coupling="fixed")
                 step.set_n_star(np.minimum(sol.x[1::3], 0.0))
                 lp_out = step.solve()
                 lp_sol = static_lp_solution(lp, lp_out)
@@ -253,12 +258,12 @@ def main(argv: list[str] | None = None) -> list[dict]:
             t0 = time.process_time()
             first = args.start_iteration
             if first in ("auto", "best"):
-                engine = InteriorFixedPoint(lp, ops, **common)
+                engine = interior()
                 engine.solve()
                 short = [r["k"] for r in engine.trace if min(r["step_primal"], r["step_dual"]) < 0.5]
                 first = "best" if first == "best" or not short else short[0]
             if first != "best":
-                engine = InteriorFixedPoint(lp, ops, max_iterations=int(first), **common)
+                engine = interior(max_iterations=int(first))
                 engine.solve()
             start = engine.best_iterate
             t1 = time.perf_counter()
@@ -269,7 +274,7 @@ def main(argv: list[str] | None = None) -> list[dict]:
                           f"dual {dual:.1e}, lam {multiplier:.6g}, {factorisations} factorisations, "
                           f"{time.perf_counter() - t1:.1f} s", flush=True)
 
-            end, facts = continue_central_path(engine, start, tol=1e-9, time_limit=args.time_limit,
+            end, facts = continue_central_path(engine, start, tol=1e-9, deadline=Deadline(args.time_limit),
                                                max_steps=args.arc_steps, corrector_tol=args.corrector_tol,
                                                record=report)
             add(result_row(f"arclength from iteration {first} (corrector {args.corrector_tol:g})",

@@ -69,20 +69,21 @@ def row(stage, ops, sol, cpu, count, status) -> dict:
             "multiplier": sol.multiplier, "verified": bool(worst <= VERIFY_TOL)}
 
 
-def lp_steps(ops, lp, first_iterate, n_first, steps: int, warm: bool, time_limit: float):
-    """Fixed-point steps n* <- n, each LP (5) by the block IPM; returns (solution, LPs, status)."""
+def lp_steps(lps, units, first_iterate, n_first, steps: int, warm: bool, time_limit: float):
+    """Fixed-point steps n* <- n, each LP (5) by the block IPM (all within ``time_limit`` seconds); returns
+    (solution, LPs, status)."""
     from blockmpec.solvers.engines.highs import static_lp_solution
     from blockmpec.solvers.engines.interior_fixed_point import InteriorFixedPoint
 
-    t0 = time.perf_counter()
-    engine = InteriorFixedPoint(lp, ops, coupling="fixed", tol=1e-9, time_limit=time_limit)
+    lp = lps.step
+    engine = InteriorFixedPoint(lp, lps.associative, units, coupling="fixed", tol=1e-9,
+                                deadline=time.perf_counter() + time_limit)
     n_star, iterate, sol, status = np.minimum(n_first, 0.0), first_iterate, None, "step limit"
     for k in range(1, steps + 1):
         engine.set_n_star(n_star)
         engine.start_iterate = iterate if warm else None
         engine.best_error, engine.best_iterate = np.inf, None
-        engine.time_limit = max(time_limit - (time.perf_counter() - t0), 1e-3)
-        out = engine.solve()
+        out = engine.solve()  # within the deadline given above
         sol = static_lp_solution(lp, out)
         n = sol.x[1::3]
         change = float(np.linalg.norm(n - n_star)) / max(float(np.linalg.norm(n)), 1e-300)
@@ -97,9 +98,10 @@ def lp_steps(ops, lp, first_iterate, n_first, steps: int, warm: bool, time_limit
 
 
 def main(argv: list[str] | None = None) -> list[dict]:
-    from blockmpec.formulations import compile_mcp, modified_lp
-    from blockmpec.formulations import compiled_linear
+    from blockmpec.deadline import Deadline
+    from blockmpec.formulations import compile_mcp, step_lps
     from blockmpec.solvers.engines.highs import static_lp_solution
+    from blockmpec.solvers.engines.scaling import LoadUnits
     from blockmpec.solvers.engines.interior_fixed_point import InteriorFixedPoint
     from blockmpec.solvers.engines.newton_system import MCPSystem, semismooth_newton
 
@@ -113,11 +115,12 @@ def main(argv: list[str] | None = None) -> list[dict]:
     parser.add_argument("--time-limit", type=float, default=120.0, help="seconds per stage")
     args = parser.parse_args(argv)
     ops = bm.assemble(named_wall(args.wall))
-    lp = compiled_linear(modified_lp, ops, np.zeros(ops.n_interfaces), slope=ops.dilatancy)
+    lps = step_lps(ops, tie_break=False)  # the step LP (5) and the static LP (1): the engine's dual and primal rows
+    lp, units = lps.step, LoadUnits.of(ops)
     rows = []
     t0 = time.process_time()
-    stalled = InteriorFixedPoint(lp, ops, fold_weight=args.weight, tol=1e-9, max_iterations=500,
-                                 time_limit=args.time_limit)
+    stalled = InteriorFixedPoint(lp, lps.associative, units, fold_weight=args.weight, tol=1e-9, max_iterations=500,
+                                 deadline=time.perf_counter() + args.time_limit)
     out = stalled.solve()
     base = static_lp_solution(lp, out)
     rows.append(row(f"interior (weight {args.weight:g})", ops, base, time.process_time() - t0, out.iterations,
@@ -132,12 +135,12 @@ def main(argv: list[str] | None = None) -> list[dict]:
             try:
                 system = MCPSystem(form, base)
                 res = semismooth_newton(system, system.pack(base), tol=1e-12, max_iterations=args.newton_iterations,
-                                        time_limit=args.time_limit)
+                                        deadline=Deadline(args.time_limit))
                 rows.append(row(stage, ops, res.solution, time.process_time() - t0, res.iterations, res.status.value))
             except MemoryError:
                 rows.append({"stage": stage, "cpu_s": time.process_time() - t0, "status": "out of memory (J^T J)"})
         elif stage in ("cold-steps", "warm-steps"):
-            sol, count, status = lp_steps(ops, lp, best, stalled.normal_forces(best), args.steps,
+            sol, count, status = lp_steps(lps, units, best, stalled.normal_forces(best), args.steps,
                                           stage == "warm-steps", args.time_limit)
             rows.append(row(stage, ops, sol, time.process_time() - t0, count, status))
         elif stage == "restart":
@@ -147,7 +150,8 @@ def main(argv: list[str] | None = None) -> list[dict]:
                 shift = np.sqrt(factor * float(start.s @ start.y) / start.s.size)
                 start.s += shift
                 start.y += shift
-                engine = InteriorFixedPoint(lp, ops, tol=1e-9, max_iterations=500, time_limit=args.time_limit)
+                engine = InteriorFixedPoint(lp, lps.associative, units, tol=1e-9, max_iterations=500,
+                                            deadline=time.perf_counter() + args.time_limit)
                 engine.start_iterate = start
                 again = engine.solve()
                 rows.append(row(f"restart x{factor:g}", ops, static_lp_solution(lp, again),

@@ -89,6 +89,7 @@ Usage::
     python studies/lab/fixed_point_routes.py ties --wall 40x60 --fold 0.1 --eps 0,1e-6,1e-4,1e-2
     python studies/lab/fixed_point_routes.py ties --wall 40x60 --eps 0 --aims 0,0.01,0.03,0.3,1,3
     python studies/lab/fixed_point_routes.py hybrid --wall 40x60 --share 0.1 [--outside 0.1 --continued]
+    python studies/lab/fixed_point_routes.py smoke  # the smallest ties and hybrid runs, checked (CI)
 """
 
 from __future__ import annotations
@@ -148,30 +149,40 @@ def set_dual_slope(engine, slope, base_slope) -> None:
 
     rows = engine.friction_position
     cols = np.repeat(engine.normal_columns, 2)
-    if not hasattr(engine, "_dual_base"):
-        engine._dual_base = engine.G_dual
-    delta = np.broadcast_to(np.asarray(slope, float) - base_slope, (engine.ops.n_interfaces,))
+    if getattr(engine, "gap_dual_base", None) is None:  # the engine's own dual rows, kept by this study
+        engine.gap_dual_base = engine.G_dual
+    delta = np.broadcast_to(np.asarray(slope, float) - base_slope, (engine.normal_columns.size,))
     extra = sp.csr_array((engine.in_scale[rows] * np.repeat(delta, 2) * engine.column_scale[cols], (rows, cols)),
                          shape=engine.G.shape)
-    engine.G_dual = (engine._dual_base + extra).tocsr()
+    engine.G_dual = (engine.gap_dual_base + extra).tocsr()
     engine.g_dual_blocks = engine.dense_blocks(engine.G_dual)
 
 
 def step_lp(ops):
-    from blockmpec.formulations import modified_lp
-    from blockmpec.formulations import compiled_linear
+    """The compiled step LP (5) of ``ops`` (``tan(psi)`` rows, ``n* = 0``)."""
+    from blockmpec.formulations import step_lps
 
-    return compiled_linear(modified_lp, ops, np.zeros(ops.n_interfaces), slope=ops.dilatancy)
+    return step_lps(ops, tie_break=False, associative=False).step
+
+
+def interior(ops, cls=None, time_limit: float | None = None, **options):
+    """The interior fixed point (or its subclass ``cls``) on the step LP (5) of ``ops``, with the static LP (1) as its
+    primal rows, in load units, ``time_limit`` seconds from now (None: no limit)."""
+    from blockmpec.formulations import step_lps
+    from blockmpec.solvers.engines.interior_fixed_point import InteriorFixedPoint
+    from blockmpec.solvers.engines.scaling import LoadUnits
+
+    lps = step_lps(ops, tie_break=False)
+    deadline = np.inf if time_limit is None else time.perf_counter() + time_limit
+    return (cls or InteriorFixedPoint)(lps.step, lps.associative, LoadUnits.of(ops), deadline=deadline, **options)
 
 
 def stalled_point(lp, ops, aim: float, args):
-    """The interior engine's run on the step LP ``lp`` (aim ``aim``, no continuation, ``--iterations``,
+    """The interior engine's run on ``ops``'s step LP ``lp`` (aim ``aim``, no continuation, ``--iterations``,
     ``--time-limit``) and its best iterate as a solution, the aim switched off: ``(outcome, solution)``."""
     from blockmpec.solvers.engines.highs import static_lp_solution
-    from blockmpec.solvers.engines.interior_fixed_point import InteriorFixedPoint
 
-    engine = InteriorFixedPoint(lp, ops, fold_weight=aim, tol=1e-9, max_iterations=args.iterations,
-                                time_limit=args.time_limit)
+    engine = interior(ops, fold_weight=aim, tol=1e-9, max_iterations=args.iterations, time_limit=args.time_limit)
     out = engine.solve()
     engine.set_fold(0.0)
     return out, static_lp_solution(lp, engine.outcome_at(engine.best_iterate))
@@ -180,12 +191,11 @@ def stalled_point(lp, ops, aim: float, args):
 # ---------------------------------------------------------------------------------------------- routes
 def route_steps(ops, args) -> list[dict]:
     from blockmpec.solvers.engines.highs import static_lp_solution
-    from blockmpec.solvers.engines.interior_fixed_point import InteriorFixedPoint
     from blockmpec.solvers.engines.lp_sequence import Anderson
 
     lp = step_lp(ops)
     t0 = time.process_time()
-    engine = InteriorFixedPoint(lp, ops, coupling="fixed", tol=1e-9, max_iterations=200, time_limit=args.time_limit)
+    engine = interior(ops, coupling="fixed", tol=1e-9, max_iterations=200, time_limit=args.time_limit)
     engine.set_fold(args.fold)
     mixer = Anderson(args.memory, args.relax) if args.accel == "anderson" else None
     n_star, iterate, total, sol, change, status = np.zeros(ops.n_interfaces), None, 0, None, np.inf, "step limit"
@@ -228,13 +238,12 @@ def route_steps(ops, args) -> list[dict]:
 
 def route_path(ops, args) -> list[dict]:
     """Infeasible path following on (3) in the neighbourhood ``s_i y_i >= gamma mu``."""
-    from blockmpec.solvers.linalg.block_ipm import IPMIterate, single_blas_thread
     from blockmpec.solvers.engines.highs import static_lp_solution
-    from blockmpec.solvers.engines.interior_fixed_point import InteriorFixedPoint
+    from blockmpec.solvers.linalg.block_ipm import IPMIterate, single_blas_thread
 
     lp = step_lp(ops)
     t0 = time.process_time()
-    engine = InteriorFixedPoint(lp, ops, tol=1e-9)
+    engine = interior(ops, tol=1e-9)
     z = engine.initial_point()
     p = z.s.size
     k = 0
@@ -269,17 +278,16 @@ def route_path(ops, args) -> list[dict]:
 
 def route_gap(ops, args) -> list[dict]:
     from blockmpec.solvers.engines.highs import static_lp_solution
-    from blockmpec.solvers.engines.interior_fixed_point import InteriorFixedPoint
 
     lp = step_lp(ops)
     rows = []
     t0 = time.process_time()
-    engine = InteriorFixedPoint(lp, ops, tol=1e-9, max_iterations=200, time_limit=args.time_limit)
+    engine = interior(ops, tol=1e-9, max_iterations=200, time_limit=args.time_limit)
     z, total = None, 0
     for fraction in (float(f) for f in args.fractions.split(",")):
         if args.mode == "sweep":
             t0 = time.process_time()
-            engine = InteriorFixedPoint(lp, ops, tol=1e-9, max_iterations=200, time_limit=args.time_limit)
+            engine = interior(ops, tol=1e-9, max_iterations=200, time_limit=args.time_limit)
             z, total = None, 0
         set_dual_slope(engine, ops.dilatancy + fraction * (ops.friction - ops.dilatancy), ops.dilatancy)
         engine.start_iterate = None
@@ -328,7 +336,7 @@ def route_trust(ops, args) -> list[dict]:
 
     lp = step_lp(ops)
     t0 = time.process_time()
-    engine = MovingCohesion(lp, ops, coupling="fixed", tol=1e-9, max_iterations=args.iterations, time_limit=300)
+    engine = interior(ops, MovingCohesion, coupling="fixed", tol=1e-9, max_iterations=args.iterations, time_limit=300)
     out = engine.solve()
     sol = static_lp_solution(lp, out)
     return [result_row("trust", f"radius {args.radius:g}, centrality {args.centrality:g}", ops, sol, out.iterations,
@@ -336,13 +344,12 @@ def route_trust(ops, args) -> list[dict]:
 
 
 def route_active_set(ops, args) -> list[dict]:
-    from blockmpec.solvers.linalg.block_ipm import IPMIterate, single_blas_thread
     from blockmpec.solvers.engines.highs import static_lp_solution
-    from blockmpec.solvers.engines.interior_fixed_point import InteriorFixedPoint
+    from blockmpec.solvers.linalg.block_ipm import IPMIterate, single_blas_thread
 
     lp = step_lp(ops)
     t0 = time.process_time()
-    engine = InteriorFixedPoint(lp, ops, tol=1e-9)
+    engine = interior(ops, tol=1e-9)
     engine.solve()
     z = engine.best_iterate
     active = z.s < z.y
@@ -392,7 +399,8 @@ def route_mixed(ops, args) -> list[dict]:
 
     lp = step_lp(ops)
     t0 = time.process_time()
-    engine = Mixed(lp, ops, coupling="fixed", tol=1e-9, max_iterations=args.iterations, time_limit=args.time_limit)
+    engine = interior(ops, Mixed, coupling="fixed", tol=1e-9, max_iterations=args.iterations,
+                      time_limit=args.time_limit)
     factor = engine.cohesion_factor.copy()
     rows, cols = engine.friction_position, np.repeat(engine.normal_columns, 2)
     extra = sp.csr_array((engine.in_scale[rows] * np.repeat(theta * factor, 2) * engine.column_scale[cols],
@@ -412,8 +420,10 @@ def route_pieces(ops, args) -> list[dict]:
     ``nlp``'s split piece LPs (:func:`~blockmpec.solvers.engines.piece_lp.piece_descent`): a mechanism on the
     pairs whose slack is (relatively) the smaller side, then the static LP with ``G_i x = 0`` on its support.
     ``--static-engine``: the static halves' engine (``auto``: the block IPM from 4,000 pairs)."""
+    from blockmpec.deadline import Deadline
     from blockmpec.formulations import compile_mcp
     from blockmpec.solvers.engines.piece_lp import piece_descent
+    from blockmpec.solvers.engines.scaling import LoadUnits
     from blockmpec.solvers.nlp import nlp_scaling
 
     lp = step_lp(ops)
@@ -423,8 +433,8 @@ def route_pieces(ops, args) -> list[dict]:
                        time.process_time() - t0, out.status.value)]
     form = compile_mcp(ops)
     t1 = time.process_time()
-    descent = piece_descent(form, nlp_scaling(form, ops), form.pack(start), time_limit=args.time_limit,
-                            static_engine=args.static_engine)
+    descent = piece_descent(form, nlp_scaling(form, LoadUnits.of(ops)), form.pack(start),
+                            deadline=Deadline(args.time_limit), static_engine=args.static_engine)
     first = "; ".join(f"{r['lp']} {r['status']} (support {r.get('support', '-')})" for r in descent.trace[:3])
     sol = form.unpack(descent.w) if descent.w is not None else bm.Solution()
     rows.append(result_row("pieces", f"piece LPs, static {args.static_engine}", ops, sol, descent.lp_solves,
@@ -471,8 +481,9 @@ def route_hybrid(ops, args) -> list[dict]:
     (``s, y`` raised by ``sqrt(mu_target)``), then adds to ``S`` every interface outside it whose friction
     multiplier exceeds ``--outside`` of the largest; it stops when none does (at most ``--steps`` rounds).  The
     worst residual of (3) is measured on the wall itself."""
+    from blockmpec.deadline import Deadline
     from blockmpec.solvers.engines.highs import static_lp_solution
-    from blockmpec.solvers.engines.interior_fixed_point import InteriorFixedPoint, continue_central_path
+    from blockmpec.solvers.engines.interior_fixed_point import continue_central_path
 
     t0 = time.process_time()
     lp_result = bm.solve(ops, "static-lp")
@@ -484,8 +495,7 @@ def route_hybrid(ops, args) -> list[dict]:
     for round_ in range(args.steps):
         hybrid = hybrid_ops(ops, coupled)
         lp = step_lp(hybrid)
-        engine = InteriorFixedPoint(lp, hybrid, tol=args.tol, max_iterations=args.iterations,
-                                    time_limit=args.time_limit)
+        engine = interior(hybrid, tol=args.tol, max_iterations=args.iterations, time_limit=args.time_limit)
         t0 = time.process_time()
         if previous is None or not args.continued:
             out = engine.solve()
@@ -495,7 +505,7 @@ def route_hybrid(ops, args) -> list[dict]:
             floor = np.sqrt(args.mu_target)
             start.s = np.maximum(engine.h - engine.G @ start.v, 0.0) + floor
             start.y = start.y + floor
-            end, info = continue_central_path(engine, start, tol=args.tol, time_limit=args.time_limit)
+            end, info = continue_central_path(engine, start, tol=args.tol, deadline=Deadline(args.time_limit))
             how, iterations = f"continued ({info['steps']} steps)", info["factorisations"]
             failure = f"numerical (continuation ended at mu {info['mu']:.1e})"
         cpu = time.process_time() - t0
@@ -516,9 +526,42 @@ def route_hybrid(ops, args) -> list[dict]:
     return rows
 
 
+def route_smoke(ops, args) -> list[dict]:
+    """The smallest runs of two routes, checked (CI; ``--wall 10x10``).
+
+    ``ties`` (aim 0.1; friction lowered by 0, 1e-6, 1e-3): the wall itself is solved and verified at 1e-8; a solution
+    of the perturbed (3) is within about the perturbation of the wall's own (3).  ``hybrid`` (``--share 0.1``): ``S``
+    too small at first (associative sliding outside it, not a solution of (3)); the last round has nothing sliding
+    outside ``S``, solves the wall's (3) at 1e-8 and (Radenkovic) lies at or below the associative multiplier."""
+    failures = []
+    args.fold, args.eps, args.aims = 0.1, "0,1e-6,1e-3", ""
+    plain, small, large = rows = route_ties(ops, args)
+    if not (plain["status"] == "optimal" and plain["verified"]):
+        failures.append(f"ties: the wall itself ended {plain['status']}, worst residual {plain['worst_value']:.1e}")
+    if not (small["status"] == "optimal" and small["worst_value"] <= 1e-6):
+        failures.append(f"ties: friction lowered by 1e-6 ended {small['status']}, worst {small['worst_value']:.1e}")
+    if not large["worst_value"] > small["worst_value"]:
+        failures.append("ties: a larger perturbation did not leave a larger residual on the wall")
+    args.share = 0.1
+    associative, *rounds = hybrid = route_hybrid(ops, args)
+    first, last = rounds[0], rounds[-1]
+    if not (first.get("sliding_outside", 0) > 0 and not first["verified"]):
+        failures.append("hybrid: the first S is not too small (nothing slides outside it, or it solves (3))")
+    if not (last.get("sliding_outside") == 0 and last["status"] == "optimal" and last["verified"]):
+        failures.append(f"hybrid: the last round ended {last['status']}, {last.get('sliding_outside')} sliding outside S")
+    if not last["multiplier"] <= associative["multiplier"] + 1e-9:
+        failures.append("hybrid: the answer lies above the associative multiplier")
+    for line in failures:
+        print(f"smoke check failed: {line}")
+    if failures:
+        raise SystemExit(1)
+    print("smoke: the ties and hybrid routes behave as recorded")
+    return rows + hybrid
+
+
 ROUTES = {"steps": route_steps, "mixed": route_mixed, "path": route_path, "gap": route_gap, "trust": route_trust,
           "active-set": route_active_set, "pieces": route_pieces, "ties": route_ties,
-          "hybrid": route_hybrid}
+          "hybrid": route_hybrid, "smoke": route_smoke}
 
 
 def main(argv: list[str] | None = None) -> list[dict]:
@@ -567,6 +610,8 @@ def main(argv: list[str] | None = None) -> list[dict]:
     parser.add_argument("--continued", action="store_true",
                         help="hybrid: later rounds continue the previous round's central path instead of a cold run")
     args = parser.parse_args(argv)
+    if args.route == "smoke":
+        args.wall = "10x10"
     ops = bm.assemble(named_wall(args.wall))
     rows = []
     if args.cold:
