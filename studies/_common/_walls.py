@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import dataclasses
+import math
 
 import numpy as np
 
@@ -38,3 +39,23 @@ def lowered_friction(structure: bm.Structure, fraction: float, seed: int = 1) ->
     draws = np.random.default_rng(seed).uniform(0.0, 1.0, friction.size)
     return dataclasses.replace(structure, interfaces=dataclasses.replace(
         structure.interfaces, friction=friction * (1.0 - fraction * draws)))
+
+
+def wall_for(n_blocks: int) -> bm.Structure:
+    """A running-bond wall with about ``n_blocks`` blocks, twice as long as high in blocks."""
+    courses = max(1, round(math.sqrt(n_blocks / 2) * 1.0))
+    per = max(1, round(n_blocks / courses))
+    return bm.cases.wall(courses=courses, blocks_per_course=per)
+
+
+def wall_or_size(wall: str) -> bm.Structure:
+    """The wall ``"CxB"`` (courses x blocks per course; running bond unless an option says otherwise), with options
+    of :func:`blockmpec.cases.wall` after colons (``"100x100:mu=0.3"``, ``"100x100:bond=stack"``; values read as by
+    the CLI's ``KEY=VALUE``), or :func:`wall_for` a size ``"1000"``.  A malformed name or option is one
+    :class:`blockmpec.OptionError` (or ``ValueError``) naming it."""
+    from blockmpec.cli import parse_pairs
+
+    if "x" not in wall:
+        return wall_for(int(wall))
+    shape, *options = wall.split(":")
+    return named_wall(shape, **parse_pairs(options, f"wall {wall!r}: option"))

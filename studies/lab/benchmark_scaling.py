@@ -66,7 +66,7 @@ import blockmpec as bm
 sys.path[:0] = [str(Path(__file__).resolve().parent), str(Path(__file__).resolve().parents[1] / "_common")]
 from _tables import fmt as _fmt  # noqa: E402
 from _tables import markdown, peak_memory_mb, write_csv  # noqa: E402
-from lp_timing import wall_for  # noqa: E402
+from _walls import wall_for  # noqa: E402
 from milp_scaling import run_case  # noqa: E402
 from _methods import solve  # noqa: E402
 

@@ -41,34 +41,31 @@ from blockmpec.cli import parse_pairs
 
 sys.path[:0] = [str(Path(__file__).resolve().parent), str(Path(__file__).resolve().parents[1] / "_common")]
 from _tables import markdown, peak_memory_mb, write_csv  # noqa: E402
-from _walls import named_wall  # noqa: E402
+from _methods import configured  # noqa: E402
+from _walls import wall_or_size  # noqa: E402
 
 OUT = Path(__file__).resolve().parents[1] / "output" / "fixed_point_ratio"
 
 
-def timed_solve(ops, method: str, **options):
-    """``bm.solve`` plus the CPU seconds of the method's ``run`` alone (set-up and verification excluded), with those
-    of the static LP's factorisation worker process when it had one."""
+def timed_solve(ops, method: str, **values):
+    """``bm.solve`` (``values``: options and engine settings, :func:`_methods.configured`) plus the CPU seconds of the
+    method's ``run`` alone (set-up and verification excluded), with those of the static LP's factorisation worker
+    process when it had one."""
     import time
 
-    from blockmpec.registry import get_solver
-
-    cls = get_solver(method)
-    original = cls.run
+    solver = configured(method, **values)
+    original = solver.run
     clock: dict = {}
 
-    def run(self):
+    def run(deadline):
         t0 = time.process_time()
         try:
-            return original(self)
+            return original(deadline)
         finally:
             clock["cpu_s"] = time.process_time() - t0
 
-    cls.run = run
-    try:
-        res = bm.solve(ops, method, **options)
-    finally:
-        cls.run = original
+    solver.run = run  # this instance's run, timed
+    res = bm.run_solver(solver, ops)
     # plus a static LP's factorisation worker process, if it had one (its CPU is not in this process's clock)
     return res, clock.get("cpu_s", math.nan) + res.extra.get("factor_worker_cpu_s", 0.0)
 
@@ -81,7 +78,7 @@ def parse_options(text: str) -> dict:
 
 def solve_in_child(wall: str, method: str, options: dict, time_limit: float) -> dict:
     """One solve of ``wall`` (run in a fresh process): what the tables need, and the process's peak memory."""
-    ops = bm.assemble(named_wall(wall))
+    ops = bm.assemble(wall_or_size(wall))
     res, cpu = timed_solve(ops, method, time_limit=time_limit, **options)
     return {"blocks": ops.n_free_blocks, "s": res.solve_time_s, "cpu_s": cpu, "setup_s": res.build_time_s,
             "status": res.status.value, "verified": bool(res.success), "multiplier": res.multiplier,
@@ -129,10 +126,11 @@ def measure(wall: str, lp_algorithms: list[str], fixed_points: list[str], time_l
 
 def main(argv: list[str] | None = None) -> list[dict]:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--sizes", default="200,1000", help="wall sizes in blocks (lp_timing.wall_for)")
+    parser.add_argument("--sizes", default="200,1000", help="wall sizes in blocks (_walls.wall_for)")
     parser.add_argument("--walls", default="", help="walls as CxB (courses x blocks per course); overrides --sizes")
     parser.add_argument("--fixed-point", default="default;start=associative,tie_break=closest",
-                        help="';'-separated fixed-point option sets (k=v,...; 'default' = its defaults)")
+                        help="';'-separated fixed-point option sets (k=v,... of options and engine settings; "
+                             "'default' = its defaults)")
     parser.add_argument("--lp-algorithms", default="auto,ipm", help="static-lp algorithms to time cold")
     parser.add_argument("--lp-factor-processes", default="auto", choices=("auto", "1", "2"),
                         help="static-lp's factor_processes for the cold LPs (1: the tables measured before two "

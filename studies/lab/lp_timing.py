@@ -47,7 +47,6 @@ import numpy as np
 import scipy.sparse as sp
 
 import blockmpec as bm
-from blockmpec.cli import parse_pairs
 from blockmpec.errors import OptionError
 from blockmpec.formulations import compile_linear, static_lp
 from blockmpec.formulations import pause_gc
@@ -58,45 +57,33 @@ from blockmpec.solvers.engines.lp_engine import cold_lp_engine
 sys.path[:0] = [str(Path(__file__).resolve().parent), str(Path(__file__).resolve().parents[1] / "_common")]
 from _clarabel import ClarabelProblem  # noqa: E402
 from _tables import peak_memory_mb, write_csv  # noqa: E402
-from _walls import named_wall  # noqa: E402
+import _walls as walls  # noqa: E402
+from _ipm_settings import named_settings  # noqa: E402
+
 
 OUT = Path(__file__).resolve().parents[1] / "output" / "lp_timing"
 
 
-def wall_for(n_blocks: int) -> bm.Structure:
-    """A running-bond wall with about ``n_blocks`` blocks, twice as long as high in blocks."""
-    courses = max(1, round(math.sqrt(n_blocks / 2) * 1.0))
-    per = max(1, round(n_blocks / courses))
-    return bm.cases.wall(courses=courses, blocks_per_course=per)
-
-
 def wall_or_size(wall: str) -> bm.Structure:
-    """The wall ``"CxB"`` (courses x blocks per course; running bond unless an option says otherwise), with options
-    of :func:`blockmpec.cases.wall` after colons (``"100x100:mu=0.3"``, ``"100x100:bond=stack"``), or :func:`wall_for`
-    a size ``"1000"``."""
-    if "x" not in wall:
-        return wall_for(int(wall))
-    shape, *options = wall.split(":")
+    """:func:`_walls.wall_or_size`, a malformed name the script's one-line exit."""
     try:
-        return named_wall(shape, **parse_pairs(options, f"wall {wall!r}: option"))
-    except OptionError as error:
+        return walls.wall_or_size(wall)
+    except (OptionError, ValueError) as error:
         raise SystemExit(f"lp_timing: {error}") from None
 
 
-def hipo_engine(lp, ops, time_limit: float, crossover: bool):
+def hipo_engine(lp, ops, crossover: bool):
     """HiGHS's HiPO (``highspy-extras``) on the static LP in the same load units as the other engines."""
     from blockmpec.solvers.engines.highs import HighsLP
-    from blockmpec.solvers.engines.scaling import load_scaling
+    from blockmpec.solvers.engines.scaling import LoadUnits
 
-    row_scale, column_scale = load_scaling(lp, ops)
-    engine = HighsLP(lp, "ipm", time_limit, row_scale=row_scale, column_scale=column_scale)
+    class HipoLP(HighsLP):
+        def set_algorithm(self, algorithm: str) -> None:
+            self.highs.setOptionValue("solver", "hipo")
+            self.highs.setOptionValue("run_crossover", "on" if crossover else "off")
 
-    def set_hipo(_algorithm: str) -> None:
-        engine.highs.setOptionValue("solver", "hipo")
-        engine.highs.setOptionValue("run_crossover", "on" if crossover else "off")
-
-    engine._set_algorithm = set_hipo
-    return engine
+    row_scale, column_scale = LoadUnits.of(ops).static(lp)
+    return HipoLP(lp, "ipm", row_scale=row_scale, column_scale=column_scale)
 
 
 #: Clarabel's outcome -> :class:`Status` (any other: numerical)
@@ -112,12 +99,12 @@ class ClarabelLP:
     its defaults)."""
 
     def __init__(self, lp, ops, time_limit: float, tolerance: float | None) -> None:
-        from blockmpec.solvers.engines.scaling import load_scaling
+        from blockmpec.solvers.engines.scaling import LoadUnits
 
         if np.any(np.isfinite(lp.col_lower)) or np.any(np.isfinite(lp.col_upper)):
             raise ValueError("ClarabelLP: the static LP's columns are free")
         self.lp = lp
-        self.row_scale, self.column_scale = load_scaling(lp, ops)
+        self.row_scale, self.column_scale = LoadUnits.of(ops).static(lp)
         A = sp.diags(self.row_scale) @ lp.A @ sp.diags(self.column_scale)
         self.problem = ClarabelProblem(A, self.column_scale * lp.c, self.row_scale * lp.row_lower,
                                        self.row_scale * lp.row_upper, lp.col_lower, lp.col_upper)
@@ -125,7 +112,8 @@ class ClarabelLP:
         if tolerance is not None:
             self.settings.update(tol_gap_abs=tolerance, tol_gap_rel=tolerance, tol_feas=tolerance)
 
-    def solve(self) -> LPOutcome:
+    def solve(self, deadline=None) -> LPOutcome:
+        """Solve within the ``time_limit`` given (``deadline`` is the other engines' and not read)."""
         x, row_dual, raw, iterations = self.problem.solve(**self.settings)
         v = self.column_scale * x
         return LPOutcome(CLARABEL_STATUS.get(raw, Status.NUMERICAL), f"clarabel: {raw}", float(self.lp.c @ v), v,
@@ -139,8 +127,10 @@ def time_one(wall: str, algorithm: str, time_limit: float = float("inf"), orderi
     """One cold solve of the static LP of ``wall`` (a size ``"1000"`` or ``"CxB"`` courses x blocks per course);
     ``factor_processes``, ``compiled_solves`` and ``compiled_factorisation`` (block IPM), when given, override those
     of ``ipm_settings``."""
-    from blockmpec.solvers.linalg.block_ipm import BlockIPM
+    from blockmpec.deadline import Deadline
     from blockmpec.solvers.engines.highs import static_lp_solution
+    from blockmpec.solvers.engines.scaling import LoadUnits
+    from blockmpec.solvers.linalg.block_ipm import BlockIPM
 
     t0 = time.perf_counter()
     s = wall_or_size(wall)
@@ -152,17 +142,15 @@ def time_one(wall: str, algorithm: str, time_limit: float = float("inf"), orderi
     lp = compile_linear(problem)
     t4, c4 = time.perf_counter(), time.process_time()
     if algorithm.startswith("hipo"):
-        engine = hipo_engine(lp, ops, time_limit, crossover=algorithm == "hipo-crossover")
+        engine = hipo_engine(lp, ops, crossover=algorithm == "hipo-crossover")
     elif algorithm.startswith("clarabel"):
         engine = ClarabelLP(lp, ops, time_limit, tolerance=1e-10 if algorithm == "clarabel-1e-10" else None)
     else:
-        engine = cold_lp_engine(lp, algorithm, time_limit, ops=ops)  # as static-lp runs it: in load units
+        engine = cold_lp_engine(lp, algorithm, LoadUnits.of(ops))  # as static-lp runs it: in load units
     if isinstance(engine, BlockIPM):
         engine.ordering = ordering
         engine.factorisation = factorisation
-        from blockmpec.solvers.linalg import block_ipm
-
-        engine.settings(**{**block_ipm.named_settings(ipm_settings), "kernels": kernels})
+        engine.settings(**{**named_settings(ipm_settings), "kernels": kernels})
         if factor_processes is not None:
             engine.settings(factor_processes=factor_processes)
         if compiled_solves is not None:
@@ -172,7 +160,7 @@ def time_one(wall: str, algorithm: str, time_limit: float = float("inf"), orderi
         if max_iterations is not None:  # a per-iteration cost measurement (status: iteration limit)
             engine.max_iterations = max_iterations
     t5, c5 = time.perf_counter(), time.process_time()
-    out = engine.solve()
+    out = engine.solve(deadline=Deadline(time_limit))
     t6, c6 = time.perf_counter(), time.process_time()
     # a point is verified even when its engine did not claim success (HiPO "stagnated"), to say how far off it is
     has_point = bool(np.all(np.isfinite(out.v)))
@@ -222,7 +210,7 @@ def main(argv: list[str] | None = None) -> list[dict]:
     parser.add_argument("--walls", default="", help="comma-separated CxB walls (courses x blocks per course)")
     parser.add_argument("--orderings", default="auto", help="block IPM orderings of K: auto, metis, mmd")
     parser.add_argument("--ipm-settings", default="default",
-                        help="comma-separated block IPM settings: default, stationary, short_refinement, previous, ... (block_ipm.*_SETTINGS)")
+                        help="comma-separated block IPM settings: default, stationary, short_refinement, previous, ... (studies/lab/_ipm_settings.py)")
     parser.add_argument("--factorisations", default="auto",
                         help="comma-separated block IPM factorisations of K: auto, supernodal, superlu")
     parser.add_argument("--kernels", default="auto",
@@ -242,6 +230,14 @@ def main(argv: list[str] | None = None) -> list[dict]:
                         help="block IPM iteration cap: measures the cost per iteration of a size too slow to finish")
     args = parser.parse_args(argv)
     walls = args.walls.split(",") if args.walls else args.sizes.split(",")
+    for name in args.ipm_settings.split(","):  # a bad name: one line, before any run
+        try:
+            named_settings(name)
+        except ValueError as error:
+            parser.error(str(error))
+    for wall in walls:
+        if ":" in wall:  # options checked here (a plain size or CxB name is built in its own process)
+            wall_or_size(wall)
     block = ("auto", "block-ipm")
     processes = None if args.factor_processes is None else (
         args.factor_processes if args.factor_processes == "auto" else int(args.factor_processes))
@@ -269,7 +265,7 @@ def main(argv: list[str] | None = None) -> list[dict]:
           "| factorisations, solves with K (CPU) | build + compile / solve | peak memory | verified 1e-8 | λ |")
     print("| ---: | --- | --- | --- | --- | --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | --- | ---: |")
     for r in rows:
-        engine = ("block IPM" if r["engine"] == "BlockIPM" else r["algorithm"] if r["engine"] == "ClarabelLP"
+        engine = ("block IPM" if r["engine"] in ("BlockIPM", "BlockLP") else r["algorithm"] if r["engine"] == "ClarabelLP"
                   else f"HiGHS {r['algorithm']}")
         kind = {"SupernodalCholesky": "supernodal Cholesky", "SymmetricFactoriser": "SuperLU"}.get(r["factorisation"], "–")
         named = f" ({r['wall']})" if ":" in r["wall"] else ""
