@@ -16,7 +16,7 @@ large walls the lowest verified multiplier of the run.  Per strategy the table g
 * ``max fric adm``: the worst friction admissibility error of a verified run;
 * ``median time``: median solve time [s] over all runs.
 
-Use ``python studies/lab/fixed_point_strategies.py [--only LABEL,...] [--no-large]``;
+Use ``python studies/lab/fixed_point_strategies.py [--only LABEL,...] [--no-large] [--first N]``;
 writes ``studies/output/fixed_point_strategies/{runs.csv,table.md}``.  The
 certificates come from the cache of ``heuristic_suite.py`` (run it first; missing
 ones are computed with ``--time-limit``).
@@ -35,11 +35,13 @@ from pathlib import Path
 import blockmpec as bm
 
 sys.path[:0] = [str(Path(__file__).resolve().parent), str(Path(__file__).resolve().parents[1] / "_common")]
+from _methods import solve  # noqa: E402
 from heuristic_suite import certificate, suite  # noqa: E402
 
 OUT = Path(__file__).resolve().parents[1] / "output" / "fixed_point_strategies"
 
 FP = "fixed-point"
+#: (label, method, options and engine settings: ``_methods.solve`` sends each where it belongs)
 STRATEGIES: list[tuple[str, str, dict]] = [
     ("fp associative/closest (old default)", FP, {"start": "associative", "tie_break": "closest"}),
     ("fp associative/none", FP, {"start": "associative", "tie_break": "none"}),
@@ -97,7 +99,7 @@ def run_all(strategies, entries, time_limit: float) -> list[dict]:
             opts = dict(options)
             opts.setdefault("time_limit", time_limit)
             t0 = time.perf_counter()
-            res = bm.solve(ops, method, **opts)
+            res = solve(ops, method, **opts)
             rows.append({
                 "structure": entry.label, "family": entry.family, "strategy": label,
                 "reference": ref["value"], "reference_source": ref["source"], "certified": ref["certified"],
@@ -188,6 +190,8 @@ def run_study(argv: list[str] | None, strategies_all: list, out: Path, default_t
     parser.add_argument("--time-limit", type=float, default=default_time_limit, help="seconds per run")
     parser.add_argument("--from-csv", action="store_true", help="re-tabulate the last runs.csv without running")
     parser.add_argument("--out", default=str(out), help="output folder (default: the study's own)")
+    parser.add_argument("--first", type=int, default=None,
+                        help="only the suite's first N structures (e.g. 2: two blocks, closed forms; a smoke run)")
     args = parser.parse_args(argv)
     out = Path(args.out)
     strategies = [s for s in strategies_all if not args.only or any(o in s[0] for o in args.only.split(","))]
@@ -196,7 +200,7 @@ def run_study(argv: list[str] | None, strategies_all: list, out: Path, default_t
         rows = _read_rows(out / "runs.csv")
         strategies = [s for s in strategies if any(r["strategy"] == s[0] for r in rows)]
     else:
-        rows = run_all(strategies, suite(include_large=not args.no_large), args.time_limit)
+        rows = run_all(strategies, suite(include_large=not args.no_large)[:args.first], args.time_limit)
     table = summary(rows, strategies)
     n_cert = len({r["structure"] for r in rows if r["certified"]})
     n_below = len({r["structure"] for r in rows if r["certified"] and r["reference"] < r["associative"] * (1 - 1e-6)})
