@@ -579,7 +579,7 @@ class RelaxedNLP(SolverBase):
                     v_new = v
                     break
                 t0 = time.perf_counter()
-                v_new, info = self._solve_stage(cyipopt, nlp, eps, v, mult if use_mult else None, remaining)
+                v_new, info = self.solve_stage(cyipopt, nlp, eps, v, mult if use_mult else None, remaining)
                 dt = time.perf_counter() - t0
                 code = int(info["status"])
                 status, name = _IPOPT_STATUS.get(code, (Status.ERROR, f"ipopt_status_{code}"))
@@ -637,8 +637,10 @@ class RelaxedNLP(SolverBase):
         return RunOutput(final, solution, iterations=total_iter, trace=trace, message=message, raw_status=raw,
                          extra=extra)
 
-    def _solve_stage(self, cyipopt, nlp: RelaxedMPEC, eps: float, v: np.ndarray, mult, remaining: float):
-        """One Ipopt solve of the relaxed NLP at ``eps`` from ``v`` (with multipliers ``mult`` if given)."""
+    def solve_stage(self, cyipopt, nlp: RelaxedMPEC, eps: float, v: np.ndarray, mult, remaining: float):
+        """One Ipopt solve of the relaxed NLP ``nlp`` at ``eps`` from ``v`` (with multipliers ``mult`` if given),
+        within ``remaining`` seconds, with the settings' Ipopt options (``ipopt_options`` last: a study may set,
+        e.g., one ``output_file`` per stage before each call)."""
         from blockmpec.progress import verbose_enabled
 
         opt = self.settings

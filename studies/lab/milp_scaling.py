@@ -23,6 +23,7 @@ from pathlib import Path
 import blockmpec as bm
 
 sys.path[:0] = [str(Path(__file__).resolve().parent), str(Path(__file__).resolve().parents[1] / "_common")]
+from _methods import solve  # noqa: E402
 from _tables import write_csv  # noqa: E402
 
 OUT = Path(__file__).resolve().parents[1] / "output" / "milp"
@@ -33,9 +34,10 @@ COLUMNS = ["case", "size", "blocks", "interfaces", "binaries", "status", "certif
 
 
 def run_case(label: str, size: str, structure: bm.Structure, time_limit: float, **options) -> dict:
-    """Solve one case with ``milp`` (and ``options``) and the associative LP; one table row."""
+    """Solve one case with ``milp`` (and ``options``: its options and engine settings) and the associative LP; one
+    table row."""
     t0 = time.perf_counter()
-    res = bm.solve(structure, "milp", time_limit=time_limit, **options)
+    res = solve(structure, "milp", time_limit=time_limit, **options)
     wall_s = time.perf_counter() - t0
     assoc = bm.solve(structure, "static-lp")
     ex = res.extra
@@ -67,7 +69,7 @@ def main(argv: list[str] | None = None) -> list[dict]:
     parser.add_argument("--arches", default="10:8,20:16,30:35",
                         help="n_voussoirs:buttress_courses pairs of arch_on_buttresses")
     parser.add_argument("--time-limit", type=float, default=60.0)
-    parser.add_argument("--options", default="", help="milp options, e.g. slack_bounds=normal,multiplier_bounds=0")
+    parser.add_argument("--options", default="", help="milp options and engine settings, e.g. slack_bounds=normal,multiplier_bounds=0")
     parser.add_argument("--tag", default="", help="suffix of the CSV file name")
     args = parser.parse_args(argv)
     options = {}

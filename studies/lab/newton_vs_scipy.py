@@ -39,9 +39,9 @@ from pathlib import Path
 import numpy as np
 
 import blockmpec as bm
+from blockmpec.deadline import Deadline
 from blockmpec.formulations import compile_mcp
 from blockmpec.solvers.engines.newton_system import MCPSystem, semismooth_newton
-from blockmpec.solvers.static_lp import StaticLP
 from blockmpec.verify import residuals
 
 OUT = Path(__file__).resolve().parents[1] / "output" / "newton_vs_scipy"
@@ -91,7 +91,7 @@ class Counted:
 
 
 def _newton(system, w0, cap):
-    out = semismooth_newton(system, w0, tol=TOL, max_iterations=2000, time_limit=cap)
+    out = semismooth_newton(system, w0, tol=TOL, max_iterations=2000, deadline=Deadline(cap))
     return system.pack(out.solution), f"{out.iterations} it", out.message if out.status.value != "converged" else ""
 
 
@@ -148,9 +148,7 @@ def main(argv: list[str] | None = None) -> list[dict]:
             continue
         ops = bm.assemble(build())
         form = compile_mcp(ops)
-        lp = StaticLP()
-        lp.setup(ops)
-        start = lp.run().solution  # the associative start of mcp-newton
+        start = bm.solve(ops, "static-lp").solution  # the associative start of mcp-newton
         system = MCPSystem(form, start)
         w0 = system.pack(start)
         for label, solve, dense in SOLVERS:

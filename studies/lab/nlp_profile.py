@@ -28,9 +28,10 @@ from pathlib import Path
 import numpy as np
 
 import blockmpec as bm
-from blockmpec.solvers.nlp import RelaxedNLP, RelaxedMPEC
+from blockmpec.solvers.nlp import RelaxedMPEC, RelaxedNLP
 
 sys.path[:0] = [str(Path(__file__).resolve().parent), str(Path(__file__).resolve().parents[1] / "_common")]
+from _methods import solve  # noqa: E402
 from _tables import csv_rows  # noqa: E402
 from _walls import wall_shape  # noqa: E402
 from nlp_scaling import parse_configs  # noqa: E402
@@ -70,11 +71,11 @@ def profile(config: str, courses: int, per_course: int, time_limit: float, optio
         old.unlink()
     ipopt = {"file_print_level": 5, "print_timing_statistics": "yes", **options.pop("ipopt_options", {})}
     logs = []
-    solve_stage = RelaxedNLP._solve_stage
+    solve_stage = RelaxedNLP.solve_stage
 
     def logged_stage(self, *args, **kwargs):  # one Ipopt log per stage (Ipopt has no append option)
         logs.append(OUT / f"profile_{config}_{len(logs) + 1}.log")
-        self.options.ipopt_options["output_file"] = str(logs[-1])
+        self.settings.ipopt_options["output_file"] = str(logs[-1])
         return solve_stage(self, *args, **kwargs)
 
     stamps = []  # (perf_counter, Ipopt iteration): the wall-clock gaps between iterations
@@ -84,14 +85,14 @@ def profile(config: str, courses: int, per_course: int, time_limit: float, optio
         stamps.append((time.perf_counter(), int(alg_mod), int(iter_count)))
         return intermediate(self, alg_mod, iter_count, *args)
 
-    RelaxedNLP._solve_stage = logged_stage
+    RelaxedNLP.solve_stage = logged_stage
     RelaxedMPEC.intermediate = stamped
     try:
         c0, t0 = time.process_time(), time.perf_counter()
-        res = bm.solve(structure, "nlp", time_limit=time_limit, ipopt_options=ipopt, **options)
+        res = solve(structure, "nlp", time_limit=time_limit, ipopt_options=ipopt, **options)
         wall_s, cpu_s = time.perf_counter() - t0, time.process_time() - c0
     finally:
-        RelaxedNLP._solve_stage = solve_stage
+        RelaxedNLP.solve_stage = solve_stage
         RelaxedMPEC.intermediate = intermediate
     gaps = np.diff([t for t, _, _ in stamps]) if len(stamps) > 1 else np.zeros(1)
     end_gap = t0 + wall_s - stamps[-1][0] if stamps else wall_s

@@ -35,9 +35,10 @@ import blockmpec as bm
 from blockmpec import facts
 
 sys.path[:0] = [str(Path(__file__).resolve().parent), str(Path(__file__).resolve().parents[1] / "_common")]
+from _methods import solve  # noqa: E402
 from _tables import csv_rows  # noqa: E402
+from _tables import fmt as _fmt  # noqa: E402
 from _walls import wall_shapes  # noqa: E402
-from certificate_study import _fmt  # noqa: E402
 
 OUT = Path(__file__).resolve().parents[1] / "output" / "nlp"
 COLUMNS = ["config", "wall", "blocks", "status", "verified", "multiplier", "associative", "wall_s", "cpu_s",
@@ -45,18 +46,18 @@ COLUMNS = ["config", "wall", "blocks", "status", "verified", "multiplier", "asso
            "kinematic_lp_s", "message"]
 DEFAULT_CONFIGS = ("ipopt={'route': 'ipopt'};factor-0.01={'route': 'ipopt', 'eps_factor': 0.01};"
                    "penalty-fp={'route': 'ipopt', 'start': 'fixed-point', 'complementarity': 'penalty'};"
-                   "pieces-whole={'route': 'ipopt', 'start': 'fixed-point', 'ipopt': False, 'piece_lp': True, "
-                   "'piece_lps': 'whole'};pieces={'route': 'pieces'}")
+                   "pieces-whole={'route': 'pieces', 'piece_lps': 'whole'};pieces={'route': 'pieces'}")
 
 
 def parse_configs(text: str) -> dict[str, dict]:
-    """``"name={options};name2={...}"`` -> ``{name: options}`` (options as a Python dict literal)."""
+    """``"name={options};name2={...}"`` -> ``{name: options}`` (a Python dict literal of options and engine settings,
+    sent where each belongs by :func:`_methods.solve`)."""
     out = {}
     for part in filter(None, (p.strip() for p in text.split(";"))):
         name, _, literal = part.partition("=")
         options = ast.literal_eval(literal.strip() or "{}")
         if not isinstance(options, dict):
-            raise SystemExit(f"--configs: {name!r} must map to a dict of nlp options; got {literal!r}")
+            raise SystemExit(f"--configs: {name!r} must map to a dict of nlp options and settings; got {literal!r}")
         out[name.strip()] = options
     return out
 
@@ -66,7 +67,7 @@ def run_wall(config: str, courses: int, per_course: int, time_limit: float, opti
     """Solve one running-bond wall with ``method`` (``nlp``) and ``options``; one table row."""
     structure = bm.cases.wall(courses=courses, blocks_per_course=per_course)
     c0, t0 = time.process_time(), time.perf_counter()
-    res = bm.solve(structure, method, time_limit=time_limit, **options)
+    res = solve(structure, method, time_limit=time_limit, **options)
     wall_s, cpu_s = time.perf_counter() - t0, time.process_time() - c0
     stages = " ".join(f"{rec['stage']}:{rec.get('ipopt_iterations', 0)}" for rec in res.trace if "stage" in rec)
     return {"config": config, "wall": f"{courses}x{per_course}", "blocks": structure.n_free,

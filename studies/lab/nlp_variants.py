@@ -28,6 +28,7 @@ import blockmpec as bm
 from blockmpec.bench.suite import BENCHMARK_SUITE
 
 sys.path[:0] = [str(Path(__file__).resolve().parent), str(Path(__file__).resolve().parents[1] / "_common")]
+import _methods  # noqa: E402
 import heuristic_suite  # noqa: E402
 from _tables import csv_rows  # noqa: E402
 from nlp_scaling import DEFAULT_CONFIGS, OUT, parse_configs  # noqa: E402
@@ -49,7 +50,7 @@ def cases() -> list[tuple[str, str, bm.Structure, float | None]]:
 
 def solve(structure: bm.Structure, method: str, options: dict, time_limit: float) -> tuple[bm.Result, float]:
     c0 = time.process_time()
-    res = bm.solve(structure, method, time_limit=time_limit, **options)
+    res = _methods.solve(structure, method, time_limit=time_limit, **options)
     return res, time.process_time() - c0
 
 
