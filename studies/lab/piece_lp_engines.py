@@ -34,24 +34,26 @@ COLUMNS = ["wall", "blocks", "pairs", "engine", "status", "certified", "multipli
 
 def run(courses: int, per_course: int, engines: list[str], time_limit: float, append) -> list[dict]:
     """Every engine's descent from one fixed point of one wall."""
+    from blockmpec.deadline import Deadline
     from blockmpec.formulations import compile_mcp
     from blockmpec.solvers.engines.piece_lp import piece_descent, whole_piece_descent
-    from blockmpec.solvers.nlp import without_free_sliding, nlp_scaling
+    from blockmpec.solvers.engines.scaling import LoadUnits
+    from blockmpec.solvers.nlp import nlp_scaling, without_free_sliding
     from blockmpec.verify import residuals
 
     case = bm.cases.wall(courses=courses, blocks_per_course=per_course)
     ops = bm.assemble(case)
     form = compile_mcp(ops)
-    scaling = nlp_scaling(form, ops)
+    scaling = nlp_scaling(form, LoadUnits.of(ops))
     fp = bm.solve(case, "fixed-point")
     w0 = form.pack(fp.solution)
     rows = []
     for engine in engines:
         c0, t0 = time.process_time(), time.perf_counter()
         if engine == "whole":
-            out = whole_piece_descent(form, scaling, w0, time_limit=time_limit)
+            out = whole_piece_descent(form, scaling, w0, deadline=Deadline(time_limit))
         else:
-            out = piece_descent(form, scaling, w0, time_limit=time_limit, static_engine=engine)
+            out = piece_descent(form, scaling, w0, deadline=Deadline(time_limit), static_engine=engine)
         cpu, wall = time.process_time() - c0, time.perf_counter() - t0
         residual = None
         if out.w is not None:

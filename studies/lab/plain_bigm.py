@@ -37,12 +37,15 @@ import scipy.sparse as sp
 import blockmpec as bm
 from blockmpec.formulations import compile_mcp
 from blockmpec.formulations.mpec_milp import MixedIntegerMPEC
+from blockmpec.deadline import Deadline
 from blockmpec.operators import assemble
 from blockmpec.solvers.engines.mip import solve_highs
 
 sys.path[:0] = [str(Path(__file__).resolve().parent), str(Path(__file__).resolve().parents[1] / "_common")]
 from _tables import write_csv  # noqa: E402
-from certificate_study import CONFIGS, _fmt, case  # noqa: E402
+from _methods import solve  # noqa: E402
+from _tables import fmt as _fmt  # noqa: E402
+from certificate_study import CONFIGS, case  # noqa: E402
 
 OUT = Path(__file__).resolve().parents[1] / "output" / "certificate"
 COLUMNS = [
@@ -104,7 +107,7 @@ def run_plain(spec: str, time_limit: float, bigm: float) -> dict:
     structure = case(spec)
     form = compile_mcp(assemble(structure))
     mip = plain_model(form, bigm)
-    run = solve_highs(mip, time_limit, rel_gap=1e-9, abs_gap=1e-9, feasibility_tol=1e-9, threads=1)
+    run = solve_highs(mip, Deadline(time_limit), rel_gap=1e-9, abs_gap=1e-9, feasibility_tol=1e-9, threads=1)
     active = None
     if run.point is not None:
         w = run.point[: form.n_columns]
@@ -128,7 +131,7 @@ def run_plain(spec: str, time_limit: float, bigm: float) -> dict:
 def run_milp(spec: str, config: str, time_limit: float) -> dict:
     method, options = CONFIGS[config]
     structure = case(spec)
-    res = bm.solve(structure, method, time_limit=time_limit, **options)
+    res = solve(structure, method, time_limit=time_limit, **options)
     ex = res.extra
     return {
         "case": spec,

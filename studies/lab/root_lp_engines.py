@@ -96,11 +96,13 @@ def root_lp(spec: str, lifting: str = "rlt-full", null_space: str | None = None)
     """``(A, c, row_lower, row_upper, col_lower, col_upper)`` of the root's lifted LP of the wall ``spec``; with
     ``null_space`` (a basis of :data:`~blockmpec.solvers.linalg.null_space.BASES`) the same LP in the null-space
     coordinates that ``root_lp="ipm"`` solves (:mod:`blockmpec.solvers.linalg.null_space`, basis ``"tree"``)."""
-    from blockmpec.solvers.milp import MILPSolver
+    from blockmpec.deadline import Deadline
+    from blockmpec.solvers.milp import MILPSettings, MILPSolver
 
-    solver = MILPSolver(engine="bnb", lifting=lifting, root_lp="ipm")
+    # the root of milp's branch and bound: its set-up, bounds and root LP (the milp module's own steps)
+    solver = MILPSolver(engine="bnb", settings=MILPSettings(lifting=lifting, root_lp="ipm"))
     solver.setup(bm.operators.assemble(named_wall(spec)))
-    bnb = solver._complementarity_bnb(solver._bounds(time.perf_counter() + 600))
+    bnb = solver._complementarity_bnb(solver._bounds(Deadline(600)))
     bnb._apply(bnb.root, bnb.lam_lower, bnb.lam_cap)
     c, rl, ru, cl, cu = bnb._lp_arrays()
     if null_space:
@@ -114,13 +116,10 @@ def root_lp(spec: str, lifting: str = "rlt-full", null_space: str | None = None)
 def highs_duals(lp, solver: str, options: dict, time_limit: float, crossover: bool = False):
     """Row duals of the LP by one of HiGHS's interior points, without crossover unless ``crossover`` (None if it
     gave none)."""
-    import highspy
-
-    from blockmpec.solvers.engines.highs import highs_lp, use_interior_point
+    from blockmpec.solvers.engines.highs import highs_lp, new_highs, use_interior_point
 
     A, c, rl, ru, cl, cu = lp
-    h = highspy.Highs()
-    h.setOptionValue("output_flag", False)
+    h = new_highs()
     h.passModel(highs_lp(A, c, rl, ru, cl, cu))
     if solver == "hipo":
         try:
@@ -195,9 +194,7 @@ def profile(walls: list[str], lifting: str, time_limit: float) -> list[dict]:
     """IPX's log on the root LP of each wall, and its summary (see the module docstring)."""
     import re
 
-    import highspy
-
-    from blockmpec.solvers.engines.highs import highs_lp, use_interior_point
+    from blockmpec.solvers.engines.highs import highs_lp, new_highs, use_interior_point
 
     # IPX's iteration line in HiGHS's log file: iter, primal obj, dual obj, pinf, dinf, gap, time
     sci = r"([-+]?\d\.\d+e[-+]\d+)"
@@ -207,7 +204,7 @@ def profile(walls: list[str], lifting: str, time_limit: float) -> list[dict]:
         A, c, rl, ru, cl, cu = root_lp(spec, lifting)
         log = OUT / f"ipx-{spec}-{lifting}.log"
         log.unlink(missing_ok=True)
-        h = highspy.Highs()
+        h = new_highs()
         h.setOptionValue("output_flag", True)
         h.setOptionValue("log_to_console", False)
         h.setOptionValue("log_file", str(log))
@@ -237,7 +234,7 @@ def profile(walls: list[str], lifting: str, time_limit: float) -> list[dict]:
     return rows
 
 
-def main() -> None:
+def main(argv: list[str] | None = None) -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--engines", default="", help="walls CxB, comma-separated: the root LP by every engine")
     ap.add_argument("--only", default=",".join(ENGINES), help=f"engines of --engines, from {', '.join(ENGINES)}")
@@ -245,7 +242,7 @@ def main() -> None:
     ap.add_argument("--profile", default="", help="walls CxB: IPX's log on the root LP of --lifting, summarised")
     ap.add_argument("--lifting", default="rlt", help="lifting of --profile")
     ap.add_argument("--time-limit", type=float, default=300.0, help="seconds per LP solve")
-    args = ap.parse_args()
+    args = ap.parse_args(argv)
     names = [n for n in args.only.split(",") if n]
     unknown = sorted(set(names) - set(ENGINES))
     if unknown:

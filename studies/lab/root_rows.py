@@ -29,6 +29,7 @@ import numpy as np
 import blockmpec as bm
 
 sys.path[:0] = [str(Path(__file__).resolve().parent), str(Path(__file__).resolve().parents[1] / "_common")]
+from _methods import solve  # noqa: E402
 from _walls import named_wall  # noqa: E402
 
 OUT = Path(__file__).resolve().parents[1] / "output" / "root_rows"
@@ -39,8 +40,8 @@ def compare(walls: list[str], modes: list[str], time_limit: float) -> list[dict]
     for spec in walls:
         for mode in modes:
             cpu = time.process_time()
-            res = bm.solve(named_wall(spec), "milp", engine="bnb", lifting="rlt-full", root_lp=mode,
-                           time_limit=time_limit)
+            res = solve(named_wall(spec), "milp", engine="bnb", lifting="rlt-full", root_lp=mode,
+                        time_limit=time_limit)
             row = {"wall": spec, "root_lp": mode, "status": res.status.value, "lam": res.multiplier,
                    "bound": res.extra.get(bm.facts.BOUND), "cpu_s": time.process_time() - cpu,
                    "rounds": [(round(t["time_s"], 1), t["bound"]) for t in res.trace if t.get("stage") == "search"]}
@@ -50,16 +51,17 @@ def compare(walls: list[str], modes: list[str], time_limit: float) -> list[dict]
 
 
 def sizes(walls: list[str]) -> list[dict]:
+    from blockmpec.deadline import Deadline
     from blockmpec.formulations.mpec_milp import work_matrix
     from blockmpec.solvers.engines.complementarity_bnb import lifted_lp
-    from blockmpec.solvers.milp import MILPSolver, lifting_options
+    from blockmpec.solvers.milp import MILPSettings, MILPSolver, lifting_options
 
     rows = []
     for spec in walls:
-        solver = MILPSolver(engine="bnb", lifting="rlt-full", root_lp="ipm-rows")
+        solver = MILPSolver(engine="bnb", settings=MILPSettings(lifting="rlt-full", root_lp="ipm-rows"))
         solver.setup(bm.operators.assemble(named_wall(spec)))
         cpu = time.process_time()
-        bd = solver._bounds(time.perf_counter() + 600)
+        bd = solver._bounds(Deadline(600))  # milp's own LP bounds (its module's step)
         bound_s = time.process_time() - cpu
         form = solver.form
         A, *_, layout = lifted_lp(form, work_matrix(form), bd.lam_lower, bd.lam_upper,
@@ -76,16 +78,17 @@ def sizes(walls: list[str]) -> list[dict]:
 
 
 def copies(walls: list[str], time_limit: float) -> list[dict]:
-    from blockmpec.solvers.milp import MILPSolver
+    from blockmpec.deadline import Deadline
+    from blockmpec.solvers.milp import MILPSettings, MILPSolver
 
     rows = []
     for spec in walls:
         for static_copies in ("all", "friction"):
-            solver = MILPSolver(engine="bnb", lifting="rlt-full", root_lp="ipm")
+            solver = MILPSolver(engine="bnb", settings=MILPSettings(lifting="rlt-full", root_lp="ipm"))
             solver.setup(bm.operators.assemble(named_wall(spec)))
-            bnb = solver._complementarity_bnb(solver._bounds(time.perf_counter() + time_limit),
-                                              static_copies=static_copies)
-            bnb.deadline = time.perf_counter() + time_limit
+            # the root of milp's branch and bound (the milp module's own steps)
+            bnb = solver._complementarity_bnb(solver._bounds(Deadline(time_limit)), static_copies=static_copies)
+            bnb.deadline = Deadline(time_limit)
             bnb._apply(bnb.root, bnb.lam_lower, np.inf)
             cpu = time.process_time()
             bound = bnb._interior_root()  # no target: the whole LP (per-block units)
@@ -96,14 +99,14 @@ def copies(walls: list[str], time_limit: float) -> list[dict]:
     return rows
 
 
-def main() -> None:
+def main(argv: list[str] | None = None) -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--compare", default="", help="walls CxB, comma-separated, for the side-by-side runs")
     ap.add_argument("--modes", default="ipm-lifted,ipm-rows")
     ap.add_argument("--time-limit", type=float, default=300.0)
     ap.add_argument("--sizes", default="", help="walls CxB whose lifted LP sizes and fixed pairs are counted")
     ap.add_argument("--copies", default="", help="walls CxB whose root bound is measured with fewer full copies")
-    args = ap.parse_args()
+    args = ap.parse_args(argv)
     OUT.mkdir(parents=True, exist_ok=True)
     if args.compare:
         out = compare(args.compare.split(","), args.modes.split(","), args.time_limit)
