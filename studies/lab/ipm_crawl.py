@@ -58,6 +58,7 @@ Usage::
     python studies/lab/ipm_crawl.py --ties 20x50,100x100 --eps 0,1e-6,1e-4,1e-2 --ipm-settings default
     python studies/lab/ipm_crawl.py --polish 20x50,100x100 --kappas 100,1e4 --ipm-settings default
     python studies/lab/ipm_crawl.py --arc 20x50,100x100 --ipm-settings default
+    python studies/lab/ipm_crawl.py --smoke  # every part on small walls, its claims checked (CI)
 
 Every run uses the block IPM with every inner direction corrected to the absolute target
 (``--ipm-settings exact_inner``, :data:`blockmpec.solvers.linalg.block_ipm.EXACT_INNER_SETTINGS`): the settings
@@ -80,13 +81,15 @@ import numpy as np
 
 import blockmpec as bm
 from blockmpec.formulations import compile_linear, static_lp
+from blockmpec.solvers.engines.lp_engine import cold_lp_engine
+from blockmpec.solvers.engines.scaling import LoadUnits
 from blockmpec.solvers.linalg import block_ipm
 from blockmpec.solvers.linalg.block_ipm import BlockIPM, IPMIterate
-from blockmpec.solvers.engines.lp_engine import cold_lp_engine
 
 sys.path[:0] = [str(Path(__file__).resolve().parent), str(Path(__file__).resolve().parents[1] / "_common")]
+from _ipm_settings import named_settings  # noqa: E402
 from _tables import write_csv  # noqa: E402
-from _walls import lowered_friction, named_wall  # noqa: E402
+from _walls import lowered_friction, named_wall, wall_shape, wall_shapes  # noqa: E402
 
 OUT = Path(__file__).resolve().parents[1] / "output" / "ipm_crawl"
 #: the crawl starts at the first iterate whose relative duality gap is at most this (the residuals
@@ -186,7 +189,7 @@ def mapped_weights(coarse: tuple[BlockIPM, bm.Structure, np.ndarray], fine: tupl
     return weights
 
 
-#: the block IPM's settings in every run (a name of ``block_ipm.<NAME>_SETTINGS``; ``--ipm-settings``)
+#: the block IPM's settings in every run (a name of ``_ipm_settings.<NAME>_SETTINGS``; ``--ipm-settings``)
 IPM_SETTINGS = "exact_inner"
 
 
@@ -212,10 +215,10 @@ def _engine(lp, ops, settings: dict | None = None) -> BlockIPM:
     """The LP's cold block IPM with :data:`IPM_SETTINGS` (and ``settings`` over them), ``K`` factorised in this
     process alone unless ``settings`` say otherwise: every table of this study was measured so, and a worker process
     (``factor_processes``) moves iteration counts by round-off."""
-    engine = cold_lp_engine(lp, "block-ipm", ops=ops)
+    engine = cold_lp_engine(lp, "block-ipm", LoadUnits.of(ops))
     if not isinstance(engine, BlockIPM):
         raise RuntimeError("ipm_crawl: the wall's LP did not get the block IPM")
-    engine.settings(**{**block_ipm.named_settings(IPM_SETTINGS), "factor_processes": 1, **(settings or {})})
+    engine.settings(**{**named_settings(IPM_SETTINGS), "factor_processes": 1, **(settings or {})})
     return engine
 
 
@@ -447,6 +450,99 @@ def polish(spec: str, kappas: tuple[float, ...] = (1.0, 100.0)) -> tuple[list[di
     return rows, summary
 
 
+def smoke() -> None:
+    """The smallest run of every part, each checked against what the study claims (CI); exits 1 naming the failures.
+
+    On a 20x50 wall: weights from the solution shorten the path to the same optimum (verified at 1e-8), and the
+    crawl's blocking rows are centred.  On an 8x10 wall: a wall mapped onto itself keeps every weight; ``einsum``
+    block products agree with the engine's to round-off and reach the same lambda; the optimal iterate projected on
+    its own face stays feasible at the optimum, the start does not; the polish summary counts within the run;
+    lowered friction never raises lambda; the arc search ends at the engine's lambda, and its step meets the closed
+    forms.  Wall names are read once (``_walls``), a malformed one is one clear error."""
+    failures = []
+
+    def check(ok: bool, what: str) -> None:
+        if not ok:
+            failures.append(what)
+
+    lp, ops = wall_lp("20x50")
+    plain, recorder = run(lp, ops)
+    weights = solution_weights(recorder.start, recorder.previous, clip=10.0)
+    check(weights.min() >= 0.1 and weights.max() <= 10.0 and weights.min() < 1 < weights.max(),
+          "oracle: the solution's weights are not clipped to [0.1, 10] around 1")
+    weighted = _engine(lp, ops)
+    weighted.path_weights = weights
+    out = weighted.solve()
+    check(out.status.is_success and out.iterations < plain["iterations"],
+          f"oracle: the weighted path took {out.iterations} iterations against {plain['iterations']}")
+    lam = float(lp.values("lam", out.v)[0])
+    from blockmpec.solvers.engines.highs import static_lp_solution
+
+    worst = max(bm.verify.residuals(ops, static_lp_solution(lp, out), associative=True).values())
+    check(abs(lam - plain["lam"]) <= 1e-8 * abs(plain["lam"]) and worst <= 1e-8,
+          f"oracle: the weighted path ends at lam {lam} (plain {plain['lam']}), residual {worst:.1e}")
+    _, summary = diagnose("20x50")
+    check(summary["status"] == "optimal" and summary["crawl_iterations"] >= 5
+          and summary["blocking_rows_centred"] >= 0.8 and summary["median_shorter_step"] < 0.9,
+          f"diagnose: the crawl's blocking rows are not centred ({summary})")
+
+    lp, ops = wall_lp("8x10")
+    _, recorder = run(lp, ops)
+    weights = solution_weights(recorder.start, recorder.previous)
+    wall = named_wall("8x10")
+    check(np.array_equal(mapped_weights((recorder.engine, wall, weights), (_engine(lp, ops), wall)), weights),
+          "mapped weights: a wall mapped onto itself does not keep its weights")
+    engine = _engine(lp, ops)
+    blocks, *_ = engine.factorise(engine.initial_point())
+    rhs = np.random.default_rng(0).standard_normal(blocks[0].shape[:2])
+    ours, theirs = engine.block_product(blocks[0], rhs), einsum_block_product(blocks[0], rhs)
+    check(np.allclose(ours, theirs, rtol=1e-12, atol=1e-12 * np.abs(ours).max()),
+          "roundoff: einsum's block products differ from the engine's beyond round-off")
+    rows = roundoff("8x10")
+    check([row["status"] for row in rows] == ["optimal", "optimal"]
+          and abs(rows[1]["lam"] - rows[0]["lam"]) <= 1e-8 * abs(rows[0]["lam"]),
+          f"roundoff: {[(row['status'], row['lam']) for row in rows]}")
+    final = recorder.previous
+    active = final.y > final.s
+    optimum = float(recorder.engine.c @ final.v)
+    violation, objective = face_projection(recorder.engine, final, active)
+    start_violation, _ = face_projection(recorder.engine, recorder.engine.initial_point(), active)
+    check(0 < active.sum() < active.size and violation <= 1e-9
+          and abs(objective - optimum) <= 1e-9 * (1 + abs(optimum)) and start_violation > 1e-3,
+          f"face projection: final {violation:.1e} (objective {objective} vs {optimum}), start {start_violation:.1e}")
+    rows, summary = polish("8x10", kappas=(100.0,))
+    check(summary["status"] == "optimal" and summary["probe_iterations"] == len(rows) == summary["iterations"] + 1
+          and all(0 <= summary[f"{name}_saves_at_{tol}"] < len(rows) for tol in ("1e-08", "1e-09")
+                  for name in ("oracle", "s<100y"))
+          and rows[-1]["oracle_violation"] <= 1e-8 and rows[-1]["oracle_objective_error"] <= 1e-8,
+          f"polish: summary {summary}")
+    rows = ties("8x10", [0.0, 1e-2])
+    check([row["status"] for row in rows] == ["optimal", "optimal"] and rows[1]["lam"] <= rows[0]["lam"] + 1e-9,
+          f"ties: lowered friction gave {[(row['status'], row['lam']) for row in rows]}")
+    ones = np.ones(1)
+    check(abs(arc_step(ones, -2 * ones, 0 * ones) - np.pi / 6) <= 1e-9
+          and abs(arc_step(ones, 0 * ones, -1.5 * ones) - np.arccos(1 / 3)) <= 1e-9
+          and arc_step(ones, 0.5 * ones, 0.3 * ones) == np.pi / 2, "arc_step: not the closed forms")
+    rows = {row["method"]: row for row in arc("8x10")}
+    reference = rows["the engine as set"]
+    check(rows["arc search"]["status"] == "optimal" and reference["status"] == "optimal"
+          and abs(rows["arc search"]["lam"] - reference["lam"]) <= 1e-8
+          and abs(rows["Mehrotra, no correctors"]["lam"] - reference["lam"]) <= 1e-8,
+          f"arc: {[(name, row['status'], row['lam']) for name, row in rows.items()]}")
+    check(wall_shape(" 3X4 ") == (3, 4) and wall_shapes("2x5,,10x20") == [(2, 5), (10, 20)], "wall names misread")
+    for bad in ("3by4", "3x", "3x4x5"):
+        try:
+            wall_shape(bad)
+            failures.append(f"wall name {bad!r} accepted")
+        except ValueError as error:
+            check(f"wall '{bad}': expected CxB" in str(error), f"wall name {bad!r}: {error}")
+    for line in failures:
+        print(f"smoke check failed: {line}")
+    if failures:
+        raise SystemExit(1)
+    print("smoke: every part of the study runs and its claims hold on the small walls")
+
+
 def main(argv: list[str] | None = None) -> list[dict]:
     global IPM_SETTINGS
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
@@ -466,12 +562,17 @@ def main(argv: list[str] | None = None) -> list[dict]:
     parser.add_argument("--to", default="0.5,0.6,0.7")
     parser.add_argument("--ipm-settings", default=IPM_SETTINGS,
                         help="block IPM settings of every run: exact_inner (this study's tables), default, ... "
-                             "(block_ipm.<NAME>_SETTINGS)")
+                             "(studies/lab/_ipm_settings.py)")
+    parser.add_argument("--smoke", action="store_true",
+                        help="the smallest run of every part (8x10 and 20x50 walls), with the checks of its claims (CI)")
     args = parser.parse_args(argv)
     try:
-        block_ipm.named_settings(args.ipm_settings)
+        named_settings(args.ipm_settings)
     except ValueError as error:
         parser.error(str(error))
+    if args.smoke:
+        smoke()
+        return []
     IPM_SETTINGS = args.ipm_settings
     rows: list[dict] = []
     if args.diagnose:
