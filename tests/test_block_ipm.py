@@ -349,3 +349,36 @@ def test_a_singular_k_ends_the_solve_with_a_status(monkeypatch):
     monkeypatch.setattr(SymmetricFactoriser, "factorise", failing_from(0))
     out = cold_lp_engine(lp, "block-ipm", LoadUnits.of(ops)).solve()
     assert out.status is bm.Status.NUMERICAL and "starting point" in out.message
+
+
+def test_block_ipm_stops_in_the_iteration_its_deadline_passes(monkeypatch):
+    """The block IPM reads the clock before and after each factorisation: a deadline that passes during the third
+    iteration's factorisation (the fourth, after the starting point's) ends the solve there, with the time limit and
+    the two iterations made before it (its overshoot is at most one factorisation).  The clock is the engine's own,
+    faked: no dependence on the machine's speed."""
+    import types
+
+    from blockmpec.solvers.linalg import block_ipm
+
+    ops = bm.assemble(bm.cases.wall(4, 5))
+    lp = compile_linear(static_lp(ops))
+    row_scale, column_scale = LoadUnits.of(ops).static(lp)
+    engine = block_ipm.BlockIPM(lp, interface_blocks(lp), deadline=1.0, row_scale=row_scale,
+                                column_scale=column_scale)
+    clock = {"now": 0.0, "factorisations": 0}
+    factorise = engine.factorise
+
+    def factorise_then_tick(it):
+        clock["factorisations"] += 1
+        if clock["factorisations"] == 4:
+            clock["now"] = 2.0  # the deadline (1.0 on this clock) passes during the third iteration's factorisation
+        return factorise(it)
+
+    monkeypatch.setattr(engine, "factorise", factorise_then_tick)
+    monkeypatch.setattr(block_ipm, "time", types.SimpleNamespace(perf_counter=lambda: clock["now"],
+                                                               process_time=block_ipm.time.process_time))
+    out = engine.solve()
+    assert out.status is block_ipm.IPMStatus.TIME_LIMIT and out.iterations == 2, (out.status, out.message)
+    assert clock["factorisations"] == 4
+    clock["now"], clock["factorisations"] = 0.0, -100  # the same LP with the deadline far away: optimal
+    assert engine.solve().status is block_ipm.IPMStatus.OPTIMAL

@@ -425,10 +425,6 @@ def test_every_method_has_a_finite_default_time_limit(method):
     assert math.isfinite(options["time_limit"].default)
 
 
-#: largest accepted overshoot of a time limit [s] (HiGHS and Ipopt check their clocks every iteration)
-TIME_LIMIT_OVERSHOOT_S = 0.5
-
-
 @pytest.fixture(scope="module")
 def wall_300_blocks():
     return bm.assemble(bm.cases.wall(20, 15))
@@ -438,8 +434,11 @@ def wall_300_blocks():
     ("static-lp", {"algorithm": "dual-simplex"}), ("static-lp", {"algorithm": "block-ipm"}),
     ("kinematic-lp", {}), ("nlp", {})])
 def test_time_limit_is_honoured(wall_300_blocks, method, options):
-    """A 300-block wall takes 0.6-5 s (block IPM, dual simplex, kinematic LP) or tens of seconds (nlp);
-    with ``time_limit=0.2`` the solve stops within the overshoot and says so (measured: 0.01 s over)."""
-    res = bm.solve(wall_300_blocks, method, time_limit=0.2, **options)
-    assert res.solve_time_s <= 0.2 + TIME_LIMIT_OVERSHOOT_S, res.solve_time_s
-    assert res.status is bm.Status.TIME_LIMIT or res.success, (res.status, res.message)
+    """A 300-block wall takes 0.6-5 s (block IPM, dual simplex, kinematic LP) or tens of seconds (nlp); with a
+    limit that has passed before the engine starts (1 ns, whatever the machine's speed) the solve says so and claims
+    no multiplier.  (How far an engine may overshoot a limit that passes while it runs is tested per engine, on
+    counted iterations: ``test_block_ipm_stops_in_the_iteration_its_deadline_passes`` in test_block_ipm.py, and the
+    nlp callback's tests in test_nlp.py.)"""
+    res = bm.solve(wall_300_blocks, method, time_limit=1e-9, **options)
+    assert res.status is bm.Status.TIME_LIMIT, (res.status, res.message)
+    assert not res.success and res.message
