@@ -195,6 +195,7 @@ def test_gmres_direction_equals_the_direct_one(mild_wall_ipm):
         np.testing.assert_allclose(a, b, rtol=0, atol=1e-7 * max(np.max(np.abs(b)), 1.0))
 
 
+@pytest.mark.slow
 def test_defaults_solve_a_wall_to_the_verifier_tolerance():
     """The default settings give a point the shared verifier accepts at 1e-8, and HiGHS's lambda."""
     from blockmpec.solvers.engines.highs import HighsLP, static_lp_solution

@@ -153,6 +153,7 @@ def _solve(lp, ops, kernels, engine=None):
     return ipm.solve()
 
 
+@pytest.mark.slow
 def test_static_lp_same_optimum_with_either_kernels():
     ops = bm.assemble(bm.cases.wall(10, 20))
     lp = compile_linear(static_lp(ops))

@@ -171,6 +171,7 @@ def _worker_ready_at_once(monkeypatch) -> None:
     monkeypatch.setattr(SupernodalCholesky, "start_worker", lambda self, wait=False: start(self, wait=True))
 
 
+@pytest.mark.slow
 def test_block_ipm_same_lambda_with_either_factorisation(monkeypatch):
     """The supernodal Cholesky (default), the same with a worker process (``factor_processes`` 2) and SuperLU's
     LDL^T give the same optimum, all verified; the worker process ends with the solve."""
@@ -241,6 +242,7 @@ def test_subtree_halves_factorised_apart_give_the_same_factors():
         assert (below[s] is None and whole[1][s] is None) or np.array_equal(below[s], whole[1][s])
 
 
+@pytest.mark.slow
 def test_two_process_factorisation_matches_the_serial_one(wall_K):
     """``processes=2``: a worker process factorises and solves one subtree half.  Its factors are the serial ones
     (the same fronts, the same order), so its solutions agree with the serial solve to round-off; a vector and a
@@ -275,6 +277,7 @@ def test_two_process_factorisation_matches_the_serial_one(wall_K):
         SupernodalCholesky(pattern, "metis", processes=3)
 
 
+@pytest.mark.slow
 def test_static_lp_factor_processes_reaches_the_block_ipm(monkeypatch):
     """``static-lp``'s setting ``factor_processes`` (:class:`~blockmpec.solvers.static_lp.LPSettings`) is the block
     IPM's; with the supernodal Cholesky forced on a small wall, 2 gives the serial optimum, verified, through
@@ -338,6 +341,7 @@ def test_auto_factor_processes_takes_two_from_its_threshold_with_two_cpus(monkey
         SupernodalCholesky(engine._K_pattern, "metis", processes=2)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("compiled", [False, True])
 def test_factorisations_stay_serial_until_the_worker_is_ready(wall_K, monkeypatch, compiled):
     """While the worker process starts (its set-up is sent in the background), ``processes=2`` factorises here
@@ -377,6 +381,7 @@ def test_factorisations_stay_serial_until_the_worker_is_ready(wall_K, monkeypatc
     split.close()
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("compiled", [False, True])
 def test_the_first_factorisation_waits_for_a_starting_worker(wall_K, monkeypatch, compiled):
     """The first factorisation waits (at most ``FIRST_WORKER_WAIT`` s, here long enough) for the worker, having warmed
@@ -400,6 +405,7 @@ def test_the_first_factorisation_waits_for_a_starting_worker(wall_K, monkeypatch
     split.close()
 
 
+@pytest.mark.slow
 def test_a_worker_stops_with_its_cholesky_before_any_factorisation(wall_K):
     """The worker process starts with the Cholesky (its imports overlap the analysis) and gets its set-up at the end
     of the analysis; a Cholesky closed before any factorisation stops it, and so does closing a worker that never got
@@ -422,6 +428,7 @@ def test_a_worker_stops_with_its_cholesky_before_any_factorisation(wall_K):
         os.fstat(fd)
 
 
+@pytest.mark.slow
 def test_a_worker_that_dies_is_one_clear_error(wall_K):
     """A worker process that ends in the middle of a solve (killed, out of memory) makes the next factorisation raise
     one RuntimeError that says so, never a hang or a wrong solution."""
@@ -438,6 +445,7 @@ def test_a_worker_that_dies_is_one_clear_error(wall_K):
 # --------------------------------------------------------------------------- compiled solves (numba)
 
 
+@pytest.mark.slow
 def test_compiled_solves_are_the_python_loops_bit_for_bit(wall_K, monkeypatch):
     """``compiled_solves`` runs the loop over supernodes compiled, calling the same BLAS routines: the solution of
     ``K x = b`` is the Python loop's bit for bit, in one process and split with a worker (whose own half is
@@ -508,6 +516,7 @@ def test_compiled_factorisation_is_the_python_loops_bit_for_bit(wall_K, relax):
     assert _same_blocks(factors[0][0], factors[1][0]) and _same_blocks(factors[0][1], factors[1][1])
 
 
+@pytest.mark.slow
 def test_compiled_factorisation_in_halves_and_top_is_the_whole(wall_K, monkeypatch):
     """The compiled loop on the halves and then the top (:meth:`SupernodalCholesky.subtree_halves`), the top taking
     the halves' root updates, gives the whole factorisation's blocks; with a worker process (its half compiled as
@@ -559,6 +568,7 @@ def test_compiled_factorisation_keeps_the_factors_a_solver_still_holds(wall_K):
     assert [a.ctypes.data for a in factors] == before  # a free array was reused, none added
 
 
+@pytest.mark.slow
 def test_block_ipm_compiled_solves_follow_the_kernels_and_keep_the_iterates(monkeypatch):
     """``compiled_solves="auto"`` and ``compiled_factorisation="auto"`` compile the supernodal Cholesky's solves and
     factorisation with the compiled kernels only; True and False choose.  The solutions and factors are the same
@@ -610,6 +620,7 @@ def test_factor_flops_count_the_dense_work_of_the_fronts():
     assert chol.factor_flops == pytest.approx((n - 2) * (1 / 3 + 2) + 8 / 3)
 
 
+@pytest.mark.slow
 def test_two_process_lp_iterates_do_not_depend_on_when_the_worker_is_ready(monkeypatch):
     """A whole block-IPM LP with ``factor_processes=2``: whether the worker is ready from the first factorisation or
     only from the fourth (the solves before then made here), the iterates, the solution and the duals are the same

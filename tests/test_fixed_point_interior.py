@@ -291,6 +291,7 @@ def test_continuation_ends_at_its_last_point_when_k_is_singular(monkeypatch):
     assert np.all(np.isfinite(end.v)) and np.all(end.s > 0) and np.all(end.y > 0)
 
 
+@pytest.mark.slow
 def test_a_stalled_interior_run_is_continued_and_the_steps_are_traced():
     """``run_interior`` continues a run that stalls (here: a tolerance of 1e-17, below round-off) along its
     central path; the steps count as iterations and are traced; unconverged, the status says so."""

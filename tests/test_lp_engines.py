@@ -139,6 +139,7 @@ def test_lp_sequence_time_limit_counts_from_the_instance_clock():
     assert not set_deadline(h, Deadline(0.0))  # no time left: the caller does not solve
 
 
+@pytest.mark.slow
 def test_fixed_point_reports_its_lp_time_per_kind():
     res = solve_with(bm.cases.wall(10, 20), "fixed-point", settings=dict(fold_weight=0.0))  # a tie-break LP after every step
     assert_success(res)
@@ -246,6 +247,7 @@ def test_block_ipm_ordering_has_the_fill_of_a_fresh_ordering(ordering):
     assert stale.factor_nnz > 1.5 * fresh.factor_nnz
 
 
+@pytest.mark.slow
 def test_block_ipm_factorises_every_iteration_with_one_ordering():
     """A whole solve: the ordering is made once, and the final factors have no more fill than a fresh
     ordering of a generic K (the fill of the structural pattern)."""
@@ -265,6 +267,7 @@ def test_block_ipm_factorises_every_iteration_with_one_ordering():
     assert np.array_equal(engine.factoriser.perm, perm)
 
 
+@pytest.mark.slow
 def test_block_ipm_lazy_refinement_saves_solves_with_the_same_lam():
     """Refining only the final direction of each iteration (not the predictor, corrector and each
     Gondzio corrector on their own) needs fewer solves with K and gives the same lam."""
@@ -287,6 +290,7 @@ def test_block_ipm_lazy_refinement_saves_solves_with_the_same_lam():
     assert runs["default"][1] < 0.9 * runs["previous"][1]
 
 
+@pytest.mark.slow
 def test_block_ipm_thin_voussoirs_reach_the_tolerance():
     """984 thin voussoirs (y/s spanning many decades): the whole-system refinement of the final
     direction reaches the 1e-9 tolerance (OPTIMAL, not merely ACCEPTABLE) and HiGHS's lam to 1e-9."""

@@ -342,7 +342,7 @@ def test_piece_descent_two_blocks_between_bounds(interior, engine, eta, mu):
 
 @pytest.mark.parametrize(("options", "settings", "wall", "at_most"),
                          [(dict(route="pieces"), None, (10, 5), 0.51447),
-                          (dict(route="ipopt"), dict(piece_lp=True), (5, 4), 0.6)],
+                          pytest.param(dict(route="ipopt"), dict(piece_lp=True), (5, 4), 0.6, marks=pytest.mark.slow)],
                          ids=["fixed-point-pieces", "ipopt-then-pieces"])
 def test_piece_lp_route_verified_certified_and_below_the_start(options, settings, wall, at_most):
     """Verified, certified (trace record of the pieces), at or below the start's lam (README: the 10x5 wall's

@@ -76,7 +76,7 @@ def test_round_arch_same_for_all_methods():
 # ------------------------------------------------------------------ walls
 
 
-@pytest.mark.parametrize("courses,blocks", [(10, 5), (10, 20)])
+@pytest.mark.parametrize("courses,blocks", [(10, 5), pytest.param(10, 20, marks=pytest.mark.slow)])
 def test_fixed_point_converges_on_running_bond_walls(courses, blocks):
     case = bm.cases.wall(courses, blocks)
     lam_assoc = associative(case).multiplier

@@ -104,7 +104,8 @@ def test_a_certified_minimiser_satisfies_every_row_of_the_null_space_lp(case_id)
     assert reduced.A.shape[0] < bnb._A.shape[0] and reduced.A.shape[1] < bnb._A.shape[1]
 
 
-@pytest.mark.parametrize("case_id", ["wall-2x2", "wall-4x2-stack-mu0.4", "two-blocks"])
+@pytest.mark.parametrize("case_id", ["wall-2x2", pytest.param("wall-4x2-stack-mu0.4", marks=pytest.mark.slow),
+                                     "two-blocks"])
 def test_the_null_space_root_bound_is_the_lifted_root_bound(case_id):
     """The root's interior point on the null-space LP (``root_lp="ipm"``) and on the lifted LP
     (``root_lp="ipm-lifted"``) give the same bound, at most the certified minimum; the first says it ran in

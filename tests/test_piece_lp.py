@@ -189,6 +189,7 @@ def test_closed_interfaces_are_those_whose_cone_is_zero():
             assert closed == (largest <= 1e-12), subset
 
 
+@pytest.mark.slow
 def test_route_auto_takes_pieces_from_100_blocks():
     """route='auto' (the default): Ipopt below NLP_PIECE_ROUTE_BLOCKS free blocks, the split piece LPs from there on."""
     from blockmpec.solvers.plan import NLP_PIECE_ROUTE_BLOCKS as PIECE_ROUTE_BLOCKS

@@ -147,6 +147,7 @@ def test_static_equals_kinematic(wall):
     assert _lam(wall, "kinematic-lp") == pytest.approx(_lam(wall, "static-lp"), rel=1e-8)
 
 
+@pytest.mark.slow
 @settings(max_examples=200, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(stacks())
 def test_no_crash_on_random_structures(stack):
@@ -156,6 +157,7 @@ def test_no_crash_on_random_structures(stack):
     assert res.success or res.status in (bm.Status.UNBOUNDED, bm.Status.INFEASIBLE)
 
 
+@pytest.mark.slow
 @MULTI_SOLVER_SETTINGS
 @given(small_structures())
 def test_no_verified_heuristic_below_the_certified_minimum(structure):
@@ -172,6 +174,7 @@ def test_no_verified_heuristic_below_the_certified_minimum(structure):
                 method, res.multiplier, minimum.multiplier)
 
 
+@pytest.mark.slow
 @MULTI_SOLVER_SETTINGS
 @given(small_structures())
 def test_associative_multiplier_bounds_every_non_associative_one(structure):
@@ -210,6 +213,7 @@ FIXED_POINT_STRATEGIES = [
 ]
 
 
+@pytest.mark.slow
 @settings(max_examples=8, deadline=None, suppress_health_check=[HealthCheck.too_slow, HealthCheck.filter_too_much])
 @given(small_structures())
 def test_no_fixed_point_strategy_below_the_certified_minimum(structure):
