@@ -124,10 +124,10 @@ from dataclasses import dataclass, field
 from blockmpec import facts as fact_names
 from blockmpec import options as check
 from blockmpec.facts import ASSOCIATIVE_MULTIPLIER
+from blockmpec.method import SolverBase
 from blockmpec.options import CommonOptions
 from blockmpec.registry import register_solver
 from blockmpec.result import RunOutput, Status
-from blockmpec.solver import SolverBase
 from blockmpec.solvers import plan
 
 #: residual tolerance under which a multistart run counts as a solution of (3) (the verifier's default)

@@ -156,3 +156,48 @@ def describe_block_ipm(engine) -> str:
         kind = "SuperLU LDL^T"
     kernels = "compiled kernels" if engine.block_kernels is not None else "numpy kernels"
     return f"block IPM ({kind}, {engine.corrector_count} correctors, {kernels})"
+
+
+def choose(method: str, ops, options) -> list[str]:
+    """The engine chain ``method`` will run on the structure of ``ops`` with ``options`` (its ``Options``), before
+    it runs: the rules above applied to the structure's size.  ``Result.extra["plan"]`` records what did run.
+
+    Parameters
+    ----------
+    method : str
+        A registered method name.
+    ops : Operators
+        The assembled structure (only its sizes and load spread are read).
+    options : the method's ``Options``
+    """
+    from blockmpec.solvers.engines.scaling import LoadUnits
+
+    blocks, interfaces = ops.n_free_blocks, ops.n_interfaces
+    static_rows = 3 * blocks + 4 * interfaces  # equilibrium, two no-tension and two friction rows per interface
+    pairs = 4 * interfaces
+    if method == "static-lp":
+        algorithm = lp_algorithm(options.algorithm, static_rows, LoadUnits.of(ops).load_spread)
+        return [f"static LP (1): {'block IPM' if algorithm == 'block-ipm' else f'HiGHS {algorithm}'}"]
+    if method == "kinematic-lp":
+        kinematic_rows = 3 * interfaces + 1  # compatibility, normalisation
+        return [f"kinematic LP (2): HiGHS {lp_algorithm(options.algorithm, kinematic_rows, need_basis=True)}"]
+    if method == "fixed-point":
+        engine = fixed_point_engine(options.engine, blocks)
+        if engine == "interior":
+            chain = ["interior fixed point on (3): block IPM"]
+            if fixed_point_fallback(options.engine, blocks):
+                chain.append("if unverified: the simplex engine's LP steps")
+            return chain
+        return [f"fixed point: HiGHS LP steps (start {options.start}, tie-break {options.tie_break})"]
+    if method == "slp":
+        return ["SLP: HiGHS LP steps"]
+    if method == "nlp":
+        route = nlp_route(options.route, blocks)
+        if route == "pieces":
+            return ["start: fixed-point", f"piece LPs (static halves: {piece_lp_static_engine(pairs)})"]
+        return [f"start: {options.start}", f"Ipopt: {options.complementarity} stages"]
+    if method == "mcp-newton":
+        return [f"start: {options.start}", "semismooth Newton on (3)"]
+    if method == "milp":
+        return ["LP bounds", f"engine: {milp_engine(options.engine, options.sense, pairs)}", "polish: piece LPs"]
+    return []

@@ -12,8 +12,7 @@ import time
 
 from blockmpec import registry
 from blockmpec.errors import BlockmpecError
-from blockmpec.result import Solution, Status
-from blockmpec.result import RunOutput
+from blockmpec.result import RunOutput, Solution, Status
 from blockmpec.solver import SolverBase
 
 

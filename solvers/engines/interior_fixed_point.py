@@ -347,7 +347,6 @@ def continue_central_path(engine: InteriorFixedPoint, start: IPMIterate, *, tol:
 
     Returns the last iterate and ``{"steps", "factorisations", "mu"}``.
     """
-    import time
 
     from blockmpec.solvers.linalg.block_ipm import single_blas_thread
     from blockmpec.solvers.linalg.cholesky import SingularMatrixError

@@ -65,7 +65,7 @@ import numpy as np
 
 from blockmpec import facts as fact_names
 from blockmpec.deadline import NEVER, Deadline
-from blockmpec.formulations.static_lp import StepLPs
+from blockmpec.formulations.sequence import StepLPs
 from blockmpec.result import RunOutput, Solution, Status
 from blockmpec.solvers.engines.highs import FEASIBILITY_TOL, static_lp_solution
 from blockmpec.verify import positive_part_ratio

@@ -92,6 +92,7 @@ from .cholesky import (
     usable_cpus,
 )
 
+
 class IPMStatus(str, Enum):
     """Why :meth:`BlockIPM.solve` stopped (the values are the library's status names; the engines map them)."""
 

@@ -22,7 +22,8 @@ from pathlib import Path
 import blockmpec as bm
 from blockmpec.bench.compare import compare, text_table
 from blockmpec.bench.plots import error_vs_time, method_style
-from blockmpec.bench.profiles import plot_profiles, summary_table, summary_text
+from blockmpec.bench.plots import plot_profiles
+from blockmpec.bench.profiles import summary_table, summary_text
 
 OUT = Path(__file__).resolve().parents[1] / "output" / "error_vs_time"
 HEAVY = ("milp", "nlp", "mcp-newton")
