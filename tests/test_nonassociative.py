@@ -17,7 +17,7 @@ pytest.importorskip("pyomo")
 
 import blockmpec as bm  # noqa: E402
 from blockmpec.errors import OptionError  # noqa: E402
-from helpers import assert_residuals_within, two_block_nonassociative_min  # noqa: E402
+from helpers import assert_residuals_within, solve_with, two_block_nonassociative_min  # noqa: E402
 
 RESIDUAL_TOL = 1e-7
 
@@ -76,7 +76,7 @@ def test_round_arch_same_for_all_methods():
 # ------------------------------------------------------------------ walls
 
 
-@pytest.mark.parametrize("courses,blocks", [(10, 5), (10, 20)])
+@pytest.mark.parametrize("courses,blocks", [(10, 5), pytest.param(10, 20, marks=pytest.mark.slow)])
 def test_fixed_point_converges_on_running_bond_walls(courses, blocks):
     case = bm.cases.wall(courses, blocks)
     lam_assoc = associative(case).multiplier
@@ -152,7 +152,8 @@ def test_slp_with_alpha0_beta1_is_the_fixed_point_step(tie_break):
     case = bm.cases.wall(10, 5)
     k = 6
     fp = bm.solve(case, "fixed-point", start="associative", tie_break=tie_break, max_iterations=k, tol=1e-300)
-    slp = bm.solve(case, "slp", alpha=0.0, beta=1.0, tie_break=tie_break, max_iterations=k, tol=1e-300)
+    slp = solve_with(case, "slp", settings=dict(tie_break=tie_break), alpha=0.0, beta=1.0, max_iterations=k,
+                     tol=1e-300)
     m = min(len(fp.trace), len(slp.trace))
     assert m >= 2
     for a, b in zip(fp.trace[:m], slp.trace[:m]):
@@ -222,7 +223,8 @@ def test_bad_options(method, options):
 
 # ------------------------------------------------------------------ aiming at the minimum (issue 13)
 
-#: strategies of the study (studies/fixed_point_strategies.py) that must stay sound
+#: strategies of the study (studies/lab/fixed_point_strategies.py) that must stay sound: options, and engine settings
+#: under "settings" (``solve_with``)
 STRATEGIES = [
     {"start": "associative", "tie_break": "closest"},
     {"start": "associative", "tie_break": "min-lambda"},
@@ -230,8 +232,8 @@ STRATEGIES = [
     {"start": "dead-load", "tie_break": "least-compressed"},
     {"start": "dead-load", "tie_break": "on-oscillation"},
     {"start": "random", "seed": 3, "tie_break": "min-lambda"},
-    {"start": "dead-load", "tie_break": "least-compressed", "acceleration": "anderson"},
-    {"start": "dead-load", "tie_break": "least-compressed", "fold_weight": 1e-4},
+    {"start": "dead-load", "tie_break": "least-compressed", "settings": {"acceleration": "anderson"}},
+    {"start": "dead-load", "tie_break": "least-compressed", "settings": {"fold_weight": 1e-4}},
 ]
 
 
@@ -277,7 +279,7 @@ def test_old_default_is_an_option_and_returns_the_associative_solution():
 def test_no_strategy_falls_below_the_certificate(case):
     minimum = certified_minimum(case)
     for options in STRATEGIES:
-        res = bm.solve(case, "fixed-point", **options)
+        res = solve_with(case, "fixed-point", **options)
         assert res.status is bm.Status.CONVERGED, (options, res.message)
         assert_mcp_solution(res)
         assert res.multiplier >= minimum - 1e-7, options

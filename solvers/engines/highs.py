@@ -318,7 +318,10 @@ class HighsLP:
         self.last_algorithm = algorithm
         self._first = True
 
-    def _set_algorithm(self, algorithm: str) -> None:
+    def set_algorithm(self, algorithm: str) -> None:
+        """Set HiGHS's solver for the next solve: ``algorithm`` as :func:`~blockmpec.solvers.plan.lp_algorithm`
+        resolves it (``"auto"``: the dual simplex on a warm re-solve), recorded in :attr:`last_algorithm`.  Every
+        :meth:`solve` calls it; a subclass may choose other HiGHS options here (e.g. another interior point)."""
         h = self.highs
         algorithm = lp_algorithm(algorithm, self.lp.A.shape[0], need_basis=True, warm=not self._first)
         #: the algorithm of the latest solve (for the run's plan)
@@ -360,7 +363,7 @@ class HighsLP:
             nan = np.full(self.lp.c.size, np.nan)
             return LPOutcome(Status.TIME_LIMIT, "kTimeLimit", float("nan"), nan, np.full(self.lp.A.shape[0], np.nan),
                              0, message="time limit reached before the LP")
-        self._set_algorithm(algorithm or self.algorithm)
+        self.set_algorithm(algorithm or self.algorithm)
         h.run()
         self._first = False
         status, raw = highs_status(h)
