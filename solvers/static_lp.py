@@ -70,7 +70,8 @@ class StaticLP(SolverBase):
         from blockmpec.solvers.engines.lp_engine import cold_lp_engine
         from blockmpec.solvers.engines.scaling import LoadUnits
 
-        if self.settings.factor_processes not in ("auto", 1, 2):
+        processes = self.settings.factor_processes
+        if isinstance(processes, bool) or processes not in ("auto", 1, 2):  # True == 1 is no choice of processes
             raise OptionError(f"static-lp setting factor_processes must be auto, 1 or 2; got "
                               f"{self.settings.factor_processes!r}")
         self.ops = ops

@@ -304,8 +304,6 @@ def test_static_lp_factor_processes_reaches_the_block_ipm(monkeypatch):
             solve_with(wall, "static-lp", settings=dict(factor_processes=bad), algorithm="block-ipm")
 
 
-@pytest.mark.xfail(strict=True, reason="LPSettings does not validate factor_processes since a558b9c (the option "
-                   "validated it): True == 1 passes the check in StaticLP.setup and runs one process")
 def test_static_lp_factor_processes_is_no_bool():
     """True is no choice of processes (``True == 1`` in Python): one clear error naming the setting."""
     from blockmpec.errors import OptionError
