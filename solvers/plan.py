@@ -31,6 +31,10 @@ FIXED_POINT_INTERIOR_BLOCKS = 500
 #: tie-break about 14 s, while the 1,010-block wall needs 53 steps) and at 2,420 blocks it does not finish one step
 #: in 600 s, so a fallback there only uses up the time limit
 FIXED_POINT_SIMPLEX_FALLBACK_BLOCKS = 2_000
+#: ``engine="auto"``: the simplex engine's LP steps stop when their smallest ``||n - n*||/||n||`` has not halved in this
+#: many steps (the map wanders instead of converging, as on irregular stone walls: 292 stones, 0.03-0.05 for 280
+#: steps), and the interior engine takes over in the time left; on the built-in walls the steps converge long before
+FIXED_POINT_STALL_STEPS = 50
 
 # ---------------------------------------------------------------------------------------------- nlp
 #: ``route="auto"`` takes the piece route from this many free blocks on.  Measured (``studies/lab/nlp_scaling.py``):
@@ -113,6 +117,12 @@ def fixed_point_engine(engine: str, n_free_blocks: int) -> str:
     return "interior" if n_free_blocks >= FIXED_POINT_INTERIOR_BLOCKS else "simplex"
 
 
+def fixed_point_interior_fallback(engine: str, n_free_blocks: int) -> bool:
+    """Whether a simplex run that does not verify falls back to the interior engine (``engine="auto"`` below
+    :data:`FIXED_POINT_INTERIOR_BLOCKS` free blocks, where the simplex engine runs first)."""
+    return engine == "auto" and n_free_blocks < FIXED_POINT_INTERIOR_BLOCKS
+
+
 def fixed_point_fallback(engine: str, n_free_blocks: int) -> bool:
     """Whether an unverified interior run falls back to the simplex engine (``engine="auto"`` below
     :data:`FIXED_POINT_SIMPLEX_FALLBACK_BLOCKS` free blocks)."""
@@ -188,7 +198,10 @@ def choose(method: str, ops, options) -> list[str]:
             if fixed_point_fallback(options.engine, blocks):
                 chain.append("if unverified: the simplex engine's LP steps")
             return chain
-        return [f"fixed point: HiGHS LP steps (start {options.start}, tie-break {options.tie_break})"]
+        chain = [f"fixed point: HiGHS LP steps (start {options.start}, tie-break {options.tie_break})"]
+        if fixed_point_interior_fallback(options.engine, blocks):
+            chain.append("if unverified: the interior fixed point on (3)")
+        return chain
     if method == "slp":
         return ["SLP: HiGHS LP steps"]
     if method == "nlp":

@@ -176,10 +176,12 @@ def test_slp_stops_on_multiplier_not_normal_forces():
 # ------------------------------------------------------------------ statuses and options
 
 
-def test_infeasible_step_is_passed_through():
-    # zero start: no cohesion and tan(psi) = 0 leave the arch no shear capacity at all
+def test_an_infeasible_step_lp_is_left_for_the_interior_engine():
+    # zero start: no cohesion and tan(psi) = 0 leave the arch no shear capacity at all, so the first step LP is
+    # infeasible; that proves nothing about (3), and engine="auto" goes on with the interior engine
     res = bm.solve(bm.cases.round_arch(), "fixed-point", start="zero")
-    assert res.status is bm.Status.INFEASIBLE
+    assert res.success and res.extra["engine"] == "simplex, then interior"
+    assert res.multiplier <= bm.solve(bm.cases.round_arch(), "static-lp").multiplier + 1e-9
 
 
 def test_iteration_limit_returns_last_iterate():
@@ -320,3 +322,22 @@ def test_tie_break_lp_is_a_formulation():
     np.testing.assert_array_equal(tie.row_upper[tie.rows["deviation_down"]], -n_star)
     # friction rows' right-hand side: the cohesion -(tan(phi) - tan(psi)) n* of each interface, twice
     np.testing.assert_allclose(step.row_upper[step.rows["friction"]], np.repeat(-ops.friction * n_star, 2))
+
+
+@pytest.mark.slow
+def test_auto_fixed_point_leaves_wandering_lp_steps_for_the_interior_engine():
+    """On an irregular stone wall the LP steps' map ``n* -> n`` does not contract (``||n - n*||`` wanders at a few
+    per cent): ``engine="auto"`` stops them once their smallest change has not halved in
+    ``plan.FIXED_POINT_STALL_STEPS`` steps and the interior engine verifies a solution of (3) at or below the
+    associative multiplier; ``engine="simplex"`` alone keeps iterating to its limit."""
+    from blockmpec.solvers import plan
+
+    wall = bm.cases.stone_wall()  # 95 stones
+    auto = bm.solve(wall, "fixed-point")
+    associative = bm.solve(wall, "static-lp").multiplier
+    assert auto.success and auto.multiplier <= associative + 1e-9
+    assert auto.extra["engine"] == "simplex, then interior" and auto.extra["simplex_status"] == "numerical"
+    steps = [r for r in auto.trace if r.get("engine") == "simplex" and r.get("n_change") is not None]
+    assert len(steps) >= plan.FIXED_POINT_STALL_STEPS
+    simplex = bm.solve(wall, "fixed-point", engine="simplex", max_iterations=3 * plan.FIXED_POINT_STALL_STEPS)
+    assert simplex.status is bm.Status.ITERATION_LIMIT and not simplex.success
