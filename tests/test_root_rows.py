@@ -2,14 +2,15 @@
 the lifted LP (a certified minimiser, lifted, satisfies each of its rows), no round's dual bound exceeds the
 certified minimum, and the certified values are those of ``root_lp="ipm"``."""
 
-import time
 
 import numpy as np
 import pytest
 import scipy.sparse as sp
 
 import blockmpec as bm
+from blockmpec.deadline import Deadline
 from helpers import CERTIFIED_TOL, margin
+from milp_runs import milp_solver, solve_milp
 
 WALLS = {"2x2": (2, 2), "3x2": (3, 2)}
 
@@ -19,7 +20,7 @@ def _wall(spec):
 
 
 def _certified(spec, root_lp):
-    res = bm.solve(_wall(spec), "milp", engine="bnb", lifting="rlt-full", root_lp=root_lp, time_limit=60)
+    res = solve_milp(_wall(spec), engine="bnb", lifting="rlt-full", root_lp=root_lp, time_limit=60)
     assert res.status is bm.Status.OPTIMAL, res.message
     assert abs(res.multiplier - res.extra[bm.facts.BOUND]) <= margin(CERTIFIED_TOL, res.multiplier)
     return res
@@ -27,12 +28,10 @@ def _certified(spec, root_lp):
 
 def _rows_bnb(spec):
     """(solver in per-block units, ComplementarityBnB with root_lp="ipm-rows" at the root pattern)."""
-    from blockmpec.solvers.milp import MILPSolver
-
-    solver = MILPSolver(engine="bnb", lifting="rlt-full", root_lp="ipm-rows")
+    solver = milp_solver(engine="bnb", lifting="rlt-full", root_lp="ipm-rows")
     solver.setup(bm.operators.assemble(_wall(spec)))
-    bnb = solver._complementarity_bnb(solver._bounds(time.perf_counter() + 60))
-    bnb.deadline = time.perf_counter() + 60
+    bnb = solver._complementarity_bnb(solver._bounds(Deadline(60)))
+    bnb.deadline = Deadline(60)
     bnb._apply(bnb.root, bnb.lam_lower, np.inf)
     return solver, bnb
 
