@@ -167,7 +167,10 @@ class MILPSettings:
     multiplier_bounds, envelope, dissipation_bound : bool
         Tighten ``z_i <= y_i`` by LPs; McCormick envelope of the work identity; the dissipation bound on ``lam``.
     heuristic : str
-        A method whose verified point, polished on its pattern, is a further incumbent ('' for none).
+        Methods (comma-separated) whose verified points, polished on their patterns, are further incumbents
+        ('' for none).  Default ``"fixed-point,nlp"``: on the 9-block door wall at mu 0.8 the fixed point's
+        polished point is 0.7150, nlp's the minimum 0.7058 (0.4 s), which the branch and bound then only has to
+        prove (a better incumbent prunes more).
     bilinear : bool
         engine=scip: the work identity's products as exact bilinear constraints.
     incumbent : bool
@@ -186,7 +189,7 @@ class MILPSettings:
     multiplier_bounds: bool = True
     envelope: bool = False
     dissipation_bound: bool = True
-    heuristic: str = "fixed-point"
+    heuristic: str = "fixed-point,nlp"
     bilinear: bool = False
     incumbent: bool = True
     warm_bounds: bool = False
@@ -209,7 +212,19 @@ class MILPSettings:
         check.boolean(self, "lam_branching", "multiplier_bounds", "envelope", "dissipation_bound", "bilinear",
                       "incumbent", "warm_bounds")
         if not isinstance(self.heuristic, str):
-            raise ValueError(f"heuristic must be a method name or ''; got {self.heuristic!r}")
+            raise ValueError(f"heuristic must be method names (comma-separated) or ''; got {self.heuristic!r}")
+        from blockmpec.registry import list_solvers
+
+        known = list_solvers("non-associative")
+        for name in heuristic_names(self.heuristic):
+            if name not in known or name == "milp":
+                raise ValueError(f"heuristic: {name!r} is not a heuristic method; one of "
+                                 f"{', '.join(m for m in known if m != 'milp')}")
+
+
+def heuristic_names(heuristic: str) -> list[str]:
+    """The method names of the ``heuristic`` setting (comma-separated; '' for none)."""
+    return [name.strip() for name in heuristic.split(",") if name.strip()]
 
 
 def _check_engine_settings(options: MILPOptions, settings: MILPSettings) -> None:
@@ -765,15 +780,17 @@ class MILPSolver(SolverBase):
         return self._solution(bd.lam_associative, bd.x_associative, *mech)
 
     def _incumbent(self, bd, deadline: Deadline) -> Solution | None:
-        """The better of the associative-pattern point and the ``heuristic``'s verified point (a quarter of the time
-        left, at most 30 s), each polished on its pattern (so an exact solution of (3)); None when neither exists."""
+        """The best of the associative-pattern point and the verified points of the ``heuristic`` methods (each a
+        quarter of the time left, at most 30 s), each polished on its pattern (so an exact solution of (3)); None
+        when none exists."""
         opt = self.options
         best = self._associative_incumbent(bd)
-        if self.settings.heuristic:
+        for name in heuristic_names(self.settings.heuristic):
+            if deadline.expired():
+                break
             from blockmpec.solver import run_solver
 
-            heuristic = get_solver(self.settings.heuristic)(time_limit=max(min(0.25 * deadline.remaining(), 30.0),
-                                                                           1e-3))
+            heuristic = get_solver(name)(time_limit=max(min(0.25 * deadline.remaining(), 30.0), 1e-3))
             res = run_solver(heuristic, self.ops)
             if res.verified and res.status.is_success:
                 w = self.form.pack(self.scaled(res.solution))
