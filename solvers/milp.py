@@ -304,9 +304,24 @@ def per_block_units(form, units):
 
 
 class _BoundFailure(Exception):
-    def __init__(self, status: Status, message: str) -> None:
+    """A bound LP that did not end optimal.  ``proof``: its status says something of (3) itself (the associative LP:
+    infeasible means no statically admissible field, so (3) has no solution; unbounded means no collapse), and is
+    the run's status; any other bound LP's failure only means that ``milp`` has no bound (status ``ERROR``), or
+    ran out of time (``TIME_LIMIT``)."""
+
+    def __init__(self, status: Status, message: str, proof: bool = False) -> None:
         super().__init__(message)
         self.status = status
+        self.proof = proof
+
+    @property
+    def run_status(self) -> Status:
+        """The status of a run that stops here."""
+        if self.status is Status.TIME_LIMIT:
+            return Status.TIME_LIMIT
+        if self.proof and self.status in (Status.UNBOUNDED, Status.INFEASIBLE, Status.INFEASIBLE_OR_UNBOUNDED):
+            return self.status
+        return Status.ERROR
 
 
 @register_solver
@@ -436,7 +451,7 @@ class MILPSolver(SolverBase):
         cost[0] = -1.0
         up = self._solve_cost(hl, cost, deadline)
         if up.status is not Status.OPTIMAL:
-            raise _BoundFailure(up.status, f"associative LP (max lam): {up.status.value}")
+            raise _BoundFailure(up.status, f"associative LP (max lam): {up.status.value}", proof=True)
         cost[0] = 1.0
         lo = self._solve_cost(hl, cost, deadline)
         if lo.status is not Status.OPTIMAL:
@@ -882,10 +897,9 @@ class MILPSolver(SolverBase):
         try:
             bd = self._root_bounds(deadline)
         except _BoundFailure as fail:
-            st = fail.status if fail.status in (Status.UNBOUNDED, Status.INFEASIBLE, Status.TIME_LIMIT,
-                                                Status.INFEASIBLE_OR_UNBOUNDED) else Status.ERROR
-            return RunOutput(st, message=str(fail), extra={"bound_time_s": time.perf_counter() - t_start,
-                                                           facts.SENSE: opt.sense, facts.LP_SOLVES: self._n_lps})
+            return RunOutput(fail.run_status, message=str(fail),
+                             extra={"bound_time_s": time.perf_counter() - t_start, facts.SENSE: opt.sense,
+                                    facts.LP_SOLVES: self._n_lps})
         trace = [{"iteration": 0, "stage": "bounds", "time_s": bd.time_s,
                   "bound": bd.lam_lower if not maximise else bd.lam_upper, "incumbent": None, "gap_abs": None}]
         incumbent = self._incumbent(bd, deadline) if self.settings.incumbent else None
@@ -907,9 +921,7 @@ class MILPSolver(SolverBase):
                 return RunOutput(Status.TIME_LIMIT, incumbent, 0, trace, f"time limit in the bound LPs: {fail}; "
                                  f"best lam {incumbent.multiplier:.10g}, bound {extra[facts.BOUND]:.10g}",
                                  "bounds", extra)
-            st = fail.status if fail.status in (Status.UNBOUNDED, Status.INFEASIBLE, Status.TIME_LIMIT,
-                                                Status.INFEASIBLE_OR_UNBOUNDED) else Status.ERROR
-            return RunOutput(st, message=str(fail), extra=extra)
+            return RunOutput(fail.run_status, message=str(fail), extra=extra)
         if self.engine == "bnb":  # its own lifted LP: the big-M model is not built
             return self._run_bnb(bd, incumbent, deadline, trace)
         t0 = time.perf_counter()
@@ -986,22 +998,44 @@ class MILPSolver(SolverBase):
                  "bigm": [], "engine_multiplier": None if best is None else best.multiplier,
                  "root_interior_time_s": bnb.ipm_time, "root_crossover_runs": bnb.crossover_runs}
         if best is None:
-            st = Status.TIME_LIMIT if run.status is Status.TIME_LIMIT else Status.ERROR
-            return RunOutput(st, Solution(), run.nodes, trace, f"no point of (3) found; bound {bound:.10g}",
-                             run.raw_status, extra)
+            return self._bnb_without_point(run, bnb, bound, extra, trace)
         return self._certify(best, run, bound, bd, extra, trace)
+
+    def _bnb_without_point(self, run, bnb, bound: float, extra: dict, trace: list) -> RunOutput:
+        """engine="bnb" ended without a point of (3).  An infinite bound with every node closed on a proof (each
+        infeasible node LP pruned on a checked Farkas certificate of the lifted relaxation, which holds every solution
+        of (3); no leaf closed by a pattern LP that HiGHS alone called infeasible) proves that (3) has no solution:
+        status ``INFEASIBLE``.  Otherwise the time ran out, or the search could not decide (``ERROR``)."""
+        if run.status is Status.TIME_LIMIT:
+            return RunOutput(Status.TIME_LIMIT, Solution(), run.nodes, trace,
+                             f"time limit: no point of (3) found; bound {bound:.10g}", run.raw_status, extra)
+        if np.isinf(bound) and bound > 0 and run.status in (Status.OPTIMAL, Status.INFEASIBLE):
+            extra["infeasibility_proofs"] = bnb.farkas_proofs
+            if bnb.unproven_closures == 0:
+                return RunOutput(Status.INFEASIBLE, Solution(), run.nodes, trace,
+                                 f"(3) has no solution: the lifted relaxation, which holds every solution of (3), is "
+                                 f"infeasible in every branch ({run.nodes} node(s); {bnb.farkas_proofs} node LP(s) "
+                                 "pruned on a checked Farkas certificate)", "infeasible", extra)
+            return RunOutput(Status.ERROR, Solution(), run.nodes, trace,
+                             f"no point of (3) found: every branch closed, {bnb.unproven_closures} of them by a pattern "
+                             "LP that HiGHS called infeasible without a checked certificate, so this is not a proof "
+                             "that (3) has no solution", run.raw_status, extra)
+        return RunOutput(Status.ERROR, Solution(), run.nodes, trace,
+                         f"no point of (3) found; bound {bound:.10g} ({run.message})", run.raw_status, extra)
 
     def _no_point(self, run, incumbent, bound, extra, trace) -> RunOutput:
         opt = self.options
         if run.status is Status.INFEASIBLE:
-            if self.settings.bigm_scale < 1:
-                return RunOutput(Status.INFEASIBLE, Solution(), run.nodes, trace,
+            if self.settings.bigm_scale < 1:  # a restriction of (3): its infeasibility proves nothing of (3)
+                return RunOutput(Status.ERROR, Solution(), run.nodes, trace,
                                  f"the MILP is infeasible with bigm_scale = {self.settings.bigm_scale} < 1: the scaled slack "
                                  "bounds cut off every solution of (3); the proven bounds (bigm_scale = 1) are needed",
                                  run.raw_status, extra)
-            return RunOutput(Status.NUMERICAL, Solution(), run.nodes, trace,
-                             "the engine reports the MILP infeasible although its bounds are proven valid for every "
-                             "solution of (3): a numerical failure (tolerances), not a proof of infeasibility",
+            # every bound and cut of the model holds at every solution of (3) (LP-proven, bigm_scale = 1), so the
+            # model is a relaxation of (3): its infeasibility, proven by the engine's branch and bound, is (3)'s
+            return RunOutput(Status.INFEASIBLE, Solution(), run.nodes, trace,
+                             f"(3) has no solution: {self.engine} proves the mixed-integer model infeasible, and the "
+                             "model holds every solution of (3) (its big-M and multiplier bounds are LP-proven)",
                              run.raw_status, extra)
         if run.status is Status.TIME_LIMIT and incumbent is not None:
             sign = -1.0 if opt.sense == "max" else 1.0

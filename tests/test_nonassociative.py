@@ -175,10 +175,13 @@ def test_slp_stops_on_multiplier_not_normal_forces():
 # ------------------------------------------------------------------ statuses and options
 
 
-def test_infeasible_step_is_passed_through():
-    # zero start: no cohesion and tan(psi) = 0 leave the arch no shear capacity at all
+def test_an_infeasible_step_is_no_proof_and_another_start_is_tried():
+    # zero start: no cohesion and tan(psi) = 0 leave the arch no shear capacity at all, so the first step LP is
+    # infeasible; that is the iteration's failure, not (3)'s (issue 41): the run goes on from the other starts
     res = bm.solve(bm.cases.round_arch(), "fixed-point", start="zero")
-    assert res.status is bm.Status.INFEASIBLE
+    assert res.status is not bm.Status.INFEASIBLE
+    assert res.extra["failed_starts"][0].startswith("zero start: iteration 1: the step LP is infeasible")
+    assert res.status is bm.Status.CONVERGED and res.verified, res.message
 
 
 def test_iteration_limit_returns_last_iterate():

@@ -674,6 +674,8 @@ class ComplementarityBnB:
         self.strong = max(1, int(strong))
         self.root_strong = max(self.strong, ROOT_STRONG)
         self.fixings = 0  # pairs fixed in a node by strong branching
+        self.farkas_proofs = 0  # node LPs pruned as infeasible on a checked Farkas certificate
+        self.unproven_closures = 0  # leaves closed because their pattern LP had no point (HiGHS's word)
         self.lam_lower, self.lam_cap = float(lam_lower), float(lam_upper)
         self.lam_upper = float(lam_upper)
         self.lam_branching = bool(lam_branching)
@@ -816,7 +818,9 @@ class ComplementarityBnB:
             return False
         arrays, _ = self._node_arrays()
         A, _, rl, ru, cl, cu = arrays
-        return proves_infeasible(A, rl, ru, cl, cu, np.asarray(ray, float))
+        proven = proves_infeasible(A, rl, ru, cl, cu, np.asarray(ray, float))
+        self.farkas_proofs += int(proven)
+        return proven
 
     def _interior_node(self, crossover: bool = False):
         """The node LP by HiGHS's interior point (with its crossover if ``crossover``): ``(OPTIMAL, dual bound,
@@ -1140,6 +1144,8 @@ class ComplementarityBnB:
                 sol = self.polish(child == 1)
                 if sol is not None:
                     found.append(sol)
+                else:
+                    self.unproven_closures += 1
                 kids.append((np.inf, child, ca, cb, None, None))
                 continue
             if basis is not None:
@@ -1246,6 +1252,7 @@ class ComplementarityBnB:
                     # a node without violation is closed by its pattern only if its bound meets it
                     if (sol is not None and sol.multiplier - nb <= PRUNE_TOL * max(1.0, abs(sol.multiplier))) \
                             or not free.any():
+                        self.unproven_closures += int(sol is None)
                         closed = True
                         break
                     candidates = [int(np.flatnonzero(free)[0])]
