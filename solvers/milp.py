@@ -845,6 +845,7 @@ class MILPSolver(SolverBase):
     def run(self, deadline: Deadline) -> RunOutput:
         """Stages 1-5 on the scaled (3), then the point, the bounds and the gaps back in the problem's units."""
         out = self._run_scaled(deadline)
+        out.extra.setdefault(facts.BOUND, None)  # every stop reports its bound (None: none proven yet)
         out.extra["plan"] = [f"LP bounds ({out.extra.get(facts.LP_SOLVES, 0)} LPs)",
                              f"engine: {out.extra.get(facts.ENGINE, self.engine)}", "polish: piece LPs"]
         unit = self._lam_unit
@@ -1045,8 +1046,8 @@ class MILPSolver(SolverBase):
                              f"time limit: the associative-pattern solution lam {incumbent.multiplier:.10g}, "
                              f"bound {bound:.10g}", run.raw_status, extra)
         if run.status is Status.TIME_LIMIT:
-            return RunOutput(Status.TIME_LIMIT, Solution(), run.nodes, trace, "time limit before any feasible point",
-                             run.raw_status, extra)
+            return RunOutput(Status.TIME_LIMIT, Solution(), run.nodes, trace,
+                             f"time limit before any point of (3); bound {bound:.10g}", run.raw_status, extra)
         return RunOutput(Status.ERROR, Solution(), run.nodes, trace, run.message, run.raw_status, extra)
 
     # ------------------------------------------------------------------ 5. certify
