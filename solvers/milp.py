@@ -34,8 +34,8 @@ derives every row).  A run has five stages, all timed:
 2. **build**: the mixed-integer model; pairs with ``slack_max_i = 0`` get ``y_i = 1``,
    pairs with ``z_max_i = 0`` get ``y_i = 0``.
 3. **solve**.  Incumbent first: the associative-pattern point (when its active set admits
-   a mechanism) and the ``heuristic``'s verified point polished on its pattern, the better
-   one.  If it meets ``lam_lower`` within ``CERTIFICATE_TOL`` it is certified at the root
+   a mechanism) and the verified points of the ``heuristic`` methods (``fixed-point`` and ``nlp``)
+   polished on their patterns, the best one.  If it meets ``lam_lower`` within ``CERTIFICATE_TOL`` it is certified at the root
    (no search).  Otherwise the engine: ``engine="auto"`` (the default) is ``"bnb"`` for ``sense="min"``
    on structures of at most :data:`~blockmpec.solvers.plan.MILP_BNB_MAX_PAIRS` pairs and ``"highs"`` otherwise
    (:meth:`MILPSolver._resolve_engine`; ``extra["engine"]`` names the one that ran).  HiGHS on the
@@ -65,7 +65,13 @@ derives every row).  A run has five stages, all timed:
    slack sits at its big-M, ``bigm_scale >= 1`` and every bound LP was optimal.  A
    slack at its big-M gives ``LOCALLY_OPTIMAL`` (the point solves (3), the certificate
    is void); a time limit gives ``TIME_LIMIT`` with the best polished point, the bound
-   and the gap.
+   and the gap.  Every stop reports its bound (``extra["bound"]``; None before any) and its best point.
+
+Statuses (issue 41): ``infeasible`` only on a proof that (3) has no solution: the associative LP infeasible (no
+statically admissible field), the branch and bound's lifted relaxation infeasible in every branch with each pruning
+on a checked Farkas certificate, or the big-M model (a relaxation of (3) with LP-proven bounds) proven infeasible by
+its engine.  A model made a restriction by ``bigm_scale < 1``, or a bound LP that fails, proves nothing of (3):
+``error``, with the reason.
 
 Maximisation (``sense="max"``): every bound, cut and fixing is a property of the
 *set* of solutions of (3), so the same model is a relaxation for either sense and

@@ -97,11 +97,30 @@ cheaper for the interior point (4x3: 12 s for round 0's 19k rows, 35-52 s for ea
 LP without the moments).  Without the unilateral rows too the copies are nearly free and round 0 on the 4x3 wall had
 not ended after 200 s.  So it stays an option, not the default.
 
+Node LPs in null-space coordinates (issue 41).  With the root in null-space coordinates (``root_lp="ipm"``,
+``rlt-full``) every node LP is solved there too (:class:`NullSpaceNodes`: the same LP, its pair rows, ``zeta`` rows,
+``lam`` and ``z`` columns mapped one to one), by HiGHS's interior point without crossover (``node_lp="interior"``;
+its duals give the node's bound through :func:`dual_bound`, valid whatever the point).  Measured on issue 41's
+9-block door wall (load 3-5): 0.5-0.6 s a node LP, where the dual simplex warm-started from the parent's basis took
+0.4-22 s, hit 7,272-iteration limits on most strong-branching children at mu 0.8, and once cycled (338k iterations
+in 144 s).  An infeasible node LP gives the interior point no duals; then the LP without the cap ``lam <=
+incumbent`` prunes it if its bound reaches the cap, and failing that the dual simplex on a sparse relaxation (the
+root's dormant rows left out) prunes it only on a *checked* Farkas certificate (:func:`proves_infeasible`; a
+relaxation's infeasibility is the node's).  A node LP left undecided keeps its parent's bound.
+
+Strong branching with fixings.  Both children of up to ``strong`` candidates (``ROOT_STRONG`` at the root) are
+solved; a candidate one of whose children is pruned (infeasible, or bounded at the incumbent) is *fixed* to the
+other child in the node itself, whose LP becomes the node's (a domain reduction: no new node), and the candidates
+are evaluated again on the reduced node (``FIXING_ROUNDS``); a node whose every candidate closes both children is
+closed.  On the door wall at mu 0.8 (root bound 0.6245, minimum 0.7058) the root alone is closed this way: ~80
+node LPs, no branching (mu 0.65: 6 s; mu 0.8: 127-160 s at load 3).
+
 A node whose pairs are all fixed (a leaf) is one pattern: its minimum is the exact
 polish of the pattern (:meth:`MILPSolver._polish`).  Nodes are explored best-bound first;
-the LP is warm-started from the previous node (HiGHS re-solves after bound changes).  An
-LP that is not optimal never prunes (its node keeps the parent's bound); an infeasible
-LP is confirmed by a cold re-solve before the node is pruned.  Branching picks the
+on the lifted LP (``node_lp="simplex"``, or without null-space coordinates) the LP is warm-started from the previous
+node (HiGHS re-solves after bound changes).  An LP that is not optimal never prunes (its node keeps the parent's
+bound); an infeasible LP is pruned on a checked Farkas certificate, or after a cold re-solve that says infeasible
+again and whose certificate checks.  Branching picks the
 free pair with the largest complementarity violation ``z_j s_j`` of the LP point, plus
 its friction-work defect ``|B_e (x^(i)_r - z_i x_r)|`` (the copy and the static field
 disagree on the normal force that dissipates).
@@ -650,6 +669,9 @@ class ComplementarityBnB:
         self._A = sp.csc_array(A)
         self._sleep_matrix = sp.csr_array(A)[self._sleep_rows]
         self.dormant = np.zeros(A.shape[0], dtype=bool)
+        #: the dormant rows are free in the node LPs (False: node_lp="interior" in null-space coordinates, where
+        #: they sleep only in the dual simplex's sparse LP)
+        self.dormant_free = True
         # rows (X) of the forces other than normal and tangential ones (the moments, lifting="rlt-full"): left out
         # of the root's first interior point (see _interior_root)
         late = np.zeros(A.shape[0], dtype=bool)
@@ -714,7 +736,8 @@ class ComplementarityBnB:
             active_rows.append(lay.own_rows)
         active_rows = np.unique(np.concatenate(active_rows))  # HiGHS ignores a set with repeated indices
         lower = np.full(rows.size, -np.inf)
-        upper = np.where(self.dormant[rows], np.inf, 0.0)  # a dormant row is free (dropped: a relaxation)
+        # a dormant row is free (dropped: a relaxation), unless the node LPs hold every row (dormant_free False)
+        upper = np.where(self.dormant[rows] & self.dormant_free, np.inf, 0.0)
         _checked(h.changeRowsBounds(rows.size, rows.astype(np.int32), lower, upper))
         if active_rows.size:
             _checked(h.changeRowsBounds(active_rows.size, active_rows.astype(np.int32), np.zeros(active_rows.size),
@@ -756,7 +779,7 @@ class ComplementarityBnB:
             return st, None, None
         v = np.asarray(self.h.getSolution().col_value, float)
         value, basis = float(self.h.getInfo().objective_function_value), self.h.getBasis()
-        for _ in range(SEPARATION_ROUNDS if self.dormant.any() else 0):
+        for _ in range(SEPARATION_ROUNDS if self.dormant_free and self.dormant.any() else 0):
             if not self._wake(v):
                 break
             if self._run() is not Status.OPTIMAL:
@@ -942,7 +965,7 @@ class ComplementarityBnB:
             _, row_lower, row_upper, _, _ = self._lp_arrays()
             sleeping = np.flatnonzero(self.dormant)
             if self.node_lp == "interior":  # the dormant rows sleep in the sparse LP only
-                self.dormant[:] = False
+                self.dormant_free = False
             nodes = NullSpaceNodes.of(reduced, self._A, self.layout, self.form.n_pairs, self._changed_rows(),
                                       row_lower, row_upper, sleeping)
             if nodes is not None:
