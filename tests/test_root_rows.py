@@ -41,6 +41,7 @@ def _within(M, v, lower, upper, tol):
     return bool(np.all(r >= lower - tol) and np.all(r <= upper + tol))
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("spec", list(WALLS))
 def test_every_generated_lp_holds_at_the_lifted_minimiser_and_bounds_below_it(spec):
     """Without an incumbent the rounds run until no left-out row is violated: the last LP solved (a subset of
@@ -74,6 +75,7 @@ def test_every_generated_lp_holds_at_the_lifted_minimiser_and_bounds_below_it(sp
     assert abs(bound - lam) <= margin(1e-6, lam)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("spec", ["2x2", "3x2", "2x4"])
 def test_row_generation_certifies_the_same_minimum(spec):
     """Side by side with the interior point on the whole root LP: the same certified multiplier, and the trace's

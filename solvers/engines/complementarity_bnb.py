@@ -856,9 +856,14 @@ class ComplementarityBnB:
         tolerance = NULL_SPACE_IPM_TOL if self.nodes_in_null_space else None
         y, xi, basis = self._interior_solution(A, c, rl, ru, cl, cu, crossover=crossover, tolerance=tolerance,
                                                basis=True)
-        if y is None or xi is None:
-            return Status.ERROR, None, None
-        bound = dual_bound(A, c, rl, ru, cl, cu, y)
+        bound = -np.inf if y is None or xi is None else dual_bound(A, c, rl, ru, cl, cu, y)
+        if not np.isfinite(bound) and not crossover and y is not None and not self.deadline.expired():
+            # an interior point that stopped short (reduced costs left on free columns, as at the root: see
+            # _interior_bound) is repaired by its crossover; an infeasible LP gives no duals and is left to the caller
+            self.crossover_runs += 1
+            y, xi, basis = self._interior_solution(A, c, rl, ru, cl, cu, crossover=True, tolerance=tolerance,
+                                                   basis=True)
+            bound = -np.inf if y is None or xi is None else dual_bound(A, c, rl, ru, cl, cu, y)
         if not np.isfinite(bound):
             return Status.ERROR, None, None
         if basis is not None and basis.valid:

@@ -65,10 +65,16 @@ def door_wall(mu: float) -> bm.Structure:
 
 
 def case(spec: str) -> bm.Structure:
-    """``door:MU`` (issue 41's door wall), ``ferris-tinloi``, ``CxB`` running-bond / ``CxBs`` stack wall (mu 0.65),
-    ``arch:N`` round arch of N voussoirs."""
+    """``door:MU`` (issue 41's door wall), ``ferris-tinloi``, ``side`` (the 3x3 stack wall whose middle block hangs on
+    side friction: (3) has no solution), ``two:ETA:MU`` (two blocks), ``CxB`` running-bond / ``CxBs`` stack wall
+    (mu 0.65), ``arch:N`` round arch of N voussoirs."""
     if spec.startswith("door:"):
         return door_wall(float(spec.split(":")[1]))
+    if spec == "side":
+        return bm.cases.wall(3, 3, bond="stack", openings=[(1.0, 0.0, 2.0, 0.5)], mu=0.65)
+    if spec.startswith("two:"):
+        _, eta, mu = spec.split(":")
+        return bm.cases.two_blocks(eta=float(eta), mu=float(mu))
     if spec == "ferris-tinloi":
         return bm.cases.build_case("ferris-tinloi")
     if spec.startswith("arch:"):
