@@ -240,6 +240,258 @@ def ferris_tinloi(mu: float = 0.65, dilatancy: float = 0.0) -> Structure:
     )
 
 
+# --------------------------------------------------------------------------- irregular stone walls
+
+#: Largest number of stones ``stone-wall`` builds (beyond it, ask for a larger stone_size).
+STONE_WALL_MAX_STONES = 1_000_000
+
+
+def stone_wall(
+    width: float = 4.0,
+    height: float = 2.0,
+    stone_size: float = 0.3,
+    irregularity: float = 0.5,
+    seed: int = 0,
+    mu: float = 0.65,
+    dilatancy: float = 0.0,
+) -> Structure:
+    """An irregular stone wall on a fixed base: stones that tile ``width x height`` with shared edges.
+
+    The stones are the cells of a seeded, relaxed Voronoi tessellation of the wall, some merged in
+    pairs into non-convex stones.  ``irregularity`` ``r`` in [0, 1] sets how far the wall is from
+    regular courses:
+
+    * the tessellation is taken in coordinates stretched vertically by ``a = min(50, 1 + 2 (1 - r) / r)``,
+      which flattens the cells into courses (``a = 1`` at ``r = 1``: an isotropic Voronoi diagram);
+    * seeds start on a running-bond lattice of stones ``sqrt(2) s x s / sqrt(2)`` (mean area ``s**2``,
+      ``s`` the stone size; courses and stones per course rounded to fill the wall exactly), and move
+      by ``r`` times a uniform random offset of up to half a lattice cell, vertically divided by
+      ``a**2`` (which is how much more the stretch tilts the joints to the neighbours);
+    * two Lloyd steps move each seed by ``r`` times the way to its cell's centroid (relaxation);
+    * edges shorter than 5 % of the stone size are collapsed (so no sliver of an interface remains);
+    * a fraction ``0.2 r / (1 + 0.2 r)`` of the cells is merged pairwise across their longest edge
+      (non-convex stones; the lattice is made that much finer, so the mean stone area stays ``s**2``).
+
+    ``r = 0`` gives exact running bond (half stones at the ends of every other course); ``r = 1``
+    random rubble.  The same parameters give the same stones bit for bit (numpy's ``default_rng(seed)``
+    and Qhull are deterministic).  About ``width * height / stone_size**2`` stones.
+
+    Parameters
+    ----------
+    width, height : float
+        Size of the wall; its bottom-left corner is the origin, the base lies below ``y = 0``.
+    stone_size : float
+        Mean stone size ``s`` (square root of the mean stone area).
+    irregularity : float
+        0 (regular courses) ... 1 (random rubble).
+    seed : int
+        Seed of the random generator.
+    mu, dilatancy : float
+        ``tan(phi)`` and ``tan(psi)``.
+    """
+    w, h = _positive("width", width), _positive("height", height)
+    size = _positive("stone_size", stone_size)
+    try:
+        r = float(irregularity)
+    except (TypeError, ValueError):
+        raise OptionError(f"irregularity: expected a number in [0, 1]; got {irregularity!r}") from None
+    if not 0.0 <= r <= 1.0:
+        raise OptionError(f"irregularity: must lie in [0, 1] (0 = regular courses, 1 = random rubble); got {irregularity!r}")
+    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
+        raise OptionError(f"seed: must be an integer >= 0; got {seed!r}")
+    expected = w * h / size**2
+    if expected > STONE_WALL_MAX_STONES:
+        raise OptionError(f"stone_size: {size} gives about {expected:.3g} stones in a {w} x {h} wall; "
+                          f"at most {STONE_WALL_MAX_STONES:,} (give a larger stone_size)")
+    stones = _stone_wall_stones(w, h, size, r, int(seed))
+    base_height = min(h, size)
+    base = _rect(-size, -base_height, w + size, 0.0)
+    polygons = [base] + stones
+    n_non_convex = sum(1 for p in stones if not _is_convex(p))
+    return make_structure(
+        polygons, [True] + [False] * len(stones), friction=mu, dilatancy=dilatancy, name="stone-wall",
+        metadata={"case": "stone-wall", "width": w, "height": h, "stone_size": size, "irregularity": r,
+                  "seed": int(seed), "stones": len(stones), "non_convex_stones": n_non_convex},
+    )
+
+
+def _is_convex(poly: np.ndarray) -> bool:
+    e = np.diff(poly, axis=0, append=poly[:1])
+    f = np.vstack([e[1:], e[:1]])
+    return bool(np.all(e[:, 0] * f[:, 1] - e[:, 1] * f[:, 0] >= 0))
+
+
+def _stone_wall_stones(w: float, h: float, size: float, r: float, seed: int) -> list[np.ndarray]:
+    """The stones of :func:`stone_wall` (counter-clockwise vertex arrays), bottom course first."""
+    merge_fraction = 0.2 * r
+    cell = size / math.sqrt(1.0 + merge_fraction)  # lattice cell side: merging restores the mean area
+    courses = max(1, round(h / (cell / math.sqrt(2.0))))
+    per_course = max(1, round(w / (cell * math.sqrt(2.0))))
+    course_h, stone_l = h / courses, w / per_course
+    if r == 0.0:
+        stones = []
+        for row in range(courses):
+            y0, y1 = row * course_h, (row + 1) * course_h
+            if row % 2 and per_course > 1:
+                xs = np.concatenate([[0.0], stone_l * (np.arange(per_course) + 0.5), [w]])
+                xs[-1] = w
+            else:
+                xs = stone_l * np.arange(per_course + 1)
+                xs[-1] = w
+            stones += [_rect(x0, y0, x1, y1) for x0, x1 in zip(xs[:-1], xs[1:])]
+        return stones
+    rng = np.random.default_rng(seed)
+    seeds = []
+    inset = 0.01 * stone_l  # end seeds of the odd courses: just inside the wall (half stones)
+    for row in range(courses):
+        y = (row + 0.5) * course_h
+        if row % 2 and per_course > 1:
+            xs = np.concatenate([[inset], stone_l * np.arange(1, per_course), [w - inset]])
+        else:
+            xs = stone_l * (np.arange(per_course) + 0.5)
+        seeds += [(x, y) for x in xs]
+    seeds = np.array(seeds)
+    stretch = min(50.0, 1.0 + 2.0 * (1.0 - r) / r)
+    # a seed's height offset tilts the joints to its neighbours by ~stretch**2 times as much
+    seeds += r * (rng.random(seeds.shape) - 0.5) * [stone_l, course_h / stretch**2]
+    margin = np.array([0.01 * stone_l, 0.01 * course_h])
+    seeds = np.clip(seeds, margin, [w, h] - margin)
+    for _ in range(2):  # Lloyd relaxation, by r of the way
+        points, cells = _voronoi_in_rectangle(seeds * [1.0, stretch], w, h * stretch)
+        centroid = np.array([_centroid(points[c]) for c in cells]) / [1.0, stretch]
+        seeds = np.clip(seeds + r * (centroid - seeds), margin, [w, h] - margin)
+    points, cells = _voronoi_in_rectangle(seeds * [1.0, stretch], w, h * stretch)
+    top = points[:, 1] == h * stretch
+    points = points / [1.0, stretch]
+    points[top, 1] = h
+    points, cells = _collapse_short_edges(points, cells, 0.05 * size, w, h)
+    cells = _merge_pairs(points, cells, merge_fraction / (1.0 + merge_fraction), rng)
+    return [points[c] for c in cells]
+
+
+def _centroid(p: np.ndarray) -> np.ndarray:
+    q = np.vstack([p[1:], p[:1]])
+    cross = p[:, 0] * q[:, 1] - q[:, 0] * p[:, 1]
+    a = cross.sum() / 2
+    return np.array([((p[:, 0] + q[:, 0]) * cross).sum(), ((p[:, 1] + q[:, 1]) * cross).sum()]) / (6 * a)
+
+
+def _voronoi_in_rectangle(seeds: np.ndarray, w: float, h: float) -> tuple[np.ndarray, list[np.ndarray]]:
+    """Voronoi cells of ``seeds`` inside ``[0, w] x [0, h]``: vertices and counter-clockwise vertex-index
+    lists, cells in the order of the seeds.
+
+    The seeds are mirrored across the four sides, so the cells of the seeds end exactly on the sides
+    and neighbouring cells share vertex indices (no clipping, whose intersections would differ in the
+    last bits between the two cells of an edge); vertices within round-off of a side are put on it."""
+    from scipy.spatial import Voronoi
+
+    n = seeds.shape[0]
+    mirrored = [seeds, seeds * [-1, 1], seeds * [-1, 1] + [2 * w, 0], seeds * [1, -1], seeds * [1, -1] + [0, 2 * h]]
+    vor = Voronoi(np.vstack(mirrored))
+    points = vor.vertices.copy()
+    eps = 1e-9 * max(w, h)
+    for axis, side in ((0, 0.0), (0, w), (1, 0.0), (1, h)):
+        points[np.abs(points[:, axis] - side) <= eps, axis] = side
+    cells = []
+    regions, point_region = vor.regions, vor.point_region  # properties: computed on each access
+    for i in range(n):
+        region = np.array(regions[point_region[i]])
+        if region.size < 3 or np.any(region < 0):  # pragma: no cover - mirrored seeds bound every cell
+            raise RuntimeError(f"stone-wall: the Voronoi cell of seed {i} is not bounded")
+        p = points[region]
+        q = np.roll(p, -1, axis=0)
+        if (p[:, 0] * q[:, 1] - q[:, 0] * p[:, 1]).sum() < 0:
+            region = region[::-1]
+        cells.append(region)
+    return points, cells
+
+
+def _collapse_short_edges(points: np.ndarray, cells: list[np.ndarray], shortest: float, w: float,
+                          h: float) -> tuple[np.ndarray, list[np.ndarray]]:
+    """Merge the two ends of every edge shorter than ``shortest`` (in every cell that has them): the
+    merged vertex is the mean of the merged ones, kept on a side of the wall that one of them is on."""
+    edges = {}
+    for c in cells:
+        for u, v in zip(c, np.roll(c, -1)):
+            edges[(min(u, v), max(u, v))] = None
+    pairs = np.array(sorted(edges), dtype=int).reshape(-1, 2)
+    length = np.hypot(*(points[pairs[:, 0]] - points[pairs[:, 1]]).T)
+    parent = np.arange(points.shape[0])
+
+    def root(i: int) -> int:
+        while parent[i] != i:
+            parent[i] = parent[parent[i]]
+            i = parent[i]
+        return i
+
+    for k in np.lexsort((pairs[:, 1], pairs[:, 0], length)):
+        if length[k] >= shortest:
+            break
+        a, b = root(pairs[k, 0]), root(pairs[k, 1])
+        if a != b:
+            parent[max(a, b)] = min(a, b)
+    roots = np.array([root(i) for i in range(points.shape[0])])
+    merged = points.copy()
+    for g in np.unique(roots[roots != np.arange(points.shape[0])]):
+        members = points[roots == g]
+        p = members.mean(axis=0)
+        for axis, side in ((0, 0.0), (0, w), (1, 0.0), (1, h)):
+            if np.any(members[:, axis] == side):
+                p[axis] = side
+        merged[g] = p
+    out = []
+    for c in cells:
+        ids = roots[c]
+        keep = ids != np.roll(ids, 1)
+        ids = ids[keep] if keep.any() else ids[:1]
+        if ids.size >= 3:
+            out.append(ids)
+    return merged, out
+
+
+def _merge_pairs(points: np.ndarray, cells: list[np.ndarray], fraction: float,
+                 rng: np.random.Generator) -> list[np.ndarray]:
+    """Merge ``fraction`` of the cells pairwise, each with the unmerged neighbour across its longest edge
+    (cells visited in a random order); a merge that would not give a simple polygon is skipped."""
+    target = int(round(fraction * len(cells)))
+    if target == 0:
+        return cells
+    owner: dict[tuple[int, int], int] = {}
+    for k, c in enumerate(cells):
+        for u, v in zip(c, np.roll(c, -1)):
+            owner[(int(u), int(v))] = k
+    merged_into = {}
+    out = list(cells)
+    done = 0
+    for k in rng.permutation(len(cells)):
+        if done >= target:
+            break
+        if k in merged_into:
+            continue
+        c = cells[k]
+        best, best_len = None, 0.0
+        for u, v in zip(c, np.roll(c, -1)):
+            other = owner.get((int(v), int(u)))
+            if other is None or other in merged_into or other == k:
+                continue
+            length = float(np.hypot(*(points[u] - points[v])))
+            if length > best_len:
+                best, best_len = (other, int(u), int(v)), length
+        if best is None:
+            continue
+        other, u, v = best
+        a, b = list(map(int, c)), list(map(int, cells[other]))
+        i, j = a.index(u), b.index(v)
+        loop = a[i + 1 :] + a[: i + 1] + (b[j + 1 :] + b[: j + 1])[1:-1]  # v ... u, then u's successors to before v
+        if len(set(loop)) != len(loop):
+            continue
+        out[k] = np.array(loop)
+        out[other] = None
+        merged_into[k] = merged_into[other] = True
+        done += 1
+    return [c for c in out if c is not None]
+
+
 # --------------------------------------------------------------------------- registry
 
 
@@ -278,6 +530,8 @@ CASES: dict[str, CaseSpec] = {
         CaseSpec("wall", wall, "running- or stack-bond wall on a fixed base (paper Figs 9-10)"),
         CaseSpec("ferris-tinloi", ferris_tinloi, "Ferris & Tin-Loi's wall 1: 6 courses of 0.40 x 0.175 blocks, running "
                  "bond, 33 free blocks"),
+        CaseSpec("stone-wall", stone_wall, "irregular stone wall on a fixed base: seeded Voronoi stones, "
+                 "irregularity 0 (courses) ... 1 (rubble)"),
     )
 }
 
@@ -383,6 +637,10 @@ def load_case(case: str, params: dict[str, Any]) -> Structure:
         except (TypeError, ValueError, ArithmeticError, IndexError, KeyError) as exc:
             raise OptionError(f"case {case!r} with {params}: {type(exc).__name__}: {exc}") from None
     path = Path(case)
+    from blockmpec.drawings import is_drawing, read_structure
+
+    if is_drawing(path):  # DXF, SVG or image: -p sets the reader's options (blockmpec import --help)
+        return read_structure(path, **params)
     if path.suffix.lower() == ".json" or path.exists():
         from blockmpec.structure_file import load_structure
 
@@ -392,4 +650,5 @@ def load_case(case: str, params: dict[str, Any]) -> Structure:
             raise OptionError(f"structure file {case}: only mu and dilatancy can be set with -p; got {unknown[0]!r}")
         check_case_params(case, params, {"mu": None, "dilatancy": None})
         return structure.with_material(params.get("mu"), params.get("dilatancy"))
-    raise OptionError(f"unknown case {case!r}: not a built-in case ({', '.join(CASES)}) nor a structure file")
+    raise OptionError(f"unknown case {case!r}: not a built-in case ({', '.join(CASES)}) nor a structure file "
+                      "(.json) nor a drawing (.dxf, .svg, an image)")

@@ -1,4 +1,7 @@
-"""Command line: ``blockmpec solve | export | cases | methods | compare``.
+"""Command line: ``blockmpec solve | export | import | cases | methods | compare | pushover`` (and ``blockmpec --version``).
+
+``blockmpec methods --json`` prints every method's name, problem, summary, availability and user-facing options
+(name, type, default, help) as one JSON list (:func:`method_listing`).
 
 The spellings here are a contract with scripts outside this repo: extend, never rename.
 Errors go to stderr as one line, with exit code 2 (bad input) or 3 (internal error),
@@ -10,8 +13,9 @@ Exit codes
 2 = bad input or usage; 3 = internal error.  ``compare``: 0 when every run finished,
 whatever the statuses; 2 = bad input (every value, including the output folder, is
 checked before any solve runs); 130 after Ctrl-C (143 after SIGTERM), once the finished
-rows are saved.  ``export``, ``cases``, ``methods``: 0, 2 or 3.  Any command whose output's reader
-has gone (``blockmpec methods | head``) stops quietly with 141, the shell's code for a SIGPIPE.
+rows are saved.  ``pushover``: 0 when every curve's undeformed structure was solved, whatever
+ended the curve (:mod:`blockmpec.pushover`), 1 otherwise.  ``export``, ``cases``, ``methods``: 0, 2 or 3.
+Any command whose output's reader has gone (``blockmpec methods | head``) stops quietly with 141, the shell's code for a SIGPIPE.
 """
 
 from __future__ import annotations
@@ -20,6 +24,7 @@ import argparse
 import contextlib
 import io
 import json
+import math
 import os
 import sys
 import time
@@ -29,11 +34,11 @@ from typing import Any
 from blockmpec.bench.suite import BENCHMARK_SUITE
 from blockmpec.cases import CASES, load_case
 from blockmpec.errors import BlockmpecError, OptionError
-from blockmpec.geometry import Structure
 from blockmpec.registry import get_solver, list_solvers
 from blockmpec.result import Result
 from blockmpec.solver import option_fields, solve
 from blockmpec.structure_file import save_structure
+
 
 def parse_value(text: str) -> Any:
     """A ``-p``/``-O`` value: JSON if it parses (numbers, lists, true/false), else the string."""
@@ -119,6 +124,10 @@ def cmd_solve(args: argparse.Namespace) -> int:
     params = parse_pairs(args.param, "-p")
     options = parse_pairs(args.option, "-O")
     get_solver(args.method)(**options)  # unknown method / bad option: exit 2 before building anything
+    if args.export_drawing:
+        from blockmpec.drawings.export import check_export_path
+
+        check_export_path(args.export_drawing)
     structure = load_case(args.case, params)
     with _stdout_to_stderr() if args.json else contextlib.nullcontext():
         result = solve(structure, args.method, verify_tol=verify_tol, **options)
@@ -140,6 +149,12 @@ def cmd_solve(args: argparse.Namespace) -> int:
             if not args.json:
                 print(f"wrote {path} ({len(table)} {rows})" if len(table) else
                       f"wrote {path} (column names only: the result has no {what})")
+    if args.export_drawing:
+        from blockmpec.drawings import export_drawing, is_drawing
+
+        written = export_drawing(structure, result, args.export_drawing,
+                                 source=args.case if is_drawing(args.case) else None)
+        print(f"wrote {written}", file=sys.stderr if args.json else sys.stdout)
     return 0 if result.success else 1
 
 
@@ -158,6 +173,49 @@ def cmd_export(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_pushover(args: argparse.Namespace) -> int:
+    from blockmpec.bench.study import check_tolerance
+    from blockmpec.pushover_cli import run_command
+
+    verify_tol = check_tolerance(args.verify_tol)
+    pairs = parse_pairs(args.option, "-O")
+    return run_command(args, lambda: load_case(args.case, parse_pairs(args.param, "-p")), pairs, verify_tol)
+
+
+def cmd_import(args: argparse.Namespace) -> int:
+    """``blockmpec import DRAWING -o FILE.json``: a drawing or image as a structure file."""
+    from blockmpec.drawings import is_drawing, read_structure
+
+    if not is_drawing(args.drawing):
+        from blockmpec.drawings import SUFFIXES
+
+        raise OptionError(f"{args.drawing}: not a drawing or image (suffixes: {', '.join(SUFFIXES)})")
+    out = Path(args.output)
+    if out.is_dir() or not out.parent.is_dir():
+        raise OptionError(f"-o {args.output}: " + ("is a folder" if out.is_dir() else f"folder {out.parent} does not exist"))
+    structure = read_structure(args.drawing, **parse_pairs(args.param, "-p"))
+    try:
+        save_structure(structure, args.output)
+    except OSError as exc:
+        raise OptionError(f"-o {args.output}: cannot write ({exc.strerror or exc})") from None
+    snapping = structure.metadata.get("snapping", {})
+    moved = len(snapping.get("vertices", []))
+    print(f"wrote {args.output} ({structure.n_blocks} blocks, {int(structure.fixed.sum())} fixed, "
+          f"{len(structure.interfaces)} interfaces; snapped {moved} vertices"
+          + (f", largest move {snapping['largest']:.3g}" if moved else "") + ")")
+    return 0
+
+
+def _import_epilog() -> str:
+    from blockmpec.drawings import READERS, reader_options
+
+    lines = ["options (-p KEY=VALUE) of each kind of file:"]
+    for suffix in (".dxf", ".svg", ".png"):
+        kinds = ", ".join(s for s, r in READERS.items() if r == READERS[suffix])
+        lines.append(f"  {kinds}: " + ", ".join(f"{k}={v!r}" for k, v in reader_options(suffix).items()))
+    return "\n".join(lines)
+
+
 def cmd_cases(args: argparse.Namespace) -> int:
     for spec in CASES.values():
         print(f"{spec.name}: {spec.summary}")
@@ -166,11 +224,46 @@ def cmd_cases(args: argparse.Namespace) -> int:
     return 0
 
 
+def _json_value(value: Any) -> Any:
+    """A default as strict JSON: non-finite floats as the strings "inf", "-inf", "nan" (what ``-O`` also reads)."""
+    if isinstance(value, float) and not math.isfinite(value):
+        return "nan" if math.isnan(value) else ("inf" if value > 0 else "-inf")
+    if value is None or isinstance(value, (bool, int, float, str)):
+        return value
+    if isinstance(value, (list, tuple)):
+        return [_json_value(v) for v in value]
+    if isinstance(value, dict):
+        return {str(k): _json_value(v) for k, v in value.items()}
+    return str(value)
+
+
+def method_listing() -> list[dict[str, Any]]:
+    """What ``blockmpec methods --json`` prints: one object per method, with its user-facing options.
+
+    Keys: ``name``, ``problem``, ``summary``, ``available`` (bool), ``unavailable_reason`` (None when
+    available), ``certifies_minimum`` (bool) and ``options``: a list of ``{name, type, default, help}``
+    (``type`` the Python type's name, ``default`` as JSON, non-finite numbers as "inf"/"-inf"/"nan").
+    """
+    out = []
+    for name in list_solvers():
+        cls = get_solver(name)
+        reason = cls.unavailable_reason()
+        options = [{"name": key, "type": getattr(typ, "__name__", str(typ)), "default": _json_value(default),
+                    "help": help_text} for key, typ, default, help_text in option_fields(cls)]
+        out.append({"name": name, "problem": cls.problem, "summary": cls.summary, "available": reason is None,
+                    "unavailable_reason": reason, "certifies_minimum": bool(getattr(cls, "certifies_minimum", False)),
+                    "options": options})
+    return out
+
+
 def cmd_methods(args: argparse.Namespace) -> int:
     from blockmpec.solvers import FAILED_PLUGINS
 
     for module, error in FAILED_PLUGINS.items():
         print(f"solvers/{module}.py failed to import: {error}", file=sys.stderr)
+    if args.json:
+        print(json.dumps(method_listing(), allow_nan=False))
+        return 0
     for name in list_solvers():
         cls = get_solver(name)
         reason = cls.unavailable_reason()
@@ -217,8 +310,8 @@ def _built(run, assemble):
     return dataclasses.replace(run, structure=structure)
 
 
-def _wall_limit_arg(values: list[str] | None) -> dict[str, float] | float | None:
-    """``--wall-limit 90`` (every method) or ``--wall-limit milp=90`` (repeatable)."""
+def _seconds_arg(values: list[str] | None, flag: str, what: str, allow_inf: bool) -> dict[str, float] | None:
+    """``FLAG SECONDS`` (key ``"*"``: every one) or ``FLAG NAME=SECONDS`` (repeatable)."""
     out: dict[str, float] = {}
     for text in values or []:
         key, sep, value = text.rpartition("=")
@@ -226,15 +319,16 @@ def _wall_limit_arg(values: list[str] | None) -> dict[str, float] | float | None
             seconds = float(value)
         except ValueError:
             seconds = float("nan")
-        if not (seconds > 0 and seconds < float("inf")):
-            raise OptionError(f"--wall-limit {text}: expected SECONDS or METHOD=SECONDS with a finite number > 0")
-        if not sep:
-            out["*"] = seconds
-        else:
-            out[key] = seconds
-    if not out:
-        return None
-    return out
+        if not (seconds > 0 and (allow_inf or seconds < float("inf"))):
+            number = "a number > 0 (inf: none)" if allow_inf else "a finite number > 0"
+            raise OptionError(f"{flag} {text}: expected SECONDS or {what}=SECONDS with {number}")
+        out[key if sep else "*"] = seconds
+    return out or None
+
+
+def _wall_limit_arg(values: list[str] | None) -> dict[str, float] | None:
+    """``--wall-limit 90`` (every method) or ``--wall-limit milp=90`` (repeatable); ``inf``: no limit."""
+    return _seconds_arg(values, "--wall-limit", "METHOD", allow_inf=True)
 
 
 class Terminated(KeyboardInterrupt):
@@ -311,16 +405,37 @@ def cmd_compare(args: argparse.Namespace) -> int:
             if not any(key in (m.label, m.name) for m in method_runs):
                 raise OptionError(f"--wall-limit {key}=...: no method or label {key!r} in this run")
         limits.update(given)
+    budget = _budget_arg(args.budget, study, [c.label for c in case_runs])
     folder = ResultsFolder(args.out, overwrite=args.overwrite, resume=args.resume)
     try:
         return _run_compare(args, folder, case_runs, method_runs, repeat, verify_tol, jobs, backend, scheduler,
-                            limits or None, compare, ComparisonInterrupted, run_metadata, signal)
+                            limits or None, compare, ComparisonInterrupted, run_metadata, signal, budget)
     finally:
         folder.close()
 
 
+def _budget_arg(values: list[str] | None, study: Any, cases: list[str]) -> float | dict[str, float] | None:
+    """``--budget SECONDS`` (every case) or ``--budget CASE=SECONDS`` (repeatable), over the study file's
+    ``budget``; None: each case's default (the largest wall-clock limit of its runs)."""
+    from blockmpec.bench.profiles import check_budget
+
+    given = _seconds_arg(values, "--budget", "CASE", allow_inf=False)
+    if not given:
+        return study.budget if study is not None else None
+    every = given.pop("*", None)
+    for key in given:
+        if key not in cases:
+            raise OptionError(f"--budget {key}=...: no case {key!r} in this run; cases: {', '.join(cases)}")
+    if not given:
+        return every
+    base = {c: every for c in cases} if every is not None else (
+        dict(study.budget) if study is not None and isinstance(study.budget, dict) else
+        {c: study.budget for c in cases} if study is not None and study.budget is not None else {})
+    return check_budget({**base, **given}, cases)
+
+
 def _run_compare(args, folder, case_runs, method_runs, repeat, verify_tol, jobs, backend, scheduler, limits,
-                 compare, ComparisonInterrupted, run_metadata, signal) -> int:
+                 compare, ComparisonInterrupted, run_metadata, signal, budget) -> int:
     from datetime import datetime, timezone
 
     from blockmpec.bench.runner import shared_cpus
@@ -328,7 +443,8 @@ def _run_compare(args, folder, case_runs, method_runs, repeat, verify_tol, jobs,
     out_dir = folder.path
     settings = {"cases": [c.label for c in case_runs], "methods": {m.label: [m.name, m.options] for m in method_runs},
                 "repeat": repeat, "verify_tol": verify_tol, "jobs": jobs, "backend": backend or "serial",
-                "scheduler": scheduler, "wall_limits": limits, "resume": args.resume, "config": args.config,
+                "scheduler": scheduler, "wall_limits": limits, "budget": budget, "resume": args.resume,
+                "config": args.config,
                 # what each solve's automatic settings may use (BLOCKMPEC_CPUS); a cluster's machines are its own
                 "cpus_per_solve": None if scheduler else shared_cpus(jobs or 1)}
     meta = run_metadata(["blockmpec", *sys.argv[1:]] if sys.argv and "blockmpec" in sys.argv[0] else sys.argv,
@@ -340,12 +456,15 @@ def _run_compare(args, folder, case_runs, method_runs, repeat, verify_tol, jobs,
     try:
         df = compare(case_runs, method_runs, repeat=repeat, progress=False if args.quiet else None,
                      verify_tol=verify_tol, results=results, n_jobs=jobs, backend=backend, scheduler=scheduler,
-                     wall_limit=limits, out=folder, resume=args.resume)
+                     wall_limit=limits, out=folder, resume=args.resume, budget=budget)
     except ComparisonInterrupted as exc:
+        kept, ran = _kept_and_ran(exc.table)
         meta.update(finished=datetime.now(timezone.utc).isoformat(timespec="seconds"),
-                    interrupted=exc.signal_name, rows=len(exc.table), wall_time_s=time.perf_counter() - t0)
+                    interrupted=exc.signal_name, rows=len(exc.table), rows_kept=kept, rows_run=ran,
+                    wall_time_s=time.perf_counter() - t0)
         folder.write_metadata(meta)
-        print(f"blockmpec: interrupted ({exc.signal_name}): {len(exc.table)} finished row(s) saved in "
+        how = f" ({ran} run now, {kept} kept from the earlier run)" if kept else ""
+        print(f"blockmpec: interrupted ({exc.signal_name}): {len(exc.table)} finished row(s) saved{how} in "
               f"{out_dir / 'results.csv'}; rerun with --resume to continue", file=sys.stderr)
         return 143 if exc.signal_name == "SIGTERM" else 130
     finally:
@@ -353,7 +472,7 @@ def _run_compare(args, folder, case_runs, method_runs, repeat, verify_tol, jobs,
     wall_time = time.perf_counter() - t0
     from blockmpec.bench.profiles import summary_table, summary_text
 
-    summary = summary_table(df)
+    summary = summary_table(df, budget=budget)
     paths = [out_dir / "results.csv", out_dir / "results.parquet"]
     paths += folder.write_tables(summary, stem="summary")[:1]
     print(_table(df, "multiplier", "{:.5f}", "Collapse multiplier lambda (cf. the paper's Table 1)", reference=True))
@@ -365,26 +484,41 @@ def _run_compare(args, folder, case_runs, method_runs, repeat, verify_tol, jobs,
                  + (f"; median of {repeat} runs)" if repeat > 1 else ")"), median=True))
     print()
     print(summary_text(summary))
-    anomalies = df[df["anomaly"].astype(str) != ""]
+    anomalies = df[~df["anomaly"].astype(str).isin(["", "nan", "None"])]
     for _, r in anomalies.iterrows():
         print(f"ANOMALY {r['case']} · {r['method_label']}: {r['anomaly']} (lam {r['multiplier']:.8g}, "
-              f"reference {r['reference']:.8g})")
+              f"reference {r['reference']:.8g} from {r['reference_source']}"
+              f"{' ' + r['reference_method'] if r['reference_method'] else ''}): a verified value that cannot be "
+              "right; check the certificate and the point")
+    if len(anomalies):
+        print(f"blockmpec: warning: {len(anomalies)} ANOMALY line(s) after the tables (column anomaly of "
+              "results.csv): a verified value below a certified or closed-form minimum, or above the associative "
+              "multiplier, is a bug", file=sys.stderr)
     for stale in out_dir.glob("*.png"):  # figures of an earlier state of a resumed run
         stale.unlink()
     if not args.no_figures:
         from blockmpec.bench.plots import comparison_figures
 
         try:
-            paths += comparison_figures(df, results, out_dir)
+            paths += comparison_figures(df, results, out_dir, budget=budget)
         except Exception as exc:  # figures are a convenience: tables are already written
             print(f"figures failed: {type(exc).__name__}: {exc}", file=sys.stderr)
-    meta.update(finished=datetime.now(timezone.utc).isoformat(timespec="seconds"), rows=len(df),
-                wall_time_s=wall_time)
+    kept, ran = _kept_and_ran(df)
+    meta.update(finished=datetime.now(timezone.utc).isoformat(timespec="seconds"), rows=len(df), rows_kept=kept,
+                rows_run=ran, wall_time_s=wall_time)
     paths.append(folder.write_metadata(meta))
-    print(f"\nran {len(df)} solves in {wall_time:.1f} s; wrote {len(paths)} file(s) into {out_dir.resolve()}")
+    kept_text = f" and kept {kept} finished row(s) of the earlier run" if args.resume else ""
+    print(f"\nran {ran} solve(s) in {wall_time:.1f} s{kept_text}; {len(df)} row(s); wrote {len(paths)} file(s) "
+          f"into {out_dir.resolve()}")
     for p in paths[:3]:
         print(f"  {p}")
     return 0
+
+
+def _kept_and_ran(df) -> tuple[int, int]:
+    """Rows kept from an earlier run (``--resume``) and rows finished by this one."""
+    kept = int(df["resumed"].astype(bool).sum()) if "resumed" in df.columns and len(df) else 0
+    return kept, len(df) - kept
 
 
 def _table(df, key: str, fmt: str, title: str, reference: bool = False, median: bool = False) -> str:
@@ -399,12 +533,15 @@ def _table(df, key: str, fmt: str, title: str, reference: bool = False, median: 
 
 
 def build_parser() -> argparse.ArgumentParser:
+    from blockmpec import __version__
+
     parser = argparse.ArgumentParser(prog="blockmpec", description=__doc__.splitlines()[0])
+    parser.add_argument("--version", action="version", version=f"blockmpec {__version__}")
     parser.add_argument("--debug", action="store_true", help="show tracebacks of internal errors")
     sub = parser.add_subparsers(dest="command", required=True)
 
     p = sub.add_parser("solve", help="solve one case with one method")
-    p.add_argument("case", help="built-in case name or structure file (.json)")
+    p.add_argument("case", help="built-in case name, structure file (.json) or drawing (.dxf, .svg, an image)")
     p.add_argument("--method", "-m", required=True, help="method name (see `blockmpec methods`)")
     p.add_argument("-p", "--param", action="append", metavar="KEY=VALUE", help="case parameter")
     p.add_argument("-O", "--option", action="append", metavar="KEY=VALUE", help="method option")
@@ -414,7 +551,16 @@ def build_parser() -> argparse.ArgumentParser:
                    "structure's ids, frame and units; see docs/results.md)")
     p.add_argument("--mechanism", metavar="FILE.csv", help="write the collapse mechanism (one row per free block, "
                    "velocities normalised to a live-load power of 1)")
+    p.add_argument("--export-drawing", metavar="FILE.dxf|FILE.svg", help="draw the mechanism and the interface "
+                   "forces into a DXF or SVG file (a copy of the drawing solved, if it is one)")
     p.set_defaults(func=cmd_solve)
+
+    p = sub.add_parser("import", help="read a drawing (DXF, SVG) or an image of stones into a structure file",
+                       epilog=_import_epilog(), formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("drawing", help="a .dxf, .svg, .png, .tif, .bmp or .npy file")
+    p.add_argument("-o", "--output", required=True, metavar="FILE.json")
+    p.add_argument("-p", "--param", action="append", metavar="KEY=VALUE", help="reader option (see below)")
+    p.set_defaults(func=cmd_import)
 
     p = sub.add_parser("export", help="write a built-in case as a structure file")
     p.add_argument("case")
@@ -425,6 +571,8 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("cases", help="list built-in cases and their parameters")
     p.set_defaults(func=cmd_cases)
     p = sub.add_parser("methods", help="list methods and their options")
+    p.add_argument("--json", action="store_true", help="print one JSON list: name, problem, summary, availability "
+                   "and the options (name, type, default, help) of every method")
     p.set_defaults(func=cmd_methods)
 
     p = sub.add_parser("compare", help="run methods over cases and print tables and figures (the main job)")
@@ -446,12 +594,20 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--scheduler", metavar="ADDRESS", default=None,
                    help="Dask scheduler address (with --backend dask); without it a local cluster of --jobs workers")
     p.add_argument("--wall-limit", action="append", metavar="[METHOD=]SECONDS",
-                   help="wall-clock limit per solve, enforced from outside (default: 1.5 x the method's time_limit, "
-                        "at least +30 s; 600 s without one)")
+                   help="wall-clock limit per solve, enforced from outside (default: max(1.5 x the method's "
+                        "time_limit, time_limit + 30 s): 900 s for the default 600 s; inf: none)")
+    p.add_argument("--budget", action="append", metavar="[CASE=]SECONDS",
+                   help="time budget of a case: what the summary and the performance profiles charge an unsolved "
+                        "run, the same for every method of the case, and the longest solve that counts as solved "
+                        "(default: the largest wall-clock limit of the case's runs)")
     p.add_argument("--verify-tol", default=None, help="largest residual accepted as success (finite, > 0; default 1e-6)")
     p.add_argument("--no-figures", action="store_true", help="write the tables only")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=cmd_compare)
+
+    from blockmpec.pushover_cli import add_parser as add_pushover_parser
+
+    add_pushover_parser(sub, cmd_pushover)
     return parser
 
 

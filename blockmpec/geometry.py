@@ -1,9 +1,11 @@
-"""Rigid-block structures: blocks as convex polygons, interfaces, material and loads.
+"""Rigid-block structures: blocks as simple polygons, interfaces, material and loads.
 
 Conventions (stated once, used everywhere)
 ------------------------------------------
-* A block is a convex polygon with its vertices in counter-clockwise order.
-  Blocks marked ``fixed`` are supports (base, springings): they carry no unknowns.
+* A block is a simple polygon (convex or not, without self-intersections or holes)
+  with its vertices in counter-clockwise order.  Its area and centroid are the
+  shoelace sums, exact for any simple polygon.  Blocks marked ``fixed`` are supports
+  (base, springings): they carry no unknowns.
 * An interface ``k`` joins a *minus* block and a *plus* block along the segment
   ``start[k] -> end[k]`` of length ``L``.  Its unit tangent is
   ``tau = (end - start) / L`` and its unit normal ``nu`` is ``tau`` rotated by +90°;
@@ -304,6 +306,123 @@ def block_sizes(vertices: np.ndarray, n_vertices: np.ndarray) -> np.ndarray:
     return block_extent(vertices)
 
 
+# --------------------------------------------------------------------------- snapping
+
+
+def snap_polygons(vertices: np.ndarray, n_vertices: np.ndarray, snap: float) -> tuple[list[np.ndarray], dict]:
+    """Make nearly matching edges of different blocks match exactly.
+
+    With ``d = snap * `` the median block size (bounding-box diagonal), vertices of different
+    blocks closer than ``d`` are merged and a vertex closer than ``d`` to another block's edge is
+    inserted into that edge (shapely's ``coverage_clean``, GEOS's coverage cleaner, with snapping
+    distance ``d`` and no gap filling), so that edges within ``d`` of each other become the same
+    segments and :func:`detect_interfaces` finds them whatever its tolerance.  Vertices that the
+    cleaning only adds on a straight edge (where another block's corner touches it) are removed
+    again, so a block keeps its own vertices except those that moved.
+
+    Parameters
+    ----------
+    vertices, n_vertices : ndarray
+        Padded polygons (n, k, 2), counter-clockwise and simple.
+    snap : float
+        The snapping distance relative to the median block size.
+
+    Returns
+    -------
+    polygons : list of ndarray
+        The snapped polygons, counter-clockwise, each starting at its first vertex where that
+        did not move.
+    record : dict
+        ``{"snap": snap, "distance": d, "largest": the largest move, "vertices": [[block,
+        x_before, y_before, x_after, y_after], ...]}``: every vertex of a snapped polygon that is
+        not on its block's original outline, with where it was: the block's own vertex that moved
+        there (one within ``d``), else the nearest point of the outline (a vertex of a neighbour
+        inserted into an edge); and every vertex of the original polygon that is not on the new
+        outline, with the new vertex it went to (one within ``d``), else its nearest point.
+
+    Raises
+    ------
+    GeometryError
+        When two blocks overlap by more than ``d`` (their penetration, the thickness of the
+        overlap, named), or snapping splits or empties a block (``d`` too large for it).
+    """
+    import shapely
+
+    n = vertices.shape[0]
+    frame = Frame.of(vertices, exact=True)  # exact powers of two: unmoved vertices come back bit for bit
+    local = frame(vertices)
+    size = block_sizes(local, n_vertices)
+    distance = snap * float(np.median(size))
+    a, b = candidate_pairs(local, DEFAULT_GEOMETRY_TOL)
+    thickness = overlap_thickness(local, n_vertices, a, b)
+    bad = np.flatnonzero(thickness > distance)
+    if bad.size:
+        k = int(bad[np.lexsort((b[bad], a[bad]))[0]])
+        raise GeometryError(
+            f"blocks {int(a[k])} and {int(b[k])} overlap (penetration {thickness[k] * frame.length_scale:.3g}, "
+            f"more than the snapping distance {distance * frame.length_scale:.3g})"
+        )
+    originals = [local[i, : n_vertices[i]] for i in range(n)]
+    polygons = shapely_polygons(local, n_vertices)
+    cleaned = shapely.coverage_clean(polygons, snapping_distance=distance)
+    out, moved = [], []
+    for i in range(n):
+        g = cleaned[i]
+        if g.geom_type != "Polygon" or g.is_empty or len(g.interiors):
+            raise GeometryError(
+                f"block {i}: snapping at distance {distance * frame.length_scale:.3g} splits it or leaves nothing "
+                "of it; give a smaller snapping distance"
+            )
+        q = np.asarray(g.exterior.coords)[:-1]
+        if not shapely.is_ccw(g.exterior):
+            q = q[::-1]
+        q = _drop_added_collinear(q, originals[i])
+        first = np.flatnonzero((q == originals[i][0]).all(axis=1))
+        if first.size:
+            q = np.roll(q, -int(first[0]), axis=0)
+        off = shapely.distance(shapely.points(q), polygons[i].exterior)
+        for j in np.flatnonzero(off > 1e-12 * size[i]):
+            gap = np.hypot(*(originals[i] - q[j]).T)
+            if gap.min() <= distance:  # a vertex of the block that moved
+                before = originals[i][int(np.argmin(gap))]
+            else:  # a vertex of another block inserted into an edge of this one
+                before = shapely.get_coordinates(shapely.shortest_line(polygons[i].exterior, shapely.Point(q[j])))[0]
+            moved.append([i, *frame.back(before).tolist(), *frame.back(q[j]).tolist(),
+                          float(np.hypot(*(q[j] - before)) * frame.length_scale)])
+        # the block's own vertices that left its outline (moved along an edge of theirs, say)
+        outline = shapely.Polygon(q).exterior
+        lost = shapely.distance(shapely.points(originals[i]), outline)
+        for j in np.flatnonzero(lost > 1e-12 * size[i]):
+            gap = np.hypot(*(q - originals[i][j]).T)
+            after = q[int(np.argmin(gap))] if gap.min() <= distance else shapely.get_coordinates(
+                shapely.shortest_line(outline, shapely.Point(originals[i][j])))[0]
+            entry = [i, *frame.back(originals[i][j]).tolist(), *frame.back(after).tolist(),
+                     float(np.hypot(*(after - originals[i][j])) * frame.length_scale)]
+            if entry[:5] not in [m[:5] for m in moved]:
+                moved.append(entry)
+        out.append(frame.back(q))
+    record = {
+        "snap": snap,
+        "distance": distance * frame.length_scale,
+        "largest": max((m[5] for m in moved), default=0.0),
+        "vertices": [m[:5] for m in moved],
+    }
+    return out, record
+
+
+def _drop_added_collinear(q: np.ndarray, original: np.ndarray) -> np.ndarray:
+    """``q`` without the vertices that are not in ``original`` and lie on a straight edge (the nodes
+    that coverage cleaning adds where another block's corner touches an edge)."""
+    prev, nxt = np.roll(q, 1, axis=0), np.roll(q, -1, axis=0)
+    e1, e2 = q - prev, nxt - q
+    cross = e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]
+    dot = (e1 * e2).sum(axis=1)
+    straight = (np.abs(cross) <= 1e-12 * np.linalg.norm(e1, axis=1) * np.linalg.norm(e2, axis=1)) & (dot > 0)
+    own = (q[:, None, :] == original[None, :, :]).all(axis=2).any(axis=1)
+    keep = ~straight | own
+    return q[keep] if keep.sum() >= 3 else q
+
+
 # --------------------------------------------------------------------------- validation
 
 
@@ -329,8 +448,16 @@ def _check_size_range(vertices: np.ndarray) -> None:
         )
 
 
-def _check_polygons(vertices: np.ndarray, n_vertices: np.ndarray, tol: float) -> None:
-    """Shape checks of each block, each in its own units (relative to its first vertex, over its size)."""
+def _check_polygons(vertices: np.ndarray, n_vertices: np.ndarray, tol: float) -> np.ndarray:
+    """Shape checks of each block, each in its own units (relative to its first vertex, over its size).
+
+    Returns
+    -------
+    ndarray of bool, shape (n,)
+        ``True`` for a convex block (every turn to the left within ``tol``, total turn one
+        revolution).  The others are checked to be simple polygons (no self-intersection) with
+        shapely; the convex ones need no such check.
+    """
     scale, area, _ = polygon_shape(vertices)
     original = vertices
     vertices = (vertices - vertices[:, :1, :]) / scale[:, None, None]
@@ -361,10 +488,56 @@ def _check_polygons(vertices: np.ndarray, n_vertices: np.ndarray, tol: float) ->
     last = starts + n_vertices - 1
     nxt[last] = starts
     turn = d[:, 0] * d[nxt, 1] - d[:, 1] * d[nxt, 0]
-    reflex = np.flatnonzero(turn < -tol)
-    if reflex.size:
-        i = int(block[reflex[0]])
-        raise GeometryError(f"block {i}: polygon is not convex (reflex angle at vertex {reflex[0] - starts[i] + 1})")
+    convex = np.ones(vertices.shape[0], bool)
+    convex[block[turn < -tol]] = False
+    # a polygon turning left everywhere is convex only if it turns once: a star turns twice
+    angle = np.arctan2(turn, d[:, 0] * d[nxt, 0] + d[:, 1] * d[nxt, 1])
+    winding = np.add.reduceat(angle, starts) / (2 * np.pi)
+    convex &= np.abs(winding - 1) < 1e-6
+    if not convex.all():
+        _check_simple(vertices, n_vertices, np.flatnonzero(~convex), original, scale)
+    return convex
+
+
+def shapely_polygons(vertices: np.ndarray, n_vertices: np.ndarray, blocks: np.ndarray | None = None) -> np.ndarray:
+    """shapely Polygons of padded polygons (n, k, 2) (of ``blocks`` only, if given), as an object array."""
+    import shapely
+
+    blocks = np.arange(vertices.shape[0]) if blocks is None else np.asarray(blocks, int)
+    if blocks.size == 0:
+        return np.empty(0, object)
+    counts = n_vertices[blocks]
+    j = np.arange(vertices.shape[1])[None, :]
+    valid = j < counts[:, None]
+    coords = vertices[blocks][valid]
+    rings = shapely.linearrings(coords, indices=np.repeat(np.arange(blocks.size), counts))
+    return shapely.polygons(rings)
+
+
+def _check_simple(vertices: np.ndarray, n_vertices: np.ndarray, blocks: np.ndarray, original: np.ndarray,
+                  scale: np.ndarray) -> None:
+    """Raise a GeometryError for the first of ``blocks`` that is not a simple polygon (shapely's validity).
+
+    ``vertices`` are each block's own units (relative to its first vertex, over ``scale``); the
+    message gives the point where its boundary crosses itself in the structure's coordinates."""
+    import re
+
+    import shapely
+
+    polygons = shapely_polygons(vertices, n_vertices, blocks)
+    valid = shapely.is_valid(polygons)
+    if valid.all():
+        return
+    k = int(np.flatnonzero(~valid)[0])
+    i = int(blocks[k])
+    reason = shapely.is_valid_reason(polygons[k])
+    found = re.search(r"\[\s*(\S+)\s+(\S+)\s*\]", reason)
+    where = ""
+    if found:
+        point = original[i, 0] + scale[i] * np.array([float(found.group(1)), float(found.group(2))])
+        where = f" at {[float(f'{v:.6g}') for v in point]}"
+    raise GeometryError(f"block {i}: polygon is self-intersecting (its boundary crosses or touches itself{where}); "
+                        "a block must be a simple polygon")
 
 
 def _check_material(s: Structure) -> None:
@@ -444,21 +617,42 @@ def _padded_edges(vertices: np.ndarray, n_vertices: np.ndarray) -> tuple[np.ndar
     return vertices, e
 
 
-def _check_overlaps(vertices: np.ndarray, n_vertices: np.ndarray, tol: float, pairs=None, unit: float = 1.0) -> None:
-    """Raise if two blocks overlap by more than ``tol`` times their size (separating axis test).
+#: Budget of the pairwise edge arrays (pairs x k_max x k_max entries) of one chunk of the vectorised
+#: overlap test and interface detection: chunks hold fewer pairs when blocks have many vertices.
+_PAIR_EDGE_BUDGET = 3_200_000
 
+
+def _chunk(pairs: int, k_max: int, entries_per_pair: int) -> int:
+    """Pairs per chunk: ``pairs`` (the old fixed chunk) up to 8 vertices, fewer above (memory bound)."""
+    return max(1, min(pairs, _PAIR_EDGE_BUDGET // max(1, entries_per_pair * k_max * k_max)))
+
+
+def _check_overlaps(vertices: np.ndarray, n_vertices: np.ndarray, tol: float, pairs=None, unit: float = 1.0,
+                    convex: np.ndarray | None = None) -> None:
+    """Raise if two blocks overlap by more than ``tol`` times their size.
+
+    Pairs of convex blocks by the separating axis test (the penetration depth); a pair with a
+    non-convex block (``convex[i]`` False) by shapely's intersection, whose thickness
+    ``2 area / perimeter`` (a sliver's width) stands for the depth.
     ``vertices`` in any frame; ``unit`` is its length in the structure's units (for the message)."""
     a, b = candidate_pairs(vertices, tol) if pairs is None else pairs
     if a.size == 0:
         return
+    if convex is not None and not convex.all():
+        both = convex[a] & convex[b]
+        _check_overlaps_nonconvex(vertices, n_vertices, tol, a[~both], b[~both], unit)
+        a, b = a[both], b[both]
+        if a.size == 0:
+            return
     size = block_sizes(vertices, n_vertices)
     slack = tol * np.minimum(size[a], size[b])
     _, e = _padded_edges(vertices, n_vertices)
     normals = np.stack([e[..., 1], -e[..., 0]], axis=-1)
     lengths = np.linalg.norm(normals, axis=-1, keepdims=True)
     normals = np.where(lengths > 0, normals / np.where(lengths > 0, lengths, 1), normals[:, :1] / lengths[:, :1])
-    for start in range(0, a.size, 20000):
-        sa, sb, sl = a[start : start + 20000], b[start : start + 20000], slack[start : start + 20000]
+    chunk = _chunk(20000, vertices.shape[1], 4)
+    for start in range(0, a.size, chunk):
+        sa, sb, sl = a[start : start + chunk], b[start : start + chunk], slack[start : start + chunk]
         axes = np.concatenate([normals[sa], normals[sb]], axis=1)  # (p, 2k, 2)
         proj_a = np.einsum("pkd,pjd->pkj", axes, vertices[sa])
         proj_b = np.einsum("pkd,pjd->pkj", axes, vertices[sb])
@@ -467,6 +661,36 @@ def _check_overlaps(vertices: np.ndarray, n_vertices: np.ndarray, tol: float, pa
         if overlapping.size:
             i, j = int(sa[overlapping[0]]), int(sb[overlapping[0]])
             raise GeometryError(f"blocks {i} and {j} overlap (penetration {-gap[overlapping[0]].max() * unit:.3g})")
+
+
+def overlap_thickness(vertices: np.ndarray, n_vertices: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Thickness ``2 area / perimeter`` of the overlap of blocks ``a[k]`` and ``b[k]`` (0 where they only
+    touch), by shapely's intersection: the width of a sliver, half the side of a square overlap."""
+    import shapely
+
+    if a.size == 0:
+        return np.zeros(0)
+    used = np.union1d(a, b)
+    polygons = np.empty(vertices.shape[0], object)
+    polygons[used] = shapely_polygons(vertices, n_vertices, used)
+    overlap = shapely.intersection(polygons[a], polygons[b])
+    area = shapely.area(overlap)
+    perimeter = shapely.length(shapely.boundary(overlap))
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return np.where(area > 0, 2 * area / np.where(perimeter > 0, perimeter, 1), 0.0)
+
+
+def _check_overlaps_nonconvex(vertices: np.ndarray, n_vertices: np.ndarray, tol: float, a: np.ndarray,
+                              b: np.ndarray, unit: float) -> None:
+    """The overlap test of :func:`_check_overlaps` for pairs with a non-convex block (shapely)."""
+    if a.size == 0:
+        return
+    size = block_sizes(vertices, n_vertices)
+    thickness = overlap_thickness(vertices, n_vertices, a, b)
+    bad = np.flatnonzero(thickness > tol * np.minimum(size[a], size[b]))
+    if bad.size:
+        k = int(bad[np.lexsort((b[bad], a[bad]))[0]])
+        raise GeometryError(f"blocks {int(a[k])} and {int(b[k])} overlap (penetration {thickness[k] * unit:.3g})")
 
 
 def detect_interfaces(vertices: np.ndarray, n_vertices: np.ndarray, tol: float = DEFAULT_GEOMETRY_TOL) -> Interfaces:
@@ -485,8 +709,9 @@ def detect_interfaces(vertices: np.ndarray, n_vertices: np.ndarray, tol: float =
     p_all, e_all = _padded_edges(vertices, n_vertices)
     size = block_sizes(vertices, n_vertices)
     found = []
-    for start in range(0, a.size, 50000):
-        ba, bb = a[start : start + 50000], b[start : start + 50000]
+    chunk = _chunk(50000, vertices.shape[1], 1)
+    for start in range(0, a.size, chunk):
+        ba, bb = a[start : start + chunk], b[start : start + chunk]
         pa, ea = p_all[ba][:, :, None, :], e_all[ba][:, :, None, :]   # (P, k, 1, 2)
         pb, eb = p_all[bb][:, None, :, :], e_all[bb][:, None, :, :]   # (P, 1, k, 2)
         la = np.linalg.norm(ea, axis=-1)
@@ -536,8 +761,27 @@ def _distance_to_boundary(points: np.ndarray, vertices: np.ndarray, n_vertices: 
     return d.min(axis=1)
 
 
-def _check_interfaces(s: Structure, tol: float, frame: Frame | None = None) -> None:
-    """Interface checks on ``s`` given in the coordinates of ``frame`` (messages in the structure's)."""
+def _edge_direction_along(points: np.ndarray, vertices: np.ndarray, n_vertices: np.ndarray,
+                          tangent: np.ndarray) -> np.ndarray:
+    """``d . tangent[k]`` for ``d`` the unit direction of the edge of polygon ``k`` (padded arrays) nearest
+    to ``points[k]``: negative where that edge runs against ``tangent``."""
+    p, e = _padded_edges(vertices, n_vertices)
+    rel = points[:, None, :] - p
+    ee = (e * e).sum(-1)
+    t = np.clip(np.where(ee > 0, (rel * e).sum(-1) / np.where(ee > 0, ee, 1), 0.0), 0.0, 1.0)
+    d = np.where(ee > 0, np.linalg.norm(rel - t[..., None] * e, axis=-1), np.inf)
+    nearest = np.argmin(d, axis=1)
+    edge = e[np.arange(points.shape[0]), nearest]
+    return (edge * tangent).sum(-1) / np.linalg.norm(edge, axis=-1)
+
+
+def _check_interfaces(s: Structure, tol: float, frame: Frame | None = None, convex: np.ndarray | None = None) -> None:
+    """Interface checks on ``s`` given in the coordinates of ``frame`` (messages in the structure's).
+
+    The normal must point from the minus block into the plus block: for two convex blocks, towards
+    the plus block's centroid; where a block is not convex (``convex`` False), the interface must lie
+    on an edge of the minus block that runs against its tangent (the block on the normal's negative
+    side) and on one of the plus block that runs along it."""
     back = (lambda p: p) if frame is None else frame.back
     unit = 1.0 if frame is None else frame.length_scale
     itf = s.interfaces
@@ -572,6 +816,12 @@ def _check_interfaces(s: Structure, tol: float, frame: Frame | None = None) -> N
                     )
         centroid = s.centroid
         side = np.einsum("kd,kd->k", centroid[itf.plus] - centroid[itf.minus], itf.normal)
+        if convex is not None and not convex.all():
+            local = np.flatnonzero(~(convex[itf.minus] & convex[itf.plus]))
+            mid, tau = itf.midpoint[local], itf.tangent[local]
+            minus_along = _edge_direction_along(mid, s.vertices[itf.minus[local]], s.n_vertices[itf.minus[local]], tau)
+            plus_along = _edge_direction_along(mid, s.vertices[itf.plus[local]], s.n_vertices[itf.plus[local]], tau)
+            side[local] = np.where((minus_along < 0) & (plus_along > 0), 1.0, -1.0)
         bad = np.flatnonzero(side <= 0)
         if bad.size:
             k = int(bad[0])
@@ -622,9 +872,10 @@ def _normalised(s: Structure) -> tuple[Structure, Frame]:
     return replace(s, vertices=frame(s.vertices), interfaces=itf), frame
 
 
-def _check_point_loads(s: Structure, frame: Frame, tol: float) -> None:
+def _check_point_loads(s: Structure, frame: Frame, tol: float, convex: np.ndarray | None = None) -> None:
     """Point loads: existing block, known kind, finite, and applied inside the block or on its boundary
-    (within ``10 tol`` times the block's size, as interface end points)."""
+    (within ``10 tol`` times the block's size, as interface end points; for a non-convex block, the
+    distance to the polygon by shapely)."""
     size = block_sizes(s.vertices, s.n_vertices)
     for k, pl in enumerate(s.point_loads):
         if isinstance(pl.block, bool) or not isinstance(pl.block, (int, np.integer)) or not 0 <= pl.block < s.n_blocks:
@@ -644,10 +895,15 @@ def _check_point_loads(s: Structure, frame: Frame, tol: float) -> None:
         edge_len = np.hypot(edge[:, 0], edge[:, 1])
         # outward offset of the point from each edge's line (CCW polygon: outward normal = edge rotated by -90)
         offset = (edge[:, 1] * (frame(point)[0] - poly[:, 0]) - edge[:, 0] * (frame(point)[1] - poly[:, 1])) / edge_len
-        if offset.max() > 10 * tol * size[i]:
+        outside = offset.max()
+        if convex is not None and not convex[i]:
+            import shapely
+
+            outside = shapely.distance(shapely.Polygon(poly), shapely.Point(frame(point)))
+        if outside > 10 * tol * size[i]:
             raise StructureError(
                 f"point load {k}: its point {point.tolist()} lies outside block {i} "
-                f"(distance {offset.max() * frame.length_scale:.3g} beyond its boundary)"
+                f"(distance {outside * frame.length_scale:.3g} beyond its boundary)"
             )
 
 
@@ -681,7 +937,7 @@ def validate(s: Structure, tol: float = DEFAULT_GEOMETRY_TOL, check_overlap: boo
     mean the same at any magnitude and offset."""
     Frame.of(s.vertices)  # raises when the coordinates overflow
     _check_size_range(s.vertices)
-    _check_polygons(s.vertices, s.n_vertices, tol)
+    convex = _check_polygons(s.vertices, s.n_vertices, tol)
     bad = np.flatnonzero(~np.isfinite(s.density) | (s.density <= 0))
     if bad.size:
         raise StructureError(f"block {bad[0]}: density must be a finite number > 0; got {s.density[bad[0]]}")
@@ -696,8 +952,8 @@ def validate(s: Structure, tol: float = DEFAULT_GEOMETRY_TOL, check_overlap: boo
         )
     unit, frame = _normalised(s)
     if check_overlap:
-        _check_overlaps(unit.vertices, unit.n_vertices, 10 * tol, unit=frame.length_scale)
-    _check_interfaces(unit, tol, frame)
+        _check_overlaps(unit.vertices, unit.n_vertices, 10 * tol, unit=frame.length_scale, convex=convex)
+    _check_interfaces(unit, tol, frame, convex)
     _check_material(s)
     _check_connectivity(s)
     if s.live_direction not in (1, -1):
@@ -707,7 +963,7 @@ def validate(s: Structure, tol: float = DEFAULT_GEOMETRY_TOL, check_overlap: boo
             f"live_factor: must be a finite number >= 0; got {s.live_factor} "
             "(the sign of the live load is live_direction, +1 or -1)"
         )
-    _check_point_loads(unit, frame, tol)
+    _check_point_loads(unit, frame, tol, convex)
     _warn_coarse_coordinates(s)
     live_point = any(pl.kind == "live" and not s.fixed[pl.block] and np.any(pl.force) for pl in s.point_loads)
     if s.live_factor == 0 and not live_point:
@@ -733,13 +989,14 @@ def make_structure(
     metadata: dict | None = None,
     tol: float = DEFAULT_GEOMETRY_TOL,
     check_overlap: bool = True,
+    snap: float = 0.0,
 ) -> Structure:
     """Build and validate a structure from polygons.
 
     Parameters
     ----------
     polygons : list of array_like, each shape (k, 2)
-        Block vertices, counter-clockwise, convex.
+        Block vertices, counter-clockwise: simple polygons, convex or not.
     fixed : array_like of bool, shape (n_blocks,)
         Support blocks.
     friction, dilatancy : float
@@ -750,6 +1007,11 @@ def make_structure(
         Explicit interfaces; detected automatically (:func:`detect_interfaces`) when omitted.
     tol : float
         Relative geometric tolerance.
+    snap : float
+        Relative snapping distance (0, the default: no snapping).  When positive, edges and
+        vertices of different blocks closer than ``snap`` times the median block size are made
+        to coincide (:func:`snap_polygons`) before the interfaces are detected, and
+        ``metadata["snapping"]`` records every vertex that moved.
 
     Raises
     ------
@@ -765,6 +1027,17 @@ def make_structure(
         raise StructureError(f"fixed: expected {n} flags (one per block); got {fixed_arr.shape[0]}")
     dens = np.broadcast_to(np.asarray(density, dtype=float), (n,)).copy()
     _check_polygons(vertices, n_vertices, tol)
+    metadata = dict(metadata or {})
+    if not (isinstance(snap, (int, float, np.floating)) and np.isfinite(snap) and snap >= 0):
+        raise GeometryError(f"snap: must be a finite number >= 0 (a fraction of the median block size); got {snap!r}")
+    if snap > 0 and interfaces is not None:
+        raise GeometryError("snap: snapping moves vertices, so it works with detected interfaces only; "
+                            "give interfaces=None or snap=0")
+    if snap > 0:
+        snapped, record = snap_polygons(vertices, n_vertices, float(snap))
+        vertices, n_vertices = pad_polygons(snapped)
+        _check_polygons(vertices, n_vertices, tol)
+        metadata["snapping"] = record
     if interfaces is None:
         frame = Frame.of(vertices, exact=True)
         found = detect_interfaces(frame(vertices), n_vertices, tol)
@@ -782,6 +1055,6 @@ def make_structure(
         live_factor=float(live_factor),
         point_loads=tuple(point_loads),
         name=name,
-        metadata=dict(metadata or {}),
+        metadata=metadata,
     )
     return validate(s, tol, check_overlap)

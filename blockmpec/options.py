@@ -3,7 +3,7 @@
 Validators are used in the ``Options.__post_init__`` of every adapter.
 
 Each raises ``ValueError`` naming the option, what was expected and what was
-received; :class:`blockmpec.solver.SolverBase` turns it into an
+received; :class:`blockmpec.method.SolverBase` turns it into an
 :class:`~blockmpec.errors.OptionError` that also names the method.
 """
 

@@ -1,6 +1,6 @@
 """Registry of solver adapters (methods).
 
-A solver adapter is a :class:`blockmpec.solver.SolverBase` subclass in a module of
+A solver adapter is a :class:`blockmpec.method.SolverBase` subclass in a module of
 the top-level ``solvers`` package, decorated with :func:`register_solver`.  The
 ``solvers`` package imports every module in its folder, so adding a method is
 adding a file.  Plug-ins are loaded on first lookup; the core never imports them
@@ -16,7 +16,7 @@ from typing import TYPE_CHECKING
 from blockmpec.errors import UnknownNameError
 
 if TYPE_CHECKING:
-    from blockmpec.solver import SolverBase
+    from blockmpec.method import SolverBase
 
 _SOLVERS: dict[str, type[SolverBase]] = {}
 _loaded = False

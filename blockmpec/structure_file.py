@@ -10,7 +10,7 @@ Format (``"format": "blockmpec-structure"``, ``"version": 1``)::
       "dilatancy": 0.0,                               # optional: tan(psi), default 0
       "live_load": {"direction": 1, "factor": 1.0},   # optional: direction (+1/-1) x factor (>= 0) x weight
       "blocks": [                                     # required, >= 1
-        {"vertices": [[0, 0], [1, 0], [1, 1], [0, 1]],  # convex, counter-clockwise
+        {"vertices": [[0, 0], [1, 0], [1, 1], [0, 1]],  # a simple polygon, counter-clockwise
          "fixed": false,                                # optional, default false
          "density": 1.0}                                # optional, default 1
       ],
@@ -23,6 +23,13 @@ Format (``"format": "blockmpec-structure"``, ``"version": 1``)::
       ],
       "metadata": {}                                  # optional, free-form
     }
+
+Blocks may be non-convex (any simple polygon).  ``metadata`` is free-form; blockmpec itself writes
+``metadata["snapping"]`` (what :func:`blockmpec.make_structure` with ``snap`` moved: ``snap``,
+``distance``, ``largest`` and ``vertices``, a list of ``[block, x_before, y_before, x_after, y_after]``)
+and, for a structure read from a drawing, ``metadata["drawing"]`` (the file's ``format``, ``scale``
+in metres per drawing unit, ``flip_y``, ``source`` and the ``entities`` the blocks came from), which the
+export of results into drawings reads.
 
 Unknown or misspelled keys are errors (with a suggestion), so a typo never
 silently falls back to a default.  A negative ``live_load.factor`` is an error:

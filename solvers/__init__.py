@@ -1,7 +1,10 @@
-"""Solver adapters: one module per method, each registering itself on import.
+"""Solver adapters: one module per method, each registering itself on import; ``plan`` chooses their engines.
 
-Modules whose name starts with an underscore are shared helpers, not methods; the
-``engines`` sub-package holds the numerical engines the methods share.
+What lives here: the methods (``static_lp.py`` ... ``milp.py``), ``plan.py`` (every size threshold), ``engines/``
+(the algorithm drivers and the one HiGHS wrapper) and ``linalg/`` (the block IPM and its Cholesky).
+Methods may import ``blockmpec``'s problem layer, ``formulations``, ``engines``, ``linalg`` and ``plan``.
+
+Modules whose name starts with an underscore are shared helpers, not methods.
 Importing this package imports no solver backend (highspy, cyipopt): each adapter
 imports its backend inside ``setup``/``run``.  A module that fails to import is
 recorded in :data:`FAILED_PLUGINS` (and listed by ``blockmpec methods``) instead

@@ -131,10 +131,10 @@ from dataclasses import dataclass, field
 from blockmpec import facts as fact_names
 from blockmpec import options as check
 from blockmpec.facts import ASSOCIATIVE_MULTIPLIER
+from blockmpec.method import SolverBase
 from blockmpec.options import CommonOptions
 from blockmpec.registry import register_solver
 from blockmpec.result import RunOutput, Status
-from blockmpec.solver import SolverBase
 from blockmpec.solvers import plan
 
 #: residual tolerance under which a multistart run counts as a solution of (3) (the verifier's default)
@@ -265,22 +265,28 @@ class FixedPoint(SolverBase):
         from blockmpec.solvers.engines.lp_sequence import run_sequence
 
         o, st = self.options, self.settings
+        stall = plan.FIXED_POINT_STALL_STEPS if o.engine == "auto" else None
         return run_sequence(self.sequence, start=start, relaxation=o.relaxation, stop_on="normal", tol=o.tol,
                             max_iterations=o.max_iterations, deadline=deadline,
-                            acceleration=st.acceleration, memory=st.memory, seed=seed)
+                            acceleration=st.acceleration, memory=st.memory, seed=seed, stall_steps=stall)
 
-    def _run_interior(self, deadline) -> RunOutput:
-        """The interior engine; under ``engine="auto"`` an unverified run falls back to the simplex engine."""
+    def _run_interior(self, deadline, fallback: bool = True) -> RunOutput:
+        """The interior engine; under ``engine="auto"`` an unverified run falls back to the simplex engine (unless
+        ``fallback`` is False: the interior run is itself the simplex engine's fallback)."""
         from blockmpec.solvers.engines.interior_fixed_point import run_interior
 
         o, st = self.options, self.settings
+        if getattr(self, "interior_lps", None) is None:
+            from blockmpec.formulations import step_lps
+
+            self.interior_lps = step_lps(self.ops, tie_break=False, associative=True)
         lps = self.interior_lps
         out, facts = run_interior(lps.step, lps.associative, self.units, tol=o.tol, max_iterations=o.max_iterations,
                                   deadline=deadline, fold_weight=st.interior_weight,
                                   continuation=st.interior_continuation)
         out.extra[fact_names.ENGINE] = "interior"
         out.extra["plan"] = [f"interior fixed point on (3): {facts.pop('plan', 'block IPM')}"]
-        if o.engine != "auto" or self._verified(out) or deadline.expired():
+        if o.engine != "auto" or not fallback or self._verified(out) or deadline.expired():
             return out
         if not self.fallback:
             out.message = (f"{out.message} (no simplex fallback: from {plan.FIXED_POINT_SIMPLEX_FALLBACK_BLOCKS:,} free "
@@ -301,7 +307,27 @@ class FixedPoint(SolverBase):
     def run(self, deadline) -> RunOutput:
         if self.engine == "interior":
             return self._run_interior(deadline)
-        return self._run_simplex(deadline)
+        out = self._run_simplex(deadline)
+        if (not plan.fixed_point_interior_fallback(self.options.engine, self.ops.n_free_blocks) or self._verified(out)
+                or deadline.expired()):
+            return out
+        # the LP steps did not reach a solution of (3) (they wander on irregular stone walls): the interior engine,
+        # in the time left
+        interior = self._run_interior(deadline, fallback=False)
+        if not self._verified(interior):
+            out.message = f"{out.message} (the interior engine, tried next, ended {interior.status.value}: " \
+                          f"{interior.message})"
+            out.extra["interior_status"] = interior.status.value
+            return out
+        interior.extra[fact_names.ENGINE] = "simplex, then interior"
+        interior.extra["simplex_status"] = out.status.value
+        interior.extra["plan"] = out.extra["plan"] + interior.extra["plan"]
+        for kind, seconds in out.extra.get(fact_names.LP_TIME_S, {}).items():
+            interior.extra[fact_names.LP_TIME_S][kind] = seconds
+        interior.extra[fact_names.LP_SOLVES] += out.extra.get(fact_names.LP_SOLVES, 0)
+        interior.trace = [{**rec, fact_names.ENGINE: "simplex"} for rec in out.trace] + interior.trace
+        interior.message = f"{interior.message} (after LP steps that ended {out.status.value}: {out.message})"
+        return interior
 
     def _run_other_starts(self, out: RunOutput, facts: dict, deadline) -> tuple[RunOutput, dict]:
         """After a run whose step LP failed (``facts["step_failure"]``): the other deterministic starts

@@ -10,11 +10,10 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 from blockmpec import options as check
+from blockmpec.method import SolverBase
 from blockmpec.options import CommonOptions
 from blockmpec.registry import register_solver
-from blockmpec.result import Solution, Status
-from blockmpec.result import RunOutput
-from blockmpec.solver import SolverBase
+from blockmpec.result import RunOutput, Solution, Status
 from blockmpec.solvers.plan import BASIS_ALGORITHMS
 
 

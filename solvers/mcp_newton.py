@@ -80,11 +80,10 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 from blockmpec import options as check
+from blockmpec.method import SolverBase
 from blockmpec.options import CommonOptions
 from blockmpec.registry import register_solver
-from blockmpec.result import Status
-from blockmpec.result import RunOutput
-from blockmpec.solver import SolverBase
+from blockmpec.result import RunOutput, Status
 
 #: starting points of the Newton iteration (see the module docstring)
 STARTS = ("fixed-point", "dead-load", "random", "nlp", "associative")

@@ -94,7 +94,7 @@ straight to the piece LPs, and their outcome is the run's.
 
 Route (``route``).  ``"ipopt"`` runs the options above; ``"pieces"`` starts from the fixed point and goes
 straight to the piece LPs, whatever ``start`` says; ``"auto"`` (default) takes ``"pieces"`` from
-:data:`~blockmpec.solvers.plan.NLP_PIECE_ROUTE_BLOCKS` free blocks on.  Measured (``studies/nlp_scaling.py``, one loaded run):
+:data:`~blockmpec.solvers.plan.NLP_PIECE_ROUTE_BLOCKS` free blocks on.  Measured (``studies/lab/nlp_scaling.py``, one loaded run):
 the Ipopt stages reach at most ~69 blocks within 60 s, while the piece route solves the 2,032-block wall
 (certified local minimum 0.42179, below the fixed point's 0.42633) in ~19 s CPU: the fixed point ~5 s,
 the static halves by the block IPM, the mechanisms by HiGHS.  Below the threshold Ipopt is kept: its
@@ -125,11 +125,10 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from blockmpec import options as check
+from blockmpec.method import SolverBase
 from blockmpec.options import CommonOptions
 from blockmpec.registry import register_solver
-from blockmpec.result import Solution, Status
-from blockmpec.result import RunOutput
-from blockmpec.solver import SolverBase
+from blockmpec.result import RunOutput, Solution, Status
 from blockmpec.solvers import plan
 
 #: Ipopt ApplicationReturnStatus -> (our status, short name)
@@ -155,7 +154,7 @@ _IPOPT_STATUS = {
 }
 
 _INF = 1e20
-#: Ipopt's User_Requested_Stop: returned when :meth:`_RelaxedMPEC.intermediate` keeps the deadline
+#: Ipopt's User_Requested_Stop: returned when :meth:`RelaxedMPEC.intermediate` keeps the deadline
 _USER_STOP = 5
 #: penalty NLP: Ipopt's mu_init, bound_push and bound_frac of the first stage (measured on the 10x10 wall
 #: from the fixed point: 86 iterations, against 315 with Ipopt's defaults and adaptive mu)
@@ -262,7 +261,7 @@ def eps_schedule(options: NLPOptions, settings: NLPSettings) -> list[float]:
     return eps
 
 
-class _RelaxedMPEC:
+class RelaxedMPEC:
     """cyipopt callbacks of the relaxed NLP in units; variables ``v^ = (w^, s^)`` with ``w = D w^``, ``s = S s^``.
 
     ``D`` (``column_scale``, one entry per column of ``w``) and ``S`` (``slack_scale``, one per
@@ -388,7 +387,7 @@ class _RelaxedMPEC:
         return self.form.unpack(self.from_units(v)[self.i_w])
 
 
-class _PenaltyMPEC(_RelaxedMPEC):
+class PenaltyMPEC(RelaxedMPEC):
     """The penalty NLP of (4): ``min lam + rho sum_i z^_i s^_i`` over the linear rows and bounds.
 
     No product rows (``m = m_lin``); the products ``z^_i s^_i = z_i s_i`` are works in ``lam``
@@ -436,7 +435,7 @@ def _typical_work(z: np.ndarray, s: np.ndarray) -> float:
     return (zs if zs > 0 else 1.0) * (ss if ss > 0 else 1.0)
 
 
-def _without_free_sliding(form, solution: Solution) -> Solution:
+def without_free_sliding(form, solution: Solution) -> Solution:
     """The solution with the common part of each zero-dilatancy interface's sliding multipliers removed.
 
     At ``tan(psi_k) = 0`` the two multipliers ``z_f+, z_f-`` of interface ``k`` enter (3) only
@@ -560,7 +559,7 @@ class RelaxedNLP(SolverBase):
             passed_on = (Status.UNBOUNDED, Status.INFEASIBLE, Status.INFEASIBLE_OR_UNBOUNDED, Status.TIME_LIMIT)
             return RunOutput(fail if fail in passed_on else Status.ERROR, message=start_msg,
                              raw_status="static LP" if self.start == "associative" else self.start)
-        nlp = (_PenaltyMPEC if penalty else _RelaxedMPEC)(self.form, scale, *self.scaling)
+        nlp = (PenaltyMPEC if penalty else RelaxedMPEC)(self.form, scale, *self.scaling)
         self.nlp = nlp
         v = np.zeros(nlp.n) if v0 is None else nlp.to_units(v0)
         mult = None
@@ -579,7 +578,7 @@ class RelaxedNLP(SolverBase):
                     v_new = v
                     break
                 t0 = time.perf_counter()
-                v_new, info = self._solve_stage(cyipopt, nlp, eps, v, mult if use_mult else None, remaining)
+                v_new, info = self.solve_stage(cyipopt, nlp, eps, v, mult if use_mult else None, remaining)
                 dt = time.perf_counter() - t0
                 code = int(info["status"])
                 status, name = _IPOPT_STATUS.get(code, (Status.ERROR, f"ipopt_status_{code}"))
@@ -613,7 +612,7 @@ class RelaxedNLP(SolverBase):
             message = f"stage {k + 1} (eps = {eps:.3g}) ended with Ipopt status {name}: {info.get('status_msg', b'')!r}"
             break
         trace = stop.trace
-        solution = _without_free_sliding(self.form, nlp.split(v))
+        solution = without_free_sliding(self.form, nlp.split(v))
         n_stages = len({t["stage"] for t in trace})
         extra = {"stages": n_stages, "ipopt_solves": len(trace), "scale": scale, "start": self.start, "route": self.route,
                  "start_time_s": self.start_time_s, "complementarity": opt.complementarity,
@@ -637,8 +636,10 @@ class RelaxedNLP(SolverBase):
         return RunOutput(final, solution, iterations=total_iter, trace=trace, message=message, raw_status=raw,
                          extra=extra)
 
-    def _solve_stage(self, cyipopt, nlp: _RelaxedMPEC, eps: float, v: np.ndarray, mult, remaining: float):
-        """One Ipopt solve of the relaxed NLP at ``eps`` from ``v`` (with multipliers ``mult`` if given)."""
+    def solve_stage(self, cyipopt, nlp: RelaxedMPEC, eps: float, v: np.ndarray, mult, remaining: float):
+        """One Ipopt solve of the relaxed NLP ``nlp`` at ``eps`` from ``v`` (with multipliers ``mult`` if given),
+        within ``remaining`` seconds, with the settings' Ipopt options (``ipopt_options`` last: a study may set,
+        e.g., one ``output_file`` per stage before each call)."""
         from blockmpec.progress import verbose_enabled
 
         opt = self.settings
@@ -648,7 +649,7 @@ class RelaxedNLP(SolverBase):
         problem.add_option("sb", "yes")
         problem.add_option("mumps_pivtol", 1e-8)
         problem.add_option("tol", float(opt.tol))
-        penalty = isinstance(nlp, _PenaltyMPEC)
+        penalty = isinstance(nlp, PenaltyMPEC)
         problem.add_option("max_iter", int(opt.max_iter))
         if penalty:
             # the start solves the linear rows: stay near it (push 1e-6, not 1e-2) with a small fixed barrier
@@ -713,8 +714,8 @@ class RelaxedNLP(SolverBase):
             failed = out.status if out.status is Status.TIME_LIMIT else Status.NUMERICAL
             return solution, failed, f"piece LPs found no solution of (3): {out.message}"
         # the interior-point LPs leave the free common part of zero-dilatancy sliding multipliers large
-        # (two blocks: z_f+- = 7519), which _without_free_sliding removes
-        new = _without_free_sliding(self.form, self.form.unpack(out.w))
+        # (two blocks: z_f+- = 7519), which without_free_sliding removes
+        new = without_free_sliding(self.form, self.form.unpack(out.w))
         new.x[self.form.t[self.form.friction == 0]] = 0.0  # tan(phi_k) = 0 forces t_k = 0 (exact zero)
         # not certified: a limit, or an LP failure on a later piece (never a statement that (3) is infeasible)
         status = (Status.LOCALLY_OPTIMAL if out.certified else

@@ -31,6 +31,10 @@ FIXED_POINT_INTERIOR_BLOCKS = 500
 #: tie-break about 14 s, while the 1,010-block wall needs 53 steps) and at 2,420 blocks it does not finish one step
 #: in 600 s, so a fallback there only uses up the time limit
 FIXED_POINT_SIMPLEX_FALLBACK_BLOCKS = 2_000
+#: ``engine="auto"``: the simplex engine's LP steps stop when their smallest ``||n - n*||/||n||`` has not halved in this
+#: many steps (the map wanders instead of converging, as on irregular stone walls: 292 stones, 0.03-0.05 for 280
+#: steps), and the interior engine takes over in the time left; on the built-in walls the steps converge long before
+FIXED_POINT_STALL_STEPS = 50
 
 # ---------------------------------------------------------------------------------------------- nlp
 #: ``route="auto"`` takes the piece route from this many free blocks on.  Measured (``studies/lab/nlp_scaling.py``):
@@ -113,6 +117,12 @@ def fixed_point_engine(engine: str, n_free_blocks: int) -> str:
     return "interior" if n_free_blocks >= FIXED_POINT_INTERIOR_BLOCKS else "simplex"
 
 
+def fixed_point_interior_fallback(engine: str, n_free_blocks: int) -> bool:
+    """Whether a simplex run that does not verify falls back to the interior engine (``engine="auto"`` below
+    :data:`FIXED_POINT_INTERIOR_BLOCKS` free blocks, where the simplex engine runs first)."""
+    return engine == "auto" and n_free_blocks < FIXED_POINT_INTERIOR_BLOCKS
+
+
 def fixed_point_fallback(engine: str, n_free_blocks: int) -> bool:
     """Whether an unverified interior run falls back to the simplex engine (``engine="auto"`` below
     :data:`FIXED_POINT_SIMPLEX_FALLBACK_BLOCKS` free blocks)."""
@@ -156,3 +166,51 @@ def describe_block_ipm(engine) -> str:
         kind = "SuperLU LDL^T"
     kernels = "compiled kernels" if engine.block_kernels is not None else "numpy kernels"
     return f"block IPM ({kind}, {engine.corrector_count} correctors, {kernels})"
+
+
+def choose(method: str, ops, options) -> list[str]:
+    """The engine chain ``method`` will run on the structure of ``ops`` with ``options`` (its ``Options``), before
+    it runs: the rules above applied to the structure's size.  ``Result.extra["plan"]`` records what did run.
+
+    Parameters
+    ----------
+    method : str
+        A registered method name.
+    ops : Operators
+        The assembled structure (only its sizes and load spread are read).
+    options : the method's ``Options``
+    """
+    from blockmpec.solvers.engines.scaling import LoadUnits
+
+    blocks, interfaces = ops.n_free_blocks, ops.n_interfaces
+    static_rows = 3 * blocks + 4 * interfaces  # equilibrium, two no-tension and two friction rows per interface
+    pairs = 4 * interfaces
+    if method == "static-lp":
+        algorithm = lp_algorithm(options.algorithm, static_rows, LoadUnits.of(ops).load_spread)
+        return [f"static LP (1): {'block IPM' if algorithm == 'block-ipm' else f'HiGHS {algorithm}'}"]
+    if method == "kinematic-lp":
+        kinematic_rows = 3 * interfaces + 1  # compatibility, normalisation
+        return [f"kinematic LP (2): HiGHS {lp_algorithm(options.algorithm, kinematic_rows, need_basis=True)}"]
+    if method == "fixed-point":
+        engine = fixed_point_engine(options.engine, blocks)
+        if engine == "interior":
+            chain = ["interior fixed point on (3): block IPM"]
+            if fixed_point_fallback(options.engine, blocks):
+                chain.append("if unverified: the simplex engine's LP steps")
+            return chain
+        chain = [f"fixed point: HiGHS LP steps (start {options.start}, tie-break {options.tie_break})"]
+        if fixed_point_interior_fallback(options.engine, blocks):
+            chain.append("if unverified: the interior fixed point on (3)")
+        return chain
+    if method == "slp":
+        return ["SLP: HiGHS LP steps"]
+    if method == "nlp":
+        route = nlp_route(options.route, blocks)
+        if route == "pieces":
+            return ["start: fixed-point", f"piece LPs (static halves: {piece_lp_static_engine(pairs)})"]
+        return [f"start: {options.start}", f"Ipopt: {options.complementarity} stages"]
+    if method == "mcp-newton":
+        return [f"start: {options.start}", "semismooth Newton on (3)"]
+    if method == "milp":
+        return ["LP bounds", f"engine: {milp_engine(options.engine, options.sense, pairs)}", "polish: piece LPs"]
+    return []

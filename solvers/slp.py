@@ -51,11 +51,10 @@ from dataclasses import dataclass, field
 
 from blockmpec import options as check
 from blockmpec.facts import ASSOCIATIVE_MULTIPLIER
+from blockmpec.method import SolverBase
 from blockmpec.options import CommonOptions
 from blockmpec.registry import register_solver
-from blockmpec.result import Status
-from blockmpec.result import RunOutput
-from blockmpec.solver import SolverBase
+from blockmpec.result import RunOutput, Status
 from blockmpec.solvers.plan import BASIS_ALGORITHMS
 
 ALPHA_SCHEDULES = ("constant", "halving")

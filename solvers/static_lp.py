@@ -11,11 +11,10 @@ from dataclasses import dataclass, field
 
 from blockmpec import options as check
 from blockmpec.errors import OptionError
+from blockmpec.method import SolverBase
 from blockmpec.options import CommonOptions
 from blockmpec.registry import register_solver
-from blockmpec.result import Solution, Status
-from blockmpec.result import RunOutput
-from blockmpec.solver import SolverBase
+from blockmpec.result import RunOutput, Solution, Status
 from blockmpec.solvers.plan import LP_ALGORITHMS
 
 
@@ -71,7 +70,8 @@ class StaticLP(SolverBase):
         from blockmpec.solvers.engines.lp_engine import cold_lp_engine
         from blockmpec.solvers.engines.scaling import LoadUnits
 
-        if self.settings.factor_processes not in ("auto", 1, 2):
+        processes = self.settings.factor_processes
+        if isinstance(processes, bool) or processes not in ("auto", 1, 2):  # True == 1 is no choice of processes
             raise OptionError(f"static-lp setting factor_processes must be auto, 1 or 2; got "
                               f"{self.settings.factor_processes!r}")
         self.ops = ops

@@ -24,3 +24,16 @@ import blockmpec as bm  # noqa: E402
 def builtin_structures():
     """One default instance of every built-in case."""
     return {name: spec.build() for name, spec in bm.cases.CASES.items()}
+
+
+def pytest_collection_modifyitems(config, items):
+    """Timing benchmarks (``@pytest.mark.benchmark``) run only when a ``-m`` expression names them (``-m benchmark``).
+
+    pyproject's ``addopts`` deselects them with ``-m "not benchmark"``, but a ``-m`` on the command line replaces that
+    one: without this hook the fast command ``python -m pytest -m "not slow"`` would run them."""
+    if "benchmark" in (config.getoption("markexpr") or ""):
+        return
+    kept = [item for item in items if item.get_closest_marker("benchmark") is None]
+    if len(kept) < len(items):
+        config.hook.pytest_deselected(items=[item for item in items if item.get_closest_marker("benchmark") is not None])
+        items[:] = kept

@@ -12,8 +12,7 @@ import time
 
 from blockmpec import registry
 from blockmpec.errors import BlockmpecError
-from blockmpec.result import Solution, Status
-from blockmpec.result import RunOutput
+from blockmpec.result import RunOutput, Solution, Status
 from blockmpec.solver import SolverBase
 
 
@@ -25,7 +24,7 @@ class _Base(SolverBase):
 class RaisesInRun(_Base):
     name = "test-raises-in-run"
 
-    def run(self):
+    def run(self, deadline):
         raise RuntimeError("deliberate failure")
 
 
@@ -42,21 +41,21 @@ class NeverFits(_Base):
     def skip_reason(self, ops):
         return "this dummy fits no case"
 
-    def run(self):  # pragma: no cover - never reached
+    def run(self, deadline):  # pragma: no cover - never reached
         return RunOutput(Status.CONVERGED, Solution(multiplier=1.0))
 
 
 class EscapesSolve(_Base):
     name = "test-escapes-solve"
 
-    def run(self):
+    def run(self, deadline):
         raise BlockmpecError("escaped from solve")  # solve() re-raises its own errors
 
 
 class Segfaults(_Base):
     name = "test-segfaults"
 
-    def run(self):
+    def run(self, deadline):
         os.kill(os.getpid(), signal.SIGSEGV)
         time.sleep(10)  # pragma: no cover
 
@@ -64,7 +63,7 @@ class Segfaults(_Base):
 class Hangs(_Base):
     name = "test-hangs"
 
-    def run(self):
+    def run(self, deadline):
         time.sleep(3600)  # pragma: no cover - killed from outside
 
 
@@ -74,7 +73,7 @@ class ReportsCpus(_Base):
 
     name = "test-reports-cpus"
 
-    def run(self):
+    def run(self, deadline):
         from blockmpec.bench.runner import CPUS_VARIABLE, usable_cpus
 
         return RunOutput(Status.CONVERGED, Solution(multiplier=1.0),

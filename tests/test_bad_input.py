@@ -19,10 +19,16 @@ def make(polys, fixed, **kw):
     return bm.make_structure(polys, fixed, **kw)
 
 
-def test_non_convex_polygon():
+def test_non_convex_polygon_is_a_block_but_a_self_intersecting_one_is_not():
     arrow = [[0, 0], [2, 0], [1, 0.5], [2, 1], [0, 1]]
-    with pytest.raises(bm.GeometryError, match=r"block 1: polygon is not convex"):
-        make([BASE, arrow], [True, False])
+    s = make([BASE, arrow], [True, False])
+    np.testing.assert_allclose(s.area[1], 1.5)  # 2 x 1 less the notch of 0.5
+    crossing = [[0, 0], [1, 0], [1, 3], [0, 3], [0.5, 3.5], [0.5, 2.5]]
+    with pytest.raises(bm.GeometryError, match=r"block 1: polygon is self-intersecting .* at \[0\.5, 3\.0\]"):
+        make([BASE, crossing], [True, False])
+    star = [[0, 0], [2, 0.5], [0.2, 1.3], [1.0, -0.5], [1.8, 1.3]]  # turns left everywhere, twice round
+    with pytest.raises(bm.GeometryError, match=r"block 1: polygon is self-intersecting"):
+        make([BASE, star], [True, False])
 
 
 def test_clockwise_polygon():

@@ -25,7 +25,11 @@ Each benchmark also checks its result, so a benchmark of a broken stage fails:
 * ``fixed-point`` on a 10 x 20 wall, ``nlp`` on the 5 x 4 wall: verified solutions of
   (3), whose ``lam`` cannot exceed the associative one (their ``x`` is feasible in (1));
 * ``milp`` on a 2 x 2 wall: a certified minimum, at most ``lam`` of any verified
-  solution of (3) (here the fixed point's) and of the associative LP.
+  solution of (3) (here the fixed point's) and of the associative LP;
+* the comparator (``blockmpec.bench.compare.compare``) on the two-block problem with three
+  methods in isolated worker processes: every answer graded against the closed forms.
+
+Nothing here imports ``studies/`` (issue 40): the scaling study is run by CI on its own.
 """
 
 from __future__ import annotations
@@ -34,7 +38,7 @@ import numpy as np
 import pytest
 
 import blockmpec as bm
-from helpers import assert_success, load_study, two_block_associative
+from helpers import assert_success, two_block_associative
 
 pytestmark = pytest.mark.benchmark
 
@@ -125,15 +129,13 @@ def test_milp_wall_2x2(benchmark):
     assert res.multiplier <= associative.multiplier + 1e-9
 
 
-def test_benchmark_scaling_study_smallest(benchmark, capsys):
-    """The scaling study end to end at its smallest sizes: both tables, every stage a success."""
-    study = load_study("benchmark_scaling")
-    argv = ["--sizes", "10,20", "--largest", "milp", "--largest-max", "4", "--tag", "pytest"]
-    out = benchmark.pedantic(study.main, args=(argv,), rounds=1)
-    printed = capsys.readouterr().out
-    assert "| family | blocks |" in printed and "Growth exponents" in printed and "Largest running-bond wall" in printed
-    assert [r["family"] for r in out["scaling"]] == ["wall", "wall", "arch", "arch"]
-    for row in out["scaling"]:
-        assert row["lp_status"] == "optimal" and row["fp_status"] == "converged", row
-        assert row["peak_memory_mb"] > 0 and row["fp_iterations"] >= 1
-    assert out["largest"][0]["largest_solved"].startswith("wall-1x4")
+def test_compare_two_blocks_isolated(benchmark):
+    """The comparator end to end: three methods, each solve in a worker process, graded against the closed forms."""
+    from blockmpec.bench.compare import compare
+
+    case = {"two-blocks": ("two-blocks", {"eta": 3.0, "mu": 0.65})}
+    df = benchmark.pedantic(compare, args=(case, ["static-lp", "fixed-point", "milp"]), kwargs={"progress": False},
+                            rounds=2)
+    assert df["success"].all() and set(df["reference_source"]) == {"closed-form"}
+    assert (df["abs_rel_error"] < 1e-8).all() and not df["new_best"].any() and (df["anomaly"] == "").all()
+    np.testing.assert_allclose(df["multiplier"], [two_block_associative(3.0, 0.65), 1 / 3, 1 / 3], rtol=1e-8)

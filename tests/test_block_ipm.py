@@ -14,6 +14,7 @@ import blockmpec as bm
 from blockmpec.formulations import compile_linear, static_lp
 from blockmpec.solvers.engines.block_lp import BlockLP, interface_blocks
 from blockmpec.solvers.linalg.block_ipm import DEFAULT_SETTINGS, EXACT_INNER_SETTINGS
+from blockmpec.solvers.engines.scaling import LoadUnits
 from blockmpec.solvers.engines.lp_engine import cold_lp_engine
 from helpers import wall_block_ipm_off_path
 
@@ -37,11 +38,11 @@ def _newton_residuals(ipm, it, direction, r_b, r_h, r_c, r_mu):
 @pytest.mark.parametrize("refinements", [0, 1, 3])
 def test_direction_satisfies_every_block_equation_and_wastes_no_solve(wall_ipm, refinements):
     ipm, it = wall_ipm
-    factors = ipm._factorise(it)
+    factors = ipm.factorise(it)
     r_b, r_h, r_c = ipm.residuals(it)
     r_mu = 0.1 * float(it.s @ it.y) / it.s.size - it.s * it.y
     solves = ipm.factoriser.solves
-    direction = ipm._direction(it, factors, r_b, r_h, r_c, r_mu, refinements)
+    direction = ipm.direction(it, factors, r_b, r_h, r_c, r_mu, refinements)
     used = ipm.factoriser.solves - solves
     # one reduced solve, then at most `refinements` corrections, each of them used
     assert 1 <= used <= 1 + refinements
@@ -57,13 +58,13 @@ def test_inner_tolerance_skips_corrections_of_accurate_directions(wall_ipm):
     """With a relative ``tolerance`` the reduced solve is corrected only while the equality rows'
     error exceeds it: a loose one leaves one solve, the absolute target (0) asks for a correction."""
     ipm, it = wall_ipm
-    factors = ipm._factorise(it)
+    factors = ipm.factorise(it)
     r_b, r_h, r_c = ipm.residuals(it)
     r_mu = -it.s * it.y
     used = {}
     for tolerance in (0.0, 1e6):
         solves = ipm.factoriser.solves
-        direction = ipm._direction(it, factors, r_b, r_h, r_c, r_mu, 1, tolerance)
+        direction = ipm.direction(it, factors, r_b, r_h, r_c, r_mu, 1, tolerance)
         used[tolerance] = ipm.factoriser.solves - solves
         res = _newton_residuals(ipm, it, direction, r_b, r_h, r_c, r_mu)
         assert np.max(np.abs(res["dual"])) <= 1e-10 * max(max(np.max(np.abs(d)) for d in direction), 1.0)
@@ -73,11 +74,11 @@ def test_inner_tolerance_skips_corrections_of_accurate_directions(wall_ipm):
 def test_refined_direction_solves_the_whole_newton_system(wall_ipm):
     """Whole-system refinement of an unrefined direction brings the equality rows to round-off too."""
     ipm, it = wall_ipm
-    factors = ipm._factorise(it)
+    factors = ipm.factorise(it)
     r_b, r_h, r_c = ipm.residuals(it)
     r_mu = -it.s * it.y
-    rough = ipm._direction(it, factors, r_b, r_h, r_c, r_mu, 0)
-    refined = ipm._refined_direction(it, factors, r_b, r_h, r_c, r_mu, rough, sweeps=ipm.final_sweeps)
+    rough = ipm.direction(it, factors, r_b, r_h, r_c, r_mu, 0)
+    refined = ipm.refined_direction(it, factors, r_b, r_h, r_c, r_mu, rough, sweeps=ipm.final_sweeps)
     res = _newton_residuals(ipm, it, refined, r_b, r_h, r_c, r_mu)
     assert np.max(np.abs(res["equality"])) <= 1e-2 * ipm.tol * (1 + np.max(np.abs(ipm.b)))
     # refinement can only have helped: the rough direction's equality error is not smaller
@@ -91,7 +92,7 @@ def mild_wall_ipm():
     its Newton directions are attainable to ~1e-13 (the target is 1e-10)."""
     ops = bm.assemble(bm.cases.wall(10, 20))
     lp = compile_linear(static_lp(ops))
-    ipm = cold_lp_engine(lp, "block-ipm", ops=ops)
+    ipm = cold_lp_engine(lp, "block-ipm", LoadUnits.of(ops))
     it = ipm.initial_point()
     rng = np.random.default_rng(7)
     it.s *= np.exp(rng.normal(0.0, 1.0, it.s.size))
@@ -119,7 +120,7 @@ def test_krylov_refinement_converges_where_the_stationary_one_does_not(mild_wall
     errors = {}
     for krylov in (0, DEFAULT_SETTINGS["krylov_iterations"]):
         ipm.settings(krylov_iterations=krylov)
-        direction = ipm._direction(it, factors, r_b, r_h, r_c, r_mu)
+        direction = ipm.direction(it, factors, r_b, r_h, r_c, r_mu)
         res = _newton_residuals(ipm, it, direction, r_b, r_h, r_c, r_mu)
         errors[krylov] = np.max(np.abs(res["equality"]))
         # the block equations hold exactly either way
@@ -132,14 +133,14 @@ def test_krylov_refinement_converges_where_the_stationary_one_does_not(mild_wall
 def test_krylov_fallback_leaves_converging_directions_unchanged(mild_wall_ipm):
     """With accurate factors the stationary refinement converges: no GMRES, the same direction."""
     ipm, it = mild_wall_ipm
-    factors = ipm._factorise(it)
+    factors = ipm.factorise(it)
     r_b, r_h, r_c = ipm.residuals(it)
     r_mu = -it.s * it.y
     directions, steps = {}, {}
     for krylov in (0, DEFAULT_SETTINGS["krylov_iterations"]):
         ipm.settings(krylov_iterations=krylov)
         before = ipm.krylov_steps
-        directions[krylov] = ipm._direction(it, factors, r_b, r_h, r_c, r_mu)
+        directions[krylov] = ipm.direction(it, factors, r_b, r_h, r_c, r_mu)
         steps[krylov] = ipm.krylov_steps - before
     ipm.settings(**DEFAULT_SETTINGS)
     assert steps == {0: 0, DEFAULT_SETTINGS["krylov_iterations"]: 0}
@@ -160,7 +161,7 @@ def test_early_switch_to_gmres_saves_solves_and_meets_the_target(mild_wall_ipm):
     for switch in (DEFAULT_SETTINGS["krylov_switch"], np.inf):
         ipm.settings(krylov_switch=switch)
         before, steps = ipm.factoriser.solves, ipm.krylov_steps
-        directions[switch] = ipm._direction(it, factors, r_b, r_h, r_c, r_mu)
+        directions[switch] = ipm.direction(it, factors, r_b, r_h, r_c, r_mu)
         solves[switch] = ipm.factoriser.solves - before
         assert ipm.krylov_steps == steps + 1  # GMRES ran either way
         res = _newton_residuals(ipm, it, directions[switch], r_b, r_h, r_c, r_mu)
@@ -180,27 +181,28 @@ def test_gmres_direction_equals_the_direct_one(mild_wall_ipm):
 
     ipm, it = mild_wall_ipm
     ipm.settings(diagonal_shift=WIDE_DIAGONAL_SHIFT)
-    factors = ipm._factorise(it)
+    factors = ipm.factorise(it)
     r_b, r_h, r_c = ipm.residuals(it)
     r_mu = 0.1 * float(it.s @ it.y) / it.s.size - it.s * it.y
     ipm.settings(refinements=8, krylov_iterations=0)
-    direct = ipm._direction(it, factors, r_b, r_h, r_c, r_mu)
+    direct = ipm.direction(it, factors, r_b, r_h, r_c, r_mu)
     ipm.settings(refinements=0, krylov_iterations=DEFAULT_SETTINGS["krylov_iterations"])
     steps = ipm.krylov_steps
-    krylov = ipm._direction(it, factors, r_b, r_h, r_c, r_mu)
+    krylov = ipm.direction(it, factors, r_b, r_h, r_c, r_mu)
     ipm.settings(**DEFAULT_SETTINGS)
     assert ipm.krylov_steps == steps + 1
     for a, b in zip(krylov, direct, strict=True):
         np.testing.assert_allclose(a, b, rtol=0, atol=1e-7 * max(np.max(np.abs(b)), 1.0))
 
 
+@pytest.mark.slow
 def test_defaults_solve_a_wall_to_the_verifier_tolerance():
     """The default settings give a point the shared verifier accepts at 1e-8, and HiGHS's lambda."""
     from blockmpec.solvers.engines.highs import HighsLP, static_lp_solution
 
     ops = bm.assemble(bm.cases.wall(10, 20))
     lp = compile_linear(static_lp(ops))
-    ipm = cold_lp_engine(lp, "block-ipm", ops=ops)
+    ipm = cold_lp_engine(lp, "block-ipm", LoadUnits.of(ops))
     assert ipm.inner_tolerance == DEFAULT_SETTINGS["inner_tolerance"]
     out = ipm.solve()
     assert out.status is bm.Status.OPTIMAL
@@ -217,7 +219,7 @@ def test_default_inner_tolerance_saves_solves_with_k_to_the_same_optimum():
     ops = bm.assemble(bm.cases.wall(10, 20))
     runs = {}
     for name, settings in (("default", DEFAULT_SETTINGS), ("exact", EXACT_INNER_SETTINGS)):
-        ipm = cold_lp_engine(compile_linear(static_lp(ops)), "block-ipm", ops=ops)
+        ipm = cold_lp_engine(compile_linear(static_lp(ops)), "block-ipm", LoadUnits.of(ops))
         ipm.settings(**settings)
         out = ipm.solve()
         assert out.status is bm.Status.OPTIMAL
@@ -229,12 +231,12 @@ def test_default_inner_tolerance_saves_solves_with_k_to_the_same_optimum():
 def test_interior_fixed_point_keeps_every_inner_direction_corrected():
     """Newton on (3) was measured with every inner direction corrected: the interior fixed point keeps that
     setting, not the LP default's ``inner_tolerance``."""
-    from blockmpec.formulations import modified_lp
-    from blockmpec.formulations._pyomo import compiled_linear
+    from blockmpec.formulations import step_lps
     from blockmpec.solvers.engines.interior_fixed_point import InteriorFixedPoint
 
     ops = bm.assemble(bm.cases.wall(4, 5))
-    engine = InteriorFixedPoint(compiled_linear(modified_lp, ops, np.zeros(ops.n_interfaces), slope=ops.dilatancy), ops)
+    lps = step_lps(ops, tie_break=False)
+    engine = InteriorFixedPoint(lps.step, lps.associative, LoadUnits.of(ops))
     assert {name: getattr(engine, name) for name in EXACT_INNER_SETTINGS} == EXACT_INNER_SETTINGS
 
 
@@ -273,27 +275,18 @@ def test_reduced_values_on_the_pattern_equal_the_sparse_product(wall_ipm):
     assert np.array_equal(K_scatter.diagonal() > 0, np.ones(K_scatter.shape[0], dtype=bool))
 
 
-def test_settings_sets_are_found_by_name():
-    """Studies name the settings sets (``--ipm-settings``): a known name gives that set, an unknown one a clear error."""
-    from blockmpec.solvers.linalg.block_ipm import named_settings
-
-    assert named_settings("default") is DEFAULT_SETTINGS
-    assert named_settings("exact_inner") is EXACT_INNER_SETTINGS
-    with pytest.raises(ValueError, match="unknown settings set 'nonsense'.*exact_inner"):
-        named_settings("nonsense")
-
-
 def test_diagonal_shift_changes_the_path_never_the_optimum():
     """The diagonal shift of ``K`` only changes how well its factors precondition the refinement: with the default
     (round-off level) and the former 1e-12 the LP ends optimal at the same lambda, and ``K``'s diagonal carries the
     shift (relative to the unshifted product)."""
-    from blockmpec.solvers.linalg.block_ipm import WIDE_SHIFT_SETTINGS
+    from blockmpec.solvers.linalg.block_ipm import WIDE_DIAGONAL_SHIFT
 
+    WIDE_SHIFT_SETTINGS = {**DEFAULT_SETTINGS, "diagonal_shift": WIDE_DIAGONAL_SHIFT}  # the default before 1e-16
     ops = bm.assemble(bm.cases.wall(10, 20))
     lp = compile_linear(static_lp(ops))
     lams = []
     for settings in (DEFAULT_SETTINGS, WIDE_SHIFT_SETTINGS):
-        ipm = cold_lp_engine(lp, "block-ipm", ops=ops)
+        ipm = cold_lp_engine(lp, "block-ipm", LoadUnits.of(ops))
         ipm.settings(**settings)
         out = ipm.solve()
         assert out.status is bm.Status.OPTIMAL
@@ -309,18 +302,24 @@ def test_diagonal_shift_changes_the_path_never_the_optimum():
     assert abs(lams[0] - lams[1]) <= 1e-9 * abs(lams[1])
 
 
-def test_auto_correctors_follow_the_size_of_k(monkeypatch):
-    """``correctors="auto"`` (the default): two Gondzio correctors below ``AUTO_CORRECTOR_ROWS`` rows of ``K``, four
+def test_auto_correctors_follow_the_size_of_k():
+    """``correctors="auto"`` (the default): two Gondzio correctors below ``rules.corrector_rows`` rows of ``K``, four
     from there; a count is taken as given, anything else is one clear error.  The interior fixed point keeps two."""
+    import dataclasses
+
     from blockmpec.solvers.linalg import block_ipm
+    from blockmpec.solvers.plan import BLOCK_IPM_RULES
 
     assert DEFAULT_SETTINGS["correctors"] == "auto" and EXACT_INNER_SETTINGS["correctors"] == 2
     ops = bm.assemble(bm.cases.wall(4, 5))
-    ipm = cold_lp_engine(compile_linear(static_lp(ops)), "block-ipm", ops=ops)
+    ipm = cold_lp_engine(compile_linear(static_lp(ops)), "block-ipm", LoadUnits.of(ops))
     rows = ipm._K_pattern.shape[0]
+    assert ipm.rules == BLOCK_IPM_RULES and rows < BLOCK_IPM_RULES.corrector_rows
     assert ipm.corrector_count == block_ipm.SMALL_CORRECTORS
-    monkeypatch.setattr(block_ipm, "AUTO_CORRECTOR_ROWS", rows)
+    ipm.rules = dataclasses.replace(BLOCK_IPM_RULES, corrector_rows=rows)
     assert ipm.corrector_count == block_ipm.LARGE_CORRECTORS
+    ipm.rules = dataclasses.replace(BLOCK_IPM_RULES, corrector_rows=rows + 1)
+    assert ipm.corrector_count == block_ipm.SMALL_CORRECTORS
     ipm.settings(correctors=3)
     assert ipm.corrector_count == 3
     for bad in (-1, 2.5, "many", True):
@@ -345,9 +344,42 @@ def test_a_singular_k_ends_the_solve_with_a_status(monkeypatch):
         return patched
 
     monkeypatch.setattr(SymmetricFactoriser, "factorise", failing_from(6))
-    out = cold_lp_engine(lp, "block-ipm", ops=ops).solve()
+    out = cold_lp_engine(lp, "block-ipm", LoadUnits.of(ops)).solve()
     assert out.status in (bm.Status.ACCEPTABLE, bm.Status.NUMERICAL) and "singular" in out.message
     assert out.iterations == 5 and np.all(np.isfinite(out.v))
     monkeypatch.setattr(SymmetricFactoriser, "factorise", failing_from(0))
-    out = cold_lp_engine(lp, "block-ipm", ops=ops).solve()
+    out = cold_lp_engine(lp, "block-ipm", LoadUnits.of(ops)).solve()
     assert out.status is bm.Status.NUMERICAL and "starting point" in out.message
+
+
+def test_block_ipm_stops_in_the_iteration_its_deadline_passes(monkeypatch):
+    """The block IPM reads the clock before and after each factorisation: a deadline that passes during the third
+    iteration's factorisation (the fourth, after the starting point's) ends the solve there, with the time limit and
+    the two iterations made before it (its overshoot is at most one factorisation).  The clock is the engine's own,
+    faked: no dependence on the machine's speed."""
+    import types
+
+    from blockmpec.solvers.linalg import block_ipm
+
+    ops = bm.assemble(bm.cases.wall(4, 5))
+    lp = compile_linear(static_lp(ops))
+    row_scale, column_scale = LoadUnits.of(ops).static(lp)
+    engine = block_ipm.BlockIPM(lp, interface_blocks(lp), deadline=1.0, row_scale=row_scale,
+                                column_scale=column_scale)
+    clock = {"now": 0.0, "factorisations": 0}
+    factorise = engine.factorise
+
+    def factorise_then_tick(it):
+        clock["factorisations"] += 1
+        if clock["factorisations"] == 4:
+            clock["now"] = 2.0  # the deadline (1.0 on this clock) passes during the third iteration's factorisation
+        return factorise(it)
+
+    monkeypatch.setattr(engine, "factorise", factorise_then_tick)
+    monkeypatch.setattr(block_ipm, "time", types.SimpleNamespace(perf_counter=lambda: clock["now"],
+                                                               process_time=block_ipm.time.process_time))
+    out = engine.solve()
+    assert out.status is block_ipm.IPMStatus.TIME_LIMIT and out.iterations == 2, (out.status, out.message)
+    assert clock["factorisations"] == 4
+    clock["now"], clock["factorisations"] = 0.0, -100  # the same LP with the deadline far away: optimal
+    assert engine.solve().status is block_ipm.IPMStatus.OPTIMAL

@@ -3,8 +3,10 @@
 Each kernel is checked against the numpy expression it replaces, on the engine's own blocks at an iterate whose
 ``y/s`` spans many decades (as near the optimum), and whole solves with each choice of kernels must end at the
 same optimum: the static LP (symmetric ``K``) and the interior fixed point (``G_dual != G``).  The choice itself:
-``"auto"`` keeps numpy below :data:`COMPILED_KERNEL_BLOCKS`, and ``"compiled"`` without numba is one clear error.
+``"auto"`` keeps numpy below ``rules.compiled_kernel_blocks`` (:data:`blockmpec.solvers.plan.BLOCK_IPM_RULES`), and ``"compiled"`` without numba is one clear error.
 """
+
+import dataclasses
 
 import numpy as np
 import pytest
@@ -12,8 +14,9 @@ import pytest
 import blockmpec as bm
 from blockmpec.formulations import compile_linear, static_lp
 from blockmpec.solvers.linalg import block_ipm
-from blockmpec.solvers.linalg.block_ipm import COMPILED_KERNEL_BLOCKS
+from blockmpec.solvers.engines.scaling import LoadUnits
 from blockmpec.solvers.engines.lp_engine import cold_lp_engine
+from blockmpec.solvers.plan import BLOCK_IPM_RULES
 from helpers import wall_block_ipm_off_path
 
 pytest.importorskip("numba")
@@ -30,7 +33,7 @@ def test_inverse_blocks_as_accurate_as_lapack(wall_ipm):
     """Gauss-Jordan with partial pivoting inverts every augmented block as accurately as LAPACK's LU (numpy):
     the residual ``M X - I`` of each block is within a small factor of LAPACK's, relative to ``|M| |X|``."""
     ipm, it = wall_ipm
-    M, _ = ipm._block_systems(it)
+    M, _ = ipm.block_systems(it)
     assert np.ptp(np.log10(np.abs(M[M != 0]))) > 6  # the blocks are badly scaled
     compiled, lapack = block_kernels.inverse_blocks(M), np.linalg.inv(M)
 
@@ -56,7 +59,7 @@ def test_inverse_scaled_blocks_are_the_stacked_path_bit_for_bit(wall_ipm):
     the stack ``M`` (numpy) and inverting it, bit for bit, for a symmetric LP and for ``G_dual != G`` (the interior
     fixed point's blocks, ``H^{-1} = H~``), and the IPM's compiled path returns them; a singular block raises."""
     ipm, it = wall_ipm
-    M, sqrt_d = ipm._block_systems(it)
+    M, sqrt_d = ipm.block_systems(it)
     stacked = block_kernels.inverse_blocks(M)
     top_left = np.ascontiguousarray(stacked[:, :ipm.k, :ipm.k])
     X, fused_top_left, H = block_kernels.inverse_scaled_blocks(ipm.g_blocks, ipm.g_dual_blocks, sqrt_d, True)
@@ -108,9 +111,9 @@ def test_max_step_is_numpys(wall_ipm):
     z = 10.0 ** rng.uniform(-8, 2, 1000)
     for dz in (rng.normal(size=1000), np.abs(rng.normal(size=1000)), -1e-12 * z, np.zeros(1000)):
         ipm.settings(kernels="numpy")
-        expected = ipm._max_step(z, dz)
+        expected = ipm.max_step(z, dz)
         ipm.settings(kernels="compiled")
-        assert ipm._max_step(z, dz) == expected == block_kernels.max_step(z, dz)
+        assert ipm.max_step(z, dz) == expected == block_kernels.max_step(z, dz)
     ipm.settings(kernels="auto")
     assert block_kernels.max_step(np.zeros(0), np.zeros(0)) == 1.0
 
@@ -144,12 +147,13 @@ def test_block_product_and_reduced_values_match_numpy(wall_ipm):
 
 
 def _solve(lp, ops, kernels, engine=None):
-    ipm = engine or cold_lp_engine(lp, "block-ipm", ops=ops)
+    ipm = engine or cold_lp_engine(lp, "block-ipm", LoadUnits.of(ops))
     ipm.settings(kernels=kernels)
     assert (ipm.block_kernels is None) == (kernels == "numpy")
     return ipm.solve()
 
 
+@pytest.mark.slow
 def test_static_lp_same_optimum_with_either_kernels():
     ops = bm.assemble(bm.cases.wall(10, 20))
     lp = compile_linear(static_lp(ops))
@@ -163,13 +167,13 @@ def test_static_lp_same_optimum_with_either_kernels():
 
 def test_interior_fixed_point_same_solution_with_either_kernels():
     """The non-symmetric blocks of (3) (``G_dual != G``) through the compiled inverse: the same solution."""
-    from blockmpec.formulations import modified_lp
-    from blockmpec.formulations._pyomo import compiled_linear
+    from blockmpec.formulations import step_lps
     from blockmpec.solvers.engines.interior_fixed_point import InteriorFixedPoint
 
     ops = bm.assemble(bm.cases.wall(4, 5))
-    lp = compiled_linear(modified_lp, ops, np.zeros(ops.n_interfaces), slope=ops.dilatancy)
-    outs = [_solve(lp, ops, kernels, engine=InteriorFixedPoint(lp, ops)) for kernels in ("numpy", "compiled")]
+    lps = step_lps(ops, tie_break=False)
+    outs = [_solve(lps.step, ops, kernels, engine=InteriorFixedPoint(lps.step, lps.associative, LoadUnits.of(ops)))
+            for kernels in ("numpy", "compiled")]
     assert all(out.status is bm.Status.OPTIMAL for out in outs)
     assert outs[1].objective == pytest.approx(outs[0].objective, rel=1e-7)
     assert np.allclose(outs[1].v, outs[0].v, rtol=1e-6, atol=1e-6 * np.abs(outs[0].v).max())
@@ -177,10 +181,10 @@ def test_interior_fixed_point_same_solution_with_either_kernels():
 
 def test_auto_compiles_from_the_threshold_on(wall_ipm, monkeypatch):
     ipm, _ = wall_ipm
-    assert ipm.n_blocks < COMPILED_KERNEL_BLOCKS
+    assert ipm.rules == BLOCK_IPM_RULES and ipm.n_blocks < BLOCK_IPM_RULES.compiled_kernel_blocks
     ipm.settings(kernels="auto")
     assert ipm.block_kernels is None
-    monkeypatch.setattr(block_ipm, "COMPILED_KERNEL_BLOCKS", ipm.n_blocks)
+    monkeypatch.setattr(ipm, "rules", dataclasses.replace(BLOCK_IPM_RULES, compiled_kernel_blocks=ipm.n_blocks))
     assert ipm.block_kernels is block_kernels
     ipm.settings(kernels="numpy")
     assert ipm.block_kernels is None
@@ -196,7 +200,7 @@ def test_unknown_or_unavailable_kernels_are_one_clear_error(wall_ipm, monkeypatc
     monkeypatch.setattr(block_ipm, "compiled_kernels_available", lambda: False)
     with pytest.raises(ValueError, match=r"needs numba .*blockmpec\[fast\]"):
         ipm.settings(kernels="compiled")
-    monkeypatch.setattr(block_ipm, "COMPILED_KERNEL_BLOCKS", 0)
+    monkeypatch.setattr(ipm, "rules", dataclasses.replace(BLOCK_IPM_RULES, compiled_kernel_blocks=0))
     ipm.settings(kernels="auto")
     assert ipm.block_kernels is None  # auto without numba: numpy, whatever the size
 
@@ -252,7 +256,7 @@ def test_compiled_products_leave_the_iterates_bit_for_bit():
     lp = compile_linear(static_lp(ops))
     outs, traces = [], []
     for products in (False, True):
-        ipm = cold_lp_engine(lp, "block-ipm", ops=ops)
+        ipm = cold_lp_engine(lp, "block-ipm", LoadUnits.of(ops))
         ipm.settings(kernels="compiled", compiled_products=products)
         assert ipm._products_compiled() is products
         outs.append(ipm.solve())

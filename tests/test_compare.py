@@ -1,4 +1,4 @@
-"""The comparator: honest references, failures in isolation, marks, output folders, parallel runs."""
+"""The comparator: honest references and signed errors, failures in isolation, marks, output folders, parallel runs."""
 
 from __future__ import annotations
 
@@ -12,7 +12,14 @@ import pytest
 
 import blockmpec as bm
 from blockmpec import registry
-from blockmpec.bench.compare import add_references, cell_mark, compare, normalise_methods, parametrised_label, text_table
+from blockmpec.bench.compare import (
+    add_references,
+    cell_mark,
+    compare,
+    normalise_methods,
+    parametrised_label,
+    text_table,
+)
 
 TWO_BLOCKS = {"two-blocks": ("two-blocks", {"eta": 3.0, "mu": 0.65})}
 NA_MIN = 1.0 / 3.0  # closed form, paper Sect. 3: mu > 1/eta -> lam_min = 1/eta
@@ -55,6 +62,14 @@ def test_certificate_of_another_method_then_undercutting_it_is_an_anomaly():
     assert list(df["reference_method"][1:]) == ["milp"] * 3
     assert list(df["anomaly"]) == ["", "", "below-certified-minimum", ""]
     np.testing.assert_allclose(df["abs_error"][1:], [0.10, 0.01, 0.20], rtol=1e-12)
+    # signed: below a certificate is negative, and not a new best (a certified minimum is exact)
+    np.testing.assert_allclose(df["rel_error"][1:], [0.10 / 0.30, -0.01 / 0.30, -0.20 / 0.30], rtol=1e-12)
+    np.testing.assert_allclose(df["signed_error"][1:], [0.10, -0.01, -0.20], rtol=1e-12)
+    assert list(df["new_best"]) == [False] * 4
+    rows = df.assign(case="c", method_label=df["method"], repetition=0, success=df["verified"],
+                     status=["optimal", "converged", "converged", "numerical"])
+    text = text_table(rows, "multiplier", "{:.2f}", "t", reference=True)
+    assert "0.29!" in text and "! = ANOMALY" in text
 
 
 def test_a_method_is_never_graded_against_its_own_value():
@@ -118,6 +133,87 @@ def test_marks_say_exactly_what_they_mean():
     assert "† = verified but not certified" in text and "* = not verified" in text and "skip = skipped" in text
 
 
+# --------------------------------------------------------------------------- signed errors and new bests (issue 41)
+
+#: the issue's wall-10x5 run: nlp's verified 0.505299 lies below milp's uncertified 0.505815 (time limit)
+WALL_10X5 = [
+    {"method": "fixed-point", "multiplier": 0.5061, "verified": True},
+    {"method": "nlp", "multiplier": 0.505299, "verified": True},
+    {"method": "milp", "multiplier": 0.505815, "verified": True, "certified": False},
+]
+
+
+def test_a_lower_verified_value_than_the_others_is_a_new_best_and_their_reference():
+    df = add_references(_frame(WALL_10X5)).set_index("method")
+    nlp = df.loc["nlp"]
+    assert nlp["new_best"] and nlp["rel_error"] < 0
+    assert nlp["reference"] == 0.505815 and nlp["reference_method"] == "milp" and nlp["reference_source"] == "best"
+    assert nlp["rel_error"] == pytest.approx((0.505299 - 0.505815) / 0.505815, rel=1e-12)
+    assert nlp["abs_rel_error"] == pytest.approx(-nlp["rel_error"], rel=1e-15)
+    assert "new best" in nlp["reference_note"] and "this method's own" not in nlp["reference_note"]
+    for m in ("fixed-point", "milp"):  # the others are graded against it, with positive errors
+        assert df.loc[m, "reference"] == 0.505299 and df.loc[m, "reference_method"] == "nlp"
+        assert df.loc[m, "rel_error"] == pytest.approx((df.loc[m, "multiplier"] - 0.505299) / 0.505299, rel=1e-12)
+        assert df.loc[m, "rel_error"] > 0 and not df.loc[m, "new_best"]
+    assert (df["anomaly"] == "").all()
+    rows = df.reset_index().assign(case="c", method_label=lambda d: d["method"], repetition=0,
+                                   status=["converged", "locally_optimal", "time_limit"],
+                                   success=[True, True, False])
+    text = text_table(rows, "multiplier", "{:.6f}", "t", reference=True)
+    assert "0.505299↓" in text and "0.505815†" in text and "0.506100" in text
+    assert "↓ = new best" in text
+    assert "0.50530 (b: nlp)" in text  # the headline reference is the new best
+
+
+def test_below_by_less_than_the_match_tolerance_is_the_same_answer_not_a_new_best():
+    from blockmpec.bench.compare import MATCH_TOL
+
+    lam = 0.5 * (1 - 0.5 * MATCH_TOL)
+    df = add_references(_frame([{"method": "a", "multiplier": 0.5, "verified": True},
+                                {"method": "b", "multiplier": lam, "verified": True}])).set_index("method")
+    assert df.loc["b", "rel_error"] < 0 and not df.loc["b", "new_best"]
+    # not verified: never a new best, however low
+    df = add_references(_frame([{"method": "a", "multiplier": 0.5, "verified": True},
+                                {"method": "b", "multiplier": 0.1, "verified": False}])).set_index("method")
+    assert not df.loc["b", "new_best"] and df.loc["b", "rel_error"] == pytest.approx(-0.8)
+    # against a closed form a lower verified value is an anomaly, never a new best
+    df = add_references(_frame([{"method": "a", "multiplier": 0.2, "verified": True, "closed_form": 0.25}]))
+    assert not df["new_best"].iloc[0] and df["anomaly"].iloc[0] == "below-closed-form-minimum"
+    assert df["rel_error"].iloc[0] == pytest.approx(-0.2)
+
+
+def test_the_printed_marks_are_the_rules_of_the_code():
+    """Every mark's printed definition names the rule cell_mark / grade_marks apply, in the same words."""
+    from blockmpec.bench.compare import FAILED_STATUSES, MARKS, MATCH_TOL, grade_marks
+
+    for status in FAILED_STATUSES:  # × = these statuses whatever the multiplier, or no multiplier
+        assert status in MARKS["×"]
+        assert cell_mark({"status": status, "multiplier": 0.5, "success": False, "verified": True}) == "×"
+    assert cell_mark({"status": "time_limit", "multiplier": None, "success": False, "verified": False}) == "×"
+    assert f"{MATCH_TOL:g}" in MARKS["↓"]
+    assert grade_marks({"anomaly": "below-certified-minimum", "new_best": False}) == "!"
+    assert grade_marks({"anomaly": "", "new_best": True}) == "↓"
+    assert grade_marks({"anomaly": "", "new_best": False}) == ""
+
+
+def test_new_best_in_a_real_run():
+    """A real comparison without a closed form or a certificate: on the 4 x 3 running-bond wall the fixed point
+    (0.6363636) lies below mcp-newton from the dead-load start (0.6415508, another solution of (3)): the fixed
+    point is the new best, with a negative error, and mcp-newton is graded against it."""
+    df = compare({"w": ("wall", {"courses": 4, "blocks_per_course": 3})},
+                 ["fixed-point", ("mcp-newton", {"start": "dead-load"})], progress=False, isolate=False)
+    row = df.set_index("method")
+    fp, newton = row.loc["fixed-point"], row.loc["mcp-newton"]
+    assert fp["verified"] and newton["verified"]
+    assert fp["multiplier"] == pytest.approx(7 / 11, rel=1e-7) and newton["multiplier"] > fp["multiplier"] + 1e-3
+    assert fp["new_best"] and fp["reference"] == newton["multiplier"] and fp["rel_error"] < -1e-3
+    assert not newton["new_best"] and newton["reference"] == fp["multiplier"]
+    assert newton["reference_method"] == "fixed-point" and newton["rel_error"] > 1e-3
+    from blockmpec.bench.profiles import solved
+
+    assert solved(df).tolist() == [True, False]  # the new best solves the case, the higher point does not
+
+
 # --------------------------------------------------------------------------- real runs
 
 
@@ -158,9 +254,10 @@ def dummies():
         registry._SOLVERS.pop(name, None)
 
 
+@pytest.mark.slow
 def test_crash_hang_exception_and_skip_become_rows_and_the_study_goes_on(dummies, tmp_path):
     methods = [*dummies, "static-lp"]
-    df = compare(TWO_BLOCKS, methods, wall_limit={"test-hangs": 8.0}, out=tmp_path / "out", progress=False)
+    df = compare(TWO_BLOCKS, methods, wall_limit={"test-hangs": 4.0}, out=tmp_path / "out", progress=False)
     assert list(df["method"]) == methods
     row = df.set_index("method")
     assert row.loc["test-raises-in-run", "status"] == "error"
@@ -173,8 +270,8 @@ def test_crash_hang_exception_and_skip_become_rows_and_the_study_goes_on(dummies
     assert row.loc["test-segfaults", "status"] == "error"
     assert "SIGSEGV" in row.loc["test-segfaults", "message"]
     assert row.loc["test-hangs", "status"] == "time_limit"
-    assert "wall-clock limit of 8 s" in row.loc["test-hangs", "message"]
-    assert 8.0 <= row.loc["test-hangs", "wall_time_s"] < 30.0
+    assert "wall-clock limit of 4 s" in row.loc["test-hangs", "message"]
+    assert 4.0 <= row.loc["test-hangs", "wall_time_s"] < 30.0
     for m in dummies:
         assert not row.loc[m, "success"] and pd.isna(row.loc[m, "multiplier"])
         assert row.loc[m, "reference_source"] == "closed-form"
@@ -200,8 +297,15 @@ def test_labels_options_repeat_and_columns(tmp_path):
     for col in ("case", "case_name", "method", "method_label", "problem", "status", "success", "verified",
                 "multiplier", *RESIDUAL_NAMES, "build_time_s", "solve_time_s", "total_time_s", "iterations",
                 "wall_time_s", "wall_limit_s", "message", "reference", "reference_source", "reference_method",
-                "reference_note", "abs_error", "rel_error", "anomaly", "run_key"):
+                "reference_note", "abs_error", "rel_error", "anomaly", "run_key",
+                "signed_error", "abs_rel_error", "new_best", "budget_s", "resumed"):
         assert col in df.columns, col
+    from blockmpec.bench.compare import COLUMNS
+
+    # the columns of earlier versions keep their places; the new ones come after them
+    assert list(COLUMNS[-5:]) == ["signed_error", "abs_rel_error", "new_best", "budget_s", "resumed"]
+    assert COLUMNS.index("run_key") < COLUMNS.index("signed_error")
+    assert (df["budget_s"] == df["wall_limit_s"].max()).all() and not df["resumed"].any()
     np.testing.assert_allclose(df["total_time_s"], df["build_time_s"] + df["solve_time_s"])
     # closed form of the single block: lam = min(mu, b/h) = 0.25 for both problems
     np.testing.assert_allclose(df["multiplier"], 0.25, rtol=1e-8)
@@ -239,6 +343,7 @@ def test_rows_are_saved_as_they_finish_and_resume_skips_them(tmp_path):
     assert len((out / "rows.jsonl").read_text().splitlines()) == 2
     assert ("two-blocks", "static-lp", 0) in res  # its result came back from solutions/ for the figures
     assert again["reference_source"].iloc[0] == "closed-form"
+    assert list(again["resumed"]) == [True, False]  # what was kept and what ran now
 
 
 def test_overwrite_leaves_no_stale_figure_and_a_live_run_locks_the_folder(tmp_path):
@@ -274,6 +379,7 @@ def test_metadata_sidecar():
 # --------------------------------------------------------------------------- parallel and distributed
 
 
+@pytest.mark.slow
 def test_two_local_workers_give_the_serial_answers():
     cases = {"two-blocks": TWO_BLOCKS["two-blocks"], "arch": ("round-arch", {"n_voussoirs": 6})}
     serial = compare(cases, ["static-lp", "fixed-point"], progress=False)
@@ -282,6 +388,7 @@ def test_two_local_workers_give_the_serial_answers():
     np.testing.assert_allclose(parallel["multiplier"], serial["multiplier"], rtol=1e-9)
 
 
+@pytest.mark.slow
 def test_solves_side_by_side_share_the_cpus(monkeypatch):
     """With ``n_jobs`` solves side by side on this machine each may use its share of the CPUs
     (``BLOCKMPEC_CPUS``, read by the block IPM's automatic settings); a serial study leaves the variable as it is,
@@ -309,7 +416,8 @@ def test_cpus_variable_caps_the_automatic_settings(monkeypatch):
     """``BLOCKMPEC_CPUS`` caps what the block IPM's ``"auto"`` counts (it reads ``usable_cpus``); a bad value is one
     clear error naming the variable."""
     from blockmpec.bench.runner import CPUS_VARIABLE, cpu_budget, usable_cpus
-    from blockmpec.solvers.linalg import block_ipm, cholesky, cpus as linalg_cpus
+    from blockmpec.solvers.linalg import block_ipm, cholesky
+    from blockmpec.solvers.linalg import cpus as linalg_cpus
 
     assert block_ipm.usable_cpus is linalg_cpus.usable_cpus and cholesky.usable_cpus is linalg_cpus.usable_cpus
 
@@ -329,6 +437,7 @@ def test_cpus_variable_caps_the_automatic_settings(monkeypatch):
         compare(TWO_BLOCKS, ["static-lp"], n_jobs=2, progress=False)
 
 
+@pytest.mark.slow
 def test_two_worker_dask_local_cluster():
     pytest.importorskip("distributed")
     cases = {"two-blocks": TWO_BLOCKS["two-blocks"], "sb": ("single-block", {})}
@@ -337,6 +446,7 @@ def test_two_worker_dask_local_cluster():
     np.testing.assert_allclose(df["multiplier"], [0.4197271773, 0.4197271773, 0.5, 0.5], rtol=1e-8)
 
 
+@pytest.mark.slow
 def test_an_existing_dask_cluster_by_its_scheduler_address():
     distributed = pytest.importorskip("distributed")
     with distributed.LocalCluster(n_workers=2, threads_per_worker=2, processes=True, dashboard_address=None,
@@ -378,17 +488,48 @@ def test_progress_shows_the_running_solve_its_elapsed_time_and_failures(tmp_path
 
 
 def test_outside_wall_limit_leaves_room_for_the_methods_own_time_limit():
-    """A method run with its default time_limit must report time_limit itself before the runner kills it."""
-    import dataclasses
-
+    """A method run with its default time_limit must report time_limit itself before the runner kills it; the
+    default is the one of CommonOptions, and time_limit=inf (no limit) means no outside limit either."""
     from blockmpec.bench.runner import DEFAULT_WALL_LIMIT_S, default_wall_limit
+    from blockmpec.options import DEFAULT_TIME_LIMIT_S
 
+    assert DEFAULT_WALL_LIMIT_S == max(1.5 * DEFAULT_TIME_LIMIT_S, DEFAULT_TIME_LIMIT_S + 30.0)
     for method in bm.list_solvers():
-        fields = {f.name: f.default for f in dataclasses.fields(registry.get_solver(method).Options)}
-        t = fields.get("time_limit")
-        limit = default_wall_limit({}, method)
-        if t is not None and 0 < t < float("inf"):
-            assert limit >= t + 30.0, (method, t, limit)
-        else:
-            assert limit == DEFAULT_WALL_LIMIT_S
+        t = registry.get_solver(method)().options.time_limit  # the default every method runs with
+        assert t == DEFAULT_TIME_LIMIT_S, method
+        assert default_wall_limit({}, method) == max(1.5 * t, t + 30.0) == DEFAULT_WALL_LIMIT_S
+        assert default_wall_limit({"time_limit": math.inf}, method) == math.inf
     assert default_wall_limit({"time_limit": 10.0}, "milp") == 40.0  # a given limit wins over the default
+    assert default_wall_limit({"time_limit": 100.0}, "milp") == 150.0
+    df = compare(TWO_BLOCKS, [("static-lp", {"time_limit": math.inf})], progress=False, isolate=False)
+    assert df["wall_limit_s"].iloc[0] == math.inf and df["success"].all()
+
+
+# --------------------------------------------------------------------------- budgets and engine settings
+
+
+def test_one_budget_per_case_given_or_the_largest_wall_limit():
+    from blockmpec.bench.profiles import case_budgets
+
+    df = compare(TWO_BLOCKS, ["static-lp", ("milp", {"time_limit": 30.0})], progress=False, isolate=False)
+    assert list(df["wall_limit_s"]) == [900.0, 60.0] and list(df["budget_s"]) == [900.0, 900.0]
+    assert case_budgets(df) == {"two-blocks": 900.0} and case_budgets(df, 5.0) == {"two-blocks": 5.0}
+    df = compare(TWO_BLOCKS, ["static-lp"], budget={"two-blocks": 7.0}, progress=False, isolate=False)
+    assert list(df["budget_s"]) == [7.0]
+    with pytest.raises(bm.OptionError, match="budget: must be a finite number of seconds > 0"):
+        compare(TWO_BLOCKS, ["static-lp"], budget=-1.0, progress=False)
+    with pytest.raises(bm.OptionError, match="no case 'nope'"):
+        compare(TWO_BLOCKS, ["static-lp"], budget={"nope": 1.0}, progress=False)
+
+
+def test_a_method_with_engine_settings_runs_through_run_solver():
+    """Experiments compare engine settings: (label, method, options, settings) runs the configured instance."""
+    from blockmpec.solvers.fixed_point import FixedPointSettings
+
+    settings = FixedPointSettings(acceleration="anderson")
+    df = compare(TWO_BLOCKS, ["fixed-point", ("fp-anderson", "fixed-point", {}, settings)], progress=False)
+    assert df["success"].all() and list(df["method_label"]) == ["fixed-point", "fp-anderson"]
+    np.testing.assert_allclose(df["multiplier"], NA_MIN, rtol=1e-8)
+    assert df["run_key"].iloc[0] != df["run_key"].iloc[1]
+    with pytest.raises(bm.OptionError, match="settings must be a FixedPointSettings"):
+        compare(TWO_BLOCKS, [("x", "fixed-point", {}, object())], progress=False)

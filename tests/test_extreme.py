@@ -117,6 +117,14 @@ def test_large_wall_solves():
 #: exact-solution methods expected to return a verified solution of (3) on every two-block case
 ROBUST = ("fixed-point", "mcp-newton")
 EXTREME_GRID = list(itertools.product([0.05, 0.5, 5, 50], [1e-4, 1e-2, 1.0, 10.0, 100.0]))
+#: the grid points of the fast run (``-m "not slow"``): its four corners and the middle; the full run takes every one
+FAST_GRID = {(0.05, 1e-4), (0.05, 100.0), (50, 1e-4), (50, 100.0), (5, 1.0)}
+
+
+def _grid_param(*values, id=None):
+    """A grid point's parameters, marked slow unless ``(eta, mu)`` (its last two values) is in :data:`FAST_GRID`."""
+    marks = () if tuple(values[-2:]) in FAST_GRID else (pytest.mark.slow,)
+    return pytest.param(*values, id=id, marks=marks)
 
 
 @functools.cache
@@ -124,7 +132,7 @@ def _two_blocks_result(eta, mu, method, **options):
     return bm.solve(bm.cases.two_blocks(eta=eta, mu=mu), method, **options)
 
 
-@pytest.mark.parametrize(("eta", "mu"), EXTREME_GRID)
+@pytest.mark.parametrize(("eta", "mu"), [_grid_param(eta, mu) for eta, mu in EXTREME_GRID])
 def test_two_blocks_extreme_certified_minimum_and_maximum(eta, mu):
     """psi = 0 over mu in [1e-4, 1e2], eta in [0.05, 50]: the certified minimum is the closed form
     (mu if mu <= 1/eta else 1/eta) and the certified maximum is the associative multiplier."""
@@ -140,8 +148,7 @@ def test_two_blocks_extreme_certified_minimum_and_maximum(eta, mu):
 
 
 @pytest.mark.parametrize(("method", "eta", "mu"),
-                         [pytest.param(m, eta, mu, id=f"{m}-{eta}-{mu}")
-                          for m in HEURISTICS for eta, mu in EXTREME_GRID])
+                         [_grid_param(m, eta, mu, id=f"{m}-{eta}-{mu}") for m in HEURISTICS for eta, mu in EXTREME_GRID])
 def test_two_blocks_extreme_heuristics_between_minimum_and_associative(method, eta, mu):
     """Documented outcomes: fixed-point, mcp-newton and nlp return a verified solution of (3) everywhere;
     slp mostly NUMERICAL (by design: its LPs use the dilatancy tan(psi) + alpha (tan(phi) - tan(psi)),
@@ -425,10 +432,6 @@ def test_every_method_has_a_finite_default_time_limit(method):
     assert math.isfinite(options["time_limit"].default)
 
 
-#: largest accepted overshoot of a time limit [s] (HiGHS and Ipopt check their clocks every iteration)
-TIME_LIMIT_OVERSHOOT_S = 0.5
-
-
 @pytest.fixture(scope="module")
 def wall_300_blocks():
     return bm.assemble(bm.cases.wall(20, 15))
@@ -438,8 +441,11 @@ def wall_300_blocks():
     ("static-lp", {"algorithm": "dual-simplex"}), ("static-lp", {"algorithm": "block-ipm"}),
     ("kinematic-lp", {}), ("nlp", {})])
 def test_time_limit_is_honoured(wall_300_blocks, method, options):
-    """A 300-block wall takes 0.6-5 s (block IPM, dual simplex, kinematic LP) or tens of seconds (nlp);
-    with ``time_limit=0.2`` the solve stops within the overshoot and says so (measured: 0.01 s over)."""
-    res = bm.solve(wall_300_blocks, method, time_limit=0.2, **options)
-    assert res.solve_time_s <= 0.2 + TIME_LIMIT_OVERSHOOT_S, res.solve_time_s
-    assert res.status is bm.Status.TIME_LIMIT or res.success, (res.status, res.message)
+    """A 300-block wall takes 0.6-5 s (block IPM, dual simplex, kinematic LP) or tens of seconds (nlp); with a
+    limit that has passed before the engine starts (1 ns, whatever the machine's speed) the solve says so and claims
+    no multiplier.  (How far an engine may overshoot a limit that passes while it runs is tested per engine, on
+    counted iterations: ``test_block_ipm_stops_in_the_iteration_its_deadline_passes`` in test_block_ipm.py, and the
+    nlp callback's tests in test_nlp.py.)"""
+    res = bm.solve(wall_300_blocks, method, time_limit=1e-9, **options)
+    assert res.status is bm.Status.TIME_LIMIT, (res.status, res.message)
+    assert not res.success and res.message

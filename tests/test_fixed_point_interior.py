@@ -15,7 +15,12 @@ import pytest
 
 import blockmpec as bm
 from blockmpec.cases import closed_form
+from blockmpec.deadline import Deadline
+from blockmpec.formulations import step_lps
+from blockmpec.solvers import plan
 from blockmpec.solvers.engines.interior_fixed_point import InteriorFixedPoint, run_interior
+from blockmpec.solvers.engines.scaling import LoadUnits
+from helpers import solve_with
 
 VERIFY_TOL = 1e-8
 TWO_BLOCK_GRID = [(3.0, 0.65), (5.0, 1.2), (2.0, 0.3), (4.0, 0.5), (1.5, 0.9)]
@@ -41,7 +46,8 @@ def test_aim_term_reaches_the_two_block_minimum(eta, mu):
     ops = bm.assemble(bm.cases.two_blocks(eta=eta, mu=mu))
     minimum = closed_form("two-blocks", "non-associative", eta=eta, mu=mu)
     aimed = bm.solve(ops, "fixed-point", engine="interior", verify_tol=VERIFY_TOL)
-    plain = bm.solve(ops, "fixed-point", engine="interior", interior_weight=0.0, verify_tol=VERIFY_TOL)
+    plain = solve_with(ops, "fixed-point", settings=dict(interior_weight=0.0), engine="interior",
+                       verify_tol=VERIFY_TOL)
     assert aimed.success and plain.success
     assert abs(aimed.multiplier - minimum) <= 1e-3 * minimum
     assert plain.multiplier > aimed.multiplier + 1e-2
@@ -81,12 +87,8 @@ def test_trace_is_the_stopping_criterion_s_and_facts_are_named():
 
 def test_exact_coupling_reads_coulomb_rows_and_dilatant_flow():
     """G (primal rows) carries tan(phi), G_dual tan(psi): they differ only in the friction rows' n entries."""
-    from blockmpec.formulations import modified_lp
-    from blockmpec.formulations._pyomo import compiled_linear
-
     ops = bm.assemble(bm.cases.two_blocks(eta=3.0, mu=0.65, dilatancy=0.2))
-    lp = compiled_linear(modified_lp, ops, np.zeros(ops.n_interfaces), slope=ops.dilatancy)
-    eng = InteriorFixedPoint(lp, ops)
+    eng = _engine(ops)
     diff = (eng.G - eng.G_dual).tocoo()
     diff.eliminate_zeros()
     assert set(diff.row.tolist()) == set(eng.friction_position.tolist())
@@ -99,55 +101,54 @@ def test_exact_coupling_reads_coulomb_rows_and_dilatant_flow():
 
 def test_lagged_coupling_is_kept_for_the_measurement_and_does_not_converge_here():
     """The lead's first proposal (n* := n before each LP iteration) stalls on two blocks (docstring)."""
-    from blockmpec.formulations import modified_lp
-    from blockmpec.formulations._pyomo import compiled_linear
-
     ops = bm.assemble(bm.cases.two_blocks(eta=3.0, mu=0.65))
-    lp = compiled_linear(modified_lp, ops, np.zeros(ops.n_interfaces), slope=ops.dilatancy)
-    lagged = InteriorFixedPoint(lp, ops, coupling="lagged").solve()
-    exact = InteriorFixedPoint(lp, ops).solve()
+    lagged = _engine(ops, coupling="lagged").solve()
+    exact = _engine(ops).solve()
     assert exact.status is bm.Status.OPTIMAL
     assert lagged.status is not bm.Status.OPTIMAL
 
 
 def test_auto_engine_rule():
-    from blockmpec.solvers.fixed_point import AUTO_INTERIOR_BLOCKS, select_engine
-
-    assert select_engine("auto", AUTO_INTERIOR_BLOCKS - 1) == "simplex"
-    assert select_engine("auto", AUTO_INTERIOR_BLOCKS) == "interior"
-    assert select_engine("simplex", 10 ** 6) == "simplex"
+    assert plan.fixed_point_engine("auto", plan.FIXED_POINT_INTERIOR_BLOCKS - 1) == "simplex"
+    assert plan.fixed_point_engine("auto", plan.FIXED_POINT_INTERIOR_BLOCKS) == "interior"
+    assert plan.fixed_point_engine("simplex", 10 ** 6) == "simplex"
     ops = bm.assemble(bm.cases.two_blocks())
-    assert bm.solve(ops, "fixed-point").extra.get("engine") == "simplex"
+    res = bm.solve(ops, "fixed-point")
+    assert res.extra.get("engine") == "simplex"
+    assert len(res.extra["plan"]) == 1 and res.extra["plan"][0].startswith("fixed point: ")
 
 
 def test_time_limit_before_the_run_says_so():
-    from blockmpec.formulations import modified_lp
-    from blockmpec.formulations._pyomo import compiled_linear
-
     ops = bm.assemble(bm.cases.two_blocks())
-    lp = compiled_linear(modified_lp, ops, np.zeros(ops.n_interfaces), slope=ops.dilatancy)
-    out, facts = run_interior(ops, lp, tol=1e-9, max_iterations=50, time_limit=0.0, fold_weight=0.1)
+    lps = _lps(ops)
+    out, facts = run_interior(lps.step, lps.associative, LoadUnits.of(ops), tol=1e-9, max_iterations=50,
+                              deadline=Deadline(0.0), fold_weight=0.1)
     assert out.status is bm.Status.TIME_LIMIT and facts["lp_solves"] == 0
 
 
-@pytest.mark.parametrize(("options", "fragment"), [({"engine": "barrier"}, "engine"),
-                                                    ({"interior_weight": -1.0}, "interior_weight")])
-def test_bad_engine_options_are_one_line(options, fragment):
+def test_bad_engine_option_is_one_line():
     ops = bm.assemble(bm.cases.two_blocks())
     with pytest.raises(bm.OptionError) as err:
-        bm.solve(ops, "fixed-point", **options)
-    assert fragment in str(err.value) and "\n" not in str(err.value)
+        bm.solve(ops, "fixed-point", engine="barrier")
+    assert "engine" in str(err.value) and "\n" not in str(err.value)
+
+
+def test_bad_engine_setting_is_one_line():
+    from blockmpec.solvers.fixed_point import FixedPointSettings
+
+    with pytest.raises(ValueError) as err:
+        FixedPointSettings(interior_weight=-1.0)
+    assert "interior_weight" in str(err.value) and "\n" not in str(err.value)
 
 
 def test_auto_falls_back_to_the_simplex_engine_when_the_interior_run_fails(monkeypatch):
     """Under ``engine="auto"`` an interior run that ends without a solution of (3) hands over to the simplex
     engine: here the interior run gets 3 iterations (it needs about 8), the simplex engine 2 steps suffice."""
-    from blockmpec.solvers import fixed_point
-
-    monkeypatch.setattr(fixed_point, "AUTO_INTERIOR_BLOCKS", 1)
+    monkeypatch.setattr(plan, "FIXED_POINT_INTERIOR_BLOCKS", 1)
     ops = bm.assemble(bm.cases.two_blocks(eta=3.0, mu=0.65))
     res = bm.solve(ops, "fixed-point", max_iterations=3, verify_tol=VERIFY_TOL)
     assert res.extra["engine"] == "interior, then simplex"
+    assert len(res.extra["plan"]) == 2 and res.extra["plan"][0].startswith("interior fixed point")
     assert res.extra["interior_status"] != "converged"
     assert res.success and res.multiplier == pytest.approx(1.0 / 3.0, rel=1e-9)
     assert set(res.extra["lp_time_s"]) >= {"interior", "step"}
@@ -156,40 +157,45 @@ def test_auto_falls_back_to_the_simplex_engine_when_the_interior_run_fails(monke
 
 
 def test_auto_skips_the_simplex_fallback_on_large_structures(monkeypatch):
-    """From ``AUTO_SIMPLEX_FALLBACK_BLOCKS`` free blocks up a failed interior run is returned as it is (the simplex
+    """From ``FIXED_POINT_SIMPLEX_FALLBACK_BLOCKS`` free blocks up a failed interior run is returned as it is (the simplex
     engine could not finish there): the same failing run as above, with the cap lowered to the structure's size."""
-    from blockmpec.solvers import fixed_point
-
-    monkeypatch.setattr(fixed_point, "AUTO_INTERIOR_BLOCKS", 1)
+    monkeypatch.setattr(plan, "FIXED_POINT_INTERIOR_BLOCKS", 1)
     ops = bm.assemble(bm.cases.two_blocks(eta=3.0, mu=0.65))
-    monkeypatch.setattr(fixed_point, "AUTO_SIMPLEX_FALLBACK_BLOCKS", ops.n_free_blocks)
+    monkeypatch.setattr(plan, "FIXED_POINT_SIMPLEX_FALLBACK_BLOCKS", ops.n_free_blocks)
     res = bm.solve(ops, "fixed-point", max_iterations=3, verify_tol=VERIFY_TOL)
     assert res.extra["engine"] == "interior"
     assert not res.success and res.status is not bm.Status.CONVERGED
     assert "no simplex fallback" in res.message
-    monkeypatch.setattr(fixed_point, "AUTO_SIMPLEX_FALLBACK_BLOCKS", ops.n_free_blocks + 1)
+    monkeypatch.setattr(plan, "FIXED_POINT_SIMPLEX_FALLBACK_BLOCKS", ops.n_free_blocks + 1)
     assert bm.solve(ops, "fixed-point", max_iterations=3).extra["engine"] == "interior, then simplex"
 
 
-def _step_lp(ops):
-    from blockmpec.formulations import modified_lp
-    from blockmpec.formulations._pyomo import compiled_linear
+def _lps(ops):
+    """The compiled step LP (5) (``tan(psi)`` rows) and static LP (1) of ``ops`` (:func:`step_lps`)."""
+    return step_lps(ops, tie_break=False)
 
-    return compiled_linear(modified_lp, ops, np.zeros(ops.n_interfaces), slope=ops.dilatancy)
+
+def _step_lp(ops):
+    return _lps(ops).step
+
+
+def _engine(ops, **options) -> InteriorFixedPoint:
+    """The interior fixed point on ``ops``'s step LP (5), in its load units."""
+    lps = _lps(ops)
+    return InteriorFixedPoint(lps.step, lps.associative, LoadUnits.of(ops), **options)
 
 
 def test_fixed_coupling_is_the_step_lp_at_the_given_normal_forces():
     """``coupling="fixed"`` with ``n*`` set solves the LP (5) at ``n*``: the same lam as HiGHS on that LP."""
-    from blockmpec.formulations import modified_lp
-    from blockmpec.formulations._pyomo import compiled_linear
+    from blockmpec.formulations import compile_linear, modified_lp
     from blockmpec.solvers.engines.highs import HighsLP
 
     ops = bm.assemble(bm.cases.wall(courses=3, blocks_per_course=2))
     n_star = np.minimum(bm.solve(ops, "static-lp").solution.x[1::3], 0.0)
-    eng = InteriorFixedPoint(_step_lp(ops), ops, coupling="fixed")
+    eng = _engine(ops, coupling="fixed")
     eng.set_n_star(n_star)
     out = eng.solve()
-    reference = HighsLP(compiled_linear(modified_lp, ops, n_star, slope=ops.dilatancy)).solve()
+    reference = HighsLP(compile_linear(modified_lp(ops, n_star, slope=ops.dilatancy))).solve()
     assert out.status is bm.Status.OPTIMAL and reference.status is bm.Status.OPTIMAL
     assert out.objective == pytest.approx(reference.objective, rel=1e-8)
 
@@ -199,11 +205,11 @@ def test_warm_start_from_a_solution_of_3_is_a_fixed_point_of_the_step_lp():
     run stops before its first step with the same multiplier (the best iterate and the warm start hooks)."""
     ops = bm.assemble(bm.cases.wall(courses=4, blocks_per_course=3))
     lp = _step_lp(ops)
-    exact = InteriorFixedPoint(lp, ops)
+    exact = _engine(ops)
     assert exact.solve().status is bm.Status.OPTIMAL
     best = exact.best_iterate
     assert exact.best_error <= 1e-9
-    fixed = InteriorFixedPoint(lp, ops, coupling="fixed")
+    fixed = _engine(ops, coupling="fixed")
     fixed.set_n_star(exact.normal_forces(best))
     fixed.start_iterate = best
     out = fixed.solve()
@@ -215,20 +221,20 @@ def test_warm_start_from_a_solution_of_3_is_a_fixed_point_of_the_step_lp():
 def test_kept_aim_forces_paired_with_their_step_lp_duals_solve_3():
     """``keep_aim``: the run solves the aimed problem, whose duals are no mechanism of (3); where the aimed
     forces are optimal for their own LP (5), that LP's duals complete them to a solution of (3)
-    (any optimal primal and dual of one LP are complementary; ``studies/fixed_point_continuation.py``)."""
+    (any optimal primal and dual of one LP are complementary; ``studies/lab/fixed_point_continuation.py``)."""
     from blockmpec.result import Solution
     from blockmpec.solvers.engines.highs import static_lp_solution
     from blockmpec.verify import residuals
 
     ops = bm.assemble(bm.cases.wall(courses=8, blocks_per_course=10))
     lp = _step_lp(ops)
-    aimed = InteriorFixedPoint(lp, ops, fold_weight=0.1, fold_off=0.0, fold_knee=1e-300)
+    aimed = _engine(ops, fold_weight=0.1, fold_off=0.0, fold_knee=1e-300)
     aimed.keep_aim = True
     out = aimed.solve()
     assert out.status is bm.Status.OPTIMAL and aimed.current_fold == 0.1
     forces = static_lp_solution(lp, out)
     assert max(residuals(ops, forces, associative=False).values()) > 1e-3
-    step = InteriorFixedPoint(lp, ops, coupling="fixed")
+    step = _engine(ops, coupling="fixed")
     step.set_n_star(np.minimum(forces.x[1::3], 0.0))
     duals = static_lp_solution(lp, step.solve())
     assert duals.multiplier == pytest.approx(forces.multiplier, rel=1e-8)
@@ -245,10 +251,10 @@ def test_central_path_continuation_from_an_early_iterate_reaches_a_solution_of_3
     from blockmpec.verify import residuals
 
     ops = bm.assemble(bm.cases.wall(courses=10, blocks_per_course=10))
-    early = InteriorFixedPoint(_step_lp(ops), ops, max_iterations=3)
+    early = _engine(ops, max_iterations=3)
     early.solve()
     steps = []
-    end, facts = continue_central_path(early, early.best_iterate, tol=1e-9, time_limit=60.0,
+    end, facts = continue_central_path(early, early.best_iterate, tol=1e-9, deadline=Deadline(60.0),
                                        record=lambda **values: steps.append(values))
     assert 0 < facts["steps"] == len(steps) and facts["factorisations"] >= facts["steps"]
     assert max(early.measures(end)) <= 1e-9
@@ -267,9 +273,9 @@ def test_continuation_ends_at_its_last_point_when_k_is_singular(monkeypatch):
     from blockmpec.solvers.engines.interior_fixed_point import continue_central_path
 
     ops = bm.assemble(bm.cases.wall(courses=10, blocks_per_course=10))
-    early = InteriorFixedPoint(_step_lp(ops), ops, max_iterations=3)
+    early = _engine(ops, max_iterations=3)
     early.solve()
-    factorise, calls = early._factorise, [0]
+    factorise, calls = early.factorise, [0]
 
     def failing(z):
         calls[0] += 1
@@ -277,26 +283,29 @@ def test_continuation_ends_at_its_last_point_when_k_is_singular(monkeypatch):
             raise SingularMatrixError("SuperLU: Factor is exactly singular")
         return factorise(z)
 
-    monkeypatch.setattr(early, "_factorise", failing)
+    monkeypatch.setattr(early, "factorise", failing)
     steps = []
-    end, facts = continue_central_path(early, early.best_iterate, tol=1e-9, time_limit=60.0,
+    end, facts = continue_central_path(early, early.best_iterate, tol=1e-9, deadline=Deadline(60.0),
                                        record=lambda **values: steps.append(values))
     assert calls[0] == 5 and facts["steps"] == len(steps) and facts["factorisations"] <= 4
     assert np.all(np.isfinite(end.v)) and np.all(end.s > 0) and np.all(end.y > 0)
 
 
+@pytest.mark.slow
 def test_a_stalled_interior_run_is_continued_and_the_steps_are_traced():
     """``run_interior`` continues a run that stalls (here: a tolerance of 1e-17, below round-off) along its
     central path; the steps count as iterations and are traced; unconverged, the status says so."""
     ops = bm.assemble(bm.cases.wall(courses=4, blocks_per_course=3))
-    lp = _step_lp(ops)
-    out, facts = run_interior(ops, lp, tol=1e-17, max_iterations=60, time_limit=30.0, fold_weight=0.0)
+    lps = _lps(ops)
+    units = LoadUnits.of(ops)
+    out, facts = run_interior(lps.step, lps.associative, units, tol=1e-17, max_iterations=60, deadline=Deadline(30.0),
+                              fold_weight=0.0)
     assert out.status is not bm.Status.CONVERGED
     assert facts["continuation_steps"] > 0
     traced = [rec for rec in out.trace if rec.get("stage") == "continuation"]
     assert len(traced) == facts["continuation_steps"]
     assert [rec["iteration"] for rec in out.trace] == list(range(1, len(out.trace) + 1))
     assert "continuation" in out.message
-    plain, plain_facts = run_interior(ops, lp, tol=1e-17, max_iterations=60, time_limit=30.0, fold_weight=0.0,
-                                      continuation=False)
+    plain, plain_facts = run_interior(lps.step, lps.associative, units, tol=1e-17, max_iterations=60,
+                                      deadline=Deadline(30.0), fold_weight=0.0, continuation=False)
     assert plain_facts["continuation_steps"] == 0 and len(plain.trace) < len(out.trace)

@@ -1,10 +1,244 @@
-"""Keep the layers apart: the core imports no plug-in, listing methods imports no backend."""
+"""The layout's arrows, checked on the import graph of the source (every import, module level or inside a function).
 
+Layers, from the bottom up (a module may import its own layer and the layers below, never one above):
+
+0. ``blockmpec.errors``, ``facts``, ``units``, ``deadline``, ``progress``, ``options`` -- plain values and rules;
+1. the problem: ``geometry``, ``operators``, ``cases``, ``structure_file``, ``result``, ``verify``, ``report``,
+   ``drawings``, ``contacts``;
+2. ``blockmpec.formulations`` -- the Pyomo statements;
+3. ``blockmpec.solvers.linalg`` -- the block IPM and its Cholesky (numpy, scipy, numba, pymetis and threadpoolctl
+   only: no other blockmpec module);
+4. ``blockmpec.solvers.engines`` and ``blockmpec.solvers.plan``;
+5. the plug-in contract: ``blockmpec.method`` (``SolverBase``) and ``blockmpec.registry``;
+6. the methods: ``blockmpec.solvers.<method>``;
+7. ``blockmpec.solver`` (``solve``, ``run_solver``), ``blockmpec.pushover``, ``blockmpec.plot`` and the package
+   ``blockmpec`` itself;
+8. ``blockmpec.bench`` -- the comparator harness, which nothing else in the library imports;
+9. ``blockmpec.cli`` and ``blockmpec.__main__``.
+
+Also: no import cycle among the library's modules; only ``blockmpec.solvers.engines.highs`` imports highspy; no
+module of the library or the tests imports ``studies``.  The registry loads the methods by name at run time
+(``importlib``), which is not an import arrow.
+"""
+
+from __future__ import annotations
+
+import ast
 import subprocess
 import sys
 from pathlib import Path
 
+import pytest
 
+ROOT = Path(__file__).resolve().parents[1]
+#: source folder -> the package it installs as
+PACKAGES = {"blockmpec": "blockmpec", "formulations": "blockmpec.formulations", "solvers": "blockmpec.solvers"}
+
+LAYERS = [
+    ("blockmpec.errors", "blockmpec.facts", "blockmpec.units", "blockmpec.deadline", "blockmpec.progress",
+     "blockmpec.options"),
+    ("blockmpec.geometry", "blockmpec.operators", "blockmpec.cases", "blockmpec.structure_file", "blockmpec.result",
+     "blockmpec.verify", "blockmpec.report", "blockmpec.drawings", "blockmpec.contacts"),
+    ("blockmpec.formulations",),
+    ("blockmpec.solvers.linalg",),
+    ("blockmpec.solvers.engines", "blockmpec.solvers.plan"),
+    ("blockmpec.method", "blockmpec.registry"),
+    ("blockmpec.solvers",),
+    ("blockmpec.solver", "blockmpec.pushover", "blockmpec.pushover_plot", "blockmpec.plot", "blockmpec"),
+    ("blockmpec.bench",),
+    ("blockmpec.cli", "blockmpec.pushover_cli", "blockmpec.__main__"),
+]
+
+
+def _modules() -> dict[str, Path]:
+    """Module name -> source file of every module of the library."""
+    out = {}
+    for folder, package in PACKAGES.items():
+        base = ROOT / folder
+        for path in sorted(base.rglob("*.py")):
+            parts = list(path.relative_to(base).with_suffix("").parts)
+            if parts[-1] == "__init__":
+                parts = parts[:-1]
+            out[".".join([package, *parts])] = path
+    return out
+
+
+MODULES = _modules()
+
+
+def _is_package(name: str) -> bool:
+    return MODULES[name].name == "__init__.py"
+
+
+def _type_checking_lines(tree: ast.AST) -> set[int]:
+    """Lines inside ``if TYPE_CHECKING:`` blocks (annotations only, never run)."""
+    lines = set()
+    for node in ast.walk(tree):
+        if isinstance(node, ast.If) and getattr(node.test, "id", getattr(node.test, "attr", None)) == "TYPE_CHECKING":
+            for child in node.body:
+                lines.update(range(child.lineno, (child.end_lineno or child.lineno) + 1))
+    return lines
+
+
+def imports_of(name: str) -> set[str]:
+    """Every module name ``name`` imports (absolute, resolved; modules of other distributions included)."""
+    tree = ast.parse(MODULES[name].read_text(), filename=str(MODULES[name]))
+    skip = _type_checking_lines(tree)
+    package = name if _is_package(name) else name.rpartition(".")[0]
+    found = set()
+    for node in ast.walk(tree):
+        if getattr(node, "lineno", None) in skip:
+            continue
+        if isinstance(node, ast.Import):
+            found.update(alias.name for alias in node.names)
+        elif isinstance(node, ast.ImportFrom):
+            if node.level:
+                base = package.split(".")
+                base = base[: len(base) - node.level + 1]
+                module = ".".join(base + ([node.module] if node.module else []))
+            else:
+                module = node.module or ""
+            submodules = [f"{module}.{alias.name}" for alias in node.names if f"{module}.{alias.name}" in MODULES]
+            found.update(submodules)  # "from package import module": an arrow to the module
+            if len(submodules) < len(node.names):  # a name defined in the module itself
+                found.add(module)
+    return found
+
+
+def _library_target(module: str) -> str | None:
+    """The library module an imported name refers to (its longest known prefix), or None for another distribution."""
+    parts = module.split(".")
+    for k in range(len(parts), 0, -1):
+        candidate = ".".join(parts[:k])
+        if candidate in MODULES:
+            return candidate
+    return None
+
+
+def _graph() -> dict[str, set[str]]:
+    graph = {}
+    for name in MODULES:
+        targets = {_library_target(m) for m in imports_of(name)}
+        graph[name] = {t for t in targets if t is not None and t != name}
+    return graph
+
+
+GRAPH = _graph()
+
+
+def _layer(name: str) -> int:
+    """The layer of a module: the most specific prefix listed in :data:`LAYERS`."""
+    best, best_len = None, -1
+    for level, prefixes in enumerate(LAYERS):
+        for prefix in prefixes:
+            if (name == prefix or name.startswith(prefix + ".")) and len(prefix) > best_len:
+                best, best_len = level, len(prefix)
+    assert best is not None, f"{name} is in no layer of tests/test_layering.py: place it"
+    return best
+
+
+def test_every_module_has_a_layer():
+    for name in MODULES:
+        _layer(name)
+
+
+def test_arrows_only_point_down():
+    """A module imports only its own layer and the layers below (a package's __init__ may re-export its own
+    submodules)."""
+    up = []
+    for name, targets in GRAPH.items():
+        for target in targets:
+            if target.startswith(name + ".") and _is_package(name):
+                continue  # a package re-exporting its own submodules
+            if _layer(target) > _layer(name):
+                up.append(f"{name} (layer {_layer(name)}) imports {target} (layer {_layer(target)})")
+    assert not up, "\n".join(sorted(up))
+
+
+def test_no_import_cycle_among_the_library_modules():
+    """Tarjan's strongly connected components of the import graph: every component is one module."""
+    index, low, on_stack, stack, components = {}, {}, set(), [], []
+    counter = [0]
+
+    def visit(v):
+        index[v] = low[v] = counter[0]
+        counter[0] += 1
+        stack.append(v)
+        on_stack.add(v)
+        for w in GRAPH[v]:
+            if w not in index:
+                visit(w)
+                low[v] = min(low[v], low[w])
+            elif w in on_stack:
+                low[v] = min(low[v], index[w])
+        if low[v] == index[v]:
+            component = []
+            while True:
+                w = stack.pop()
+                on_stack.discard(w)
+                component.append(w)
+                if w == v:
+                    break
+            components.append(component)
+
+    sys.setrecursionlimit(max(sys.getrecursionlimit(), 10_000))
+    for v in GRAPH:
+        if v not in index:
+            visit(v)
+    # a package and its own submodules importing each other is one unit, not a layering cycle
+    cycles = [sorted(c) for c in components if len(c) > 1
+              and not all(m == min(c, key=len) or m.startswith(min(c, key=len) + ".") for m in c)]
+    assert not cycles, cycles
+
+
+def test_linalg_imports_no_other_blockmpec_module():
+    bad = [f"{name} imports {t}" for name, targets in GRAPH.items() if name.startswith("blockmpec.solvers.linalg")
+           for t in targets if not t.startswith("blockmpec.solvers.linalg")]
+    assert not bad, bad
+    allowed = {"numpy", "scipy", "numba", "llvmlite", "pymetis", "threadpoolctl"}
+    stdlib = set(sys.stdlib_module_names)
+    for name in MODULES:
+        if name.startswith("blockmpec.solvers.linalg"):
+            for module in imports_of(name):
+                top = module.split(".")[0]
+                assert top in allowed | stdlib or module.startswith("blockmpec.solvers.linalg"), (name, module)
+
+
+def test_engines_never_see_the_operators():
+    """Engines get matrices and a LoadUnits, never the assembled operators (scaling is one reduction)."""
+    bad = [f"{name} imports {t}" for name, targets in GRAPH.items()
+           if name.startswith(("blockmpec.solvers.engines", "blockmpec.solvers.linalg", "blockmpec.solvers.plan"))
+           for t in targets if t == "blockmpec.operators"]
+    assert not bad, bad
+
+
+def test_only_the_highs_wrapper_imports_highspy():
+    importers = sorted(name for name in MODULES if any(m.split(".")[0] == "highspy" for m in imports_of(name)))
+    assert importers == ["blockmpec.solvers.engines.highs"], importers
+
+
+def test_nothing_in_the_library_but_the_cli_imports_the_bench():
+    bad = [f"{name} imports {t}" for name, targets in GRAPH.items() for t in targets
+           if t.startswith("blockmpec.bench") and not name.startswith(("blockmpec.bench", "blockmpec.cli"))]
+    assert not bad, bad
+
+
+@pytest.mark.parametrize("folder", ["blockmpec", "formulations", "solvers", "tests"])
+def test_no_library_module_or_test_imports_studies(folder):
+    found = []
+    for path in sorted((ROOT / folder).rglob("*.py")):
+        tree = ast.parse(path.read_text(), filename=str(path))
+        for node in ast.walk(tree):
+            names = ([a.name for a in node.names] if isinstance(node, ast.Import)
+                     else [node.module or ""] if isinstance(node, ast.ImportFrom) else [])
+            found += [f"{path.relative_to(ROOT)}:{node.lineno}" for n in names if n.split(".")[0] == "studies"]
+            if isinstance(node, ast.Constant) and isinstance(node.value, str) and "studies/" in node.value \
+                    and node.value.rstrip().endswith(".py") and folder != "tests":
+                found.append(f"{path.relative_to(ROOT)}:{node.lineno} loads {node.value}")
+    assert not found, found
+
+
+# ------------------------------------------------------------------ the installed package, as a user imports it
 # the probes run from "/", away from the source folders, so they import the installed package
 def _modules_after(code: str) -> set[str]:
     out = subprocess.run([sys.executable, "-c", code + "\nimport sys; print(' '.join(sys.modules))"],
@@ -34,16 +268,12 @@ def test_no_generic_top_level_packages_installed():
     assert "solvers" not in mods and "formulations" not in mods
 
 
-def test_solvers_read_problem_3_from_the_compiled_formulation():
-    # (3) is written once as a model (formulations/mcp.py, compiled by compile_mcp) and checked once
-    # (blockmpec/verify.py); no method may rebuild its flow rule from the operators
-    import ast
-
-    import blockmpec.solvers as solvers
-
+def test_methods_read_problem_3_from_the_compiled_formulation():
+    """(3) is written once as a model (formulations/mcp.py, compiled by compile_mcp) and checked once
+    (blockmpec/verify.py): no module under solvers/ builds a flow rule from the operators' V_f or friction_operator."""
     forbidden = {"V_f", "friction_operator"}
     found = []
-    for path in sorted(Path(solvers.__file__).parent.rglob("*.py")):
+    for path in sorted((ROOT / "solvers").rglob("*.py")):
         for node in ast.walk(ast.parse(path.read_text(), filename=str(path))):
             name = node.attr if isinstance(node, ast.Attribute) else node.id if isinstance(node, ast.Name) else None
             if name in forbidden:

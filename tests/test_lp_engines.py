@@ -5,17 +5,19 @@ same static LP (1), so every case is a cross-check against HiGHS's simplex; the
 closed forms of the two-block problem pin both.
 """
 
-import time
 
 import numpy as np
 import pytest
 
 import blockmpec as bm
+from blockmpec.deadline import Deadline
 from blockmpec.formulations import compile_linear, kinematic_lp, static_lp
 from blockmpec.solvers.engines.block_lp import BlockLP, interface_blocks
 from blockmpec.solvers.engines.highs import HighsLP
-from blockmpec.solvers.engines.lp_engine import AUTO_BLOCK_IPM_ROWS, cold_lp_engine
-from helpers import assert_success, block_on_block, two_block_associative
+from blockmpec.solvers.engines.scaling import LoadUnits
+from blockmpec.solvers.engines.lp_engine import cold_lp_engine
+from blockmpec.solvers.plan import LP_BLOCK_IPM_ROWS
+from helpers import assert_success, block_on_block, solve_with, two_block_associative
 
 
 def _scaled(structure, factor):
@@ -87,8 +89,8 @@ def test_block_ipm_rejects_lp_without_block_structure():
 def test_block_ipm_time_limit_gives_a_status():
     ops = bm.assemble(bm.cases.wall(10, 20))
     lp = compile_linear(static_lp(ops))
-    ipm = BlockLP(lp, interface_blocks(lp), time_limit=1e-9)
-    out = ipm.solve()
+    ipm = BlockLP(lp, interface_blocks(lp))
+    out = ipm.solve(Deadline(1e-9))
     assert out.status is bm.Status.TIME_LIMIT
 
 
@@ -109,31 +111,37 @@ def test_block_ipm_set_row_upper_changes_the_cohesion():
 def test_auto_engine_uses_the_block_ipm_above_the_threshold():
     small = compile_linear(static_lp(bm.assemble(bm.cases.wall())))
     large = compile_linear(static_lp(bm.assemble(bm.cases.wall(20, 30))))
-    assert small.A.shape[0] <= AUTO_BLOCK_IPM_ROWS < large.A.shape[0]
+    assert small.A.shape[0] <= LP_BLOCK_IPM_ROWS < large.A.shape[0]
     assert isinstance(cold_lp_engine(small, "auto"), HighsLP)
     assert isinstance(cold_lp_engine(large, "auto"), BlockLP)
-    # a small LP whose block loads span more than AUTO_BLOCK_IPM_LOAD_SPREAD also goes to the block IPM
+    # a small LP whose block loads span more than LP_BLOCK_IPM_LOAD_SPREAD also goes to the block IPM
     stiff_ops = bm.assemble(block_on_block(1.0, 1e-3))
     stiff = compile_linear(static_lp(stiff_ops))
-    assert stiff.A.shape[0] <= AUTO_BLOCK_IPM_ROWS
-    assert isinstance(cold_lp_engine(stiff, "auto", ops=stiff_ops), BlockLP)
-    assert isinstance(cold_lp_engine(small, "auto", ops=bm.assemble(bm.cases.wall())), HighsLP)
+    assert stiff.A.shape[0] <= LP_BLOCK_IPM_ROWS
+    assert isinstance(cold_lp_engine(stiff, "auto", LoadUnits.of(stiff_ops)), BlockLP)
+    assert isinstance(cold_lp_engine(small, "auto", LoadUnits.of(bm.assemble(bm.cases.wall()))), HighsLP)
 
 
 def test_lp_sequence_time_limit_counts_from_the_instance_clock():
     """HiGHS compares time_limit with an instance's cumulative run time: a remaining budget must be
     added to it, or later warm solves of the sequence stop at once."""
+    from blockmpec.formulations import step_lps
+    from blockmpec.solvers.engines.highs import set_deadline
     from blockmpec.solvers.engines.lp_sequence import LPSequence
 
-    seq = LPSequence(bm.assemble(bm.cases.wall(10, 20)))
+    ops = bm.assemble(bm.cases.wall(10, 20))
+    seq = LPSequence(step_lps(ops), LoadUnits.of(ops))
     assert seq.associative().status is bm.Status.OPTIMAL
     h = seq.assoc_highs.highs
-    assert seq._set_time_limit(seq.assoc_highs, time.perf_counter() + 10.0)
+    assert h.getRunTime() > 0
+    assert set_deadline(h, Deadline(10.0))
     assert h.getOptionValue("time_limit")[1] >= h.getRunTime() + 9.0
+    assert not set_deadline(h, Deadline(0.0))  # no time left: the caller does not solve
 
 
+@pytest.mark.slow
 def test_fixed_point_reports_its_lp_time_per_kind():
-    res = bm.solve(bm.cases.wall(10, 20), "fixed-point", fold_weight=0.0)  # a tie-break LP after every step
+    res = solve_with(bm.cases.wall(10, 20), "fixed-point", settings=dict(fold_weight=0.0))  # a tie-break LP after every step
     assert_success(res)
     lp_time = res.extra["lp_time_s"]
     assert set(lp_time) == {"associative", "step", "tie_break"}
@@ -176,12 +184,11 @@ def test_highs_scaling_returns_values_and_duals_in_the_lp_units(seed):
 def test_load_scaling_puts_each_block_in_its_own_units():
     """A 1e-3 x 2e-3 block on a unit block: its equilibrium rows are scaled by 1/its load (5e5 times the
     big block's) and its interface's forces measured in its own load."""
-    from blockmpec.solvers.engines.scaling import block_loads, load_scaling
-
     ops = bm.assemble(block_on_block(1.0, 1e-3))
     lp = compile_linear(static_lp(ops))
-    row_scale, column_scale = load_scaling(lp, ops)
-    loads = block_loads(ops)
+    units = LoadUnits.of(ops)
+    row_scale, column_scale = units.static(lp)
+    loads = units.units.block_load
     assert loads[0] / loads[1] == pytest.approx(1.0 / 2e-6, rel=1e-9)  # areas 1 and 1e-3 x 2e-3
     eq = lp.rows["equilibrium"].reshape(-1, 3)
     assert np.allclose(row_scale[eq[1]] * loads[1], 1.0) and np.allclose(row_scale[eq[0]] * loads[0], 1.0)
@@ -211,11 +218,9 @@ def test_block_ipm_ordering_has_the_fill_of_a_fresh_ordering(ordering):
 
     if ordering == "metis" and not metis_available():
         pytest.skip("pymetis not installed")
-    from blockmpec.solvers.engines.scaling import load_scaling
-
     ops = bm.assemble(bm.cases.wall(20, 30))
     lp = compile_linear(static_lp(ops))
-    row_scale, column_scale = load_scaling(lp, ops)  # as static-lp runs it
+    row_scale, column_scale = LoadUnits.of(ops).static(lp)  # as static-lp runs it
     engine = BlockLP(lp, interface_blocks(lp), ordering=ordering, row_scale=row_scale, column_scale=column_scale)
     p, n = engine.h.size, engine.c.size
     start = IPMIterate(np.zeros(n), np.ones(p), np.zeros(engine.b.size), np.ones(p))
@@ -231,7 +236,7 @@ def test_block_ipm_ordering_has_the_fill_of_a_fresh_ordering(ordering):
     pattern = structural_pattern(engine.A_B, engine.k)
     assert abs(K_later).astype(bool).multiply(pattern.astype(bool)).nnz == K_later.nnz
     assert K_start.nnz < 0.8 * K_later.nnz
-    engine._factorise(start)  # the engine's first factorisation is at the sparse starting K
+    engine.factorise(start)  # the engine's first factorisation is at the sparse starting K
     engine.factoriser.factorise(K_later)
     fresh = SymmetricFactoriser(K_later, ordering)
     fresh.factorise(K_later)
@@ -242,6 +247,7 @@ def test_block_ipm_ordering_has_the_fill_of_a_fresh_ordering(ordering):
     assert stale.factor_nnz > 1.5 * fresh.factor_nnz
 
 
+@pytest.mark.slow
 def test_block_ipm_factorises_every_iteration_with_one_ordering():
     """A whole solve: the ordering is made once, and the final factors have no more fill than a fresh
     ordering of a generic K (the fill of the structural pattern)."""
@@ -261,15 +267,17 @@ def test_block_ipm_factorises_every_iteration_with_one_ordering():
     assert np.array_equal(engine.factoriser.perm, perm)
 
 
+@pytest.mark.slow
 def test_block_ipm_lazy_refinement_saves_solves_with_the_same_lam():
     """Refining only the final direction of each iteration (not the predictor, corrector and each
     Gondzio corrector on their own) needs fewer solves with K and gives the same lam."""
-    from blockmpec.solvers.linalg.block_ipm import DEFAULT_SETTINGS, PREVIOUS_SETTINGS
-    from blockmpec.solvers.engines.scaling import load_scaling
+    from blockmpec.solvers.linalg.block_ipm import DEFAULT_SETTINGS, EXACT_INNER_SETTINGS
 
+    # the settings before lazy refinement: every direction refined on its own (and every inner one to the target)
+    PREVIOUS_SETTINGS = {**EXACT_INNER_SETTINGS, "lazy_refinement": False}
     ops = bm.assemble(bm.cases.wall(20, 30))
     lp = compile_linear(static_lp(ops))
-    row_scale, column_scale = load_scaling(lp, ops)
+    row_scale, column_scale = LoadUnits.of(ops).static(lp)
     runs = {}
     for name, settings in (("previous", PREVIOUS_SETTINGS), ("default", DEFAULT_SETTINGS)):
         engine = BlockLP(lp, interface_blocks(lp), row_scale=row_scale, column_scale=column_scale)
@@ -282,6 +290,7 @@ def test_block_ipm_lazy_refinement_saves_solves_with_the_same_lam():
     assert runs["default"][1] < 0.9 * runs["previous"][1]
 
 
+@pytest.mark.slow
 def test_block_ipm_thin_voussoirs_reach_the_tolerance():
     """984 thin voussoirs (y/s spanning many decades): the whole-system refinement of the final
     direction reaches the 1e-9 tolerance (OPTIMAL, not merely ACCEPTABLE) and HiGHS's lam to 1e-9."""

@@ -6,15 +6,16 @@ lifted LP's and never exceeds the certified minimum.
 """
 
 import functools
-import time
 
 import numpy as np
 import pytest
 import scipy.linalg as sla
 
 import blockmpec as bm
+from blockmpec.deadline import Deadline
 from blockmpec.solvers.linalg.null_space import null_space_lp, static_null_space
-from helpers import CERTIFIED_TOL, LIFTING_CASES, assert_certified, margin
+from blockmpec.solvers.milp import MILPSettings
+from helpers import CERTIFIED_TOL, LIFTING_CASES, assert_certified, margin, solve_with
 
 #: small structures of every family, two with a minimum below the associative multiplier
 CASES = LIFTING_CASES
@@ -31,10 +32,10 @@ def _root(case_id: str, root_lp: str = "ipm"):
     """``(solver, branch and bound at the root pattern)`` with the rlt-full lifting and 60 s for its LPs."""
     from blockmpec.solvers.milp import MILPSolver
 
-    solver = MILPSolver(engine="bnb", lifting="rlt-full", root_lp=root_lp)
+    solver = MILPSolver(engine="bnb", settings=MILPSettings(lifting="rlt-full", root_lp=root_lp))
     solver.setup(bm.operators.assemble(CASES[case_id]()))
-    bnb = solver._complementarity_bnb(solver._bounds(time.perf_counter() + 60))
-    bnb.deadline = time.perf_counter() + 60
+    bnb = solver._complementarity_bnb(solver._bounds(Deadline(60)))
+    bnb.deadline = Deadline(60)
     bnb._apply(bnb.root, bnb.lam_lower, bnb.lam_cap)
     return solver, bnb
 
@@ -103,7 +104,8 @@ def test_a_certified_minimiser_satisfies_every_row_of_the_null_space_lp(case_id)
     assert reduced.A.shape[0] < bnb._A.shape[0] and reduced.A.shape[1] < bnb._A.shape[1]
 
 
-@pytest.mark.parametrize("case_id", ["wall-2x2", "wall-4x2-stack-mu0.4", "two-blocks"])
+@pytest.mark.parametrize("case_id", ["wall-2x2", pytest.param("wall-4x2-stack-mu0.4", marks=pytest.mark.slow),
+                                     "two-blocks"])
 def test_the_null_space_root_bound_is_the_lifted_root_bound(case_id):
     """The root's interior point on the null-space LP (``root_lp="ipm"``) and on the lifted LP
     (``root_lp="ipm-lifted"``) give the same bound, at most the certified minimum; the first says it ran in
@@ -124,12 +126,12 @@ def test_liftings_without_every_force_tied_keep_the_lifted_root():
     the root LP stays the lifted one, and ``milp`` still certifies the same minimum."""
     from blockmpec.solvers.milp import MILPSolver
 
-    solver = MILPSolver(engine="bnb", lifting="rlt", root_lp="ipm")
+    solver = MILPSolver(engine="bnb", settings=MILPSettings(lifting="rlt", root_lp="ipm"))
     solver.setup(bm.operators.assemble(CASES["wall-2x2"]()))
-    bnb = solver._complementarity_bnb(solver._bounds(time.perf_counter() + 60))
+    bnb = solver._complementarity_bnb(solver._bounds(Deadline(60)))
     bnb._apply(bnb.root, bnb.lam_lower, bnb.lam_cap)
     assert bnb._null_space_lp(*bnb._lp_arrays()) is None
-    res = bm.solve(CASES["wall-2x2"](), "milp", lifting="rlt")
+    res = solve_with(CASES["wall-2x2"](), "milp", settings=dict(lifting="rlt"))
     assert_certified(res)
     assert res.multiplier == pytest.approx(certified("wall-2x2").multiplier, abs=1e-7)
 
@@ -137,7 +139,7 @@ def test_liftings_without_every_force_tied_keep_the_lifted_root():
 def test_root_lp_ipm_lifted_certifies_the_same_minimum():
     """``root_lp="ipm-lifted"`` (the root LP before the null-space coordinates) stays available and certifies the
     same minimum as the default."""
-    res = bm.solve(CASES["wall-3x2-opening"](), "milp", root_lp="ipm-lifted")
+    res = solve_with(CASES["wall-3x2-opening"](), "milp", settings=dict(root_lp="ipm-lifted"))
     assert_certified(res)
     assert res.multiplier == pytest.approx(certified("wall-3x2-opening").multiplier, abs=1e-7)
 

@@ -10,6 +10,7 @@ pytest.importorskip("pyomo")
 
 import blockmpec as bm  # noqa: E402
 from blockmpec.result import Status  # noqa: E402
+from blockmpec.solvers.engines.scaling import LoadUnits  # noqa: E402
 from helpers import assert_residuals_within, two_block_associative, two_block_nonassociative_min  # noqa: E402
 
 TOL = 1e-6
@@ -26,7 +27,7 @@ def _setup(case, engine="dual-simplex"):
 
     ops = bm.assemble(case)
     form = compile_mcp(ops)
-    scaling = nlp_scaling(form, ops)
+    scaling = nlp_scaling(form, LoadUnits.of(ops))
     return ops, form, scaling, SplitPieces(form, *scaling, static_engine=engine)
 
 
@@ -188,9 +189,10 @@ def test_closed_interfaces_are_those_whose_cone_is_zero():
             assert closed == (largest <= 1e-12), subset
 
 
+@pytest.mark.slow
 def test_route_auto_takes_pieces_from_100_blocks():
-    """route='auto' (the default): Ipopt below PIECE_ROUTE_BLOCKS free blocks, the split piece LPs from there on."""
-    from blockmpec.solvers.nlp import PIECE_ROUTE_BLOCKS
+    """route='auto' (the default): Ipopt below NLP_PIECE_ROUTE_BLOCKS free blocks, the split piece LPs from there on."""
+    from blockmpec.solvers.plan import NLP_PIECE_ROUTE_BLOCKS as PIECE_ROUTE_BLOCKS
 
     small = bm.solve(bm.cases.wall(4, 2, bond="stack"), "nlp")
     assert small.extra["route"] == "ipopt" and small.iterations > 0

@@ -25,7 +25,7 @@ from hypothesis import HealthCheck, assume, given, note, settings
 from hypothesis import strategies as st
 
 import blockmpec as bm
-from helpers import CERTIFIED_TOL, HEURISTIC_TOL, HEURISTICS, margin
+from helpers import CERTIFIED_TOL, HEURISTIC_TOL, HEURISTICS, margin, solve_with
 
 SETTINGS = settings(max_examples=25, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 #: the multi-solver properties run seven solves per example (milp up to ~1 s): few examples
@@ -147,6 +147,7 @@ def test_static_equals_kinematic(wall):
     assert _lam(wall, "kinematic-lp") == pytest.approx(_lam(wall, "static-lp"), rel=1e-8)
 
 
+@pytest.mark.slow
 @settings(max_examples=200, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(stacks())
 def test_no_crash_on_random_structures(stack):
@@ -156,6 +157,7 @@ def test_no_crash_on_random_structures(stack):
     assert res.success or res.status in (bm.Status.UNBOUNDED, bm.Status.INFEASIBLE)
 
 
+@pytest.mark.slow
 @MULTI_SOLVER_SETTINGS
 @given(small_structures())
 def test_no_verified_heuristic_below_the_certified_minimum(structure):
@@ -172,6 +174,7 @@ def test_no_verified_heuristic_below_the_certified_minimum(structure):
                 method, res.multiplier, minimum.multiplier)
 
 
+@pytest.mark.slow
 @MULTI_SOLVER_SETTINGS
 @given(small_structures())
 def test_associative_multiplier_bounds_every_non_associative_one(structure):
@@ -199,16 +202,18 @@ def test_associative_multiplier_bounds_every_non_associative_one(structure):
             maximum.multiplier, assoc.multiplier)
 
 
-#: fixed-point strategies of studies/fixed_point_strategies.py besides the default (run above)
+#: fixed-point strategies of studies/lab/fixed_point_strategies.py besides the default (run above); engine settings
+#: under "settings" (``solve_with``)
 FIXED_POINT_STRATEGIES = [
     {"start": "associative", "tie_break": "closest"},
     {"start": "associative", "tie_break": "min-lambda"},
     {"start": "dead-load", "tie_break": "least-compressed"},
-    {"start": "random", "seed": 1, "tie_break": "least-compressed", "acceleration": "anderson"},
+    {"start": "random", "seed": 1, "tie_break": "least-compressed", "settings": {"acceleration": "anderson"}},
     {"multistart": 3},
 ]
 
 
+@pytest.mark.slow
 @settings(max_examples=8, deadline=None, suppress_health_check=[HealthCheck.too_slow, HealthCheck.filter_too_much])
 @given(small_structures())
 def test_no_fixed_point_strategy_below_the_certified_minimum(structure):
@@ -217,7 +222,7 @@ def test_no_fixed_point_strategy_below_the_certified_minimum(structure):
     minimum = bm.solve(ops, "milp", time_limit=MILP_TIME_LIMIT)
     assume(minimum.status is bm.Status.OPTIMAL)
     for options in FIXED_POINT_STRATEGIES:
-        res = bm.solve(ops, "fixed-point", **options)
+        res = solve_with(ops, "fixed-point", **options)
         note(f"{options}: {res.status.value} {res.multiplier}")
         if res.success:
             assert res.multiplier >= minimum.multiplier - margin(HEURISTIC_TOL, minimum.multiplier), (

@@ -1,4 +1,5 @@
-"""The README's two opening commands are what CI runs, and its structure-file example loads."""
+"""The README's two opening commands are what CI runs, its quick start runs, and the structure-file example of the
+docs (docs/structure-file.md, where the README's former example moved) loads."""
 
 import json
 import re
@@ -25,9 +26,25 @@ def test_ci_runs_the_readme_test_command_verbatim():
     assert _commands()[1] in ci
 
 
-def test_readme_structure_file_example_loads():
-    readme = (ROOT / "README.md").read_text()
-    block = re.search(r"```json\n(.+?)\n```", readme, re.S).group(1)
+def test_structure_file_example_loads():
+    page = (ROOT / "docs" / "structure-file.md").read_text()
+    block = re.search(r"```json\n(.+?)\n```", page, re.S).group(1)
     s = bm.structure_from_dict(json.loads(block))
     assert s.n_blocks == 2 and len(s.interfaces) == 1
     assert bm.solve(s, "static-lp").success
+
+
+def test_readme_quick_start_runs_and_its_numbers_hold(tmp_path, monkeypatch):
+    import matplotlib
+
+    matplotlib.use("Agg")
+    code = re.search(r"```python\n(.+?)\n```", (ROOT / "README.md").read_text(), re.S).group(1)
+    monkeypatch.chdir(tmp_path)
+    namespace: dict = {}
+    exec(compile(code, "README.md quick start", "exec"), namespace)
+    # the values the quick start's comment quotes; the non-associative one lies below the associative one
+    assert abs(namespace["assoc"].multiplier - 0.5976) < 5e-5 and abs(namespace["res"].multiplier - 0.5789) < 5e-5
+    assert namespace["res"].success and (tmp_path / "mechanism.png").stat().st_size > 0
+    import matplotlib.pyplot as plt
+
+    plt.close("all")

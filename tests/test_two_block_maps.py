@@ -1,9 +1,12 @@
-"""The two-block maps study reproduces the paper's closed-form mechanism regions (Sect. 3, Figs 5-6).
+"""The paper's two-block problem over the (eta, mu) plane (Sect. 3, Figs 5-6), by the public API.
 
-Panels (a) associative (static-lp), (b) certified non-associative minimum (milp)
-and (c) certified non-associative maximum (milp, sense="max").  For (c) the paper
-states that the maximum equals the associative multiplier, with the non-dilatant
-counterpart of the associative mechanism (A1 -> NA1, A2-1 / A2-2 -> NA2, A3 -> NA3).
+Panels (a) associative (``static-lp``), (b) certified non-associative minimum (``milp``) and (c) certified
+non-associative maximum (``milp``, ``sense="max"``).  The closed forms: associative ``lam`` by
+:func:`blockmpec.cases.closed_form`; the non-associative minimum ``mu`` (sliding) if ``mu <= 1/eta`` else ``1/eta``
+(rocking); the maximum equals the associative multiplier, reached by the non-dilatant counterpart of the
+associative mechanism (sliding where the associative mechanism slides).  Mechanisms are read from
+``res.mechanism`` (a rotation or none).  The finer classes of the figures (A2-1, A2-2, A3 and their counterparts)
+are the study's: ``studies/paper/two_block_maps.py --check`` asserts them (run by ``.ci/run``).
 """
 
 from __future__ import annotations
@@ -12,88 +15,102 @@ import numpy as np
 import pytest
 
 import blockmpec as bm
-from helpers import load_study
+
+#: a 6 x 6 grid that crosses every boundary of the paper's mechanism regions, plus its example point (3, 0.65)
+ETAS = list(np.linspace(1.1, 5.6, 6)) + [3.0]
+MUS = list(np.linspace(0.15, 1.4, 6)) + [0.65]
+#: a rotation below this share of the largest velocity (rotations times the structure's height) is none
+ROTATION_TOL = 1e-6
+
+
+def _rotates(res: bm.Result, structure: bm.Structure) -> bool:
+    """True when the mechanism of ``res`` turns a block (no pure sliding)."""
+    mech = res.mechanism
+    height = float(np.ptp(structure.vertices[..., 1]))
+    turn = np.abs(mech["rotation"].to_numpy()).max() * height
+    scale = max(np.abs(mech[["u_x", "u_y"]].to_numpy()).max(), turn)
+    return turn > ROTATION_TOL * scale
+
+
+def _point(eta: float, mu: float) -> dict:
+    structure = bm.cases.two_blocks(eta=eta, mu=mu)
+    ops = bm.assemble(structure)
+    row = {"eta": eta, "mu": mu, "structure": structure,
+           "associative": bm.solve(ops, "static-lp"),
+           "na_min": bm.solve(ops, "milp"),
+           "na_max": bm.solve(ops, "milp", sense="max"),
+           "closed_form_associative": bm.cases.closed_form("two-blocks", "associative", eta=eta, mu=mu)}
+    return row
 
 
 @pytest.fixture(scope="module")
-def study():
-    return load_study("two_block_maps")
-
-
-@pytest.fixture(scope="module")
-def table(study):
+def grid() -> list[dict]:
     if "milp" not in bm.list_solvers():
         pytest.skip("milp method not registered")
-    # a 6 x 6 grid that crosses every boundary, plus the paper's example point (3, 0.65)
-    etas = list(np.linspace(1.1, 5.6, 6)) + [3.0]
-    mus = list(np.linspace(0.15, 1.4, 6)) + [0.65]
-    t, _ = study.sample(etas, mus)
-    return t
+    return [_point(float(eta), float(mu)) for eta in ETAS for mu in MUS]
 
 
-def test_non_associative_minimum_slides_iff_mu_below_one_over_eta(table):
-    certified = table["na_min_status"] == "optimal"
-    assert certified.mean() > 0.9, table.loc[~certified, ["eta", "mu", "na_min_status"]]
-    t = table[certified & (np.abs(table["mu"] - 1 / table["eta"]) > 1e-6)]
-    sliding = t["na_min_mechanism"] == "NA1"
-    np.testing.assert_array_equal(sliding.values, (t["mu"] < 1 / t["eta"]).values)
-    assert set(t.loc[~sliding, "na_min_mechanism"]) == {"NA2"}
-    np.testing.assert_allclose(t["na_min_lam"], np.minimum(t["mu"], 1 / t["eta"]), rtol=1e-7)
+def _away_from_boundaries(row) -> bool:
+    """The associative closed form holds there and its sliding value ``mu`` is not within 1 % of the least of the
+    others (so the mechanism is not a tie)."""
+    eta, mu, lam = row["eta"], row["mu"], row["closed_form_associative"]
+    if lam is None:
+        return False
+    others = [2.0 / eta]
+    if eta * (1 - mu**2) + mu > 0:
+        others.append(1.0 / (eta * (1 - mu**2) + mu))
+    if eta * (1 + mu**2) - mu > 0:
+        others.append((1 + 2 * mu**2) / (eta * (1 + mu**2) - mu))
+    return abs(mu - min(others)) > 0.01 * min(mu, min(others))
 
 
-def test_associative_regions_follow_the_closed_forms(study, table):
-    checked = 0
-    for _, r in table.iterrows():
-        if np.isnan(r["closed_form_associative"]):
-            continue
-        assert r["associative_lam"] == pytest.approx(r["closed_form_associative"], rel=1e-7)
-        values = sorted(study.closed_form_candidates(r["eta"], r["mu"]).values())
-        if len(values) > 1 and values[1] > values[0] * 1.01:  # away from region boundaries
-            assert r["associative_mechanism"] == r["closed_form_mechanism"], (r["eta"], r["mu"])
-            checked += 1
-    assert checked > 25
-    # every associative mechanism of the paper shows up on this grid
-    assert {"A1", "A2-1", "A2-2", "A3"} <= set(table["associative_mechanism"])
+@pytest.mark.slow
+def test_non_associative_minimum_slides_iff_mu_below_one_over_eta(grid):
+    certified = [r for r in grid if r["na_min"].status is bm.Status.OPTIMAL]
+    assert len(certified) > 0.9 * len(grid), [(r["eta"], r["mu"]) for r in grid if r not in certified]
+    for r in certified:
+        assert r["na_min"].verified
+        assert r["na_min"].multiplier == pytest.approx(min(r["mu"], 1 / r["eta"]), rel=1e-7), (r["eta"], r["mu"])
+        if abs(r["mu"] - 1 / r["eta"]) > 1e-6:
+            assert _rotates(r["na_min"], r["structure"]) == (r["mu"] > 1 / r["eta"]), (r["eta"], r["mu"])
 
 
-def test_paper_example_point(table):
-    r = table[(table["eta"] == 3.0) & (table["mu"] == 0.65)].iloc[0]
-    assert r["associative_lam"] == pytest.approx(0.41973, abs=5e-6)  # paper Sect. 3: A2-1
-    assert r["associative_mechanism"] == "A2-1"
-    assert r["na_min_lam"] == pytest.approx(1 / 3, rel=1e-8) and r["na_min_mechanism"] == "NA2"
+@pytest.mark.slow
+def test_associative_multipliers_follow_the_closed_forms(grid):
+    known = [r for r in grid if r["closed_form_associative"] is not None]
+    assert len(known) > 25
+    for r in known:
+        assert r["associative"].status is bm.Status.OPTIMAL and r["associative"].verified
+        assert r["associative"].multiplier == pytest.approx(r["closed_form_associative"], rel=1e-7)
+    # sliding (A1) exactly where the closed form's least multiplier is mu
+    clear = [r for r in known if _away_from_boundaries(r)]
+    assert len(clear) > 25
+    assert {_rotates(r["associative"], r["structure"]) for r in clear} == {True, False}
+    for r in clear:
+        slides = r["closed_form_associative"] == pytest.approx(r["mu"], rel=1e-12)
+        assert _rotates(r["associative"], r["structure"]) != slides, (r["eta"], r["mu"])
 
 
-def test_non_associative_maximum_is_the_associative_closed_form(table):
-    """Paper Fig. 6c = Fig. 6a: the certified maximum equals the associative closed form."""
-    assert (table["na_max_status"] == "optimal").all(), table.loc[table["na_max_status"] != "optimal",
-                                                                  ["eta", "mu", "na_max_status"]]
-    known = ~np.isnan(table["closed_form_associative"])
-    assert known.sum() > 25
-    np.testing.assert_allclose(table.loc[known, "na_max_lam"], table.loc[known, "closed_form_associative"],
-                               rtol=1e-7)
-    np.testing.assert_allclose(table["na_max_lam"], table["associative_lam"], rtol=1e-7)
-    # and it is never below the certified minimum
-    assert (table["na_max_lam"] >= table["na_min_lam"] - 1e-9).all()
+def test_paper_example_point():
+    r = _point(3.0, 0.65)
+    assert r["associative"].multiplier == pytest.approx(0.41973, abs=5e-6)  # paper Sect. 3: A2-1
+    assert _rotates(r["associative"], r["structure"])
+    assert r["na_min"].status is bm.Status.OPTIMAL
+    assert r["na_min"].multiplier == pytest.approx(1 / 3, rel=1e-8) and _rotates(r["na_min"], r["structure"])  # NA2
 
 
-def test_non_associative_maximum_mechanisms_are_the_non_dilatant_counterparts(study, table):
-    """Panel (c): NA1 where the associative mechanism is A1, NA2 where A2-1/A2-2, NA3 where A3.
-
-    Checked away from region boundaries: where two associative mechanisms tie (e.g. A3 and
-    A2-2 at eta = 2.3, mu = 1.15) the maximiser may be either counterpart.
-    """
-    expected = {"A1": "NA1", "A2-1": "NA2", "A2-2": "NA2", "A3": "NA3"}
-    assert study.A_TO_NA == expected
-
-    def clear(r) -> bool:
-        values = sorted(study.closed_form_candidates(r["eta"], r["mu"]).values())
-        return not np.isnan(r["closed_form_associative"]) and (len(values) == 1 or values[1] > values[0] * 1.01)
-
-    rows = table[table.apply(clear, axis=1)]
-    assert len(rows) > 25
-    assert rows["associative_mechanism"].isin(list(expected)).all()
-    got = rows["na_max_mechanism"].tolist()
-    want = [expected[a] for a in rows["associative_mechanism"]]
-    bad = [(r.eta, r.mu, r.associative_mechanism, g) for r, g, w in zip(rows.itertuples(), got, want) if g != w]
-    assert not bad, bad
-    assert set(got) == {"NA1", "NA2", "NA3"}
+@pytest.mark.slow
+def test_non_associative_maximum_is_the_associative_closed_form(grid):
+    """Paper Fig. 6c = Fig. 6a: the certified maximum equals the associative closed form, never below the minimum,
+    and its mechanism slides where the associative one does (NA1 where A1; a rotation elsewhere)."""
+    assert all(r["na_max"].status is bm.Status.OPTIMAL for r in grid), [
+        (r["eta"], r["mu"], r["na_max"].status.value) for r in grid if r["na_max"].status is not bm.Status.OPTIMAL]
+    known = [r for r in grid if r["closed_form_associative"] is not None]
+    assert len(known) > 25
+    for r in known:
+        assert r["na_max"].multiplier == pytest.approx(r["closed_form_associative"], rel=1e-7)
+    for r in grid:
+        assert r["na_max"].multiplier == pytest.approx(r["associative"].multiplier, rel=1e-7)
+        assert r["na_max"].multiplier >= r["na_min"].multiplier - 1e-9
+    for r in (r for r in known if _away_from_boundaries(r)):
+        assert _rotates(r["na_max"], r["structure"]) == _rotates(r["associative"], r["structure"]), (r["eta"], r["mu"])

@@ -24,12 +24,13 @@ Columns
 :data:`blockmpec.verify.RESIDUAL_NAMES` and ``max_residual``, ``build_time_s``,
 ``solve_time_s``, ``total_time_s`` (build + solve), ``iterations``,
 ``wall_time_s`` (the whole task as the supervisor saw it) and ``wall_limit_s`` (its
-outside limit), ``reference``, ``reference_source``, ``reference_method`` (the method
+outside limit; ``inf``: none), ``reference``, ``reference_source``, ``reference_method`` (the method
 label that produced the reference; empty for a closed form), ``reference_note``,
-``abs_error``, ``rel_error``, ``anomaly``, ``closed_form`` (the case's closed form for
-the row's problem, or empty), ``message`` (the reason of a skip or failure) and
-``run_key`` (case, case parameters, method, options and repetition: what ``resume``
-matches).
+``abs_error``, ``rel_error`` (signed, see below), ``signed_error``, ``abs_rel_error``, ``new_best``,
+``anomaly``, ``closed_form`` (the case's closed form for the row's problem, or empty),
+``budget_s`` (the case's time budget, :func:`blockmpec.bench.profiles.case_budgets`), ``resumed``
+(the row was kept from an earlier run by ``resume``), ``message`` (the reason of a skip or failure)
+and ``run_key`` (case, case parameters, method, options and repetition: what ``resume`` matches).
 
 Reference multiplier
 --------------------
@@ -53,10 +54,26 @@ and 3 take only values of *other* methods (``method`` differs), so a method that
 certified or alone found a value falls to the next rank, and ``reference_note`` says
 so.  ``reference_method`` names the method label that produced the reference.
 
-``abs_error = |lam - lam_ref|`` and ``rel_error = abs_error / |lam_ref|``.
+Errors
+------
+With ``lam`` the row's multiplier,
 
-Anomalies (column ``anomaly``, ``;``-separated, empty when none), with
-``tol = 1e-7 max(1, |lam_ref|)``:
+* ``signed_error = lam - lam_ref`` and ``abs_error = |lam - lam_ref|``;
+* ``rel_error = (lam - lam_ref) / |lam_ref|`` -- **signed** (until issue 41 it was
+  ``|lam - lam_ref| / |lam_ref|``; that value is now ``abs_rel_error``).  For the minimum of (4) a negative
+  error is a lower verified multiplier than the reference: a better answer when the reference
+  is only the best value of another method, a bug when the reference is exact (below);
+* ``lam_ref = 0``: ``rel_error`` is 0 when ``lam = 0``, else ``+-inf``.
+
+New best (column ``new_best``, mark ``↓`` in the text tables): a *verified* non-associative
+multiplier below a reference of source ``"best"`` by more than :data:`MATCH_TOL` (relative):
+``rel_error < -MATCH_TOL``.  It beats every verified value of the other methods, so it is the
+reference of those other methods of the case (rank 3 takes the smallest verified value of
+another method), and its own error, negative, is measured against the best of the others.
+
+Anomalies (column ``anomaly``, ``;``-separated, empty when none; mark ``!`` in the text tables
+and an ``ANOMALY`` line from ``blockmpec compare``), with ``tol = 1e-7 max(1, |lam_ref|)``
+(:data:`ANOMALY_TOL`):
 
 * ``below-certified-minimum``: a verified non-associative multiplier below a
   certified minimum (of any method) by more than ``tol`` (the certificate or the
@@ -71,7 +88,6 @@ Anomalies (column ``anomaly``, ``;``-separated, empty when none), with
 
 from __future__ import annotations
 
-import dataclasses
 import math
 import sys
 import time
@@ -79,17 +95,19 @@ from collections.abc import Callable, Iterable, Mapping
 from pathlib import Path
 from typing import Any
 
+from blockmpec import OptionError, Result, Status, Structure, assemble, get_solver
+from blockmpec.bench.runs import (  # noqa: F401 - the records and helpers, re-exported for the comparator's users
+    ANOMALY_TOL,
+    MATCH_TOL,
+    CaseRun,
+    MethodRun,
+    _finite,
+    _true,
+    parametrised_label,
+    relative_error,
+)
 from blockmpec.cases import CASES, closed_form, get_case
-from blockmpec.errors import OptionError
-from blockmpec.geometry import Structure
-from blockmpec.operators import assemble
-from blockmpec.registry import get_solver
-from blockmpec.result import Result, Status
-from blockmpec.result import is_finite_number as _finite
 from blockmpec.verify import RESIDUAL_NAMES
-
-#: absolute tolerance (times max(1, |lam_ref|)) of the anomaly checks
-ANOMALY_TOL = 1e-7
 
 #: per-method options of the built-in benchmark run (``blockmpec compare``): time limits for the
 #: methods whose cost grows fast with the size of the structure
@@ -104,44 +122,6 @@ REFERENCE_SOURCES = ("closed-form", "certified", "best", "none")
 
 
 # --------------------------------------------------------------------------- inputs
-
-
-def parametrised_label(name: str, params: Mapping[str, Any]) -> str:
-    """``name`` or ``name[k=v,...]``: a case or method with its non-default settings."""
-    if not params:
-        return name
-    return f"{name}[{','.join(f'{k}={_short(v)}' for k, v in params.items())}]"
-
-
-def _short(v: Any) -> str:
-    if isinstance(v, float) and v.is_integer() and abs(v) < 1e15:
-        return str(int(v)) if not math.isinf(v) else str(v)
-    return str(v)
-
-
-@dataclasses.dataclass(frozen=True)
-class CaseRun:
-    """One case of a comparison: its label, built-in name (None for a bare structure) and parameters."""
-
-    label: str
-    name: str | None
-    params: dict[str, Any]
-    structure: Structure | None = None
-
-    def build(self) -> Structure:
-        """The structure (built from the name and parameters unless given)."""
-        if self.structure is not None:
-            return self.structure
-        return get_case(self.name).build(**self.params)
-
-
-@dataclasses.dataclass(frozen=True)
-class MethodRun:
-    """One method of a comparison: its label, registered name and options."""
-
-    label: str
-    name: str
-    options: dict[str, Any]
 
 
 def normalise_cases(cases: Any) -> list[CaseRun]:
@@ -205,11 +185,11 @@ def _structure_run(label: str, structure: Structure) -> CaseRun:
 def normalise_methods(methods: Any) -> list[MethodRun]:
     """Accepted forms of ``methods``.
 
-    * a mapping ``label -> (method name, options)``;
+    * a mapping ``label -> (method name, options)`` or ``label -> (method name, options, settings)``;
     * an iterable of: a method name, ``(name, options)`` (label ``name[k=v,...]``),
-      ``(label, name, options)`` or a :class:`MethodRun`.
+      ``(label, name, options)``, ``(label, name, options, settings)`` or a :class:`MethodRun`.
 
-    Unknown methods and bad options raise here, before anything runs.
+    Unknown methods, bad options and settings of the wrong type raise here, before anything runs.
     """
     items: Iterable[Any]
     if isinstance(methods, Mapping):
@@ -226,12 +206,12 @@ def normalise_methods(methods: Any) -> list[MethodRun]:
             run = MethodRun(item, item, {})
         elif isinstance(item, tuple) and len(item) == 2:
             run = MethodRun(parametrised_label(item[0], item[1] or {}), item[0], dict(item[1] or {}))
-        elif isinstance(item, tuple) and len(item) == 3:
-            run = MethodRun(str(item[0]), item[1], dict(item[2] or {}))
+        elif isinstance(item, tuple) and len(item) in (3, 4):
+            run = MethodRun(str(item[0]), item[1], dict(item[2] or {}), item[3] if len(item) == 4 else None)
         else:
-            raise TypeError(f"cannot read a method from {item!r}: expected a name, (name, options) "
-                            "or (label, name, options)")
-        get_solver(run.name)(**run.options)  # unknown name / bad option -> error now
+            raise TypeError(f"cannot read a method from {item!r}: expected a name, (name, options), "
+                            "(label, name, options) or (label, name, options, settings)")
+        get_solver(run.name)(settings=run.settings, **run.options)  # unknown name / bad option -> error now
         out.append(run)
     labels = [m.label for m in out]
     dupes = sorted({lbl for lbl in labels if labels.count(lbl) > 1})
@@ -330,7 +310,10 @@ def run_key(case: CaseRun, method: MethodRun, rep: int) -> str:
     """What ``resume`` matches: case label and parameters, method name and options, repetition."""
     import json
 
-    return json.dumps([case.label, case.params, method.name, method.options, rep], sort_keys=True, default=str)
+    key = [case.label, case.params, method.name, method.options, rep]
+    if method.settings is not None:  # keys of runs without settings stay as they were (resume of older folders)
+        key.append(repr(method.settings))
+    return json.dumps(key, sort_keys=True, default=str)
 
 
 def compare(
@@ -349,6 +332,7 @@ def compare(
     out: Any = None,
     resume: bool = False,
     overwrite: bool = False,
+    budget: float | Mapping[str, float] | None = None,
 ):
     """Run every method on every case and return one long-format table.
 
@@ -378,8 +362,14 @@ def compare(
         Address of a running Dask scheduler; without it ``backend="dask"`` starts a local
         cluster of ``n_jobs`` workers.
     wall_limit : float or mapping, optional
-        Outside wall-clock limit per solve [s]: one number for all, or a mapping from method
+        Outside wall-clock limit per solve [s] (``inf``: none): one number for all, or a mapping from method
         label or method name to seconds; the default is :func:`blockmpec.bench.runner.default_wall_limit`.
+    budget : float or mapping, optional
+        The time budget of each case [s] (column ``budget_s``): what the summary and the performance
+        profiles charge an unsolved run, the same for every method of the case, and the longest solve
+        that still counts as solved.  One number for all cases or a mapping from case label to seconds;
+        the default is the largest finite wall-clock limit of the case's runs
+        (:func:`blockmpec.bench.profiles.case_budgets`).
     isolate : bool
         ``False`` runs the solves in the supervising process (no protection; for debugging).
     out : path or :class:`~blockmpec.bench.study.ResultsFolder`, optional
@@ -413,6 +403,9 @@ def compare(
     case_runs = normalise_cases(cases)
     method_runs = normalise_methods(methods)
     limits = _wall_limits(wall_limit, method_runs, default_wall_limit)
+    from blockmpec.bench.profiles import check_budget
+
+    budget = check_budget(budget, [c.label for c in case_runs])
     folder = None
     if out is not None:
         folder = out if isinstance(out, ResultsFolder) else ResultsFolder(out, overwrite=overwrite, resume=resume,
@@ -420,7 +413,7 @@ def compare(
     try:
         previous = {r["run_key"]: r for r in folder.finished_rows()} if (folder is not None and resume) else {}
         return _run(case_runs, method_runs, repeat, progress, verify_tol, results, n_jobs, backend, scheduler,
-                    limits, isolate, folder, previous, Task, execute, tempfile)
+                    limits, isolate, folder, previous, Task, execute, tempfile, budget)
     finally:
         if folder is not None and not isinstance(out, ResultsFolder):
             folder.close()
@@ -435,14 +428,14 @@ def _wall_limits(wall_limit, method_runs, default) -> dict[str, float]:
             value = wall_limit.get(m.label, wall_limit.get(m.name, default(m.options, m.name)))
         else:
             value = wall_limit
-        if isinstance(value, bool) or not isinstance(value, (int, float)) or not (0 < value < math.inf):
-            raise OptionError(f"wall limit of {m.label}: must be a finite number of seconds > 0; got {value!r}")
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or not value > 0:
+            raise OptionError(f"wall limit of {m.label}: must be a number of seconds > 0 (inf: none); got {value!r}")
         out[m.label] = float(value)
     return out
 
 
 def _run(case_runs, method_runs, repeat, progress, verify_tol, results, n_jobs, backend, scheduler, limits,
-         isolate, folder, previous, Task, execute, tempfile):
+         isolate, folder, previous, Task, execute, tempfile, budget):
     import pandas as pd
 
     # ---- the tasks (cases built once, here: a case that fails to build gives error rows)
@@ -475,7 +468,7 @@ def _run(case_runs, method_runs, repeat, progress, verify_tol, results, n_jobs, 
                     task = Task(len(plans), structure, method.name, dict(method.options), verify_tol,
                                 limits[method.label],
                                 plugins=() if plugin.startswith("blockmpec.") else (plugin,),
-                                sys_path=sys_path, marker_dir=marker_dir)
+                                sys_path=sys_path, marker_dir=marker_dir, settings=method.settings)
                     labels[task.task_id] = f"{case.label} · {method.label}"
                 plans.append((key, row, task))
     rows: dict[int, dict[str, Any]] = {}
@@ -500,8 +493,9 @@ def _run(case_runs, method_runs, repeat, progress, verify_tol, results, n_jobs, 
     last_write = time.perf_counter()
 
     def table():
-        frame = [rows[i] for i in sorted(rows)] + extra_previous
-        return _frame(pd, frame)
+        frame = [{**rows[i], "resumed": plans[i][0] in previous} for i in sorted(rows)]
+        frame += [{**r, "resumed": True} for r in extra_previous]
+        return _frame(pd, frame, budget)
 
     interrupted = None
     try:
@@ -545,12 +539,17 @@ def _run(case_runs, method_runs, repeat, progress, verify_tol, results, n_jobs, 
     return df
 
 
-def _frame(pd, rows: list[dict[str, Any]]):
+def _frame(pd, rows: list[dict[str, Any]], budget=None):
+    from blockmpec.bench.profiles import case_budgets
+
     df = pd.DataFrame(rows)
     for col in COLUMNS:
         if col not in df.columns:
             df[col] = None
     df = add_references(df)
+    budgets = case_budgets(df, budget)
+    df["budget_s"] = [budgets.get(c, math.nan) for c in df["case"]]
+    df["resumed"] = df["resumed"].fillna(False).astype(bool)
     first = [c for c in COLUMNS if c in df.columns]
     params = sorted(c for c in df.columns if c.startswith(("p_case_", "p_method_")))
     rest = [c for c in df.columns if c not in first and c not in params]
@@ -568,6 +567,8 @@ COLUMNS = (
     "build_time_s", "solve_time_s", "total_time_s", "iterations", "wall_time_s", "wall_limit_s",
     "reference", "reference_source", "reference_method", "reference_note", "abs_error", "rel_error", "anomaly",
     "closed_form", "message", "run_key",
+    # added for issue 41 (after the columns above, so that their positions are unchanged)
+    "signed_error", "abs_rel_error", "new_best", "budget_s", "resumed",
 )
 
 
@@ -673,18 +674,27 @@ def select_reference(rows, problem: str, method: str | None = None) -> tuple[flo
     return None, "none", "", "; ".join(notes + ["not graded"]) if notes else ""
 
 
-def add_references(df, tol: float = ANOMALY_TOL):
+def add_references(df, tol: float = ANOMALY_TOL, match_tol: float = MATCH_TOL):
     """Fill ``reference``, ``reference_source``, ``reference_method``, ``reference_note``,
-    ``abs_error``, ``rel_error`` and ``anomaly``.
+    ``abs_error``, ``rel_error`` (signed), ``signed_error``, ``abs_rel_error``, ``new_best`` and ``anomaly``.
 
     Works on any frame with columns ``case, problem, method, method_label, multiplier,
     verified, certified, closed_form`` (see the module docstring for the rules).  Returns
     the same frame (modified in place).
+
+    Parameters
+    ----------
+    tol : float
+        Tolerance of the anomaly checks, times ``max(1, |lam_ref|)`` (:data:`ANOMALY_TOL`).
+    match_tol : float
+        A verified non-associative multiplier with ``rel_error < -match_tol`` against a reference of source
+        ``"best"`` is a new best (:data:`MATCH_TOL`).
     """
     import numpy as np
 
     n = len(df)
-    cols = ("reference", "reference_source", "reference_method", "reference_note", "abs_error", "rel_error", "anomaly")
+    cols = ("reference", "reference_source", "reference_method", "reference_note", "abs_error", "rel_error",
+            "anomaly", "signed_error", "abs_rel_error", "new_best")
     if n == 0:
         for col in cols:
             df[col] = []
@@ -707,11 +717,11 @@ def add_references(df, tol: float = ANOMALY_TOL):
         for idx, method in zip(grp.index, grp["method"]):
             i = pos[idx]
             reference[i], source[i], producer[i], note[i] = select_reference(grp, problem, str(method))
+    verified = [_finite(lam) and _true(v) for lam, v in zip(df["multiplier"], df["verified"])]
     for i, (_, r) in enumerate(df.iterrows()):
-        lam = r["multiplier"]
-        if not (_finite(lam) and bool(r["verified"])):
+        if not verified[i]:
             continue
-        lam = float(lam)
+        lam = float(r["multiplier"])
         flags = []
         if r["problem"] == "non-associative":
             for bound, flag in floor.get(r["case"], []):
@@ -727,17 +737,28 @@ def add_references(df, tol: float = ANOMALY_TOL):
         anomaly[i] = ";".join(flags)
     lam_arr = np.array([float(v) if _finite(v) else np.nan for v in df["multiplier"]])
     ref_arr = np.array([np.nan if v is None else float(v) for v in reference])
-    abs_err = np.abs(lam_arr - ref_arr)
+    signed = lam_arr - ref_arr
     with np.errstate(divide="ignore", invalid="ignore"):
-        rel_err = np.where(ref_arr != 0, abs_err / np.abs(ref_arr), np.where(abs_err == 0, 0.0, np.inf))
-    rel_err[np.isnan(abs_err)] = np.nan
+        rel = np.where(ref_arr != 0, signed / np.abs(ref_arr), np.where(signed == 0, 0.0, np.sign(signed) * np.inf))
+    rel[np.isnan(signed)] = np.nan
+    new_best = [bool(verified[i] and df["problem"].iloc[i] == "non-associative" and source[i] == "best"
+                     and rel[i] < -match_tol) for i in range(n)]
+    for i in range(n):
+        if new_best[i]:  # the note of select_reference ("this method's own ...") becomes the plain statement
+            keep = [t for t in note[i].split("; ") if t and not t.startswith(
+                ("the best verified value is this method's own", "graded against another method's"))]
+            note[i] = "; ".join(keep + [f"new best: below the best verified value of the other methods "
+                                        f"({producer[i]}), so it is their reference"])
     df["reference"] = ref_arr
     df["reference_source"] = source
     df["reference_method"] = producer
     df["reference_note"] = note
-    df["abs_error"] = abs_err
-    df["rel_error"] = rel_err
+    df["abs_error"] = np.abs(signed)
+    df["rel_error"] = rel
     df["anomaly"] = anomaly
+    df["signed_error"] = signed
+    df["abs_rel_error"] = np.abs(rel)
+    df["new_best"] = new_best
     return df
 
 
@@ -761,26 +782,35 @@ def pivot(df, value: str, *, repetition: int = 0):
     return table.reindex(index=cases, columns=assoc + na)
 
 
-#: the marks of the text tables and what they mean
+#: the marks of the text tables and what they mean (:func:`cell_mark`, :func:`grade_marks`); a cell without a
+#: mark is a verified success
 MARKS = {
     "*": "not verified (a residual of (3) exceeds the tolerance)",
     "†": "verified but not certified (a certifying method stopped before closing its gap, e.g. at its time limit)",
     "‡": "verified, but the method stopped without claiming success (status in results.csv)",
-    "×": "failed (no multiplier: error, time limit, infeasible or unbounded)",
+    "×": "failed: no multiplier, or status error, infeasible, unbounded or infeasible_or_unbounded",
     "skip": "skipped (the method does not fit the case or cannot run here)",
+    "↓": f"new best: verified and below the best verified value of every other method by more than {MATCH_TOL:g} "
+         "(relative), so its error is negative and it is the reference of the others",
+    "!": "ANOMALY: a verified value that cannot be right (below a certified or closed-form minimum, above the "
+         "associative multiplier, or another associative optimum); see the ANOMALY lines",
 }
+#: statuses that make a row "failed" (×) whatever its multiplier
+FAILED_STATUSES = ("error", "infeasible", "unbounded", "infeasible_or_unbounded")
 
 
 def cell_mark(row) -> str:
-    """The mark of one row in the text tables: "" (verified success), or a key of :data:`MARKS`."""
+    """The status mark of one row in the text tables: "" (verified success), or one of
+    ``skip``, ``×``, ``*``, ``†``, ``‡`` of :data:`MARKS` (the rules, in this order, are the definitions printed
+    under the tables)."""
     status = row["status"]
     if status == Status.SKIPPED.value:
         return "skip"
-    if not _finite(row["multiplier"]) or status in ("error", "infeasible", "unbounded"):
+    if not _finite(row["multiplier"]) or status in FAILED_STATUSES:
         return "×"
-    if bool(row["success"]):
+    if _true(row["success"]):
         return ""
-    if not bool(row["verified"]):
+    if not _true(row["verified"]):
         return "*"
     try:
         certifying = row["problem"] == "non-associative" and certifies_minimum(str(row["method"]))
@@ -789,16 +819,28 @@ def cell_mark(row) -> str:
     return "†" if certifying else "‡"
 
 
+def grade_marks(row) -> str:
+    """The grading marks of one row: ``!`` for an anomaly, ``↓`` for a new best (see :data:`MARKS`), or ""."""
+    marks = ""
+    if str(row.get("anomaly", "") or "") not in ("", "nan"):
+        marks += "!"
+    if _true(row.get("new_best", False)):
+        marks += "↓"
+    return marks
+
+
 def text_table(df, value: str, fmt: str, title: str, *, reference: bool = False, note: str = "",
-               median: bool = False) -> str:
+               median: bool = False, grades: bool | None = None) -> str:
     """A printable ``case x method`` table of ``value`` (first repetition; ``median=True``: median over repetitions).
 
-    Cells: the formatted value followed by its mark (:func:`cell_mark`), ``×`` for a failed
+    Cells: the formatted value followed by its grading marks (:func:`grade_marks`: ``!`` anomaly, ``↓`` new
+    best; with ``grades``, default ``reference``) and its status mark (:func:`cell_mark`), ``×`` for a failed
     run, ``skip`` for a skipped method; the footnote explains every mark present.  With
     ``reference=True`` a last column shows the non-associative reference a method that
     produced nothing would be graded against, its source (f = closed form, c = certified
     minimum, b = best verified value) and the method that produced it.
     """
+    grades = reference if grades is None else grades
     sub = df[df["repetition"] == 0].copy()
     if median and df["repetition"].max() > 0:
         med = df.groupby(["case", "method_label"], sort=False)[value].median()
@@ -812,12 +854,14 @@ def text_table(df, value: str, fmt: str, title: str, *, reference: bool = False,
     for _, r in sub.iterrows():
         mark = cell_mark(r)
         used.add(mark)
+        extra = grade_marks(r) if grades and mark not in ("skip", "×") else ""
+        used.update(extra)
         if mark in ("skip", "×"):
             text = mark
         elif not _finite(r[value]):
             text = "–"
         else:
-            text = fmt.format(float(r[value])) + mark
+            text = fmt.format(float(r[value])) + extra + mark
         cell[(r["case"], r["method_label"])] = text
     ref_col = []
     if reference:
@@ -835,6 +879,7 @@ def text_table(df, value: str, fmt: str, title: str, *, reference: bool = False,
     for i, c in enumerate(cases):
         cells = [cell.get((c, m), "") for m in methods] + ([ref_col[i]] if reference else [])
         lines.append(c.ljust(first) + "".join(t.rjust(w) for t, w in zip(cells, widths)))
-    legend = [f"{k} = {v}" for k, v in MARKS.items() if k in used or k in ("*", "×")]
-    lines.append("; ".join(legend) + (note and "\n" + note))
+    legend = ["no mark = verified success"] + [f"{k} = {v}" for k, v in MARKS.items()
+                                               if k in used or k in ("*", "×")]
+    lines.append("\n".join(legend) + (note and "\n" + note))
     return "\n".join(lines)

@@ -48,6 +48,7 @@ the machines are the cluster's: nothing is capped there.
 from __future__ import annotations
 
 import dataclasses
+import math
 import os
 import pickle
 import signal
@@ -61,11 +62,16 @@ from collections.abc import Iterable, Iterator
 from pathlib import Path
 from typing import Any
 
+import blockmpec as bm
+from blockmpec import OptionError
+from blockmpec.options import DEFAULT_TIME_LIMIT_S
 from blockmpec.solvers.linalg import cpus
 from blockmpec.solvers.linalg.cpus import CPUS_VARIABLE
 
-#: wall-clock limit of a solve whose method has no ``time_limit`` option set [s]
-DEFAULT_WALL_LIMIT_S = 600.0
+#: the outside wall-clock limit of a solve run with the default ``time_limit``
+#: (:data:`blockmpec.options.DEFAULT_TIME_LIMIT_S`, 600 s): ``max(1.5 t, t + 30 s)`` = 900 s
+DEFAULT_WALL_LIMIT_S = max(1.5 * DEFAULT_TIME_LIMIT_S, DEFAULT_TIME_LIMIT_S + 30.0)
+
 
 def cpu_budget() -> int | None:
     """The CPUs one solve may use by :data:`CPUS_VARIABLE` (None when it is unset or empty).
@@ -74,8 +80,6 @@ def cpu_budget() -> int | None:
     CPUs this process may run on divided by ``n_jobs``); set it yourself to keep your own parallel solves
     from competing, e.g. ``BLOCKMPEC_CPUS=1``.  A value that is not a positive whole number is an
     :class:`~blockmpec.errors.OptionError` naming the variable."""
-    from blockmpec.errors import OptionError
-
     try:
         return cpus.cpu_budget()
     except ValueError as exc:
@@ -90,25 +94,29 @@ def usable_cpus() -> int:
 
 def default_wall_limit(options: dict[str, Any], method: str | None = None) -> float:
     """The outside wall-clock limit of one solve: ``max(1.5 t, t + 30 s)`` for a method run with
-    ``time_limit = t``, given in ``options`` or else the method's own default (room for set-up and the
-    method's own overshoot, so that the method reports its ``time_limit`` before it is killed), else
-    :data:`DEFAULT_WALL_LIMIT_S`."""
+    ``time_limit = t`` (room for set-up and the method's own overshoot, so that the method reports its
+    ``time_limit`` itself before it is killed).
+
+    ``t`` is the ``time_limit`` in ``options``, else the method's default: the one default of
+    :class:`blockmpec.options.CommonOptions` (:data:`~blockmpec.options.DEFAULT_TIME_LIMIT_S`, 600 s, so
+    900 s outside) unless the method declares its own.  ``time_limit = inf`` asks for no limit: the outside
+    limit is then ``inf`` too (the supervisor waits; give ``wall_limit=`` / ``--wall-limit`` to bound it).
+    """
     t = options.get("time_limit")
-    if t is None and method is not None:
-        t = _default_time_limit(method)
-    if isinstance(t, (int, float)) and not isinstance(t, bool) and 0 < t < float("inf"):
-        return max(1.5 * float(t), float(t) + 30.0)
-    return DEFAULT_WALL_LIMIT_S
+    if t is None:
+        t = _default_time_limit(method) if method is not None else None
+    if t is None:
+        t = DEFAULT_TIME_LIMIT_S
+    if isinstance(t, (int, float)) and not isinstance(t, bool) and t > 0:
+        return math.inf if math.isinf(t) else max(1.5 * float(t), float(t) + 30.0)
+    return DEFAULT_WALL_LIMIT_S  # not a time limit: the method refuses it before anything runs
 
 
 def _default_time_limit(method: str) -> float | None:
-    """The default of the method's ``time_limit`` option (None without one or for an unknown method)."""
-    from blockmpec.errors import BlockmpecError
-    from blockmpec.registry import get_solver
-
+    """The default of the method's ``time_limit`` option (None for an unknown method or one without it)."""
     try:
-        fields = {f.name: f for f in dataclasses.fields(get_solver(method).Options)}
-    except BlockmpecError:
+        fields = {f.name: f for f in dataclasses.fields(bm.get_solver(method).Options)}
+    except bm.BlockmpecError:
         return None
     f = fields.get("time_limit")
     return None if f is None or f.default is dataclasses.MISSING else f.default
@@ -132,6 +140,8 @@ class Task:
     marker_dir: str | None = None
     #: CPUs the solve's automatic settings may use (:data:`CPUS_VARIABLE` while it runs), None: not capped here
     cpus: int | None = None
+    #: the method's engine settings (an instance of its ``Settings``), None: its measured defaults
+    settings: Any = None
 
 
 @dataclasses.dataclass
@@ -151,14 +161,16 @@ class Outcome:
 
 def run_in_process(task: Task) -> Outcome:
     """Solve ``task`` here; an exception escaping :func:`blockmpec.solve` becomes an ``error`` outcome."""
-    from blockmpec.solver import solve
-
     t0 = time.perf_counter()
     previous = os.environ.get(CPUS_VARIABLE)
     if task.cpus is not None:
         os.environ[CPUS_VARIABLE] = str(task.cpus)
     try:
-        res = solve(task.structure, task.method, verify_tol=task.verify_tol, **task.options)
+        if task.settings is None:
+            res = bm.solve(task.structure, task.method, verify_tol=task.verify_tol, **task.options)
+        else:
+            solver = bm.get_solver(task.method)(settings=task.settings, **task.options)
+            res = bm.run_solver(solver, task.structure, verify_tol=task.verify_tol)
     except BaseException as exc:  # noqa: BLE001 - every failure of one solve is a row
         if isinstance(exc, KeyboardInterrupt):
             raise
@@ -389,8 +401,6 @@ BACKENDS = ("loky", "dask")
 def check_backend(n_jobs: int, backend: str | None, scheduler: str | None) -> None:
     """Raise OptionError for a bad combination of ``n_jobs``, ``backend`` and ``scheduler`` (or a bad
     :data:`CPUS_VARIABLE`, which :func:`execute` reads)."""
-    from blockmpec.errors import OptionError
-
     cpu_budget()
     if isinstance(n_jobs, bool) or not isinstance(n_jobs, int) or n_jobs < 1:
         raise OptionError(f"jobs: must be an integer >= 1; got {n_jobs!r}")

@@ -28,6 +28,9 @@ A TOML file read with :mod:`tomllib` (``tomli`` before Python 3.11)::
     backend = "loky"              # optional: "loky" or "dask"
     scheduler = "tcp://host:8786" # optional, with backend = "dask"
 
+    budget = 120                  # optional: time budget of every case [s] (as --budget); or a table
+                                  # [budget] with case label = seconds
+
     [wall_limits]                 # optional: outside wall-clock limit per method name [s]
     milp = 90
 
@@ -294,9 +297,11 @@ class Study:
     jobs: int | None = None
     backend: str | None = None
     scheduler: str | None = None
+    #: the time budget of every case, or case label -> seconds (None: each case's default)
+    budget: float | dict[str, float] | None = None
 
 
-_TOP_KEYS = {"cases", "methods", "repeat", "verify_tol", "wall_limits", "jobs", "backend", "scheduler"}
+_TOP_KEYS = {"cases", "methods", "repeat", "verify_tol", "wall_limits", "jobs", "backend", "scheduler", "budget"}
 _CASE_KEYS = {"label", "case", "suite", "file", "params"}
 _METHOD_KEYS = {"label", "name", "options", "wall_limit"}
 
@@ -309,7 +314,7 @@ def _unknown(keys, allowed, where: str) -> None:
 
 def load_study(path: str | Path) -> Study:
     """Read a study file (format in the module docstring); every error names the file and the entry."""
-    from blockmpec.bench.compare import CaseRun, MethodRun, parametrised_label
+    from blockmpec.bench.runs import CaseRun, MethodRun, parametrised_label
 
     try:
         import tomllib
@@ -372,8 +377,17 @@ def load_study(path: str | Path) -> Study:
     jobs = data.get("jobs")
     if jobs is not None and (isinstance(jobs, bool) or not isinstance(jobs, int) or jobs < 1):
         raise OptionError(f"{path}: jobs must be an integer >= 1; got {jobs!r}")
+    budget = data.get("budget")
+    if isinstance(budget, dict):
+        labels = [c.label for c in cases]
+        for label in budget:
+            if label not in labels:
+                raise OptionError(f"{path}: budget.{label}: no case labelled {label!r}; cases: {', '.join(labels)}")
+        budget = {str(k): _positive(v, f"{path}: budget.{k}") for k, v in budget.items()}
+    elif budget is not None:
+        budget = _positive(budget, f"{path}: budget")
     return Study(cases, methods, repeat, check_tolerance(data.get("verify_tol", 1e-6), f"{path}: verify_tol"),
-                 wall_limits, jobs, data.get("backend"), data.get("scheduler"))
+                 wall_limits, jobs, data.get("backend"), data.get("scheduler"), budget)
 
 
 def _positive(value: Any, where: str) -> float:

@@ -1,10 +1,8 @@
-"""Numerical engines shared by the methods: not methods themselves, never registered.
+"""Algorithm drivers shared by the methods: not methods themselves, never registered.
 
-* :mod:`.highs`          the one HiGHS wrapper (persistent LP/MILP, one status map);
-* :mod:`.block_ipm`      the block interior-point LP method for large static LPs;
-* :mod:`.scaling`        load units for the LPs (rows per block load, forces per interface load);
-* :mod:`.lp_sequence`    the persistent sequence of modified associative LPs (fixed point, SLP);
-* :mod:`.newton_system`  the Fischer-Burmeister system of the MCP (3) for ``mcp-newton``.
-
-Backends (highspy, cyipopt) are imported inside functions, never at module import.
+What lives here: the one HiGHS wrapper (:mod:`.highs`, the only module that imports highspy), the LP engines
+(:mod:`.lp_engine`, :mod:`.block_lp`), the units reduction (:mod:`.scaling`), the LP sequence (:mod:`.lp_sequence`),
+the interior fixed point, the piece LPs, the Newton system, the MIP engines and the branch and bound, and one
+stopping criterion (:mod:`.stopping`).  Engines import ``blockmpec``'s lower layers, ``formulations``, ``linalg``
+and ``plan``; they get matrices and a :class:`~.scaling.LoadUnits`, never the operators, and one deadline.
 """

@@ -135,9 +135,9 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.sparse as sp
 
+from blockmpec.deadline import NEVER, Deadline
 from blockmpec.formulations.compiled import FRICTION
 from blockmpec.result import Status
-from blockmpec.deadline import NEVER, Deadline
 from blockmpec.solvers.engines.highs import (
     change_applied,
     highs_lp,

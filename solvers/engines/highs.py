@@ -248,15 +248,27 @@ def highs_mip(A, c, row_lower, row_upper, col_lower, col_upper, integer, *, dead
     return info, point
 
 
-def small_lp(c, A_ub, b_ub, col_lower, col_upper) -> tuple[Status, float]:
-    """``min c^T x`` s.t. ``A_ub x <= b_ub``, ``col_lower <= x <= col_upper`` (dense, small) by HiGHS's dual
-    simplex: ``(status, optimum)``."""
-    A = sp.csc_array(np.atleast_2d(np.asarray(A_ub, float)))
+def solve_lp(c, A, row_lower, row_upper, col_lower, col_upper,
+             deadline: Deadline = NEVER) -> tuple[Status, np.ndarray | None, float]:
+    """``min c^T x`` s.t. ``row_lower <= A x <= row_upper``, ``col_lower <= x <= col_upper`` by HiGHS, once (for
+    the small one-off LPs of the library: no scaling, no re-solves): ``(status, x or None, optimum)``."""
+    A = sp.csc_array(np.atleast_2d(A) if not sp.issparse(A) else A)
     h = new_highs()
-    h.passModel(highs_lp(A, c, np.full(A.shape[0], -np.inf), np.asarray(b_ub, float), col_lower, col_upper))
+    h.passModel(highs_lp(A, c, row_lower, row_upper, col_lower, col_upper))
+    if not set_deadline(h, deadline):
+        return Status.TIME_LIMIT, None, float("nan")
     h.run()
     status, _ = highs_status(h)
-    value = float(h.getInfo().objective_function_value) if status is Status.OPTIMAL else float("nan")
+    if status is not Status.OPTIMAL:
+        return status, None, float("nan")
+    return status, np.asarray(h.getSolution().col_value, float), float(h.getInfo().objective_function_value)
+
+
+def small_lp(c, A_ub, b_ub, col_lower, col_upper) -> tuple[Status, float]:
+    """``min c^T x`` s.t. ``A_ub x <= b_ub``, ``col_lower <= x <= col_upper`` (dense, small) by HiGHS:
+    ``(status, optimum)``."""
+    A = np.atleast_2d(np.asarray(A_ub, float))
+    status, _, value = solve_lp(c, A, np.full(A.shape[0], -np.inf), np.asarray(b_ub, float), col_lower, col_upper)
     return status, value
 
 
@@ -306,7 +318,10 @@ class HighsLP:
         self.last_algorithm = algorithm
         self._first = True
 
-    def _set_algorithm(self, algorithm: str) -> None:
+    def set_algorithm(self, algorithm: str) -> None:
+        """Set HiGHS's solver for the next solve: ``algorithm`` as :func:`~blockmpec.solvers.plan.lp_algorithm`
+        resolves it (``"auto"``: the dual simplex on a warm re-solve), recorded in :attr:`last_algorithm`.  Every
+        :meth:`solve` calls it; a subclass may choose other HiGHS options here (e.g. another interior point)."""
         h = self.highs
         algorithm = lp_algorithm(algorithm, self.lp.A.shape[0], need_basis=True, warm=not self._first)
         #: the algorithm of the latest solve (for the run's plan)
@@ -348,7 +363,7 @@ class HighsLP:
             nan = np.full(self.lp.c.size, np.nan)
             return LPOutcome(Status.TIME_LIMIT, "kTimeLimit", float("nan"), nan, np.full(self.lp.A.shape[0], np.nan),
                              0, message="time limit reached before the LP")
-        self._set_algorithm(algorithm or self.algorithm)
+        self.set_algorithm(algorithm or self.algorithm)
         h.run()
         self._first = False
         status, raw = highs_status(h)

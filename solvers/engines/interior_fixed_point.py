@@ -21,7 +21,7 @@ LP with ``G_psi`` on both sides).  Each step then moves the friction rows by
 ``(tan(phi) - tan(psi)) dn``, which the next residual carries: on the two-block case
 and on 4x2 and 10x5 walls the residuals stalled at 1e-3..1e-5 (``NUMERICAL``) with
 ``||n - n*||/||n||`` between 1e-6 and 0.3 (kept in :class:`InteriorFixedPoint` as
-``coupling="lagged"`` for that measurement, ``studies/fixed_point_ratio.py``).
+``coupling="lagged"`` for that measurement, ``studies/lab/fixed_point_ratio.py``).
 
 **Newton on (3) itself** (the default, ``coupling="exact"``): the same Mehrotra
 predictor-corrector iteration, with ``G_phi`` in the primal rows and ``G_psi`` in the
@@ -44,7 +44,7 @@ once ``mu <= fold_off * mu_0`` (:data:`FOLD_KNEE`, :data:`FOLD_OFF`), so the poi
 returned solves (3) with the plain objective (1/3 on that case).  A run with the aim
 term that fails is repeated without it (:func:`run_interior`).
 
-Measured (``studies/fixed_point_strategies.py``, ``studies/fixed_point_ratio.py``):
+Measured (``studies/lab/fixed_point_strategies.py``, ``studies/lab/fixed_point_ratio.py``):
 
 * on the heuristic suite the aimed run is verified on 56/56 structures and within 2 %
   of the certified minimum on 54-55/56 (the simplex default: 56/56); it misses where
@@ -60,7 +60,7 @@ Measured (``studies/fixed_point_strategies.py``, ``studies/fixed_point_ratio.py`
   stalled at the same complementarity.
 
 **The stall: Mehrotra's iterates leave a strongly curved central path, and no closing stage
-repairs it** (``studies/fixed_point_polish.py``, ``studies/fixed_point_continuation.py``).  On the 10,000-block wall (no aim term) ``mu`` falls
+repairs it** (``studies/lab/fixed_point_polish.py``, ``studies/lab/fixed_point_continuation.py``).  On the 10,000-block wall (no aim term) ``mu`` falls
 from 552 to 5.8e-6 in 17 iterations and stays there for 34 more: ``sigma`` near 1, the
 complementarity products evenly spread (none above 100 ``mu``; the relative complementarity
 is 0.5 only because there are 119,400 pairs), steps of 1e-6..1e-2.  The path from
@@ -89,7 +89,7 @@ from the stalled point (``best_iterate``):
   residuals of (3) between 9e-4 and 0.28 at 2,400 blocks.
 
 **The closing stage that works: continuation of the central path**
-(:func:`continue_central_path`, ``studies/fixed_point_continuation.py``; 2,420-block wall
+(:func:`continue_central_path`, ``studies/lab/fixed_point_continuation.py``; 2,420-block wall
 ``40x60``, where the run stalls at ``mu`` ~ 8.6e-8, worst residual of (3) 1.3e-3).  At the
 stalled point even pure centring (``sigma = 1``, damped) drives the smallest product
 ``s_i y_i`` from 0.13 ``mu`` to 3e-7 ``mu`` in 60 steps: the iterate is off the path.
@@ -119,7 +119,7 @@ Without the continuation the interior engine ends ``NUMERICAL`` at 10,000 blocks
 one cold block-IPM LP (CPU, both runs: with and without the aim term); issue 14's 3x target
 is not met there.
 
-**Other routes to the 10,000-block target, measured and failed** (``studies/fixed_point_routes.py``,
+**Other routes to the 10,000-block target, measured and failed** (``studies/lab/fixed_point_routes.py``,
 its docstring has the table):
 
 * the paper's sequence of LPs (5), each by the block IPM (``coupling="fixed"``, symmetric ``K``) warm
@@ -221,7 +221,7 @@ class InteriorFixedPoint(BlockLP):
         self.base_c = self.c.copy()
         self.current_fold = 0.0
         #: keep the aim term to the end: the run then solves the aimed problem, not (3)
-        #: (a measurement of ``studies/fixed_point_continuation.py``)
+        #: (a measurement of ``studies/lab/fixed_point_continuation.py``)
         self.keep_aim = False
         self.mu0: float | None = None
         self.n_star = np.zeros(factor.size)
@@ -347,7 +347,6 @@ def continue_central_path(engine: InteriorFixedPoint, start: IPMIterate, *, tol:
 
     Returns the last iterate and ``{"steps", "factorisations", "mu"}``.
     """
-    import time
 
     from blockmpec.solvers.linalg.block_ipm import single_blas_thread
     from blockmpec.solvers.linalg.cholesky import SingularMatrixError
@@ -364,7 +363,7 @@ def continue_central_path(engine: InteriorFixedPoint, start: IPMIterate, *, tol:
         return IPMIterate(z.v + step * d[0], z.s + step * d[1], z.w + step * d[2], z.y + step * d[3])
 
     def tangent(z, mu, factors, previous=None):
-        t = [*engine._refined_direction(z, factors, *slope, weights), 1.0]
+        t = [*engine.refined_direction(z, factors, *slope, weights), 1.0]
         norm = np.sqrt(metric(t, t, z, mu))
         t = [x / norm for x in t]
         if previous is None:
@@ -374,7 +373,7 @@ def continue_central_path(engine: InteriorFixedPoint, start: IPMIterate, *, tol:
     z, mu, steps, factorisations = start, mu0, 0, 1
     with single_blas_thread():
         try:
-            factors = engine._factorise(z)
+            factors = engine.factorise(z)
             t = tangent(z, mu, factors)
             h = 0.1
             while (steps < max_steps and not deadline.expired() and max(engine.measures(z)) > tol
@@ -387,17 +386,17 @@ def continue_central_path(engine: InteriorFixedPoint, start: IPMIterate, *, tol:
                         continue
                     zc, mc = zp, mp
                     for corrections in range(1, 5):
-                        factors = engine._factorise(zc)
+                        factors = engine.factorise(zc)
                         factorisations += 1
                         r_b, r_h, r_c = engine.residuals(zc)
                         theta = mc / mu0
-                        a = [*engine._refined_direction(zc, factors, r_b - theta * r0[0], r_h - theta * r0[1],
+                        a = [*engine.refined_direction(zc, factors, r_b - theta * r0[0], r_h - theta * r0[1],
                                                         r_c - theta * r0[2], mc * weights - zc.s * zc.y), 0.0]
-                        b = [*engine._refined_direction(zc, factors, *slope, weights), 1.0]
+                        b = [*engine.refined_direction(zc, factors, *slope, weights), 1.0]
                         offset = metric(t, [zc.v - zp.v, zc.s - zp.s, zc.w - zp.w, zc.y - zp.y, mc - mp], z, mu)
                         dmu = (-offset - metric(t, a, z, mu)) / metric(t, b, z, mu)
                         d = [a[i] + dmu * b[i] for i in range(4)] + [dmu]
-                        longest = min(engine._max_step(zc.s, d[1]), engine._max_step(zc.y, d[3]))
+                        longest = min(engine.max_step(zc.s, d[1]), engine.max_step(zc.y, d[3]))
                         full = longest >= 1.0 and (zc.s + d[1]).min() > 0 and (zc.y + d[3]).min() > 0
                         step = 1.0 if full else 0.9 * longest
                         zc, mc = moved(zc, d, step), mc + step * dmu

@@ -65,7 +65,7 @@ import numpy as np
 
 from blockmpec import facts as fact_names
 from blockmpec.deadline import NEVER, Deadline
-from blockmpec.formulations.static_lp import StepLPs
+from blockmpec.formulations.sequence import StepLPs
 from blockmpec.result import RunOutput, Solution, Status
 from blockmpec.solvers.engines.highs import FEASIBILITY_TOL, static_lp_solution
 from blockmpec.verify import positive_part_ratio
@@ -449,6 +449,7 @@ def run_sequence(
     memory: int = 5,
     seed: int = 0,
     alpha_schedule=None,
+    stall_steps: int | None = None,
 ) -> tuple[RunOutput, dict[str, Any]]:
     r"""Iterate ``n* -> LP step -> n``, ``n* <- min(n* + relaxation (n - n*), 0)`` (or Anderson's update).
 
@@ -478,6 +479,10 @@ def run_sequence(
         Seed of the ``"random"`` start.
     alpha_schedule : callable, optional
         ``k -> alpha`` of step ``k`` (1-based) for the SLP (:meth:`LPSequence.set_alpha`).
+    stall_steps : int, optional
+        ``stop_on="normal"``: stop with ``NUMERICAL`` when the smallest ``||n - n*|| / ||n||`` so far has not halved in
+        this many steps (after any folded steps): the iteration wanders instead of converging (seen on irregular
+        stone walls, where the map ``n* -> n`` does not contract); None never stops for that.
 
     Returns
     -------
@@ -529,6 +534,7 @@ def run_sequence(
     # folded tie-break: one LP per step until n settles (or stalls), then exact "closest" steps close the loop
     folding = seq.fold_weight > 0 and seq.tie_break in ("least-compressed", "min-lambda")
     best_change, since_best = np.inf, 0
+    stall_best, stall_since = np.inf, 0  # the stall test's own record (after the folded steps)
     last: Solution | None = None
     lam_prev: float | None = None
     n_change_prev = np.inf
@@ -580,6 +586,13 @@ def run_sequence(
             if status is Status.CONVERGED or n_change <= FOLD_SETTLE_TOL or since_best >= FOLD_STALL_STEPS:
                 # a folded step's duals carry the folded costs: close with exact steps
                 folding, rule, status = False, "closest", None
+        if stall_steps is not None and stop_on == "normal" and not folding and status is None:
+            stall_since = 0 if n_change < 0.5 * stall_best else stall_since + 1
+            stall_best = min(stall_best, n_change)
+            if stall_since >= stall_steps:
+                return output(Status.NUMERICAL, sol, f"the iteration wanders: ||n - n*||/||n|| has not halved in "
+                              f"{stall_steps} steps (smallest {stall_best:.2e}, last {n_change:.2e}); returning the last "
+                              "iterate", step.raw_status)
         if status is Status.CONVERGED:
             return output(status, sol, "", step.raw_status)
         if status is Status.ITERATION_LIMIT:

@@ -67,7 +67,7 @@ reads the mechanism as it does for HiGHS.
 Why not a general LP code: on a 10,000-block wall HiGHS's interior-point solver
 (IPX) needs ~16 s per iteration here and did not finish in 900 s; the block
 structure makes the same step a batch of 7-by-7 inversions plus one sparse
-factorisation of a mesh matrix (``studies/lp_timing.py``).  Without a basis the
+factorisation of a mesh matrix (``studies/lab/lp_timing.py``).  Without a basis the
 point returned is close to the analytic centre of the optimal face, not a vertex,
 so it cannot start HiGHS's warm simplex re-solves (the fixed point needs them).
 """
@@ -91,6 +91,7 @@ from .cholesky import (
     two_processes_available,
     usable_cpus,
 )
+
 
 class IPMStatus(str, Enum):
     """Why :meth:`BlockIPM.solve` stopped (the values are the library's status names; the engines map them)."""
@@ -131,7 +132,7 @@ class IPMOutcome:
 #: ``min(1, gondzio_factor * step + gondzio_delta)``; ``step_fraction`` of the step to the boundary;
 #: ``sigma = max(sigma_min, (mu_aff / mu)^sigma_power)``.
 #: Most inner directions are accurate to ~1e-8 after one solve, so ``inner_tolerance`` 1e-6 (below) skips
-#: their correction; with four correctors and ``gondzio_accept`` 1 as well (:data:`FEWER_SOLVES_SETTINGS`)
+#: their correction; with four correctors and ``gondzio_accept`` 1 as well (``fewer_solves`` of ``studies/lab/_ipm_settings.py``)
 #: a thin-voussoir arch, where some inner directions are off by up to 0.16, stalls at a residual of
 #: 1e-8..1e-6 instead of reaching 1e-9, so the correctors stay at two, accepted only if they lengthen the step.
 #: ``krylov_iterations``: when the ``refinements`` stationary corrections of a refined direction do not
@@ -141,12 +142,12 @@ class IPMOutcome:
 #: ``krylov_switch`` (1: only after all ``refinements`` corrections, the behaviour before it existed).
 #: GMRES's first step is the stationary correction with the best damping, so the switch costs nothing
 #: where the stationary refinement would have converged slowly.  On walls up to 10,050 blocks every
-#: correction of a refined direction shrinks the error by a factor <= 0.02 (studies/lp_timing.py
+#: correction of a refined direction shrinks the error by a factor <= 0.02 (studies/lab/lp_timing.py
 #: traces): the switch never fires there and their iterates are unchanged.
 #: ``inner_tolerance`` 1e-6 (the inner directions' reduced correction skipped once the equality rows hold to
 #: 1e-6 relative to ``|A| |dv|``; the step taken is still refined to the absolute target) is the default since it
 #: saves solves with ``K`` at every size measured, with the same lam and verifier residuals at round-off
-#: (``python studies/lp_timing.py --walls 20x50,40x60,70x70,50x200,100x100,180x181 --algorithms block-ipm
+#: (``python studies/lab/lp_timing.py --walls 20x50,40x60,70x70,50x200,100x100,180x181 --algorithms block-ipm
 #: --ipm-settings exact_inner,wide_shift`` -- the default then had the diagonal shift 1e-12 --, CPU s,
 #: iterations, solves with K, one run each pair): 1,010 blocks 0.61 ->
 #: 0.57 s (21 -> 21, 193 -> 142); 2,420 2.79 -> 2.34 s (32 -> 30, 278 -> 184); 4,935 8.9 -> 7.8 s (44 -> 43,
@@ -159,7 +160,7 @@ class IPMOutcome:
 #: up to 16 solves with ``K`` per iteration and GMRES.  At round-off level (1e-16) the 100,014-block LP took
 #: 312 s instead of 457 s CPU (77 / 79 iterations, 541 / 1,242 solves, the same lam), and 32,670 blocks 68 s
 #: instead of 100 s; up to 10,050 blocks the times stay within +-10 % and the iteration
-#: counts within the round-off spread (``python studies/lp_timing.py --walls 20x50,40x60,70x70,50x200,100x100,
+#: counts within the round-off spread (``python studies/lab/lp_timing.py --walls 20x50,40x60,70x70,50x200,100x100,
 #: 180x181 --algorithms block-ipm --ipm-settings wide_shift,default``, and ``--walls 316x316``; README).  The
 #: interior fixed point keeps 1e-12: its stall at 2,420 blocks stays with 1e-16 too (85 iterations, 2.4e-3).
 DEFAULT_SETTINGS = {"refinements": 8, "lazy_refinement": True, "inner_refinements": 1, "inner_tolerance": 1e-6,
@@ -177,21 +178,14 @@ EXACT_INNER_SETTINGS = {**DEFAULT_SETTINGS, "inner_tolerance": 0.0, "diagonal_sh
                         "correctors": 2}
 #: ``correctors``: the most Gondzio correctors per iteration, or ``"auto"``: :data:`LARGE_CORRECTORS` when ``K``
 #: has at least ``rules.corrector_rows`` (:class:`AutoRules`) rows, else :data:`SMALL_CORRECTORS`.  On large walls more correctors
-#: cut the crawl's iterations by more than they cost: ``python studies/lp_timing.py --walls 100x100,180x181,316x316
+#: cut the crawl's iterations by more than they cost: ``python studies/lab/lp_timing.py --walls 100x100,180x181,316x316
 #: --algorithms block-ipm --ipm-settings two_correctors,default`` (README).  On small LPs four correctors made the
 #: 3x4 wall's K singular in floating point before convergence (``acceptable`` instead of ``optimal``) and took 17
 #: iterations against 15 on 10x20 (``--walls 3x4,5x4,10x20 --ipm-settings two_correctors,four_correctors``), so below
 #: that size they stay at two.
 SMALL_CORRECTORS, LARGE_CORRECTORS = 2, 4
-#: the default with two correctors at every size (``correctors`` 2, the default before ``"auto"``;
-#: ``--ipm-settings two_correctors,default``)
-TWO_CORRECTORS_SETTINGS = {**DEFAULT_SETTINGS, "correctors": 2}
-#: the default with four correctors at every size (``--ipm-settings two_correctors,four_correctors`` on small walls)
-FOUR_CORRECTORS_SETTINGS = {**DEFAULT_SETTINGS, "correctors": 4}
-#: the default before ``diagonal_shift`` 1e-16 (for ``--ipm-settings wide_shift,default`` comparisons)
-WIDE_SHIFT_SETTINGS = {**DEFAULT_SETTINGS, "diagonal_shift": WIDE_DIAGONAL_SHIFT}
 #: Near the optimum of large walls the reduced refinement converges slowly (``K`` very ill-conditioned):
-#: with 3 corrections and 2 sweeps (:data:`SHORT_REFINEMENT_SETTINGS`) the step's equality-row error
+#: with 3 corrections and 2 sweeps (``short_refinement``) the step's equality-row error
 #: reached the primal residual (1e-12 -> 4e-7) on a 32,580-block wall, which stalled ``ACCEPTABLE`` after
 #: 70 iterations (165 s CPU) and failed at 100,014 blocks (``NUMERICAL`` after 82); with 8 and 4 it
 #: stays <= 4e-9 and the 32k wall is ``OPTIMAL`` in 62 (134 s).  The early exits keep walls at ~10 solves
@@ -203,40 +197,17 @@ WIDE_SHIFT_SETTINGS = {**DEFAULT_SETTINGS, "diagonal_shift": WIDE_DIAGONAL_SHIFT
 #: the defaults the 100,014-block wall is ``OPTIMAL`` after 80 iterations (831 s CPU, primal residual
 #: <= 7e-12 throughout, GMRES in 36 of them), verifier 1.8e-10.  With GMRES taking over after the
 #: first slow correction (``krylov_switch`` 0.1) it needs 1,306 instead of 1,487 solves with K (82
-#: iterations either way; GMRES in 42, 378 solves in them), verifier 3.6e-10 (studies/lp_timing.py).
-#: the refinement before that measurement
-SHORT_REFINEMENT_SETTINGS = {**EXACT_INNER_SETTINGS, "refinements": 3, "final_sweeps": 2}
-#: stationary refinement only (the default before the Krylov fallback), with 8 and 4 or 3 and 2 corrections
-STATIONARY_SETTINGS = {**EXACT_INNER_SETTINGS, "krylov_iterations": 0}
-SHORT_STATIONARY_SETTINGS = {**SHORT_REFINEMENT_SETTINGS, "krylov_iterations": 0}
-#: GMRES only after all ``refinements`` stationary corrections failed (the default before ``krylov_switch``)
-LATE_KRYLOV_SETTINGS = {**EXACT_INNER_SETTINGS, "krylov_switch": float("inf")}
-#: fewer solves per iteration on walls, not robust (see above); for measurements only
-FEWER_SOLVES_SETTINGS = {**DEFAULT_SETTINGS, "correctors": 4, "gondzio_accept": 1.0}
-#: the settings before the lazy refinement: every direction refined on the whole system
-PREVIOUS_SETTINGS = {**EXACT_INNER_SETTINGS, "lazy_refinement": False}
-#: the default with one subtree half of every factorisation and solve of K in a worker process
-#: (``factor_processes`` 2; the supernodal Cholesky only: :class:`~blockmpec.solvers.linalg.cholesky._HalfWorker`)
-TWO_PROCESS_SETTINGS = {**DEFAULT_SETTINGS, "factor_processes": 2}
-#: the supernodal Cholesky in this process alone (``factor_processes`` 1, the default before ``"auto"``)
-ONE_PROCESS_SETTINGS = {**DEFAULT_SETTINGS, "factor_processes": 1}
-#: the default with the supernodal Cholesky's solves by the Python loop over supernodes even with compiled kernels
-#: (``compiled_solves`` False, as before it existed; ``--ipm-settings python_solves,default`` measures it)
-PYTHON_SOLVES_SETTINGS = {**DEFAULT_SETTINGS, "compiled_solves": False}
+#: iterations either way; GMRES in 42, 378 solves in them), verifier 3.6e-10 (studies/lab/lp_timing.py).
+#: The named settings sets that experiments compare (``--ipm-settings NAME,...``: ``short_refinement``, ``previous``,
+#: ``two_correctors`` ...) live with the experiments, in ``studies/lab/_ipm_settings.py``.
 #: ``compiled_solves``: the supernodal Cholesky's solves with vectors by compiled loops calling the same BLAS
 #: (:mod:`blockmpec.solvers.linalg.cholesky_kernels`, numba; the same solutions bit for bit): ``"auto"`` (when the
 #: kernels are compiled, :attr:`BlockIPM.block_kernels`), True (needs numba) or False
 COMPILED_SOLVES = ("auto", True, False)
-#: the default with the supernodal Cholesky's factorisations by the Python loop over supernodes even with compiled
-#: kernels (``compiled_factorisation`` False, as before it existed; ``--ipm-settings python_factorisation,default``)
-PYTHON_FACTORISATION_SETTINGS = {**DEFAULT_SETTINGS, "compiled_factorisation": False}
 #: ``compiled_factorisation``: the supernodal Cholesky's numeric factorisation by a compiled loop over supernodes
 #: calling the same LAPACK/BLAS on the same fronts (:class:`~blockmpec.solvers.linalg.cholesky_kernels.FactorPlan`;
 #: the same factors bit for bit): ``"auto"`` (when the kernels are compiled), True (needs numba) or False
 COMPILED_FACTORISATION = COMPILED_SOLVES
-#: the default with scipy's sparse products even with compiled kernels (``compiled_products`` False, as before it
-#: existed; ``--ipm-settings scipy_products,default``)
-SCIPY_PRODUCTS_SETTINGS = {**DEFAULT_SETTINGS, "compiled_products": False}
 #: ``compiled_products``: the products with ``A``, ``A_B``, ``G`` and their transposes by compiled row loops on the
 #: CPUs this process may use (:class:`~blockmpec.solvers.linalg.block_kernels.SparseProducts`; scipy's sums in
 #: scipy's order, the same numbers bit for bit) and the first block solve of a direction without ``dy`` (the same
@@ -287,16 +258,6 @@ class AutoRules:
         """Rules under which no ``"auto"`` setting ever switches: SuperLU, one process, two correctors, numpy."""
         return cls(math.inf, math.inf, math.inf, math.inf, math.inf)
 
-
-def named_settings(name: str) -> dict:
-    """The settings set ``<NAME>_SETTINGS`` of this module by its lower-case name (``"default"``, ``"exact_inner"``,
-    ``"previous"``, ...), for studies that compare them by name."""
-    settings = globals().get(f"{name.upper()}_SETTINGS")
-    if not isinstance(settings, dict):
-        known = sorted(key[:-len("_SETTINGS")].lower() for key, value in globals().items()
-                       if key.endswith("_SETTINGS") and isinstance(value, dict))
-        raise ValueError(f"block IPM: unknown settings set {name!r}; use one of {', '.join(known)}")
-    return settings
 
 
 #: smallest s/y in the block systems (a primal regularisation of fully active blocks)
@@ -429,9 +390,10 @@ class BlockIPM:
         self.rows_per_block = int(counts[0])
         self.block_rows = np.argsort(row_block, kind="stable").reshape(self.n_blocks, self.rows_per_block)
         self.g_blocks = self.dense_blocks(self.G)
-        # each inequality row's place in the flattened (n_blocks, rows_per_block) block solutions
-        self._dy_of_solution = np.empty(G.shape[0], dtype=np.int64)
-        self._dy_of_solution[self.block_rows.ravel()] = np.arange(self.block_rows.size)
+        #: each inequality row's place in the flattened (n_blocks, rows_per_block) block solutions (the gather that
+        #: turns the block solves' dual parts into ``dy`` in row order)
+        self.dy_of_solution = np.empty(G.shape[0], dtype=np.int64)
+        self.dy_of_solution[self.block_rows.ravel()] = np.arange(self.block_rows.size)
         self.g_dual_blocks = self.g_blocks  # the dual rows' blocks (G_dual's; the same for an LP)
         #: K is symmetric (an LP): H^{-1} is symmetrised against round-off; False when G_dual != G
         self.symmetric = True
@@ -446,7 +408,7 @@ class BlockIPM:
         #: the iterates follow the weighted central path ``s_i y_i = w_i mu``, ``mu = mean(s o y / w)``.
         #: ``None``: all ones, the central path itself (the same iterates, bit for bit).  Read at every
         #: iteration (:meth:`before_iteration` may change them).  The weights change the path, never the
-        #: LP's solutions (studies/ipm_crawl.py measures what they change)
+        #: LP's solutions (studies/lab/ipm_crawl.py measures what they change)
         self.path_weights: np.ndarray | None = None
         self._K_pattern = structural_pattern(self.A_B, self.k)
         self._K_slots, self._K_targets, self._K_diagonal = self._reduced_scatter()
@@ -464,7 +426,7 @@ class BlockIPM:
         return g[self.block_rows]
 
     def settings(self, **values) -> None:
-        """Set iteration parameters (names of :data:`DEFAULT_SETTINGS`; :data:`PREVIOUS_SETTINGS` for comparisons)."""
+        """Set iteration parameters (names of :data:`DEFAULT_SETTINGS`; the sets experiments compare: ``studies/lab/_ipm_settings.py``)."""
         unknown = set(values) - set(DEFAULT_SETTINGS)
         if unknown:
             raise ValueError(f"block IPM: unknown setting(s) {', '.join(sorted(unknown))}")
@@ -562,7 +524,7 @@ class BlockIPM:
         self.h[position] = self.in_scale[position] * upper
 
     # ------------------------------------------------------------------ linear algebra
-    def _block_systems(self, it: IPMIterate) -> tuple[np.ndarray, np.ndarray]:
+    def block_systems(self, it: IPMIterate) -> tuple[np.ndarray, np.ndarray]:
         r"""Per-block scaled augmented matrices and the scaling ``sqrt(d)``, ``d = y/s``.
 
         The Newton step's block equations ``G_i^T dy_i = a_i``, ``G_i dv_i - S_i Y_i^{-1} dy_i = b_i``
@@ -629,7 +591,7 @@ class BlockIPM:
         r"""``(H^{-1} per block, block factors)`` at ``it``.
 
         The block factors are ``(M^{-1}, sqrt(d), H~)``: the inverse of every block's scaled augmented
-        matrix (:meth:`_block_systems`), the scaling, and ``H~`` the top-left ``k x k`` block of
+        matrix (:meth:`block_systems`), the scaling, and ``H~`` the top-left ``k x k`` block of
         ``M^{-1}`` (``H^{-1}`` before symmetrisation), contiguous, for solves whose primal right-hand
         side is zero (:meth:`_block_dual_solve`).  (Folding the scaling into ``M^{-1}`` once,
         ``diag(I, D^{1/2}) M^{-1} diag(I, D^{1/2})``, saves two products per solve but changes the
@@ -637,14 +599,14 @@ class BlockIPM:
         10,050-block wall took 56 instead of 53 iterations.)"""
         k = self.k
         kernels = self.block_kernels
-        if kernels is not None and type(self)._block_systems is BlockIPM._block_systems:
+        if kernels is not None and type(self).block_systems is BlockIPM.block_systems:
             # compiled, M built inside the loop (the same numbers bit for bit); a subclass that changes the block
             # systems (a study's regularised blocks) takes the general path below
             sqrt_d = self._block_scaling(it)
             M_inv, top_left, Hinv = kernels.inverse_scaled_blocks(self.g_blocks, self.g_dual_blocks, sqrt_d,
                                                                   self.symmetric)
             return Hinv, (M_inv, sqrt_d, top_left)
-        M, sqrt_d = self._block_systems(it)
+        M, sqrt_d = self.block_systems(it)
         # LU with partial pivoting, per block (compiled: Gauss-Jordan with the same pivots)
         M_inv = np.linalg.inv(M) if kernels is None else kernels.inverse_blocks(M)
         top_left = np.ascontiguousarray(M_inv[:, :k, :k])
@@ -742,8 +704,17 @@ class BlockIPM:
         return 2 if (self._K_pattern.shape[0] >= self.rules.two_process_rows and usable_cpus() >= 2
                      and two_processes_available()) else 1
 
-    def _factorise(self, it: IPMIterate):
-        """Block matrices, ``H^{-1}`` (top-left of their inverses), ``K = A_B H^{-1} A_B^T`` and its factors."""
+    def factorise(self, it: IPMIterate):
+        """Factorise the Newton system at ``it``: the block matrices, ``H^{-1}`` (top-left of their inverses),
+        ``K = A_B H^{-1} A_B^T`` and its factors.
+
+        Returns
+        -------
+        factors : tuple
+            ``(blocks, solve_K, W_F, S_F_inverse)``: the scaled block systems (:meth:`block_systems` and their
+            inverses), a function solving with ``K``, ``K^{-1} A_F`` and the inverse of the border's Schur complement
+            ``A_F^T K^{-1} A_F``; what :meth:`direction` and :meth:`refined_direction` take.
+        """
         Hinv, blocks = self._inverse_blocks(it)
         values = self._reduced_values(Hinv)
         factoriser = self.factoriser
@@ -785,14 +756,15 @@ class BlockIPM:
         rhs = np.empty((self.n_blocks, M_inv.shape[1]))
         rhs[:, :k] = rhs_dual.reshape(self.n_blocks, k)
         rhs[:, k:] = sqrt_d * rhs_primal[self.block_rows]
-        sol = self._block_product(M_inv, rhs)
+        sol = self.block_product(M_inv, rhs)
         # dy by a gather from the block-ordered solutions (a scatter into the rows is slower)
-        return sol[:, :k].ravel(), (sqrt_d * sol[:, k:]).reshape(-1)[self._dy_of_solution]
+        return sol[:, :k].ravel(), (sqrt_d * sol[:, k:]).reshape(-1)[self.dy_of_solution]
 
     @staticmethod
-    def _block_product(M_inv: np.ndarray, rhs: np.ndarray) -> np.ndarray:
-        """``M_inv[i] @ rhs[i]`` for every block (``(n, q, q)`` by ``(n, q)``), by ``matmul``
-        (``studies/ipm_crawl.py --roundoff`` swaps in ``einsum``: the same sums in another order)."""
+    def block_product(M_inv: np.ndarray, rhs: np.ndarray) -> np.ndarray:
+        """``M_inv[i] @ rhs[i]`` for every block (``(n, q, q)`` by ``(n, q)``), by ``matmul``: the numpy block solve
+        (a replaceable attribute: ``studies/lab/ipm_crawl.py --roundoff`` swaps in ``einsum``, the same sums in another
+        order)."""
         return np.matmul(M_inv, rhs[:, :, None])[:, :, 0]
 
     def _block_dual_solve(self, blocks, rhs_dual: np.ndarray) -> np.ndarray:
@@ -805,7 +777,7 @@ class BlockIPM:
         # einsum: half the time of matmul on a stack of 3-by-3 products
         return np.einsum("bij,bj->bi", top_left, rhs).reshape(-1)
 
-    def _direction(self, it: IPMIterate, factors, r_b, r_h, r_c, r_mu, refinements: int | None = None,
+    def direction(self, it: IPMIterate, factors, r_b, r_h, r_c, r_mu, refinements: int | None = None,
                    tolerance: float = 0.0):
         r"""Newton direction for residuals ``r_*`` and complementarity target ``r_mu``.
 
@@ -929,15 +901,15 @@ class BlockIPM:
         self.krylov_solves += self.factoriser.solves - solves_before
         return dw, dv_F, dv_B, dy
 
-    def _refined_direction(self, it: IPMIterate, factors, r_b, r_h, r_c, r_mu, direction=None,
+    def refined_direction(self, it: IPMIterate, factors, r_b, r_h, r_c, r_mu, direction=None,
                            sweeps: int = 2):
-        """:meth:`_direction` (or a given ``direction``), then refinement on the whole (unreduced) Newton system.
+        """:meth:`direction` (or a given ``direction``), then refinement on the whole (unreduced) Newton system.
 
         The reduced solve loses accuracy when ``y/s`` spans many decades (thin
         voussoirs carrying thrusts 1e3 times their weight); one or two corrections
         with the same factors restore the linear equations to round-off.
         """
-        dv, ds, dw, dy = self._direction(it, factors, r_b, r_h, r_c, r_mu) if direction is None else direction
+        dv, ds, dw, dy = self.direction(it, factors, r_b, r_h, r_c, r_mu) if direction is None else direction
         scale = 1e-2 * self.tol
         kernels = self.block_kernels
         for _ in range(sweeps):
@@ -953,12 +925,13 @@ class BlockIPM:
             if (_inf(e_b) <= scale * (1 + _inf(self.b)) and _inf(e_c) <= scale * (1 + _inf(self.c))
                     and e_h_inf <= scale * (1 + _inf(self.h)) and e_mu_inf <= scale * max(_inf(r_mu), 1e-300)):
                 break
-            cv, cs, cw, cy = self._direction(it, factors, -e_b, -e_h, -e_c, e_mu)
+            cv, cs, cw, cy = self.direction(it, factors, -e_b, -e_h, -e_c, e_mu)
             dv, ds, dw, dy = dv + cv, ds + cs, dw + cw, dy + cy
         return dv, ds, dw, dy
 
-    def _max_step(self, z: np.ndarray, dz: np.ndarray) -> float:
-        """``min(1, min over dz_i < 0 of -z_i / dz_i)`` (no masked copies: one division in place; compiled, one pass
+    def max_step(self, z: np.ndarray, dz: np.ndarray) -> float:
+        """The longest step to the boundary of ``z >= 0`` along ``dz``, at most one:
+        ``min(1, min over dz_i < 0 of -z_i / dz_i)`` (no masked copies: one division in place; compiled, one pass
         with the same divisions)."""
         kernels = self.block_kernels
         if kernels is not None:
@@ -1034,7 +1007,7 @@ class BlockIPM:
         p = self.h.size
         it = IPMIterate(np.zeros(self.c.size), np.ones(p), np.zeros(self.b.size), np.ones(p))
         r_b, r_h, r_c = self.residuals(it)
-        dv, ds, dw, dy = self._direction(it, self._factorise(it), r_b, r_h, r_c, np.zeros(p))
+        dv, ds, dw, dy = self.direction(it, self.factorise(it), r_b, r_h, r_c, np.zeros(p))
         it = IPMIterate(dv, 1.0 + ds, dw, 1.0 + dy)
         it.s += max(-1.5 * it.s.min(), 0.0)
         it.y += max(-1.5 * it.y.min(), 0.0)
@@ -1109,7 +1082,7 @@ class BlockIPM:
             factors = None  # the previous factors dropped first: the factorisation may reuse their memory
             if time.perf_counter() <= deadline:
                 try:
-                    factors = self._factorise(it)
+                    factors = self.factorise(it)
                 except SingularMatrixError:
                     # K singular in floating point (its LDL^T met a zero pivot): no Newton step from here
                     status = IPMStatus.ACCEPTABLE if best_error <= self.acceptable_tol else IPMStatus.NUMERICAL
@@ -1126,20 +1099,20 @@ class BlockIPM:
             loose = self.inner_tolerance if lazy else 0.0
             eta = self.step_fraction
             # predictor (affine scaling)
-            dv, ds, dw, dy = self._direction(it, factors, r_b, r_h, r_c, -it.s * it.y, inner, loose)
-            ap = self._max_step(it.s, ds)
-            ad = self._max_step(it.y, dy)
+            dv, ds, dw, dy = self.direction(it, factors, r_b, r_h, r_c, -it.s * it.y, inner, loose)
+            ap = self.max_step(it.s, ds)
+            ad = self.max_step(it.y, dy)
             dual_aff = it.y + ad * dy
             mu_aff = float((it.s + ap * ds) @ (dual_aff if weights is None else dual_aff / weights)) / p
             sigma = min(1.0, max((mu_aff / mu) ** self.sigma_power, self.sigma_min))
             # corrector
             r_mu = self._centring_target(it, ds, dy, sigma * mu, weights)
             if lazy:
-                dv, ds, dw, dy = self._direction(it, factors, r_b, r_h, r_c, r_mu, inner, loose)
+                dv, ds, dw, dy = self.direction(it, factors, r_b, r_h, r_c, r_mu, inner, loose)
             else:
-                dv, ds, dw, dy = self._refined_direction(it, factors, r_b, r_h, r_c, r_mu)
-            ap = eta * self._max_step(it.s, ds)
-            ad = eta * self._max_step(it.y, dy)
+                dv, ds, dw, dy = self.refined_direction(it, factors, r_b, r_h, r_c, r_mu)
+            ap = eta * self.max_step(it.s, ds)
+            ad = eta * self.max_step(it.y, dy)
             # Gondzio's centrality correctors: aim at a longer step whose
             # complementarity products lie in [0.1, 10] sigma mu
             zeros_b, zeros_h, zeros_c = np.zeros_like(r_b), np.zeros_like(r_h), np.zeros_like(r_c)
@@ -1151,22 +1124,22 @@ class BlockIPM:
                 correction = self._centrality_correction(it, ds, dy, tp, td, 0.1 * sigma * mu, 10.0 * sigma * mu,
                                                          weights)
                 if lazy:
-                    cv, cs, cw, cy = self._direction(it, factors, zeros_b, zeros_h, zeros_c, correction, inner, loose)
+                    cv, cs, cw, cy = self.direction(it, factors, zeros_b, zeros_h, zeros_c, correction, inner, loose)
                 else:
-                    cv, cs, cw, cy = self._refined_direction(it, factors, zeros_b, zeros_h, zeros_c, correction)
+                    cv, cs, cw, cy = self.refined_direction(it, factors, zeros_b, zeros_h, zeros_c, correction)
                 nv, ns, nw, ny = dv + cv, ds + cs, dw + cw, dy + cy
-                nap = eta * self._max_step(it.s, ns)
-                nad = eta * self._max_step(it.y, ny)
+                nap = eta * self.max_step(it.s, ns)
+                nad = eta * self.max_step(it.y, ny)
                 if min(nap, nad) < self.gondzio_accept * min(ap, ad):
                     break
                 dv, ds, dw, dy, ap, ad = nv, ns, nw, ny, nap, nad
                 r_mu = r_mu + correction
                 used += 1
             if lazy:
-                dv, ds, dw, dy = self._refined_direction(it, factors, r_b, r_h, r_c, r_mu, (dv, ds, dw, dy),
+                dv, ds, dw, dy = self.refined_direction(it, factors, r_b, r_h, r_c, r_mu, (dv, ds, dw, dy),
                                                          sweeps=self.final_sweeps)
-                ap = eta * self._max_step(it.s, ds)
-                ad = eta * self._max_step(it.y, dy)
+                ap = eta * self.max_step(it.s, ds)
+                ad = eta * self.max_step(it.y, dy)
             self.trace.append({"k": k, "mu": mu, "primal": primal, "dual": dual, "gap": gap, "sigma": sigma,
                                "step_primal": ap, "step_dual": ad, "correctors": used,
                                "centrality": float(np.min(it.s * it.y if weights is None
@@ -1199,7 +1172,7 @@ def single_blas_thread():
     The method's dense BLAS calls are tiny (a length-``m`` dot product, a batch of 7-by-7
     inverses): multithreaded OpenBLAS spends milliseconds of CPU per call starting and spinning
     its threads.  One thread: the 10,050-block wall in 0.61x the CPU time (28.7 s against
-    46.7 s, same 53 iterations; ``studies/lp_timing.py``).
+    46.7 s, same 53 iterations; ``studies/lab/lp_timing.py``).
     """
     from threadpoolctl import threadpool_limits
 

@@ -22,7 +22,7 @@ factorisations of a symmetric permutation ``P K P^T``:
 ``SupernodalCholesky(..., processes=2)`` splits its elimination tree into two subtree halves and their top
 (:meth:`SupernodalCholesky.subtree_halves`) and hands one half of every factorisation and solve to a
 worker process (:class:`_HalfWorker`, a fresh Python process, not a fork): 0.74x the block IPM's wall-clock on the
-100,014-block wall (251 s against 339 s, ``python studies/lp_timing.py --walls 316x316 --algorithms block-ipm
+100,014-block wall (251 s against 339 s, ``python studies/lab/lp_timing.py --walls 316x316 --algorithms block-ipm
 --ipm-settings one_process,two_process``; the block IPM's default with this factorisation).  Threads cannot do it: scipy's LAPACK wrappers and each front's numpy work hold the GIL.
 
 Orderings (:data:`ORDERINGS`):
@@ -33,7 +33,7 @@ Orderings (:data:`ORDERINGS`):
   fallback when pymetis is not installed;
 * ``"auto"``: ``"metis"`` if importable, else ``"mmd"``.
 
-Measured on one ``K`` of a wall at a generic interior point (``python studies/cholesky_choice.py
+Measured on one ``K`` of a wall at a generic interior point (``python studies/lab/cholesky_choice.py
 --walls 100x100,316x316 --methods supernodal-metis,superlu-metis --extend-add-runs 2,8``, CPU time, idle machine): 100,014 blocks
 (300,042 rows), METIS: SuperLU 71.5M nonzeros in ``L+U``, 4.59 s per factorisation, 0.108 s per
 solve; the supernodal Cholesky 1.57 s (0.34x; 35.7M structural nonzeros in ``L``, 48.7M stored with
@@ -187,7 +187,7 @@ RELAXED_COLUMNS = (4, 16, 48)
 RELAXED_ZEROS = (0.8, 0.1, 0.05)
 #: a child's update matrix is added into its parent's front block by block (slices) when its rows
 #: fall into at most this many runs of consecutive rows of the parent, else by a flat index
-#: (``np.add.at``).  ``python studies/cholesky_choice.py --walls 100x100,316x316 --methods supernodal-metis
+#: (``np.add.at``).  ``python studies/lab/cholesky_choice.py --walls 100x100,316x316 --methods supernodal-metis
 #: --extend-add-runs 2,8`` (one factorisation at an interior point, CPU s, one run): 10,050 blocks 0.10 with 2
 #: runs against 0.12 with 8; 100,014 blocks 1.57 against 1.74, its flat indices 429 MB against 350 MB and
 #: its analysis 10.0 s against 6.2 s.  (Adding with ``flat[index] += ...``, which buffers, 8 runs was the best.)
@@ -419,7 +419,8 @@ class SupernodalCholesky:
         del order
         self._assembly_destination = destination
         self._assembly_source = lower_source
-        self._below = [self.rows[s][int(end[s] - first[s]):] for s in range(ns)]
+        #: the rows below each supernode's diagonal block (its panel's rows after the first ``width``; the solves' gathers)
+        self.below_rows = [self.rows[s][int(end[s] - first[s]):] for s in range(ns)]
         #: each supernode's first column as a Python int (a BLAS offset in every solve: no numpy scalar per call)
         self._first_columns = first.tolist()
         #: entries stored in the supernodes' panels (lower trapezoids, amalgamation zeros included)
@@ -522,7 +523,7 @@ class SupernodalCholesky:
             solver = self._worker.serial_solver
         else:
             factorised = self.factor_supernodes(range(self.supernodes), values, {}, diagonal_blocks, below_blocks)
-            solver = self._solver
+            solver = self.solver
         if not factorised:
             return None
         self.factorisations += 1
@@ -649,7 +650,7 @@ class SupernodalCholesky:
         ``diagonal_blocks[s]``/``below_blocks[s]``, update matrices left in ``updates`` for parents not given.
 
         ``values``: ``K``'s values on the pattern (:meth:`pattern_values`).  False if a pivot is not positive.
-        A union of whole subtrees needs no update from outside it (``studies/cholesky_choice.py --side-by-side``
+        A union of whole subtrees needs no update from outside it (``studies/lab/cholesky_choice.py --side-by-side``
         factorises two of them in two processes).  With :attr:`compiled_factorisation` (and one BLAS thread per
         front) the loop is compiled (:meth:`factor_plan`); its blocks are views of one array."""
         if self.compiled_factorisation and self.front_threads == 1:
@@ -711,9 +712,9 @@ class SupernodalCholesky:
         below them (all int64, by supernode) and those rows, concatenated (``below[below_start[s]:][:below_count[s]]``);
         what :class:`~blockmpec.solvers.linalg.cholesky_kernels.SolvePanels` reads.  Made once."""
         if self._solve_structure is None:
-            counts = np.array([b.size for b in self._below], dtype=np.int64)
+            counts = np.array([b.size for b in self.below_rows], dtype=np.int64)
             self._solve_structure = (self.first.astype(np.int64), (self.end - self.first).astype(np.int64), counts,
-                                     np.concatenate([*self._below, np.zeros(0)]).astype(np.int64),
+                                     np.concatenate([*self.below_rows, np.zeros(0)]).astype(np.int64),
                                      np.concatenate([[0], np.cumsum(counts)[:-1]]).astype(np.int64))
         return self._solve_structure
 
@@ -734,7 +735,7 @@ class SupernodalCholesky:
             return
         from scipy.linalg.blas import dgemv, dtrsv
 
-        first, below = self._first_columns, self._below
+        first, below = self._first_columns, self.below_rows
         for s in supernodes:
             f = first[s]
             dtrsv(diagonal_blocks[s], x, offx=f, lower=1, overwrite_x=1)
@@ -750,7 +751,7 @@ class SupernodalCholesky:
             return
         from scipy.linalg.blas import dgemv, dtrsv
 
-        first, below = self._first_columns, self._below
+        first, below = self._first_columns, self.below_rows
         for s in supernodes:
             f = first[s]
             L21 = below_blocks[s]
@@ -758,13 +759,15 @@ class SupernodalCholesky:
                 dgemv(-1.0, L21, x[below[s]], beta=1.0, y=x, offy=f, trans=1, overwrite_y=1)
             dtrsv(diagonal_blocks[s], x, offx=f, lower=1, trans=1, overwrite_x=1)
 
-    def _solver(self, diagonal_blocks: list[np.ndarray], below_blocks: list[np.ndarray | None]):
-        """``solve(rhs)``: ``x = P^T L~^{-T} L~^{-1} P rhs`` by supernodes (BLAS ``trsv``/``trsm``, ``gemv``/``gemm``)."""
+    def solver(self, diagonal_blocks: list[np.ndarray], below_blocks: list[np.ndarray | None]):
+        """``solve(rhs)`` with the factors ``diagonal_blocks``, ``below_blocks`` of :meth:`factor_supernodes` (what
+        :meth:`factorise` returns): ``x = P^T L~^{-T} L~^{-1} P rhs`` by supernodes (BLAS ``trsv``/``trsm``,
+        ``gemv``/``gemm``); a vector or a matrix of columns."""
         from scipy.linalg.blas import dtrsm
 
         p, inv_p = self.perm, self.inverse_perm
         spans = list(zip(self.first.tolist(), self.end.tolist()))
-        below = self._below
+        below = self.below_rows
         panels = self.solve_panels(diagonal_blocks, below_blocks)
         order = range(self.supernodes)
 

@@ -170,8 +170,8 @@ setter("blocks.1.vertices", [[0, 0], [1, 0], [1, 0], [0, 0]], "block 1: polygon 
        name="all-on-a-line")
 setter("blocks.1.vertices", [[0, 3], [1, 3], [1, 0], [0, 0]], "block 1: vertices are in clockwise order",
        detect=True)
-setter("blocks.1.vertices", [[0, 0], [1, 0], [0.5, 1.5], [1, 3], [0, 3]], "block 1: polygon is not convex",
-       detect=True)
+setter("blocks.1.vertices", [[0, 0], [1, 0], [1, 3], [0, 3], [0.5, 3.5], [0.5, 2.5]],
+       "block 1: polygon is self-intersecting", detect=True)
 setter("blocks.1.vertices", [[0, 0], [1, 0], [1, 3], [1, 3], [0, 3]], "block 1: two consecutive vertices coincide",
        detect=True)
 setter("blocks.1.vertices", [[0, 0], [1, 0], [1, 3], [0, 3], [1, 0]], "block 1", detect=True,
