@@ -799,7 +799,7 @@ def test_an_unchecked_infeasible_node_is_not_pruned(monkeypatch):
     from blockmpec.solvers.engines import complementarity_bnb as cb
 
     monkeypatch.setattr(cb, "proves_infeasible", lambda *args, **kwargs: False)
-    res = solve_milp(bm.cases.wall(3, 3, bond="stack", openings=[(1.0, 0.0, 2.0, 0.5)]), time_limit=30)
+    res = solve_milp(bm.cases.wall(3, 3, bond="stack", openings=[(1.0, 0.0, 2.0, 0.5)]), heuristic="", time_limit=30)
     assert res.status is not Status.INFEASIBLE and res.status is not Status.OPTIMAL, res.message
 
 
