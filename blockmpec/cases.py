@@ -211,6 +211,35 @@ def wall(
     )
 
 
+def ferris_tinloi(mu: float = 0.65, dilatancy: float = 0.0) -> Structure:
+    """Wall 1 of Ferris & Tin-Loi (2001): six courses of 0.40 x 0.175 blocks in running bond on a fixed base.
+
+    The odd courses (counting the bottom one as the first) hold four full blocks between two half blocks, the even
+    ones five full blocks: 33 free blocks, 83 interfaces (six on the base).  Loads as in :func:`wall`: dead load
+    the weight, live load a horizontal body force equal to the weight.  Ferris & Tin-Loi publish the associative
+    multiplier of this wall as about 0.643 (M. C. Ferris, F. Tin-Loi, Limit analysis of frictional block
+    assemblies as a mathematical program with complementarity constraints, Int. J. Mech. Sci. 43 (2001)
+    209-224); the static LP gives 0.642859 at ``mu = 0.65``.  The non-associative minimum (``dilatancy = 0``) is
+    not published as certified; ``nlp`` reaches 0.63898 and ``fixed-point`` 0.63997.
+    """
+    lb, hb, nb, nc = 0.40, 0.175, 5, 6
+    total = nb * lb
+    blocks = [_rect(-lb, -hb, total + lb, 0.0)]
+    for r in range(nc):
+        y0, y1 = r * hb, (r + 1) * hb
+        if r % 2 == 0:  # half blocks at both ends of the bottom course and every second one above it
+            xs = np.concatenate([[0.0], lb / 2 + lb * np.arange(nb), [total]])
+        else:
+            xs = lb * np.arange(nb + 1)
+        blocks += [_rect(x0, y0, x1, y1) for x0, x1 in zip(xs[:-1], xs[1:])]
+    fixed = [True] + [False] * (len(blocks) - 1)
+    return make_structure(
+        blocks, fixed, friction=mu, dilatancy=dilatancy, name="ferris-tinloi",
+        metadata={"case": "ferris-tinloi", "courses": nc, "blocks_per_course": nb, "block_length": lb,
+                  "block_height": hb},
+    )
+
+
 # --------------------------------------------------------------------------- irregular stone walls
 
 #: Largest number of stones ``stone-wall`` builds (beyond it, ask for a larger stone_size).
@@ -499,6 +528,8 @@ CASES: dict[str, CaseSpec] = {
         CaseSpec("round-arch", round_arch, "semicircular arch on two fixed springings (paper Fig. 7)"),
         CaseSpec("arch-on-buttresses", arch_on_buttresses, "round arch on two block buttresses (paper Fig. 8)"),
         CaseSpec("wall", wall, "running- or stack-bond wall on a fixed base (paper Figs 9-10)"),
+        CaseSpec("ferris-tinloi", ferris_tinloi, "Ferris & Tin-Loi's wall 1: 6 courses of 0.40 x 0.175 blocks, running "
+                 "bond, 33 free blocks"),
         CaseSpec("stone-wall", stone_wall, "irregular stone wall on a fixed base: seeded Voronoi stones, "
                  "irregularity 0 (courses) ... 1 (rubble)"),
     )

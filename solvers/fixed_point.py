@@ -67,6 +67,13 @@ and it converges on the large walls to within 2 % of the best verified value.
 Folding the rule into the step LP gives the same table and was 2.5x faster than
 the separate tie-break LP on the 1,000-block wall (337 s against 854 s, one run).
 
+Statuses (issue 41): a step LP (5) is the iteration's own problem, not (3), so a step LP that fails (infeasible,
+unbounded, ...) proves nothing of the structure.  The run then tries the other starts (:data:`FALLBACK_STARTS`,
+then one random start) and returns the first that ends without a failed step; failing all, it reports
+``numerical`` with every start's failure in the message, never ``infeasible``.  Only the associative LP (1) of a
+start speaks for the structure (infeasible: no statically admissible field, so (3) has no solution), as for
+``static-lp``.
+
 Safeguards: ``n*`` is kept ``<= 0`` (a round-off tension within the LP tolerance
 would give a negative cohesion and an infeasible next LP), and the LPs run with
 primal/dual feasibility tolerances 1e-9 (light interfaces would otherwise show
@@ -134,6 +141,8 @@ from blockmpec.solvers import plan
 MULTISTART_VERIFY_TOL = 1e-6
 #: default weight of the interior engine's aim term (studies/lab/fixed_point_strategies.py)
 INTERIOR_AIM_WEIGHT = 0.1
+#: the starts tried, in this order, after a run whose step LP failed (then one random start)
+FALLBACK_STARTS = ("dead-load", "associative", "zero")
 
 
 @dataclass
@@ -235,12 +244,12 @@ class FixedPoint(SolverBase):
             return
         self._build_sequence()
 
-    def _build_sequence(self) -> None:
+    def _build_sequence(self, needs_lp1: bool = False) -> None:
         from blockmpec.formulations import step_lps
         from blockmpec.solvers.engines.lp_sequence import LPSequence
 
         o, st = self.options, self.settings
-        needs_lp1 = o.start in ("associative", "dead-load", "random") or o.multistart > 1
+        needs_lp1 = needs_lp1 or o.start in ("associative", "dead-load", "random") or o.multistart > 1
         lps = step_lps(self.ops, alpha=0.0, tie_break=o.tie_break != "none", associative=needs_lp1)
         self.sequence = LPSequence(lps, self.units, alpha=0.0, tie_break=o.tie_break, algorithm=st.algorithm,
                                    fold_weight=st.fold_weight)
@@ -320,10 +329,37 @@ class FixedPoint(SolverBase):
         interior.message = f"{interior.message} (after LP steps that ended {out.status.value}: {out.message})"
         return interior
 
+    def _run_other_starts(self, out: RunOutput, facts: dict, deadline) -> tuple[RunOutput, dict]:
+        """After a run whose step LP failed (``facts["step_failure"]``): the other deterministic starts
+        (:data:`FALLBACK_STARTS`, the one used left out), then one seeded random start, until one ends without a
+        failed step.  Failing all, a ``NUMERICAL`` result whose message lists every start's failure: a failed
+        iteration is no proof that (3) has no solution, so the run never says ``infeasible`` for it."""
+        o = self.options
+        failures = [f"{facts['start_used']} start: {out.message}"]
+        tried = {facts["start_used"], o.start}
+        if self.sequence.assoc_highs is None:  # the other starts need the associative LP (1)
+            self._build_sequence(needs_lp1=True)
+        for start, seed in [(s, o.seed) for s in FALLBACK_STARTS if s not in tried] + [("random", o.seed + 1)]:
+            if deadline.expired():
+                break
+            other, other_facts = self._run_once(start, seed, deadline)
+            if other_facts["step_failure"] is None:
+                other_facts["start_used"] = other_facts["start_used"] if start != "random" else f"random (seed {seed})"
+                other_facts["failed_starts"] = failures
+                return other, other_facts
+            failures.append(f"{other_facts['start_used']} start: {other.message}")
+        out.status = Status.NUMERICAL
+        out.message = ("no start reached a solution of (3) (" + "; ".join(failures) + "); a failed iteration does not "
+                       "show that (3) has no solution")
+        facts["failed_starts"] = failures
+        return out, facts
+
     def _run_simplex(self, deadline) -> RunOutput:
         o = self.options
         out, facts = self._run_once(o.start, o.seed, deadline)
-        runs = [(out.solution.multiplier, o.start, o.seed, out.status.value)]
+        if facts["step_failure"] is not None:
+            out, facts = self._run_other_starts(out, facts, deadline)
+        runs = [(out.solution.multiplier, facts["start_used"], o.seed, out.status.value)]
         if o.multistart > 1:
             # further runs from seeded random starts; keep the lowest verified solution of (3)
             def verified(run_out):
@@ -357,4 +393,8 @@ class FixedPoint(SolverBase):
         if facts["tie_break_failures"]:
             out.message += (f" ({facts['tie_break_failures']} tie-break LP(s) failed; "
                             "the step LP's own forces were used there)")
+        if facts.get("failed_starts"):
+            out.extra["failed_starts"] = facts["failed_starts"]
+            if out.status is not Status.NUMERICAL:  # (a NUMERICAL message lists them already)
+                out.message += f" (from the {facts['start_used']} start, after: {'; '.join(facts['failed_starts'])})"
         return out

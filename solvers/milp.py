@@ -34,8 +34,8 @@ derives every row).  A run has five stages, all timed:
 2. **build**: the mixed-integer model; pairs with ``slack_max_i = 0`` get ``y_i = 1``,
    pairs with ``z_max_i = 0`` get ``y_i = 0``.
 3. **solve**.  Incumbent first: the associative-pattern point (when its active set admits
-   a mechanism) and the ``heuristic``'s verified point polished on its pattern, the better
-   one.  If it meets ``lam_lower`` within ``CERTIFICATE_TOL`` it is certified at the root
+   a mechanism) and the verified points of the ``heuristic`` methods (``fixed-point`` and ``nlp``)
+   polished on their patterns, the best one.  If it meets ``lam_lower`` within ``CERTIFICATE_TOL`` it is certified at the root
    (no search).  Otherwise the engine: ``engine="auto"`` (the default) is ``"bnb"`` for ``sense="min"``
    on structures of at most :data:`~blockmpec.solvers.plan.MILP_BNB_MAX_PAIRS` pairs and ``"highs"`` otherwise
    (:meth:`MILPSolver._resolve_engine`; ``extra["engine"]`` names the one that ran).  HiGHS on the
@@ -65,7 +65,13 @@ derives every row).  A run has five stages, all timed:
    slack sits at its big-M, ``bigm_scale >= 1`` and every bound LP was optimal.  A
    slack at its big-M gives ``LOCALLY_OPTIMAL`` (the point solves (3), the certificate
    is void); a time limit gives ``TIME_LIMIT`` with the best polished point, the bound
-   and the gap.
+   and the gap.  Every stop reports its bound (``extra["bound"]``; None before any) and its best point.
+
+Statuses (issue 41): ``infeasible`` only on a proof that (3) has no solution: the associative LP infeasible (no
+statically admissible field), the branch and bound's lifted relaxation infeasible in every branch with each pruning
+on a checked Farkas certificate, or the big-M model (a relaxation of (3) with LP-proven bounds) proven infeasible by
+its engine.  A model made a restriction by ``bigm_scale < 1``, or a bound LP that fails, proves nothing of (3):
+``error``, with the reason.
 
 Maximisation (``sense="max"``): every bound, cut and fixing is a property of the
 *set* of solutions of (3), so the same model is a relaxation for either sense and
@@ -166,7 +172,10 @@ class MILPSettings:
     multiplier_bounds, envelope, dissipation_bound : bool
         Tighten ``z_i <= y_i`` by LPs; McCormick envelope of the work identity; the dissipation bound on ``lam``.
     heuristic : str
-        A method whose verified point, polished on its pattern, is a further incumbent ('' for none).
+        Methods (comma-separated) whose verified points, polished on their patterns, are further incumbents
+        ('' for none).  Default ``"fixed-point,nlp"``: on the 9-block door wall at mu 0.8 the fixed point's
+        polished point is 0.7150, nlp's the minimum 0.7058 (0.4 s), which the branch and bound then only has to
+        prove (a better incumbent prunes more).
     bilinear : bool
         engine=scip: the work identity's products as exact bilinear constraints.
     incumbent : bool
@@ -185,7 +194,7 @@ class MILPSettings:
     multiplier_bounds: bool = True
     envelope: bool = False
     dissipation_bound: bool = True
-    heuristic: str = "fixed-point"
+    heuristic: str = "fixed-point,nlp"
     bilinear: bool = False
     incumbent: bool = True
     warm_bounds: bool = False
@@ -208,7 +217,19 @@ class MILPSettings:
         check.boolean(self, "lam_branching", "multiplier_bounds", "envelope", "dissipation_bound", "bilinear",
                       "incumbent", "warm_bounds")
         if not isinstance(self.heuristic, str):
-            raise ValueError(f"heuristic must be a method name or ''; got {self.heuristic!r}")
+            raise ValueError(f"heuristic must be method names (comma-separated) or ''; got {self.heuristic!r}")
+        from blockmpec.registry import list_solvers
+
+        known = list_solvers("non-associative")
+        for name in heuristic_names(self.heuristic):
+            if name not in known or name == "milp":
+                raise ValueError(f"heuristic: {name!r} is not a heuristic method; one of "
+                                 f"{', '.join(m for m in known if m != 'milp')}")
+
+
+def heuristic_names(heuristic: str) -> list[str]:
+    """The method names of the ``heuristic`` setting (comma-separated; '' for none)."""
+    return [name.strip() for name in heuristic.split(",") if name.strip()]
 
 
 def _check_engine_settings(options: MILPOptions, settings: MILPSettings) -> None:
@@ -290,9 +311,24 @@ def per_block_units(form, units):
 
 
 class _BoundFailure(Exception):
-    def __init__(self, status: Status, message: str) -> None:
+    """A bound LP that did not end optimal.  ``proof``: its status says something of (3) itself (the associative LP:
+    infeasible means no statically admissible field, so (3) has no solution; unbounded means no collapse), and is
+    the run's status; any other bound LP's failure only means that ``milp`` has no bound (status ``ERROR``), or
+    ran out of time (``TIME_LIMIT``)."""
+
+    def __init__(self, status: Status, message: str, proof: bool = False) -> None:
         super().__init__(message)
         self.status = status
+        self.proof = proof
+
+    @property
+    def run_status(self) -> Status:
+        """The status of a run that stops here."""
+        if self.status is Status.TIME_LIMIT:
+            return Status.TIME_LIMIT
+        if self.proof and self.status in (Status.UNBOUNDED, Status.INFEASIBLE, Status.INFEASIBLE_OR_UNBOUNDED):
+            return self.status
+        return Status.ERROR
 
 
 @register_solver
@@ -422,7 +458,7 @@ class MILPSolver(SolverBase):
         cost[0] = -1.0
         up = self._solve_cost(hl, cost, deadline)
         if up.status is not Status.OPTIMAL:
-            raise _BoundFailure(up.status, f"associative LP (max lam): {up.status.value}")
+            raise _BoundFailure(up.status, f"associative LP (max lam): {up.status.value}", proof=True)
         cost[0] = 1.0
         lo = self._solve_cost(hl, cost, deadline)
         if lo.status is not Status.OPTIMAL:
@@ -766,16 +802,19 @@ class MILPSolver(SolverBase):
         return self._solution(bd.lam_associative, bd.x_associative, *mech)
 
     def _incumbent(self, bd, deadline: Deadline) -> Solution | None:
-        """The better of the associative-pattern point and the ``heuristic``'s verified point (a quarter of the time
-        left, at most 30 s), each polished on its pattern (so an exact solution of (3)); None when neither exists."""
+        """The best of the associative-pattern point and the verified points of the ``heuristic`` methods (each a
+        quarter of the time left, at most 30 s), each polished on its pattern (so an exact solution of (3)); None
+        when none exists."""
         opt = self.options
         best = self._associative_incumbent(bd)
-        if self.settings.heuristic:
+        for name in heuristic_names(self.settings.heuristic):
+            if deadline.expired():
+                break
             from blockmpec.verify import residuals
 
             # the registered method's own adapter, within a quarter of the time left (at most 30 s); its point is
             # an incumbent only when the shared verifier accepts it
-            heuristic = get_solver(self.settings.heuristic)()
+            heuristic = get_solver(name)()
             heuristic.setup(self.ops)
             out = heuristic.run(deadline.within(max(min(0.25 * deadline.remaining(), 30.0), 1e-3)))
             checked = residuals(self.ops, out.solution, associative=heuristic.problem == "associative")
@@ -818,6 +857,7 @@ class MILPSolver(SolverBase):
     def run(self, deadline: Deadline) -> RunOutput:
         """Stages 1-5 on the scaled (3), then the point, the bounds and the gaps back in the problem's units."""
         out = self._run_scaled(deadline)
+        out.extra.setdefault(facts.BOUND, None)  # every stop reports its bound (None: none proven yet)
         out.extra["plan"] = [f"LP bounds ({out.extra.get(facts.LP_SOLVES, 0)} LPs)",
                              f"engine: {out.extra.get(facts.ENGINE, self.engine)}", "polish: piece LPs"]
         unit = self._lam_unit
@@ -870,10 +910,9 @@ class MILPSolver(SolverBase):
         try:
             bd = self._root_bounds(deadline)
         except _BoundFailure as fail:
-            st = fail.status if fail.status in (Status.UNBOUNDED, Status.INFEASIBLE, Status.TIME_LIMIT,
-                                                Status.INFEASIBLE_OR_UNBOUNDED) else Status.ERROR
-            return RunOutput(st, message=str(fail), extra={"bound_time_s": time.perf_counter() - t_start,
-                                                           facts.SENSE: opt.sense, facts.LP_SOLVES: self._n_lps})
+            return RunOutput(fail.run_status, message=str(fail),
+                             extra={"bound_time_s": time.perf_counter() - t_start, facts.SENSE: opt.sense,
+                                    facts.LP_SOLVES: self._n_lps})
         trace = [{"iteration": 0, "stage": "bounds", "time_s": bd.time_s,
                   "bound": bd.lam_lower if not maximise else bd.lam_upper, "incumbent": None, "gap_abs": None}]
         incumbent = self._incumbent(bd, deadline) if self.settings.incumbent else None
@@ -895,9 +934,7 @@ class MILPSolver(SolverBase):
                 return RunOutput(Status.TIME_LIMIT, incumbent, 0, trace, f"time limit in the bound LPs: {fail}; "
                                  f"best lam {incumbent.multiplier:.10g}, bound {extra[facts.BOUND]:.10g}",
                                  "bounds", extra)
-            st = fail.status if fail.status in (Status.UNBOUNDED, Status.INFEASIBLE, Status.TIME_LIMIT,
-                                                Status.INFEASIBLE_OR_UNBOUNDED) else Status.ERROR
-            return RunOutput(st, message=str(fail), extra=extra)
+            return RunOutput(fail.run_status, message=str(fail), extra=extra)
         if self.engine == "bnb":  # its own lifted LP: the big-M model is not built
             return self._run_bnb(bd, incumbent, deadline, trace)
         t0 = time.perf_counter()
@@ -974,22 +1011,44 @@ class MILPSolver(SolverBase):
                  "bigm": [], "engine_multiplier": None if best is None else best.multiplier,
                  "root_interior_time_s": bnb.ipm_time, "root_crossover_runs": bnb.crossover_runs}
         if best is None:
-            st = Status.TIME_LIMIT if run.status is Status.TIME_LIMIT else Status.ERROR
-            return RunOutput(st, Solution(), run.nodes, trace, f"no point of (3) found; bound {bound:.10g}",
-                             run.raw_status, extra)
+            return self._bnb_without_point(run, bnb, bound, extra, trace)
         return self._certify(best, run, bound, bd, extra, trace)
+
+    def _bnb_without_point(self, run, bnb, bound: float, extra: dict, trace: list) -> RunOutput:
+        """engine="bnb" ended without a point of (3).  An infinite bound with every node closed on a proof (each
+        infeasible node LP pruned on a checked Farkas certificate of the lifted relaxation, which holds every solution
+        of (3); no leaf closed by a pattern LP that HiGHS alone called infeasible) proves that (3) has no solution:
+        status ``INFEASIBLE``.  Otherwise the time ran out, or the search could not decide (``ERROR``)."""
+        if run.status is Status.TIME_LIMIT:
+            return RunOutput(Status.TIME_LIMIT, Solution(), run.nodes, trace,
+                             f"time limit: no point of (3) found; bound {bound:.10g}", run.raw_status, extra)
+        if np.isinf(bound) and bound > 0 and run.status in (Status.OPTIMAL, Status.INFEASIBLE):
+            extra["infeasibility_proofs"] = bnb.farkas_proofs
+            if bnb.unproven_closures == 0:
+                return RunOutput(Status.INFEASIBLE, Solution(), run.nodes, trace,
+                                 f"(3) has no solution: the lifted relaxation, which holds every solution of (3), is "
+                                 f"infeasible in every branch ({run.nodes} node(s); {bnb.farkas_proofs} node LP(s) "
+                                 "pruned on a checked Farkas certificate)", "infeasible", extra)
+            return RunOutput(Status.ERROR, Solution(), run.nodes, trace,
+                             f"no point of (3) found: every branch closed, {bnb.unproven_closures} of them by a pattern "
+                             "LP that HiGHS called infeasible without a checked certificate, so this is not a proof "
+                             "that (3) has no solution", run.raw_status, extra)
+        return RunOutput(Status.ERROR, Solution(), run.nodes, trace,
+                         f"no point of (3) found; bound {bound:.10g} ({run.message})", run.raw_status, extra)
 
     def _no_point(self, run, incumbent, bound, extra, trace) -> RunOutput:
         opt = self.options
         if run.status is Status.INFEASIBLE:
-            if self.settings.bigm_scale < 1:
-                return RunOutput(Status.INFEASIBLE, Solution(), run.nodes, trace,
+            if self.settings.bigm_scale < 1:  # a restriction of (3): its infeasibility proves nothing of (3)
+                return RunOutput(Status.ERROR, Solution(), run.nodes, trace,
                                  f"the MILP is infeasible with bigm_scale = {self.settings.bigm_scale} < 1: the scaled slack "
                                  "bounds cut off every solution of (3); the proven bounds (bigm_scale = 1) are needed",
                                  run.raw_status, extra)
-            return RunOutput(Status.NUMERICAL, Solution(), run.nodes, trace,
-                             "the engine reports the MILP infeasible although its bounds are proven valid for every "
-                             "solution of (3): a numerical failure (tolerances), not a proof of infeasibility",
+            # every bound and cut of the model holds at every solution of (3) (LP-proven, bigm_scale = 1), so the
+            # model is a relaxation of (3): its infeasibility, proven by the engine's branch and bound, is (3)'s
+            return RunOutput(Status.INFEASIBLE, Solution(), run.nodes, trace,
+                             f"(3) has no solution: {self.engine} proves the mixed-integer model infeasible, and the "
+                             "model holds every solution of (3) (its big-M and multiplier bounds are LP-proven)",
                              run.raw_status, extra)
         if run.status is Status.TIME_LIMIT and incumbent is not None:
             sign = -1.0 if opt.sense == "max" else 1.0
@@ -999,8 +1058,8 @@ class MILPSolver(SolverBase):
                              f"time limit: the associative-pattern solution lam {incumbent.multiplier:.10g}, "
                              f"bound {bound:.10g}", run.raw_status, extra)
         if run.status is Status.TIME_LIMIT:
-            return RunOutput(Status.TIME_LIMIT, Solution(), run.nodes, trace, "time limit before any feasible point",
-                             run.raw_status, extra)
+            return RunOutput(Status.TIME_LIMIT, Solution(), run.nodes, trace,
+                             f"time limit before any point of (3); bound {bound:.10g}", run.raw_status, extra)
         return RunOutput(Status.ERROR, Solution(), run.nodes, trace, run.message, run.raw_status, extra)
 
     # ------------------------------------------------------------------ 5. certify

@@ -1,52 +1,79 @@
-"""``studies/root_lp_engines.py`` (issue 12's record of root-LP engines) still runs: its root LP is the one ``milp``
-bounds with (IPX's dual bound on it meets the certified minimum of the 2x2 running-bond wall, never above it), a
-lifting without the products with the mechanism gives a weaker bound, and its profile parses IPX's log."""
+"""The root LP of ``milp``'s branch and bound by its interior point (issue 12's record of root-LP engines, measured by
+``studies/lab/root_lp_engines.py``): IPX's dual bound on the lifted root LP meets the certified minimum of the 2x2
+running-bond wall, never above it; the same LP in null-space coordinates (what ``root_lp="ipm"`` solves) gives the
+same bound on fewer rows; a lifting without the products with the mechanism gives a weaker bound.
 
-from pathlib import Path
+Built here from the library (not from the study), so that the study's own port to the new API is not a condition of
+these checks."""
 
+import numpy as np
 import pytest
+import scipy.sparse as sp
 
 import blockmpec as bm
-from helpers import CERTIFIED_TOL, load_study, margin
+from blockmpec.deadline import Deadline
+from blockmpec.solvers.engines.complementarity_bnb import INTERIOR_SOLVER, NULL_SPACE_IPM_TOL, dual_bound
+from blockmpec.solvers.engines.highs import highs_lp, new_highs, set_feasibility_tolerances, use_interior_point
+from helpers import CERTIFIED_TOL, margin
+from milp_runs import milp_solver, solve_milp
 
-
-@pytest.fixture(scope="module")
-def study():
-    return load_study("root_lp_engines")
+pytest.importorskip("highspy")
 
 
 @pytest.fixture(scope="module")
 def minimum():
-    res = bm.solve(bm.cases.wall(2, 2, mu=0.65), "milp", engine="highs")
+    res = solve_milp(bm.cases.wall(2, 2, mu=0.65), engine="highs")
     assert res.status is bm.Status.OPTIMAL, res.message
     return res.multiplier
 
 
-def test_ipx_bound_on_the_study_root_lp_is_the_certified_minimum(study, minimum):
-    (row,) = study.engines(["2x2"], ["ipx"], time_limit=60)
-    assert row["bound"] <= minimum + margin(CERTIFIED_TOL, minimum)
-    assert minimum - row["bound"] <= margin(CERTIFIED_TOL, minimum)
+def root_lp(lifting: str = "rlt-full", null_space: bool = False):
+    """``(A, c, row_lower, row_upper, col_lower, col_upper)`` of the root's lifted LP of the 2x2 running-bond wall
+    (``null_space``: the same LP in null-space coordinates), in the MILP's per-block units (lam unit 1 here)."""
+    solver = milp_solver(engine="bnb", lifting=lifting, root_lp="ipm")
+    solver.setup(bm.operators.assemble(bm.cases.wall(2, 2, mu=0.65)))
+    assert solver._lam_unit == 1.0
+    bnb = solver._complementarity_bnb(solver._bounds(Deadline(60)))
+    bnb._apply(bnb.root, bnb.lam_lower, bnb.lam_cap)
+    c, rl, ru, cl, cu = bnb._lp_arrays()
+    if null_space:
+        return bnb._null_space_lp(c, rl, ru, cl, cu).arrays
+    return sp.csc_array(bnb._A), c, rl, ru, cl, cu
 
 
-def test_liftings_without_the_force_products_give_a_weaker_bound(study, minimum):
-    bounds = {row["lifting"]: row["bound"] for row in study.liftings(["2x2"], time_limit=60)}
+def interior_bound(lp, tolerance=None) -> float:
+    """The dual bound of IPX's row duals (no crossover) on ``lp``: the bound ``milp`` takes from it."""
+    A, c, rl, ru, cl, cu = lp
+    h = new_highs()
+    h.passModel(highs_lp(A, c, rl, ru, cl, cu))
+    use_interior_point(h, crossover=False, solver=INTERIOR_SOLVER)
+    if tolerance is not None:
+        set_feasibility_tolerances(h, tolerance)
+    h.setOptionValue("time_limit", 60.0)
+    h.run()
+    sol = h.getSolution()
+    assert sol.dual_valid
+    return dual_bound(A, c, rl, ru, cl, cu, np.asarray(sol.row_dual, float))
+
+
+def test_ipx_bound_on_the_root_lp_is_the_certified_minimum(minimum):
+    bound = interior_bound(root_lp())
+    assert bound <= minimum + margin(CERTIFIED_TOL, minimum)
+    assert minimum - bound <= margin(CERTIFIED_TOL, minimum)
+
+
+def test_the_null_space_root_lp_gives_the_lifted_bound(minimum):
+    """The null-space LP (the one ``root_lp="ipm"`` solves) is the same LP in other coordinates: its bound equals
+    IPX's on the lifted LP and meets the certified minimum, on fewer rows and columns."""
+    lifted, reduced = root_lp(), root_lp(null_space=True)
+    assert reduced[0].shape[0] < lifted[0].shape[0] and reduced[0].shape[1] < lifted[0].shape[1]
+    bound = interior_bound(reduced, NULL_SPACE_IPM_TOL)
+    assert bound <= minimum + margin(CERTIFIED_TOL, minimum)
+    assert abs(bound - interior_bound(lifted)) <= margin(CERTIFIED_TOL, minimum)
+
+
+def test_liftings_without_the_force_products_give_a_weaker_bound(minimum):
+    bounds = {lifting: interior_bound(root_lp(lifting)) for lifting in ("friction", "rlt", "rlt-full")}
     assert max(bounds.values()) <= minimum + margin(CERTIFIED_TOL, minimum)
     assert minimum - bounds["rlt-full"] <= margin(CERTIFIED_TOL, minimum)
     assert bounds["friction"] < minimum - 0.1
-
-
-def test_profile_reads_ipx_log(study, tmp_path, monkeypatch):
-    monkeypatch.setattr(study, "OUT", tmp_path)
-    (row,) = study.profile(["2x2"], "rlt", time_limit=60)
-    assert row["status"] == "Optimal"
-    assert row["iterations"] > 0 and row["last_gap"] < 1e-6
-    assert Path(row["log"]).parent == tmp_path
-
-
-def test_the_null_space_root_lp_gives_the_lifted_bound(study, minimum):
-    """The study's ``ipx-null-space`` engine (the root LP ``root_lp="ipm"`` now solves) is the same LP in other
-    coordinates: its bound equals IPX's on the lifted LP and meets the certified minimum, on fewer rows."""
-    lifted, reduced = study.engines(["2x2"], ["ipx", "ipx-null-space"], time_limit=60)
-    assert reduced["rows"] < lifted["rows"]
-    assert reduced["bound"] <= minimum + margin(CERTIFIED_TOL, minimum)
-    assert abs(reduced["bound"] - lifted["bound"]) <= margin(CERTIFIED_TOL, minimum)

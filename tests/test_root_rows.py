@@ -2,14 +2,15 @@
 the lifted LP (a certified minimiser, lifted, satisfies each of its rows), no round's dual bound exceeds the
 certified minimum, and the certified values are those of ``root_lp="ipm"``."""
 
-import time
 
 import numpy as np
 import pytest
 import scipy.sparse as sp
 
 import blockmpec as bm
+from blockmpec.deadline import Deadline
 from helpers import CERTIFIED_TOL, margin
+from milp_runs import milp_solver, solve_milp
 
 WALLS = {"2x2": (2, 2), "3x2": (3, 2)}
 
@@ -19,7 +20,7 @@ def _wall(spec):
 
 
 def _certified(spec, root_lp):
-    res = bm.solve(_wall(spec), "milp", engine="bnb", lifting="rlt-full", root_lp=root_lp, time_limit=60)
+    res = solve_milp(_wall(spec), engine="bnb", lifting="rlt-full", root_lp=root_lp, time_limit=60)
     assert res.status is bm.Status.OPTIMAL, res.message
     assert abs(res.multiplier - res.extra[bm.facts.BOUND]) <= margin(CERTIFIED_TOL, res.multiplier)
     return res
@@ -27,12 +28,10 @@ def _certified(spec, root_lp):
 
 def _rows_bnb(spec):
     """(solver in per-block units, ComplementarityBnB with root_lp="ipm-rows" at the root pattern)."""
-    from blockmpec.solvers.milp import MILPSolver
-
-    solver = MILPSolver(engine="bnb", lifting="rlt-full", root_lp="ipm-rows")
+    solver = milp_solver(engine="bnb", lifting="rlt-full", root_lp="ipm-rows")
     solver.setup(bm.operators.assemble(_wall(spec)))
-    bnb = solver._complementarity_bnb(solver._bounds(time.perf_counter() + 60))
-    bnb.deadline = time.perf_counter() + 60
+    bnb = solver._complementarity_bnb(solver._bounds(Deadline(60)))
+    bnb.deadline = Deadline(60)
     bnb._apply(bnb.root, bnb.lam_lower, np.inf)
     return solver, bnb
 
@@ -42,6 +41,7 @@ def _within(M, v, lower, upper, tol):
     return bool(np.all(r >= lower - tol) and np.all(r <= upper + tol))
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("spec", list(WALLS))
 def test_every_generated_lp_holds_at_the_lifted_minimiser_and_bounds_below_it(spec):
     """Without an incumbent the rounds run until no left-out row is violated: the last LP solved (a subset of
@@ -75,6 +75,7 @@ def test_every_generated_lp_holds_at_the_lifted_minimiser_and_bounds_below_it(sp
     assert abs(bound - lam) <= margin(1e-6, lam)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("spec", ["2x2", "3x2", "2x4"])
 def test_row_generation_certifies_the_same_minimum(spec):
     """Side by side with the interior point on the whole root LP: the same certified multiplier, and the trace's

@@ -97,11 +97,30 @@ cheaper for the interior point (4x3: 12 s for round 0's 19k rows, 35-52 s for ea
 LP without the moments).  Without the unilateral rows too the copies are nearly free and round 0 on the 4x3 wall had
 not ended after 200 s.  So it stays an option, not the default.
 
+Node LPs in null-space coordinates (issue 41).  With the root in null-space coordinates (``root_lp="ipm"``,
+``rlt-full``) every node LP is solved there too (:class:`NullSpaceNodes`: the same LP, its pair rows, ``zeta`` rows,
+``lam`` and ``z`` columns mapped one to one), by HiGHS's interior point without crossover (``node_lp="interior"``;
+its duals give the node's bound through :func:`dual_bound`, valid whatever the point).  Measured on issue 41's
+9-block door wall (load 3-5): 0.5-0.6 s a node LP, where the dual simplex warm-started from the parent's basis took
+0.4-22 s, hit 7,272-iteration limits on most strong-branching children at mu 0.8, and once cycled (338k iterations
+in 144 s).  An infeasible node LP gives the interior point no duals; then the LP without the cap ``lam <=
+incumbent`` prunes it if its bound reaches the cap, and failing that the dual simplex on a sparse relaxation (the
+root's dormant rows left out) prunes it only on a *checked* Farkas certificate (:func:`proves_infeasible`; a
+relaxation's infeasibility is the node's).  A node LP left undecided keeps its parent's bound.
+
+Strong branching with fixings.  Both children of up to ``strong`` candidates (``ROOT_STRONG`` at the root) are
+solved; a candidate one of whose children is pruned (infeasible, or bounded at the incumbent) is *fixed* to the
+other child in the node itself, whose LP becomes the node's (a domain reduction: no new node), and the candidates
+are evaluated again on the reduced node (``FIXING_ROUNDS``); a node whose every candidate closes both children is
+closed.  On the door wall at mu 0.8 (root bound 0.6245, minimum 0.7058) the root alone is closed this way: ~80
+node LPs, no branching (mu 0.65: 6 s; mu 0.8: 127-160 s at load 3).
+
 A node whose pairs are all fixed (a leaf) is one pattern: its minimum is the exact
 polish of the pattern (:meth:`MILPSolver._polish`).  Nodes are explored best-bound first;
-the LP is warm-started from the previous node (HiGHS re-solves after bound changes).  An
-LP that is not optimal never prunes (its node keeps the parent's bound); an infeasible
-LP is confirmed by a cold re-solve before the node is pruned.  Branching picks the
+on the lifted LP (``node_lp="simplex"``, or without null-space coordinates) the LP is warm-started from the previous
+node (HiGHS re-solves after bound changes).  An LP that is not optimal never prunes (its node keeps the parent's
+bound); an infeasible LP is pruned on a checked Farkas certificate, or after a cold re-solve that says infeasible
+again and whose certificate checks.  Branching picks the
 free pair with the largest complementarity violation ``z_j s_j`` of the LP point, plus
 its friction-work defect ``|B_e (x^(i)_r - z_i x_r)|`` (the copy and the static field
 disagree on the normal force that dissipates).
@@ -145,6 +164,15 @@ DORMANT_DUAL_TOL = 1e-7
 SEPARATION_TOL = 1e-9
 #: re-solves of one node LP after waking violated dormant rows
 SEPARATION_ROUNDS = 3
+#: simplex iterations of one node LP solve at most: ``max(NODE_LP_ITERATIONS, rows + columns)`` (a
+#: warm node LP of the 9-block door wall takes 0-600; the dual simplex was seen to cycle there, 338k iterations)
+NODE_LP_ITERATIONS = 5_000
+#: :func:`proves_infeasible`: a Farkas value must exceed this times the size of its terms
+FARKAS_MARGIN = 1e-7
+#: strong branching with fixings: rounds of candidates per node at most (each after a fixing)
+FIXING_ROUNDS = 5
+#: strong branching: candidates evaluated at the root (every other node: ``strong``)
+ROOT_STRONG = 16
 #: ``"ipm"``: the root LP by the interior point, in the null-space coordinates of
 #: :mod:`~blockmpec.solvers.linalg.null_space` where the lifting allows (``rlt-full``; the lifted LP otherwise);
 #: ``"ipm-lifted"``: the same on the lifted LP itself (``"ipm"`` before the null-space coordinates);
@@ -422,6 +450,183 @@ def dual_bound(A, c, row_lower, row_upper, col_lower, col_upper, y, tol: float =
     return best
 
 
+def proves_infeasible(A, row_lower, row_upper, col_lower, col_upper, ray) -> bool:
+    r"""Whether ``ray`` (row multipliers, either sign) proves ``row_lower <= A w <= row_upper``,
+    ``col_lower <= w <= col_upper`` infeasible (Farkas).
+
+    For every feasible ``w`` and any ``y``: ``0 = y^T A w - (A^T y)^T w >= sum_r min_{[l_r, u_r]} y_r t +
+    sum_j min_{[cl_j, cu_j]} (-A^T y)_j w_j``, the dual bound of the zero objective (:func:`dual_bound` with
+    ``c = 0``); a positive value is a contradiction.  ``y`` is scaled to ``max |y_r| = 1`` and the value must
+    exceed ``FARKAS_MARGIN`` times the size of its terms, so round-off cannot make a proof.  Reduced costs of at
+    most ``LP_TOL`` on an unbounded side count as zero, as in every bound of this engine."""
+    ray = np.asarray(ray, float)
+    size = np.abs(ray).max(initial=0.0)
+    if not np.isfinite(size) or size == 0.0:
+        return False
+    A = sp.csc_array(A)
+    zero = np.zeros(A.shape[1])
+    for y in (ray / size, -ray / size):
+        value = dual_bound(A, zero, row_lower, row_upper, col_lower, col_upper, y, correct=False)
+        if not np.isfinite(value):
+            continue
+        y_clean, d, _ = _sign_cleaned(A, zero, row_lower, row_upper, col_lower, col_upper, y)
+        bounds = np.where(np.isfinite(row_lower), np.abs(row_lower), 0.0) + np.where(np.isfinite(row_upper),
+                                                                                     np.abs(row_upper), 0.0)
+        cols = np.where(np.isfinite(col_lower), np.abs(col_lower), 0.0) + np.where(np.isfinite(col_upper),
+                                                                                  np.abs(col_upper), 0.0)
+        scale = float(np.abs(y_clean) @ bounds + np.abs(d) @ cols) + 1.0
+        if value > FARKAS_MARGIN * scale:
+            return True
+    return False
+
+
+class NullSpaceNodes:
+    r"""The node LPs of the branch and bound in the null-space coordinates of
+    :mod:`~blockmpec.solvers.linalg.null_space`, behind the HiGHS calls the search makes on the lifted LP.
+
+    The search changes only bounds of pair rows (static and copy), of the ``zeta`` rows and their ``z``
+    coefficients, and bounds of ``lam`` and ``z``; each is a row or column of the null-space LP too: a lifted row
+    ``r`` kept there is ``A_r T xi``, with its bounds shifted by ``A_r offset`` (the dead-load tree solution), and
+    ``lam``, ``z_i``, ``zeta_i`` are columns of both (``T`` is the identity there, so a ``zeta`` row's ``z``
+    coefficient is the same number).  The two LPs have the same points (``w = offset + T xi``) and the same
+    minimum at every node, so every bound and point of the search is unchanged.
+
+    Two HiGHS instances take every change: ``full``, the whole LP (for the interior point: 0.5-0.6 s a node LP of
+    the 9-block door wall with every row, 1-3 s without the dormant rows and their separation rounds), and
+    ``sparse``, the LP without the rows that are free or ``sleeping`` (the dormant rows of the root; a sleeping row
+    is appended once it is set to an equality, an active pair's row, and stays): a relaxation, for the dual simplex,
+    whose Farkas proofs of infeasibility hold for the whole LP (the door wall at mu 0.8: 5,479 rows, 3,152 of them
+    sleeping).  ``use("full" | "sparse")`` picks the instance that runs, answers and gives points (in lifted
+    coordinates); every model change goes to both.
+    """
+
+    def __init__(self, reduced, A_lifted, layout, n_pairs: int, row_lower, row_upper, sleeping=None):
+        self.T, self.offset = sp.csr_array(reduced.T), np.asarray(reduced.offset, float)
+        n_rows = A_lifted.shape[0]
+        self.row = np.full(n_rows, -1, dtype=np.int64)  # lifted row -> row of the null-space LP
+        mapped = np.flatnonzero(reduced.lifted_row >= 0)
+        self.row[reduced.lifted_row[mapped]] = mapped
+        self.shift = np.asarray(A_lifted @ self.offset, float)
+        self.M = sp.csr_array(reduced.A)
+        n_reduced = self.M.shape[1]
+        q = (n_reduced - 1 - 2 * n_pairs) // (n_pairs + 1)
+        self.col = np.full(A_lifted.shape[1], -1, dtype=np.int64)  # lifted column -> column (lam, z, zeta)
+        self.col[layout.lam] = 0
+        self.col[layout.z.start:layout.z.stop] = 1 + q + np.arange(n_pairs)
+        for i, _, zeta in layout.copies:
+            self.col[zeta] = 1 + q + n_pairs + i
+        # the null-space LP's rows with the lifted LP's current bounds
+        lower, upper = np.array(reduced.row_lower, float), np.array(reduced.row_upper, float)
+        lifted = reduced.lifted_row[mapped]
+        lower[mapped] = np.asarray(row_lower, float)[lifted] - self.shift[lifted]
+        upper[mapped] = np.asarray(row_upper, float)[lifted] - self.shift[lifted]
+        self.sleeping = np.zeros(self.M.shape[0], dtype=bool)  # rows the sparse LP leaves out until an equality
+        if sleeping is not None:
+            self.sleeping[self.row[np.asarray(sleeping, dtype=np.int64)]] = True
+        held = (np.isfinite(lower) | np.isfinite(upper)) & ~self.sleeping
+        self.position = np.full(self.M.shape[0], -1, dtype=np.int64)  # null-space row -> sparse LP row (-1: out)
+        self.position[held] = np.arange(int(held.sum()))
+        self.full = new_highs()
+        self.full.passModel(highs_lp(self.M, reduced.c, lower, upper, reduced.col_lower, reduced.col_upper))
+        self.sparse = new_highs()
+        self.sparse.passModel(highs_lp(self.M[np.flatnonzero(held)], reduced.c, lower[held], upper[held],
+                                       reduced.col_lower, reduced.col_upper))
+        self.h = self.full
+
+    @classmethod
+    def of(cls, reduced, A_lifted, layout, n_pairs: int, rows_used: np.ndarray, row_lower, row_upper,
+           sleeping=None):
+        """The node LPs, or None when a row the search changes (``rows_used``) is not a row of the null-space LP
+        (it vanished: its value is a constant there)."""
+        row = np.full(A_lifted.shape[0], -1, dtype=np.int64)
+        row[reduced.lifted_row[reduced.lifted_row >= 0]] = 1
+        if np.any(row[rows_used] < 0):
+            return None
+        return cls(reduced, A_lifted, layout, n_pairs, row_lower, row_upper, sleeping)
+
+    def use(self, which: str) -> None:
+        """Run, answer and give points from the ``"full"`` or the ``"sparse"`` LP."""
+        self.h = self.full if which == "full" else self.sparse
+
+    @property
+    def n_rows(self) -> int:
+        """Rows of the sparse LP now."""
+        return int((self.position >= 0).sum())
+
+    def _null_rows(self, rows) -> np.ndarray:
+        r = self.row[np.asarray(rows, dtype=np.int64)]
+        if np.any(r < 0):
+            raise RuntimeError("null-space node LP: a changed row is not in the LP")
+        return r
+
+    def _cols(self, cols) -> np.ndarray:
+        c = self.col[np.asarray(cols, dtype=np.int64)]
+        if np.any(c < 0):
+            raise RuntimeError("null-space node LP: a changed column is not in the LP")
+        return c
+
+    def changeRowsBounds(self, n, rows, lower, upper):  # noqa: N802 (HiGHS's name)
+        rows = np.asarray(rows, dtype=np.int64)
+        nr = self._null_rows(rows)
+        lower = np.asarray(lower, float) - self.shift[rows]
+        upper = np.asarray(upper, float) - self.shift[rows]
+        status = self.full.changeRowsBounds(int(nr.size), nr.astype(np.int32), lower, upper)
+        if not change_applied(status):
+            return status
+        at = self.position[nr]
+        held = at >= 0
+        status = self.sparse.changeRowsBounds(int(held.sum()), at[held].astype(np.int32), lower[held], upper[held])
+        if not change_applied(status):
+            return status
+        # a row outside the sparse LP is appended once its bounds are set (a sleeping one: to an equality)
+        add = ~held & (np.isfinite(lower) | np.isfinite(upper)) & (~self.sleeping[nr] | (lower == upper))
+        if add.any():
+            new, first = nr[add], self.n_rows
+            sub = self.M[new]
+            status = self.sparse.addRows(int(new.size), lower[add], upper[add], int(sub.nnz),
+                                         sub.indptr[:-1].astype(np.int32), sub.indices.astype(np.int32), sub.data)
+            self.position[new] = first + np.arange(new.size)
+        return status
+
+    def changeColBounds(self, col, lower, upper):  # noqa: N802
+        c = int(self._cols([col])[0])
+        status = self.full.changeColBounds(c, float(lower), float(upper))
+        return self.sparse.changeColBounds(c, float(lower), float(upper)) if change_applied(status) else status
+
+    def changeColsBounds(self, n, cols, lower, upper):  # noqa: N802
+        c = self._cols(cols).astype(np.int32)
+        lower, upper = np.asarray(lower, float), np.asarray(upper, float)
+        status = self.full.changeColsBounds(int(n), c, lower, upper)
+        return self.sparse.changeColsBounds(int(n), c, lower, upper) if change_applied(status) else status
+
+    def changeCoeff(self, row, col, value):  # noqa: N802
+        nr = int(self._null_rows([row])[0])
+        c = int(self._cols([col])[0])
+        self.M[nr, c] = float(value)  # the z coefficient of a zeta row, for when the row is appended
+        status = self.full.changeCoeff(nr, c, float(value))
+        if not change_applied(status) or self.position[nr] < 0:
+            return status
+        return self.sparse.changeCoeff(int(self.position[nr]), c, float(value))
+
+    def lift(self, xi: np.ndarray) -> np.ndarray:
+        """The lifted point ``offset + T xi`` of a point ``xi`` of the null-space LP."""
+        return self.offset + self.T @ np.asarray(xi, float)
+
+    def getSolution(self):  # noqa: N802
+        """HiGHS's solution with ``col_value`` in the lifted coordinates (``offset + T xi``)."""
+        from types import SimpleNamespace
+
+        sol = self.h.getSolution()
+        return SimpleNamespace(col_value=self.lift(sol.col_value), value_valid=sol.value_valid,
+                               dual_valid=sol.dual_valid)
+
+    def getLp(self):  # noqa: N802
+        raise AttributeError("the null-space node LPs have no lifted LP to return")
+
+    def __getattr__(self, name):
+        return getattr(self.h, name)
+
+
 class ComplementarityBnB:
     """Best-bound branch and bound over the pairs (and, ``lam_branching``, over ``lam``); see the
     module docstring.
@@ -431,7 +636,8 @@ class ComplementarityBnB:
 
     def __init__(self, form, B, lam_lower, lam_upper, polish, fixed_active=None, fixed_idle=None, strong=4,
                  slack_max=None, lam_branching=False, all_copies=False, lam_mechanism=False, force_mechanism=False,
-                 own_pair_active=True, static_copies="all", root_lp="simplex"):
+                 own_pair_active=True, static_copies="all", root_lp="simplex", null_space_nodes=True,
+                 node_lp="interior"):
         if root_lp not in ROOT_LPS:
             raise ValueError(f"root_lp must be one of {ROOT_LPS}; got {root_lp!r}")
 
@@ -448,6 +654,12 @@ class ComplementarityBnB:
         self.static_copies = static_copies
         #: the root LP was solved in null-space coordinates (root_lp="ipm" with the rlt-full lifting)
         self.null_space_root = False
+        #: with the root in null-space coordinates, solve the node LPs there too (:class:`NullSpaceNodes`)
+        self.null_space_nodes = bool(null_space_nodes)
+        self.nodes_in_null_space = False
+        #: node LPs in null-space coordinates: "interior" (HiGHS's interior point first, the dual simplex for what
+        #: it leaves open) or "simplex" (the dual simplex from the parent's basis first)
+        self.node_lp = node_lp
         npair = form.n_pairs
         # candidates for dormancy: the copy pair rows G_j x^(i) <= 0 with j != i
         own = np.zeros(A.shape[0], dtype=bool)
@@ -457,6 +669,9 @@ class ComplementarityBnB:
         self._A = sp.csc_array(A)
         self._sleep_matrix = sp.csr_array(A)[self._sleep_rows]
         self.dormant = np.zeros(A.shape[0], dtype=bool)
+        #: the dormant rows are free in the node LPs (False: node_lp="interior" in null-space coordinates, where
+        #: they sleep only in the dual simplex's sparse LP)
+        self.dormant_free = True
         # rows (X) of the forces other than normal and tangential ones (the moments, lifting="rlt-full"): left out
         # of the root's first interior point (see _interior_root)
         late = np.zeros(A.shape[0], dtype=bool)
@@ -475,8 +690,14 @@ class ComplementarityBnB:
         if fixed_idle is not None:
             self.root[fixed_idle & (self.root == 0)] = -1
         self.n_lps = 0
+        self.interior_nodes = 0  # node LPs bounded by the interior point (_interior_node)
+        self.iteration_limit = max(NODE_LP_ITERATIONS, sum(A.shape))
         self.last_basis = None
         self.strong = max(1, int(strong))
+        self.root_strong = max(self.strong, ROOT_STRONG)
+        self.fixings = 0  # pairs fixed in a node by strong branching
+        self.farkas_proofs = 0  # node LPs pruned as infeasible on a checked Farkas certificate
+        self.unproven_closures = 0  # leaves closed because their pattern LP had no point (HiGHS's word)
         self.lam_lower, self.lam_cap = float(lam_lower), float(lam_upper)
         self.lam_upper = float(lam_upper)
         self.lam_branching = bool(lam_branching)
@@ -485,6 +706,13 @@ class ComplementarityBnB:
         self.lam_splits = 0
         # the x-slices of the copies, by pair (for the work defect of _candidates)
         self._work_copy = np.array([layout.copy_x[int(i)].start + int(r) for i, r in zip(B.col, B.row)], dtype=int)
+
+    def _changed_rows(self) -> np.ndarray:
+        """The lifted rows whose bounds or coefficients the search changes (pair rows, ``zeta`` rows)."""
+        lay = self.layout
+        parts = [lay.static_pair_rows, lay.zeta_lower_rows, lay.zeta_upper_rows, lay.own_rows, self._sleep_rows]
+        parts += [lay.copy_pair_rows[j] for j in range(self.form.n_pairs)]
+        return np.concatenate([np.asarray(p, dtype=np.int64).ravel() for p in parts])
 
     def _set_interval(self, a: float, b: float) -> None:
         """``a <= lam <= b`` and ``a z_i <= zeta_i <= b z_i`` in every copy (coefficients changed in place)."""
@@ -508,7 +736,8 @@ class ComplementarityBnB:
             active_rows.append(lay.own_rows)
         active_rows = np.unique(np.concatenate(active_rows))  # HiGHS ignores a set with repeated indices
         lower = np.full(rows.size, -np.inf)
-        upper = np.where(self.dormant[rows], np.inf, 0.0)  # a dormant row is free (dropped: a relaxation)
+        # a dormant row is free (dropped: a relaxation), unless the node LPs hold every row (dormant_free False)
+        upper = np.where(self.dormant[rows] & self.dormant_free, np.inf, 0.0)
         _checked(h.changeRowsBounds(rows.size, rows.astype(np.int32), lower, upper))
         if active_rows.size:
             _checked(h.changeRowsBounds(active_rows.size, active_rows.astype(np.int32), np.zeros(active_rows.size),
@@ -518,33 +747,129 @@ class ComplementarityBnB:
         self._set_interval(a, min(b, self.lam_cap))
 
     def _node_lp(self, state: np.ndarray, a: float, b: float):
-        """(status, bound, point) of the node LP; any status but optimal (or the time limit) is confirmed by a
-        cold re-solve."""
+        """(status, bound, point) of the node LP.
+
+        The dual simplex from the last basis (:meth:`_run`).  An infeasible LP is pruned only on a proof: HiGHS's
+        dual ray checked as a Farkas certificate (:func:`proves_infeasible`), else a cold re-solve that says
+        infeasible again.  A solve that ends otherwise (its iteration limit: the degenerate lifted LPs were seen
+        to cycle, 338k iterations in 144 s on the 9-block door wall) is repaired by a cold re-solve, then by the
+        interior point (:meth:`_interior_node`, a valid dual bound without a basis); failing both the status is
+        returned and the node keeps its parent's bound."""
         if a > min(b, self.lam_cap):
             return Status.INFEASIBLE, None, None
         self._apply(state, a, b)
-        self._run()
-        st, _ = highs_status(self.h)
+        if self.node_lp == "interior" and self.nodes_in_null_space:
+            return self._interior_node_lp(a, b)
+        st = self._run()
+        if st is Status.INFEASIBLE and self._infeasibility_proven():
+            return Status.INFEASIBLE, None, None
+        if st is not Status.OPTIMAL and st is not Status.TIME_LIMIT and st is not Status.INFEASIBLE:
+            # the interior point with its crossover: a bound and a basis to go on from
+            ist, ibound, iv = self._interior_node(crossover=True)
+            if ist is Status.OPTIMAL:
+                return ist, ibound, iv
         if st is not Status.OPTIMAL and st is not Status.TIME_LIMIT:
             # confirmed (or repaired) by a cold re-solve: warm re-solves after coefficient changes were
             # seen to end without an optimal status on LPs that are optimal cold
             self.h.clearSolver()
-            self._run()
-            st, _ = highs_status(self.h)
+            st = self._run()
+            if st is Status.INFEASIBLE and not self._infeasibility_proven():
+                st = Status.ERROR  # not pruned: the node keeps its parent's bound
         if st is not Status.OPTIMAL:
             return st, None, None
         v = np.asarray(self.h.getSolution().col_value, float)
         value, basis = float(self.h.getInfo().objective_function_value), self.h.getBasis()
-        for _ in range(SEPARATION_ROUNDS if self.dormant.any() else 0):
+        for _ in range(SEPARATION_ROUNDS if self.dormant_free and self.dormant.any() else 0):
             if not self._wake(v):
                 break
-            self._run()
-            if highs_status(self.h)[0] is not Status.OPTIMAL:
+            if self._run() is not Status.OPTIMAL:
                 break  # the last optimal LP (fewer rows: a relaxation of this one) gives the bound
             v = np.asarray(self.h.getSolution().col_value, float)
             value, basis = float(self.h.getInfo().objective_function_value), self.h.getBasis()
         self.last_basis = basis
         return Status.OPTIMAL, value, v
+
+    def _interior_node_lp(self, a: float, b: float):
+        """``node_lp="interior"``: (status, bound, point) of the node LP (its bounds applied) by the interior point.
+
+        An infeasible LP gives the interior point no bound; then the same LP without the cap ``lam <= incumbent``
+        (a relaxation) is solved, whose bound prunes the node if it reaches the cap; failing that the dual simplex
+        from the last basis, within its iteration limit, prunes it on a Farkas proof
+        (:meth:`_infeasibility_proven`).  Otherwise the node keeps its parent's bound (``ERROR``)."""
+        st, bound, v = self._interior_node()
+        if st is Status.OPTIMAL or st is Status.TIME_LIMIT:
+            return st, bound, v
+        cap = min(b, self.lam_cap)
+        if cap < min(b, self.lam_upper):
+            self._set_interval(a, min(b, self.lam_upper))
+            ust, ubound, uv = self._interior_node()
+            self._set_interval(a, cap)
+            if ust is Status.OPTIMAL and ubound >= cap - PRUNE_TOL * max(1.0, abs(cap)):
+                return ust, ubound, uv
+        self.h.use("sparse")
+        try:
+            st = self._run()
+            if st is Status.INFEASIBLE:
+                return (Status.INFEASIBLE, None, None) if self._infeasibility_proven() else (Status.ERROR, None, None)
+            if st is Status.OPTIMAL:  # the sparse LP is a relaxation: its minimum bounds the node's
+                v = np.asarray(self.h.getSolution().col_value, float)
+                return st, float(self.h.getInfo().objective_function_value), v
+            return st, None, None
+        finally:
+            self.h.use("full")
+
+    def _node_arrays(self) -> tuple:
+        """``(A, c, row_lower, row_upper, col_lower, col_upper)`` of the node LP HiGHS holds now (in null-space
+        coordinates when the nodes are solved there) and the map of its points to lifted ones."""
+        h = self.h.h if isinstance(self.h, NullSpaceNodes) else self.h
+        lp = h.getLp()
+        a = lp.a_matrix_
+        A = sp.csc_array((np.asarray(a.value_), np.asarray(a.index_), np.asarray(a.start_)),
+                         shape=(lp.num_row_, lp.num_col_))
+        lift = self.h.lift if isinstance(self.h, NullSpaceNodes) else (lambda xi: xi)
+        return (A, np.asarray(lp.col_cost_), np.asarray(lp.row_lower_), np.asarray(lp.row_upper_),
+                np.asarray(lp.col_lower_), np.asarray(lp.col_upper_)), lift
+
+    def _infeasibility_proven(self) -> bool:
+        """HiGHS's dual ray of the infeasible node LP is a Farkas certificate (:func:`proves_infeasible`)."""
+        h = self.h.h if isinstance(self.h, NullSpaceNodes) else self.h
+        try:
+            _, has_ray, ray = h.getDualRay()
+        except Exception:  # noqa: BLE001 - no ray: the cold re-solve decides
+            return False
+        if not has_ray:
+            return False
+        arrays, _ = self._node_arrays()
+        A, _, rl, ru, cl, cu = arrays
+        proven = proves_infeasible(A, rl, ru, cl, cu, np.asarray(ray, float))
+        self.farkas_proofs += int(proven)
+        return proven
+
+    def _interior_node(self, crossover: bool = False):
+        """The node LP by HiGHS's interior point (with its crossover if ``crossover``): ``(OPTIMAL, dual bound,
+        lifted point)`` when its duals give a finite bound (:func:`dual_bound`: valid whatever the point), else
+        ``(ERROR, None, None)``.  A crossover's basis becomes the node LP's (the children start from it)."""
+        if self.deadline.expired():
+            return Status.TIME_LIMIT, None, None
+        (A, c, rl, ru, cl, cu), lift = self._node_arrays()
+        self.interior_nodes += 1
+        tolerance = NULL_SPACE_IPM_TOL if self.nodes_in_null_space else None
+        y, xi, basis = self._interior_solution(A, c, rl, ru, cl, cu, crossover=crossover, tolerance=tolerance,
+                                               basis=True)
+        bound = -np.inf if y is None or xi is None else dual_bound(A, c, rl, ru, cl, cu, y)
+        if not np.isfinite(bound) and not crossover and y is not None and not self.deadline.expired():
+            # an interior point that stopped short (reduced costs left on free columns, as at the root: see
+            # _interior_bound) is repaired by its crossover; an infeasible LP gives no duals and is left to the caller
+            self.crossover_runs += 1
+            y, xi, basis = self._interior_solution(A, c, rl, ru, cl, cu, crossover=True, tolerance=tolerance,
+                                                   basis=True)
+            bound = -np.inf if y is None or xi is None else dual_bound(A, c, rl, ru, cl, cu, y)
+        if not np.isfinite(bound):
+            return Status.ERROR, None, None
+        if basis is not None and basis.valid:
+            self.h.setBasis(basis)
+            self.last_basis = basis
+        return Status.OPTIMAL, float(bound), lift(np.asarray(xi, float))
 
     def _wake(self, v: np.ndarray) -> bool:
         """Wake the dormant rows violated at ``v`` (bound ``<= 0`` again); True if any."""
@@ -638,6 +963,21 @@ class ComplementarityBnB:
                     bound = max(bound, bound_without((np.isfinite(rl) ^ np.isfinite(ru))
                                                      & (np.abs(y) <= DORMANT_DUAL_TOL)))
                     note(bound)
+        if reduced is not None and self.null_space_nodes:
+            # from here on every node LP is solved in null-space coordinates, its dormant rows left out; the
+            # interior point solves the whole LP (9-block door wall: 0.5-0.6 s a node LP with every row, 1-3 s
+            # without the dormant rows and their separation rounds, with weaker bounds)
+            _, row_lower, row_upper, _, _ = self._lp_arrays()
+            sleeping = np.flatnonzero(self.dormant)
+            if self.node_lp == "interior":  # the dormant rows sleep in the sparse LP only
+                self.dormant_free = False
+            nodes = NullSpaceNodes.of(reduced, self._A, self.layout, self.form.n_pairs, self._changed_rows(),
+                                      row_lower, row_upper, sleeping)
+            if nodes is not None:
+                nodes.use("full" if self.node_lp == "interior" else "sparse")
+                self.h = nodes
+                self.nodes_in_null_space = True
+                self.iteration_limit = max(NODE_LP_ITERATIONS, sum(reduced.A.shape))
         self.ipm_time = self._timing["ipm"] = time.perf_counter() - t0
         self.ipm_bound = bound
         return bound
@@ -739,32 +1079,39 @@ class ComplementarityBnB:
         return bound, y
 
     def _interior_solution(self, A, c, rl, ru, cl, cu, crossover: bool = False,
-                           tolerance: float | None = None) -> tuple:
+                           tolerance: float | None = None, basis: bool = False) -> tuple:
         """``(row duals, column values)`` of the LP by HiGHS's interior point at its default tolerances (primal and
         dual feasibility ``tolerance`` if given), without crossover unless ``crossover`` (``(None, None)`` if it
-        gave no duals; the values None if it gave none)."""
+        gave no duals; the values None if it gave none); with ``basis``, HiGHS's basis (or None) as a third
+        item."""
         g = new_highs()
         g.passModel(highs_lp(A, c, rl, ru, cl, cu))
         use_interior_point(g, crossover=crossover, solver=INTERIOR_SOLVER)
         if tolerance is not None:
             set_feasibility_tolerances(g, tolerance)
         if not set_deadline(g, self.deadline):
-            return None, None
+            return (None, None, None) if basis else (None, None)
         g.run()
         self.n_lps += 1
         # kUnknown: the interior point stopped near the optimum without meeting its tolerances (seen on small
         # walls with an opening); its duals still tell the rows apart and give a bound
         sol = g.getSolution()
+        out = (None, None)
         if g.getModelStatus().name in ("kOptimal", "kUnknown") and sol.dual_valid:
-            return (np.asarray(sol.row_dual, float),
-                    np.asarray(sol.col_value, float) if sol.value_valid else None)
-        return None, None
+            out = (np.asarray(sol.row_dual, float), np.asarray(sol.col_value, float) if sol.value_valid else None)
+        if basis:
+            return (*out, g.getBasis() if out[0] is not None and crossover else None)
+        return out
 
-    def _run(self) -> None:
+    def _run(self) -> Status:
         """One LP solve: at ``LOOSE_LP_TOL`` first (the lifted LPs are degenerate: the dual simplex at 1e-10
         from scratch was measured 20x slower or stalled), then from that basis at ``LP_TOL`` (a few
-        iterations), whose answer alone is used; both within the time left (``self.deadline``)."""
+        iterations), whose answer alone is used; both within the time left (``self.deadline``) and
+        ``NODE_LP_ITERATIONS`` simplex iterations each.  An LP infeasible at the loose tolerance is infeasible at
+        the tight one (a smaller set): no second solve.  Returns the status."""
         h = self.h
+        h.setOptionValue("simplex_iteration_limit", int(self.iteration_limit))
+        st = Status.ERROR
         for tol in (LOOSE_LP_TOL, LP_TOL):
             set_feasibility_tolerances(h, tol)
             if not set_deadline(h, self.deadline):
@@ -772,8 +1119,10 @@ class ComplementarityBnB:
                 h.setOptionValue("time_limit", 0.0)
             h.run()
             self.n_lps += 1
-            if highs_status(h)[0] is Status.TIME_LIMIT:
-                return
+            st = highs_status(h)[0]
+            if st is Status.TIME_LIMIT or st is Status.INFEASIBLE or st is Status.ITERATION_LIMIT:
+                break
+        return st
 
     def root_bound(self, a: float | None = None, b: float | None = None) -> float:
         """The lifted LP's minimum of ``lam`` at the root pattern over ``lam in [a, b]`` (``inf``: infeasible,
@@ -823,6 +1172,8 @@ class ComplementarityBnB:
                 sol = self.polish(child == 1)
                 if sol is not None:
                     found.append(sol)
+                else:
+                    self.unproven_closures += 1
                 kids.append((np.inf, child, ca, cb, None, None))
                 continue
             if basis is not None:
@@ -910,37 +1261,65 @@ class ComplementarityBnB:
             if sol is not None and sol.multiplier < best_val:
                 best, best_val = sol, sol.multiplier
                 tracer.record(min(nb, best_val), best_val, force=True)
-            candidates: list = self._candidates(state, v)
-            free = state == 0
-            if not candidates:
-                # the LP point satisfies complementarity on the free pairs: its pattern's polish is exact
-                leaf = state.copy()
-                leaf[free] = np.where(active[free], 1, -1)
-                sol = self.polish(leaf == 1)
-                if sol is not None and sol.multiplier < best_val:
-                    best, best_val = sol, sol.multiplier
-                # a node without violation is closed by its pattern only if its bound meets it
-                if sol is not None and sol.multiplier - nb <= PRUNE_TOL * max(1.0, abs(sol.multiplier)):
-                    continue
-                if not free.any():
-                    continue
-                candidates = [int(np.flatnonzero(free)[0])]
-            candidates = candidates[: self.strong]
-            top = min(b, best_val)
-            if self.lam_branching and top - nb > LAM_SPLIT_TOL * max(1.0, abs(top)):
-                # bisect [nb, top]: the upper child's bound is its lower end, the lower child's copies
-                # must carry live load <= the midpoint
-                candidates.append(("lam", 0.5 * (max(nb, a) + top)))
-            # strong branching: both children of each candidate, keep the one whose weaker child is best
-            chosen, chosen_key = None, -np.inf
-            for branch in candidates:
-                kids, found = self._children(branch, state, a, b, nb, v, basis, best_val)
-                for sol in found:
-                    if sol.multiplier < best_val:
+            # strong branching with fixings: a candidate one of whose children is pruned (infeasible, or bounded
+            # at the incumbent) is fixed to the other child in this node, whose LP becomes the node's (a domain
+            # reduction, no new node); the node branches on the best candidate evaluated after the last fixing
+            chosen, closed = None, False
+            for _ in range(FIXING_ROUNDS):
+                candidates: list = self._candidates(state, v)
+                free = state == 0
+                z, s = v[self.layout.z], -(self.form.pair_matrix @ v[self.layout.x])
+                active = np.where(state == 0, z > s, state == 1)
+                if not candidates:
+                    # the LP point satisfies complementarity on the free pairs: its pattern's polish is exact
+                    leaf = state.copy()
+                    leaf[free] = np.where(active[free], 1, -1)
+                    sol = self.polish(leaf == 1)
+                    if sol is not None and sol.multiplier < best_val:
                         best, best_val = sol, sol.multiplier
-                key = min(k[0] for k in kids) + 1e-3 * max(k[0] if np.isfinite(k[0]) else 0.0 for k in kids)
-                if key > chosen_key:
-                    chosen, chosen_key, chosen_branch = kids, key, branch
+                    # a node without violation is closed by its pattern only if its bound meets it
+                    if (sol is not None and sol.multiplier - nb <= PRUNE_TOL * max(1.0, abs(sol.multiplier))) \
+                            or not free.any():
+                        self.unproven_closures += int(sol is None)
+                        closed = True
+                        break
+                    candidates = [int(np.flatnonzero(free)[0])]
+                candidates = candidates[: self.root_strong if nodes == 1 else self.strong]
+                top = min(b, best_val)
+                if self.lam_branching and top - nb > LAM_SPLIT_TOL * max(1.0, abs(top)):
+                    # bisect [nb, top]: the upper child's bound is its lower end, the lower child's copies
+                    # must carry live load <= the midpoint
+                    candidates.append(("lam", 0.5 * (max(nb, a) + top)))
+                chosen, chosen_key, fixed = None, -np.inf, False
+                for branch in candidates:
+                    if deadline.expired():
+                        break
+                    kids, found = self._children(branch, state, a, b, nb, v, basis, best_val)
+                    for sol in found:
+                        if sol.multiplier < best_val:
+                            best, best_val = sol, sol.multiplier
+                            tracer.record(min(nb, best_val), best_val, force=True)
+                    alive = [k for k in kids if k[0] < best_val - tol()]
+                    if not alive:  # both children pruned: so is this node
+                        closed = True
+                        break
+                    if len(alive) == 1 and not isinstance(branch, tuple) and alive[0][4] is not None:
+                        nb, state, a, b, v, basis = max(nb, alive[0][0]), *alive[0][1:]
+                        self.fixings += 1
+                        fixed, chosen = True, None
+                        continue
+                    key = min(k[0] for k in kids) + 1e-3 * max(k[0] if np.isfinite(k[0]) else 0.0 for k in kids)
+                    if key > chosen_key:
+                        chosen, chosen_key, chosen_branch = kids, key, branch
+                if closed or not fixed or deadline.expired():
+                    break
+            if closed:
+                continue
+            if chosen is None:  # every candidate was fixed (or the time ran out): the node goes back, reduced
+                if nb < best_val - tol():
+                    heapq.heappush(heap, (nb, counter, state, a, b, v, basis))
+                    counter += 1
+                continue
             if isinstance(chosen_branch, tuple):
                 self.lam_splits += 1
             for cb, child, ca, cbb, cv, cbasis in chosen:
@@ -954,5 +1333,6 @@ class ComplementarityBnB:
         tracer.record(global_bound, best_val, force=True)
         point = None
         return MIPRun(status, status.value, f"complementarity B&B: {nodes} nodes, {self.n_lps} LPs, "
-                      f"{self.lam_splits} lam splits, {int(self.dormant.sum())} dormant rows ({self.woken} woken)", point, best_val, global_bound, nodes,
+                      f"{self.lam_splits} lam splits, {self.fixings} fixings, {self.interior_nodes} interior-point node LPs, "
+                      f"{int(self.dormant.sum())} dormant rows ({self.woken} woken)", point, best_val, global_bound, nodes,
                       time.perf_counter() - t0, tracer.records), best

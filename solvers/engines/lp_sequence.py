@@ -487,15 +487,17 @@ def run_sequence(
     Returns
     -------
     RunOutput, dict
-        The run output (status CONVERGED, ITERATION_LIMIT, TIME_LIMIT, or the LP's
-        failure status) and a dict of loop facts (``lam_start``: the associative
-        multiplier when it was computed, ``tie_break_failures``).
+        The run output (status CONVERGED, ITERATION_LIMIT, TIME_LIMIT; the start LP's failure status, which is the
+        associative LP's (1) for every start but ``"zero"``; ``NUMERICAL`` when a step LP fails: the step LP is the
+        iteration's problem, not (3), so its infeasibility proves nothing of the structure) and a dict of loop facts
+        (``lam_start``: the associative multiplier when it was computed, ``tie_break_failures``, ``step_failure``:
+        the failed step LP's status or None).
     """
     from blockmpec.solvers.engines.stopping import StoppingCriterion
 
     measure = "n_change" if stop_on == "normal" else "lam_change"
     crit = StoppingCriterion(tol, max_iterations, deadline, measure_name=measure).start()
-    facts: dict[str, Any] = {"lam_start": None, "tie_break_failures": 0, "start_used": start}
+    facts: dict[str, Any] = {"lam_start": None, "tie_break_failures": 0, "start_used": start, "step_failure": None}
 
     def output(status, sol, message, raw=""):
         return RunOutput(status, sol if sol is not None else Solution(), crit.iterations, crit.trace, message, raw,
@@ -513,8 +515,9 @@ def run_sequence(
             n_star = n_star * np.random.default_rng(seed).uniform(0.0, 1.0, n_star.size)
     elif start == "dead-load":
         first = seq.dead_load(deadline)
-        if first.status is Status.INFEASIBLE:
-            # no equilibrium under the dead load alone (lam < 0 is needed): start from the associative forces
+        if first.status is not Status.OPTIMAL and first.status is not Status.TIME_LIMIT:
+            # no equilibrium under the dead load alone (lam < 0 is needed), or no answer: start from the
+            # associative forces (whose LP (1) decides about the structure)
             facts["start_used"] = "associative"
             first = seq.associative(deadline)
             if first.status is Status.OPTIMAL:
@@ -548,10 +551,14 @@ def run_sequence(
             step = seq.step(n_star, deadline, rule)
         if step.status is not Status.OPTIMAL:
             k = crit.iterations + 1
-            msg = f"iteration {k}: {step.message}"
             if step.status is Status.TIME_LIMIT:
-                msg = f"time limit reached at iteration {k}; returning the last iterate"
-            return output(step.status, last, msg, step.raw_status)
+                return output(step.status, last, f"time limit reached at iteration {k}; returning the last iterate",
+                              step.raw_status)
+            # a step LP (5) is the iteration's own problem, not (3): its failure (infeasible, unbounded, ...) proves
+            # nothing of the structure, so the run reports a failed iteration, never the LP's status
+            facts["step_failure"] = step.status.value
+            return output(Status.NUMERICAL, last, f"iteration {k}: the step LP is {step.status.value} ({step.message}); "
+                          "the iteration failed, which does not show that (3) has no solution", step.raw_status)
         if step.tie_break_used is False:
             facts["tie_break_failures"] += 1
         sol = step.solution
