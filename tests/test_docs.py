@@ -88,8 +88,9 @@ def _python_blocks(page: Path) -> list[str]:
 
 
 def _page_param(page: Path):
-    # the comparator's example runs worker processes (about 15 s): slow
-    slow = any("compare(" in block for block in _python_blocks(page))
+    # slow: the comparator's examples run worker processes (15-35 s), the maps solve 110 structures per panel
+    # (about 40 s), the pushover example runs 20 steps of two methods and writes a GIF (about 60 s)
+    slow = any(call in block for block in _python_blocks(page) for call in ("compare(", "multiplier_map(", "pushover("))
     return pytest.param(page, id=str(page.relative_to(DOCS)), marks=[pytest.mark.slow] if slow else [])
 
 
