@@ -128,6 +128,9 @@ def cmd_solve(args: argparse.Namespace) -> int:
         from blockmpec.drawings.export import check_export_path
 
         check_export_path(args.export_drawing)
+    plot_path = _output_file(args.plot, "--plot", "mechanism.png")
+    if plot_path is not None:
+        _check_figure_format(plot_path)
     structure = load_case(args.case, params)
     with _stdout_to_stderr() if args.json else contextlib.nullcontext():
         result = solve(structure, args.method, verify_tol=verify_tol, **options)
@@ -155,7 +158,41 @@ def cmd_solve(args: argparse.Namespace) -> int:
         written = export_drawing(structure, result, args.export_drawing,
                                  source=args.case if is_drawing(args.case) else None)
         print(f"wrote {written}", file=sys.stderr if args.json else sys.stdout)
+    if plot_path is not None:
+        _plot_mechanism(structure, result, plot_path)
+        print(f"wrote {plot_path}", file=sys.stderr if args.json else sys.stdout)
     return 0 if result.success else 1
+
+
+def _check_figure_format(path: Path) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    from matplotlib.figure import Figure
+
+    formats = Figure().canvas.get_supported_filetypes()
+    suffix = path.suffix.lstrip(".").lower()
+    if suffix not in formats:
+        raise OptionError(f"--plot {path}: unknown figure format {path.suffix or '(no suffix)'!r}; "
+                          f"use one of {', '.join('.' + f for f in sorted(formats))}")
+
+
+def _plot_mechanism(structure: Any, result: Any, path: Path) -> None:
+    """The figure of ``solve --plot``: the mechanism (hinges, sliding joints) with its legend."""
+    import matplotlib.pyplot as plt
+
+    from blockmpec import plot
+
+    x, y = structure.vertices[..., 0], structure.vertices[..., 1]
+    aspect = float(y.max() - y.min()) / max(float(x.max() - x.min()), 1e-300)
+    fig, ax = plt.subplots(figsize=(9, max(2.5, min(9.0, 6.5 * aspect + 0.8))), layout="constrained")
+    plot.mechanism(result, structure, ax=ax)
+    try:
+        fig.savefig(path, dpi=150, bbox_inches="tight")
+    except OSError as exc:
+        raise OptionError(f"--plot {path}: cannot write ({exc.strerror or exc})") from None
+    finally:
+        plt.close(fig)
 
 
 def cmd_export(args: argparse.Namespace) -> int:
@@ -553,6 +590,8 @@ def build_parser() -> argparse.ArgumentParser:
                    "velocities normalised to a live-load power of 1)")
     p.add_argument("--export-drawing", metavar="FILE.dxf|FILE.svg", help="draw the mechanism and the interface "
                    "forces into a DXF or SVG file (a copy of the drawing solved, if it is one)")
+    p.add_argument("--plot", metavar="FILE.png", help="draw the collapse mechanism (hinges and sliding joints "
+                   "marked) into a figure file; its suffix chooses the format (.png, .pdf, .svg, ...)")
     p.set_defaults(func=cmd_solve)
 
     p = sub.add_parser("import", help="read a drawing (DXF, SVG) or an image of stones into a structure file",

@@ -55,6 +55,18 @@ def test_solve_json_has_contract_keys(cli):
     assert isinstance(out["residuals"], dict) and all(isinstance(v, float) for v in out["residuals"].values())
 
 
+def test_solve_plot_writes_the_mechanism_figure_and_refuses_an_unknown_format_before_solving(cli, tmp_path):
+    code, out, err = cli("solve", "two-blocks", "--method", "static-lp", "--plot", "mechanism.png")
+    assert code == 0, err
+    figure = tmp_path / "mechanism.png"
+    assert figure.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and "wrote mechanism.png" in out
+    code, out, err = cli("solve", "two-blocks", "--method", "static-lp", "--plot", "mechanism.foo")
+    assert code == 2 and out == "" and "--plot mechanism.foo: unknown figure format '.foo'" in err
+    assert len(err.strip().splitlines()) == 1
+    code, out, err = cli("solve", "two-blocks", "--method", "static-lp", "--plot", "missing/m.png")
+    assert code == 2 and "folder missing does not exist" in err
+
+
 @pytest.mark.slow
 def test_the_real_command_exit_codes_and_a_json_only_stdout():
     """The process's exit status: 0 = verified success, 2 = bad input (1 = no verified success: in-process below);
