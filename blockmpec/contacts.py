@@ -60,7 +60,7 @@ the virtual work of each segment about ``p`` is its moment about ``p``, at most
 
 and the excess vanishes whenever the mechanism turns each point contact about its contact point
 in the opening sense -- a block rocking on its toe, a hinge of an arch: there ``lam`` is exact
-(``tests/test_pushover.py`` checks ``tan(alpha - theta)`` to 1e-6).  ``studies/pushover_benchmark.py``
+(``tests/test_pushover.py`` checks ``tan(alpha - theta)`` to 1e-6).  ``studies/lab/pushover_benchmark.py``
 reports the change of ``lam`` when ``contact_length`` is divided by ten.
 
 No validation

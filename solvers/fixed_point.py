@@ -59,7 +59,7 @@ returns the converged run with the lowest verified multiplier (residuals of (3)
 at most 1e-6); nothing unverified is preferred over a verified run.
 
 Defaults (``start="dead-load", tie_break="least-compressed", fold_weight=1e-4``), chosen by
-``studies/fixed_point_strategies.py`` (the README's strategy table): on the 56
+``studies/lab/fixed_point_strategies.py`` (the changelog's strategy table): on the 56
 structures with a certified minimum it is verified on all and within 1 % of the
 minimum on all (28 of 28 where the minimum lies below the associative multiplier,
 against 1 of 28 for the former default ``start="associative", tie_break="closest"``),
@@ -97,7 +97,7 @@ reach a solution of (3) (residuals above 1e-6), below :data:`~blockmpec.solvers.
 blocks (above, the simplex engine cannot finish in the default time limit, and the interior run's
 failure is returned at once).  On the 1,010-block wall the interior
 engine costs 1.4x one cold block-IPM LP (CPU) against the simplex engine's 46x, with
-lam 0.44948 against 0.44946 (``studies/fixed_point_ratio.py``); on the heuristic suite it
+lam 0.44948 against 0.44946 (``studies/lab/fixed_point_ratio.py``); on the heuristic suite it
 is within 2 % of the certified minimum on 54/56 structures against the simplex engine's
 56/56 and takes 7x its median time on these small structures (hence the threshold).
 On 2,400- and 10,000-block walls Mehrotra's iterates leave the strongly curved central path
@@ -109,9 +109,9 @@ aimed forces with LP duals), but arclength continuation of the central path from
 aimed run, plain run, 155 continuation steps), where the simplex engine does not finish one
 step in 600 s.  On the 10,050-block wall the path through the stalled point turns back and
 the run still fails (the
-engine module's docstring, ``studies/fixed_point_polish.py``,
-``studies/fixed_point_continuation.py``).  A run that still fails falls back as above.
-Replacing the engine at 10,000 blocks was measured too (``studies/fixed_point_routes.py``): this
+engine module's docstring, ``studies/lab/fixed_point_polish.py``,
+``studies/lab/fixed_point_continuation.py``).  A run that still fails falls back as above.
+Replacing the engine at 10,000 blocks was measured too (``studies/lab/fixed_point_routes.py``): this
 sequence of LPs with each LP by the block IPM warm-started (5-7 iterations per warm LP, but the
 interior answers converge on ``n`` only linearly: 260 iterations at 1,010 blocks, still 3e-5), path
 following on (3) in a wide neighbourhood, a homotopy on the dilatancy gap (cold Newton on (3)

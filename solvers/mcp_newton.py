@@ -62,8 +62,8 @@ stationary points that are not solutions; hence the continuation and the fallbac
 
 The answer is *a* solution of (3), not necessarily the minimum of (4); its
 multiplier lies between the non-associative minimum and the associative one.
-The default start was chosen by ``studies/mcp_newton_strategies.py`` on the
-heuristic suite (``studies/heuristic_suite.py``): from the fixed point's solution
+The default start was chosen by ``studies/lab/mcp_newton_strategies.py`` on the
+heuristic suite (``studies/lab/heuristic_suite.py``): from the fixed point's solution
 the run is verified and within 1 % of the certified minimum on all 56 certified
 structures (28 of 28 where the minimum lies below the associative multiplier,
 against 1 of 28 from the associative start), within 2 % of the best verified value

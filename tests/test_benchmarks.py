@@ -10,7 +10,7 @@ one in ``addopts``, so they run with::
 
 (Deselection by marker was chosen over pytest-benchmark's ``--benchmark-skip`` because
 it also works where the plugin is not installed.)  Cost growth with size is measured
-by ``studies/benchmark_scaling.py``, not here.
+by ``studies/lab/benchmark_scaling.py``, not here.
 
 Each benchmark also checks its result, so a benchmark of a broken stage fails:
 

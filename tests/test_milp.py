@@ -380,7 +380,7 @@ def test_bound_never_exceeds_a_verified_point(options):
 def test_rlt_full_certifies_the_5x2_running_bond_wall():
     """Issue 12's hardest 60 s target, end to end (not timed): with the moments' products the lifted root LP
     certifies the 5x2 running-bond wall, every heuristic's verified point lies above the certified bound, and
-    the certified point solves (3) (``rlt`` stops at a root bound of 0.558 there: studies/certificate_study.py)."""
+    the certified point solves (3) (``rlt`` stops at a root bound of 0.558 there: studies/lab/certificate_study.py)."""
     from helpers import HEURISTIC_TOL, HEURISTICS, margin
 
     structure = bm.cases.wall(5, 2, bond="running", mu=0.65)

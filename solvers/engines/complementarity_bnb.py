@@ -29,9 +29,9 @@ Products with the mechanism (``lifting`` of :class:`~blockmpec.solvers.milp.MILP
   give ``E^T W[r, :] + sum_i F[:, i] x^(i)_r = 0`` and ``f_l^T W[r, :] = x_r``.  So for each ``r`` the
   vector ``(x^(i)_r)_i = x_r z`` is itself a compatible multiplier vector whose mechanism does live
   work ``x_r``: with ``E^T`` injective, ``x_r = sum_i c_i x^(i)_r``, which ties the copies to *one*
-  static field (the coupling the normal-force bound of ``studies/normal_force_bound.py`` lacked).
+  static field (the coupling the normal-force bound of ``studies/lab/normal_force_bound.py`` lacked).
   The products of equilibrium with ``u_k`` and of the active pair rows with ``u_k`` are implied
-  when ``E^T`` is injective and are left out.  Measured root bounds (``studies/certificate_study.py``):
+  when ``E^T`` is injective and are left out.  Measured root bounds (``studies/lab/certificate_study.py``):
   2x2 running bond 0.16 -> 0.65, 3x2 0 -> 0.65, 2x4 0.07 -> 0.65 (each the certified minimum); tying the
   normal forces alone gave 0.40 on 2x4, all forces (moments too) the same 0.65 at twice the LP time.
   ``lifting="rlt-full"`` ties every force, the moments too: on the 5x2 running-bond wall the root
@@ -80,7 +80,7 @@ the static field, every copy and the products with ``u`` are static or kinematic
 :mod:`~blockmpec.solvers.linalg.null_space` solves equilibrium and compatibility once (a spanning tree of the
 contact graph gives a sparse basis of self-stresses) and writes the root LP in the remaining coordinates: the same
 LP, the same minimum, with every copy's equilibrium rows and all of ``W = x u^T`` gone (2x15 running-bond wall:
-166,078 x 87,359 -> 105,535 x 38,906).  IPX solves it 3-4x faster (``python studies/root_lp_engines.py --engines
+166,078 x 87,359 -> 105,535 x 38,906).  IPX solves it 3-4x faster (``python studies/lab/root_lp_engines.py --engines
 2x4,5x2,4x3,2x8 --only ipx,ipx-null-space``, CPU s, lifted -> null-space, same bound to 1e-9: 2x4 1.59 -> 0.40, 5x2
 8.32 -> 2.85, 4x3 26.6 -> 6.92, 2x8 38.2 -> 8.55), and the 2x13 and 2x15 walls, whose lifted root LP gave no bound
 in 1,500 s, in 61 s and 123 s.  Its pair rows are rows of the lifted LP, one to one, so their
@@ -90,7 +90,7 @@ lifted LP (``"ipm"`` before).
 Row generation (``root_lp="ipm-rows"``, :meth:`ComplementarityBnB._generated_root`): the root LP by rounds of the
 same interior point, the first without the copy friction rows and the moments' rows (X), each next one with the
 left-out rows violated at the last point added; every round's dual bound is valid (a relaxation).  Measured
-(``studies/root_rows.py``, rlt-full, CPU s to certify, against ``root_lp="ipm"`` in the same run): 2x4 6.5 / 3.8,
+(``studies/lab/root_rows.py``, rlt-full, CPU s to certify, against ``root_lp="ipm"`` in the same run): 2x4 6.5 / 3.8,
 5x2 90 / 21, 4x3 219 / 20, 3x4 149 / 17, with 4-6 rounds whose bound stays near 0 until most rows are back (4x3:
 -1.6e-9, 0.14, 0.31, 0.38, 0.63, 0.636 = the minimum, the last LP 26k of the 30k rows): the reduced LPs are not
 cheaper for the interior point (4x3: 12 s for round 0's 19k rows, 35-52 s for each later round, 26 s for the whole

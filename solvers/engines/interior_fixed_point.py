@@ -159,7 +159,7 @@ FOLD_OFF = 1e-9
 #: tolerance on the weighted products ``max |s o y - mu w| / (mu w)``, and the rise of ``mu`` above its
 #: start at which the path counts as turned back for good (on the 10,050-block wall the path through the
 #: stalled point turned after ~30 steps and ran to ``mu`` ~ 4e9 in 110; with later round-off it crawls there instead:
-#: README, *Fixed point against one cold LP*)
+#: docs/performance.md, *Fixed point against one cold LP*)
 CONTINUATION_STEPS = 3000
 CORRECTOR_TOL = 0.3
 CONTINUATION_MU_RISE = 1e3

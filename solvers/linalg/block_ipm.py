@@ -161,7 +161,7 @@ class IPMOutcome:
 #: 312 s instead of 457 s CPU (77 / 79 iterations, 541 / 1,242 solves, the same lam), and 32,670 blocks 68 s
 #: instead of 100 s; up to 10,050 blocks the times stay within +-10 % and the iteration
 #: counts within the round-off spread (``python studies/lab/lp_timing.py --walls 20x50,40x60,70x70,50x200,100x100,
-#: 180x181 --algorithms block-ipm --ipm-settings wide_shift,default``, and ``--walls 316x316``; README).  The
+#: 180x181 --algorithms block-ipm --ipm-settings wide_shift,default``, and ``--walls 316x316``; docs/performance.md).  The
 #: interior fixed point keeps 1e-12: its stall at 2,420 blocks stays with 1e-16 too (85 iterations, 2.4e-3).
 DEFAULT_SETTINGS = {"refinements": 8, "lazy_refinement": True, "inner_refinements": 1, "inner_tolerance": 1e-6,
                     "final_sweeps": 4, "correctors": "auto", "gondzio_accept": 1.01, "gondzio_factor": 1.5,
@@ -179,7 +179,7 @@ EXACT_INNER_SETTINGS = {**DEFAULT_SETTINGS, "inner_tolerance": 0.0, "diagonal_sh
 #: ``correctors``: the most Gondzio correctors per iteration, or ``"auto"``: :data:`LARGE_CORRECTORS` when ``K``
 #: has at least ``rules.corrector_rows`` (:class:`AutoRules`) rows, else :data:`SMALL_CORRECTORS`.  On large walls more correctors
 #: cut the crawl's iterations by more than they cost: ``python studies/lab/lp_timing.py --walls 100x100,180x181,316x316
-#: --algorithms block-ipm --ipm-settings two_correctors,default`` (README).  On small LPs four correctors made the
+#: --algorithms block-ipm --ipm-settings two_correctors,default`` (docs/performance.md).  On small LPs four correctors made the
 #: 3x4 wall's K singular in floating point before convergence (``acceptable`` instead of ``optimal``) and took 17
 #: iterations against 15 on 10x20 (``--walls 3x4,5x4,10x20 --ipm-settings two_correctors,four_correctors``), so below
 #: that size they stay at two.

@@ -150,7 +150,7 @@ def inverse_blocks(M: np.ndarray) -> np.ndarray:
 # numba runs parallel loops on OpenMP threads where it finds OpenMP.  By default they spin for a while after each
 # loop, and on two cores that takes the CPU the supernodal Cholesky's worker process needs for its half of every
 # solve: at 10,050 blocks the LP took 10.3 s instead of 7.2 s wall-clock, its solves with K 3.4 s instead of 1.3 s
-# of CPU (``python studies/lp_timing.py --walls 100x100 --algorithms block-ipm``, without and with
+# of CPU (``python studies/lab/lp_timing.py --walls 100x100 --algorithms block-ipm``, without and with
 # OMP_WAIT_POLICY=passive, one run each).  So the threads wait passively unless the user chose otherwise (OpenMP
 # reads the variable when it is loaded: numba's first parallel loop, after this import).
 os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")

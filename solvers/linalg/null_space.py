@@ -17,7 +17,7 @@ one per force of a non-tree interface: unit on that force, the tree forces of it
 (``basis="cycles"``: three per cycle of a short cycle basis of the contact graph, Horton's, unit on the forces of
 one interface of the cycle.  Its pair rows ``G N`` are sparser, 3.5-3.9 entries per row against 5.2-10.2 on the
 5x2, 4x3, 2x8, 6x3 and 8x4 walls, yet IPX was not faster: 5x2 3.41 against 2.85 s, 4x3 8.51 against 6.92 s, 2x8
-8.49 against 8.55 s, with bounds up to 6.9e-8 below the minimum against 3e-9; ``python studies/root_lp_engines.py
+8.49 against 8.55 s, with bounds up to 6.9e-8 below the minimum against 3e-9; ``python studies/lab/root_lp_engines.py
 --engines 5x2,4x3,2x8 --only ipx-null-space,ipx-null-space-cycles``, two runs.)  Kinematic side: ``u = L z`` with
 ``L = -B^{-T} F_tree`` solves the tree rows of compatibility ``E^T u + F z = 0``; the others hold exactly when
 ``C z = 0`` with ``C = (F + E^T L)[non-tree rows] = N^T F``.  With ``c^T = f_l^T L`` (each multiplier's live
@@ -42,7 +42,7 @@ bound for the other.  The reformulation needs every force tied (``rlt-full``) an
 (``static_copies="all"``).  It drops the ``3 (blocks)`` equilibrium rows and columns of every copy and all of
 ``W``: on the 2x15 running-bond wall 166,078 rows x 87,359 columns become 105,535 x 38,906.
 
-Measured (``python studies/root_lp_engines.py --engines 2x4,5x2,4x3,2x8 --only ipx,ipx-null-space``, IPX without
+Measured (``python studies/lab/root_lp_engines.py --engines 2x4,5x2,4x3,2x8 --only ipx,ipx-null-space``, IPX without
 crossover, CPU s, one run, lifted -> null-space, the same bound to 1e-9): 2x4 1.59 -> 0.40, 5x2 8.32 -> 2.85,
 4x3 26.6 -> 6.92, 2x8 38.2 -> 8.55; 2x13 61.3 s and 2x15 122.9 s (``--engines 2x13,2x15 --only ipx-null-space``),
 where the lifted LP gave no bound in 1,500 s.
