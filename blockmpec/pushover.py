@@ -602,6 +602,7 @@ def pushover(
     snaps, snap_motion = 0, 0.0
     last_push = None  # (poses of a step as a function of s, the s taken) of the last push step
     pending = None  # poses just past an instability, to go to after recording the last ones that stand
+    falling = False  # the next configuration follows an instability or a snap: check for a fall before solving
 
     def record(res, contacts, elapsed, retried=""):
         q = None if control_block is None else _place(control_point[None, :], np.array([control_block]),
@@ -642,13 +643,19 @@ def pushover(
         deformed = _contact_structure(structure, vertices, contacts)
         ops = assemble(deformed)
         lonely = _lonely_block(structure, contacts)
+        retried, fall = "", None
+        if falling:  # just past an instability or after a snap: the proof first, it costs one small LP
+            fall = _dead_load_mechanism(ops)
         if lonely is not None:  # it cannot stand: no solve (its equilibrium rows would read 0 = weight)
             res = Result(method=method, status=Status.INFEASIBLE, problem=problem,
                          message=f"block {lonely} touches no other block")
+        elif fall is not None:  # proven: no lam holds it (a method would spend its starts and fallbacks on it)
+            res = Result(method=method, status=Status.INFEASIBLE, problem=problem,
+                         message="no lam holds this configuration: a mechanism on which only the dead load works")
         else:
             res = solve(ops, method, verify_tol=verify_tol, **options)
-        retried, fall = "", None
-        if not res.success and rows:
+        falling = False
+        if not res.success and rows and fall is None:
             # a mechanism on which the dead load works and the live load does not proves that no lam holds
             # this configuration (Farkas); without one, the method failed where a solution exists: retry
             fall = _dead_load_mechanism(ops)
@@ -688,6 +695,7 @@ def pushover(
                 break
             if pending is not None:  # just past the instability, where the structure falls
                 poses, pending, event = pending, None, "step"
+                falling = True
                 displacement = control_at(poses)
                 target_step = reached(displacement)
                 continue
@@ -716,6 +724,7 @@ def pushover(
             closed = _closed_points(contacts, deformed, twist, poses, c0, True)
             event = "snap"
             snaps += 1
+            falling = True
         else:
             stop_reason = f"{method} did not succeed: {res.status.value}" + (f" ({res.message})" if res.message else "")
             if fall is not None and snaps:

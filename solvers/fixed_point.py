@@ -309,8 +309,8 @@ class FixedPoint(SolverBase):
             return self._run_interior(deadline)
         out = self._run_simplex(deadline)
         if (not plan.fixed_point_interior_fallback(self.options.engine, self.ops.n_free_blocks) or self._verified(out)
-                or deadline.expired()):
-            return out
+                or out.status is Status.INFEASIBLE or deadline.expired()):
+            return out  # infeasible: proven by the associative LP (1), which no engine can change
         # the LP steps did not reach a solution of (3) (they wander on irregular stone walls): the interior engine,
         # in the time left
         interior = self._run_interior(deadline, fallback=False)
