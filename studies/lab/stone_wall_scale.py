@@ -18,8 +18,8 @@ bound on the minimum takes the minimum's place (the best heuristic within 2 % ab
 
 Usage::
 
-    python studies/stone_wall_scale.py                     # ~200 stones, the 10x20 wall, certificate
-    python studies/stone_wall_scale.py --stones 2000 --walls 40x50 --no-certificate
+    python studies/lab/stone_wall_scale.py                     # ~200 stones, the 10x20 wall, certificate
+    python studies/lab/stone_wall_scale.py --stones 2000 --walls 40x50 --no-certificate
 
 Prints a markdown table and writes ``studies/output/stone_wall_scale/scale_<stones>.csv``.
 """
@@ -34,11 +34,11 @@ from pathlib import Path
 
 import blockmpec as bm
 
-sys.path.insert(0, str(Path(__file__).parent))
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "_common"))
 from _tables import markdown, peak_memory_mb, write_csv  # noqa: E402
 from _walls import named_wall  # noqa: E402
 
-OUT = Path(__file__).parent / "output" / "stone_wall_scale"
+OUT = Path(__file__).resolve().parents[1] / "output" / "stone_wall_scale"
 
 
 def stone_wall_of(stones: int, irregularity: float, stone_size: float, seed: int, mu: float) -> bm.Structure:
