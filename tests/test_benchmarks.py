@@ -3,10 +3,11 @@
 Every test here is marked ``benchmark``.  ``pyproject.toml`` puts ``-m "not benchmark"``
 in pytest's ``addopts``, so a plain ``python -m pytest`` (CI) deselects them: nothing
 here is timed, or even run, in CI.  A later ``-m`` on the command line replaces the
-one in ``addopts``, so they run with::
+one in ``addopts``, so they run, in one process (``-n 0``: pytest-benchmark times nothing under xdist's workers),
+with::
 
-    python -m pytest -m benchmark tests/test_benchmarks.py
-    python -m pytest -m benchmark tests/test_benchmarks.py --benchmark-json out.json   # keep the timings
+    python -m pytest -m benchmark -n 0 tests/test_benchmarks.py
+    python -m pytest -m benchmark -n 0 tests/test_benchmarks.py --benchmark-json out.json   # keep the timings
 
 (Deselection by marker was chosen over pytest-benchmark's ``--benchmark-skip`` because
 it also works where the plugin is not installed.)  Cost growth with size is measured

@@ -327,29 +327,3 @@ def test_comparison_figures_are_written(tmp_path):
         assert _png_ok(p), p
     assert not plt.get_fignums()  # the PNG writers leave no pyplot figure behind
     assert math.isfinite(df["budget_s"].iloc[0])
-
-
-@pytest.mark.slow
-def test_the_examples_of_the_plotting_page_run(tmp_path, monkeypatch):
-    """docs/plotting.md: every Python block runs as written, in order (the maps on a coarser grid)."""
-    import re
-    from pathlib import Path
-
-    from blockmpec.cli import main
-
-    page = (Path(__file__).resolve().parents[1] / "docs" / "plotting.md").read_text()
-    blocks = re.findall(r"```python\n(.*?)```", page, flags=re.S)
-    assert len(blocks) >= 6
-    monkeypatch.chdir(tmp_path)
-    assert main(["compare", "--cases", "two-blocks", "--methods", "static-lp,fixed-point", "--quiet",
-                 "--no-figures"]) == 0  # the table the last example reads
-    full = bm.plot.multiplier_map
-
-    def coarse(case, x, y, **kw):  # every fifth value: the page's grids cost a few hundred solves
-        return full(case, (x[0], list(x[1])[::5]), (y[0], list(y[1])[::5]), **kw)
-
-    monkeypatch.setattr(bm.plot, "multiplier_map", coarse)
-    namespace: dict = {}
-    for code in blocks:
-        exec(compile(code, "docs/plotting.md", "exec"), namespace)
-    assert (tmp_path / "mechanisms.pdf").exists() and (tmp_path / "mechanism.png").exists()
