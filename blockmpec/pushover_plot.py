@@ -15,17 +15,8 @@ import numpy as np
 
 from blockmpec.errors import OptionError
 from blockmpec.geometry import Structure
+from blockmpec.plot import METHOD_STYLES  # one colour and marker per method, as in every other figure
 
-#: One colour and marker per method (those of the comparator's figures for the shared methods).
-CURVE_STYLES: dict[str, tuple[str, str]] = {
-    "static-lp": ("#1f77b4", "o"),
-    "kinematic-lp": ("#17becf", "s"),
-    "fixed-point": ("#2ca02c", "^"),
-    "slp": ("#8c564b", "X"),
-    "mcp-newton": ("#9467bd", "D"),
-    "nlp": ("#ff7f0e", "P"),
-    "milp": ("#d62728", "v"),
-}
 _OTHER_COLOURS = ("#e377c2", "#7f7f7f", "#bcbd22", "#393b79", "#637939", "#8c6d31")
 
 #: The x axes a capacity curve can be drawn against: column -> axis label (``{unit}``: the length unit).
@@ -67,8 +58,8 @@ def _curves(curves: Any) -> list[tuple[str, Any]]:
 
 
 def _style(label: str, k: int) -> tuple[str, str]:
-    name = next((m for m in sorted(CURVE_STYLES, key=len, reverse=True) if label.startswith(m)), None)
-    return CURVE_STYLES[name] if name else (_OTHER_COLOURS[k % len(_OTHER_COLOURS)], "o")
+    name = next((m for m in sorted(METHOD_STYLES, key=len, reverse=True) if label.startswith(m)), None)
+    return METHOD_STYLES[name] if name else (_OTHER_COLOURS[k % len(_OTHER_COLOURS)], "o")
 
 
 def plot_capacity_curve(curves: Any, ax=None, *, x: str = "displacement", length_unit: str = "length unit",
