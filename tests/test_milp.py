@@ -13,7 +13,6 @@ built-in cases, and the flipped certificate logic.
 import functools
 import importlib.util
 import itertools
-import time
 
 import numpy as np
 import pytest
@@ -273,14 +272,14 @@ def test_maximum_after_a_zero_live_work_relaxation_point(monkeypatch):
     relaxation's dual bound stays the upper bound; the answer is the associative value 2/3."""
     from blockmpec.solvers.milp import MILPSolver
 
-    mechanism = MILPSolver._mechanism
+    mechanism = MILPSolver.pattern_mechanism
     calls = {"n": 0}
 
     def first_call_fails(self, active):
         calls["n"] += 1
         return None if calls["n"] == 1 else mechanism(self, active)
 
-    monkeypatch.setattr(MILPSolver, "_mechanism", first_call_fails)
+    monkeypatch.setattr(MILPSolver, "pattern_mechanism", first_call_fails)
     res = solve_milp(bm.cases.two_blocks(eta=3, mu=1.5), sense="max", incumbent=False)
     assert calls["n"] >= 2 and "tau_restart" in res.extra
     assert res.status is Status.OPTIMAL, res.message  # the restriction's point meets the relaxation's bound
@@ -317,9 +316,9 @@ def test_every_model_row_holds_at_a_solution(engine, case_id):
     assert_certified(res)
     solver = milp_solver(engine=engine, envelope=True)
     solver.setup(bm.operators.assemble(structure))
-    bd = solver._bounds(Deadline(60))
-    mip = solver._build(bd)
-    v = solver._start(mip, solver.scaled(res.solution))  # the model is in per-block units
+    bd = solver.lp_bounds(Deadline(60))
+    mip = solver.build_mip(bd)
+    v = solver.start_vector(mip, solver.scaled(res.solution))  # the model is in per-block units
     r = mip.A @ v
     scale = max(1.0, float(np.abs(v).max()))
     tol = 1e-7 * scale
@@ -523,7 +522,7 @@ def _lifted(structure, lifting: str):
     """(solver in per-block units, ComplementarityBnB with no incumbent) for ``lifting``."""
     solver = milp_solver(engine="bnb", lifting=lifting, root_lp="simplex")
     solver.setup(bm.operators.assemble(structure))
-    return solver, solver._complementarity_bnb(solver._bounds(Deadline(60)))
+    return solver, solver.branch_and_bound(solver.lp_bounds(Deadline(60)))
 
 
 def _at_root(structure, lifting: str):
@@ -746,7 +745,7 @@ def _null_space_nodes(structure, node_lp="interior"):
     """(solver, ComplementarityBnB) after the root's interior point, its node LPs in null-space coordinates."""
     solver = milp_solver(engine="bnb")
     solver.setup(bm.operators.assemble(structure))
-    bnb = solver._complementarity_bnb(solver._bounds(Deadline(60)), node_lp=node_lp)
+    bnb = solver.branch_and_bound(solver.lp_bounds(Deadline(60)), node_lp=node_lp)
     bnb.deadline = Deadline(60)
     bnb._apply(bnb.root, bnb.lam_lower, bnb.lam_cap)
     bnb._interior_root()
@@ -766,7 +765,7 @@ def test_null_space_node_lps_are_the_lifted_node_lps(case_id):
 
     structure = LIFTING_CASES[case_id]()
     solver, bnb = _null_space_nodes(structure)
-    lifted = solver._complementarity_bnb(solver._bounds(Deadline(60)), root_lp="simplex")
+    lifted = solver.branch_and_bound(solver.lp_bounds(Deadline(60)), root_lp="simplex")
     lifted.deadline = Deadline(60)
     assert isinstance(lifted, ComplementarityBnB) and not lifted.nodes_in_null_space
     rng = np.random.default_rng(7)

@@ -34,7 +34,7 @@ def _root(case_id: str, root_lp: str = "ipm"):
 
     solver = MILPSolver(engine="bnb", settings=MILPSettings(lifting="rlt-full", root_lp=root_lp))
     solver.setup(bm.operators.assemble(CASES[case_id]()))
-    bnb = solver._complementarity_bnb(solver._bounds(Deadline(60)))
+    bnb = solver.branch_and_bound(solver.lp_bounds(Deadline(60)))
     bnb.deadline = Deadline(60)
     bnb._apply(bnb.root, bnb.lam_lower, bnb.lam_cap)
     return solver, bnb
@@ -128,7 +128,7 @@ def test_liftings_without_every_force_tied_keep_the_lifted_root():
 
     solver = MILPSolver(engine="bnb", settings=MILPSettings(lifting="rlt", root_lp="ipm"))
     solver.setup(bm.operators.assemble(CASES["wall-2x2"]()))
-    bnb = solver._complementarity_bnb(solver._bounds(Deadline(60)))
+    bnb = solver.branch_and_bound(solver.lp_bounds(Deadline(60)))
     bnb._apply(bnb.root, bnb.lam_lower, bnb.lam_cap)
     assert bnb._null_space_lp(*bnb._lp_arrays()) is None
     res = solve_with(CASES["wall-2x2"](), "milp", settings=dict(lifting="rlt"))

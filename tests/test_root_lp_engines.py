@@ -32,8 +32,8 @@ def root_lp(lifting: str = "rlt-full", null_space: bool = False):
     (``null_space``: the same LP in null-space coordinates), in the MILP's per-block units (lam unit 1 here)."""
     solver = milp_solver(engine="bnb", lifting=lifting, root_lp="ipm")
     solver.setup(bm.operators.assemble(bm.cases.wall(2, 2, mu=0.65)))
-    assert solver._lam_unit == 1.0
-    bnb = solver._complementarity_bnb(solver._bounds(Deadline(60)))
+    assert solver.lam_unit == 1.0
+    bnb = solver.branch_and_bound(solver.lp_bounds(Deadline(60)))
     bnb._apply(bnb.root, bnb.lam_lower, bnb.lam_cap)
     c, rl, ru, cl, cu = bnb._lp_arrays()
     if null_space:

@@ -30,7 +30,7 @@ def _rows_bnb(spec):
     """(solver in per-block units, ComplementarityBnB with root_lp="ipm-rows" at the root pattern)."""
     solver = milp_solver(engine="bnb", lifting="rlt-full", root_lp="ipm-rows")
     solver.setup(bm.operators.assemble(_wall(spec)))
-    bnb = solver._complementarity_bnb(solver._bounds(Deadline(60)))
+    bnb = solver.branch_and_bound(solver.lp_bounds(Deadline(60)))
     bnb.deadline = Deadline(60)
     bnb._apply(bnb.root, bnb.lam_lower, np.inf)
     return solver, bnb

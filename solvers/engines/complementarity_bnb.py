@@ -116,7 +116,7 @@ closed.  On the door wall at mu 0.8 (root bound 0.6245, minimum 0.7058) the root
 node LPs, no branching (mu 0.65: 6 s; mu 0.8: 127-160 s at load 3).
 
 A node whose pairs are all fixed (a leaf) is one pattern: its minimum is the exact
-polish of the pattern (:meth:`MILPSolver._polish`).  Nodes are explored best-bound first;
+polish of the pattern (:meth:`MILPSolver.polish`).  Nodes are explored best-bound first;
 on the lifted LP (``node_lp="simplex"``, or without null-space coordinates) the LP is warm-started from the previous
 node (HiGHS re-solves after bound changes).  An LP that is not optimal never prunes (its node keeps the parent's
 bound); an infeasible LP is pruned on a checked Farkas certificate, or after a cold re-solve that says infeasible

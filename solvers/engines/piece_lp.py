@@ -14,7 +14,7 @@ The split.  The pair rows ``G`` are nonzero in the ``x`` columns only, the equil
 couples: the *static half* ``min lam`` s.t. equilibrium, ``G_S x = 0``, ``G_Z x <= 0``
 (:func:`static_program`, :func:`static_piece`) and the *kinematic half*, a mechanism ``f_l^T u = 1``,
 compatibility, ``z_S >= 0``, ``z_Z = 0`` (:func:`kinematic_program`, :func:`mechanism_piece`; ``min 1^T z``
-gives a vertex with few active pairs).  ``milp``'s polish (:meth:`~blockmpec.solvers.milp.MILPSolver._polish`)
+gives a vertex with few active pairs).  ``milp``'s polish (:meth:`~blockmpec.solvers.milp.MILPSolver.polish`)
 is these two functions; ``nlp``'s piece route (:func:`piece_descent`) uses them through :class:`SplitPieces`.
 
 Local minimality.  At a point ``w*`` of (4) let ``B`` be its biactive pairs (``z_i = s_i = 0``).

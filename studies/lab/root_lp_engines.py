@@ -102,7 +102,7 @@ def root_lp(spec: str, lifting: str = "rlt-full", null_space: str | None = None)
     # the root of milp's branch and bound: its set-up, bounds and root LP (the milp module's own steps)
     solver = MILPSolver(engine="bnb", settings=MILPSettings(lifting=lifting, root_lp="ipm"))
     solver.setup(bm.operators.assemble(named_wall(spec)))
-    bnb = solver._complementarity_bnb(solver._bounds(Deadline(600)))
+    bnb = solver.branch_and_bound(solver.lp_bounds(Deadline(600)))
     bnb._apply(bnb.root, bnb.lam_lower, bnb.lam_cap)
     c, rl, ru, cl, cu = bnb._lp_arrays()
     if null_space:
