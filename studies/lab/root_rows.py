@@ -89,11 +89,11 @@ def copies(walls: list[str], time_limit: float) -> list[dict]:
             # the root of milp's branch and bound (the milp module's own steps)
             bnb = solver.branch_and_bound(solver.lp_bounds(Deadline(time_limit)), static_copies=static_copies)
             bnb.deadline = Deadline(time_limit)
-            bnb._apply(bnb.root, bnb.lam_lower, np.inf)
+            bnb.apply_node(bnb.root, bnb.lam_lower, np.inf)
             cpu = time.process_time()
-            bound = bnb._interior_root()  # no target: the whole LP (per-block units)
-            row = {"wall": spec, "static_copies": static_copies, "rows": int(bnb._A.shape[0]),
-                   "nnz": int(bnb._A.nnz), "root_bound": bound, "cpu_s": time.process_time() - cpu}
+            bound = bnb.interior_root()  # no target: the whole LP (per-block units)
+            row = {"wall": spec, "static_copies": static_copies, "rows": int(bnb.lifted_matrix.shape[0]),
+                   "nnz": int(bnb.lifted_matrix.nnz), "root_bound": bound, "cpu_s": time.process_time() - cpu}
             print(json.dumps(row), flush=True)
             rows.append(row)
     return rows
