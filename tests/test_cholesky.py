@@ -321,7 +321,7 @@ def test_auto_factor_processes_takes_two_from_its_threshold_with_two_cpus(monkey
     lp = compile_linear(static_lp(ops))
     engine = cold_lp_engine(lp, "block-ipm", LoadUnits.of(ops))
     assert engine.factor_processes == "auto"
-    n = engine._K_pattern.shape[0]
+    n = engine.K_pattern.shape[0]
     for threshold, cpus, setting, expected in ((n, 2, "auto", 2), (n + 1, 2, "auto", 1), (n, 1, "auto", 1),
                                                (n + 1, 2, 2, 2), (n, 2, 1, 1)):
         monkeypatch.setattr(engine, "rules", dataclasses.replace(BLOCK_IPM_RULES, two_process_rows=threshold))
@@ -336,7 +336,7 @@ def test_auto_factor_processes_takes_two_from_its_threshold_with_two_cpus(monkey
     engine.settings(factor_processes="auto")
     assert engine.supernodal_processes == 1
     with pytest.raises(ValueError, match="processes=2 needs a POSIX system and sys.executable"):
-        SupernodalCholesky(engine._K_pattern, "metis", processes=2)
+        SupernodalCholesky(engine.K_pattern, "metis", processes=2)
 
 
 @pytest.mark.slow
