@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import pyomo.environ as pyo
 
-from blockmpec.formulations._pyomo import PyomoProblem
+from blockmpec.formulations.pyomo_compile import PyomoProblem
 from blockmpec.formulations.mcp import evaluate_mcp, mcp
 from blockmpec.operators import Operators
 

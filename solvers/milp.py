@@ -377,7 +377,7 @@ class MILPSolver(SolverBase):
 
     def setup(self, ops):
         from blockmpec.formulations import compile_mcp
-        from blockmpec.formulations._pyomo import LinearProgram
+        from blockmpec.formulations.pyomo_compile import LinearProgram
         from blockmpec.solvers.engines.highs import HighsLP, set_feasibility_tolerances
 
         self.ops = ops

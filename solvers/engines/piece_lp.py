@@ -77,7 +77,7 @@ from blockmpec.solvers.engines.highs import highs_status, set_deadline
 from blockmpec.solvers.plan import BLOCK_IPM_RULES, piece_lp_static_engine, piece_lp_whole_engine
 
 if TYPE_CHECKING:
-    from blockmpec.formulations._pyomo import LinearProgram
+    from blockmpec.formulations.pyomo_compile import LinearProgram
 
 
 @dataclass
@@ -116,7 +116,7 @@ class PieceLP:
 
     def __init__(self, form, column_scale: np.ndarray, row_scale: np.ndarray, slack_scale: np.ndarray,
                  deadline: Deadline = NEVER, interior: bool = False) -> None:
-        from blockmpec.formulations._pyomo import LinearProgram
+        from blockmpec.formulations.pyomo_compile import LinearProgram
         from blockmpec.solvers.engines.highs import HighsLP, use_interior_point
 
         self.form = form
@@ -348,7 +348,7 @@ def static_program(form) -> LinearProgram:
     The pair rows of (3) are nonzero in the ``x`` columns only and the equilibrium rows in ``(lam, x)`` only,
     so this LP and :func:`kinematic_program` together are (PLP) (``milp`` builds the same two for its polish).
     """
-    from blockmpec.formulations._pyomo import LinearProgram
+    from blockmpec.formulations.pyomo_compile import LinearProgram
 
     eq = form.equilibrium
     cols = np.r_[form.lam, np.arange(form.x.start, form.x.stop)]
@@ -366,7 +366,7 @@ def kinematic_program(form) -> LinearProgram:
     """The kinematic half of (PLP) over ``(u, z)``: rows ``compatibility`` ``A[cp] (u, z) = 0``, ``live``
     ``f_l^T u = 1`` and ``total`` ``1^T z`` (free unless a caller bounds it); ``z >= 0`` (a piece sets
     ``z_Z = 0`` by column bounds); no cost."""
-    from blockmpec.formulations._pyomo import LinearProgram
+    from blockmpec.formulations.pyomo_compile import LinearProgram
 
     cp, nm = form.compatibility, form.normalisation
     cols = np.r_[np.arange(form.u.start, form.u.stop), np.arange(form.z.start, form.z.stop)]
@@ -464,7 +464,7 @@ def static_piece_ipm(lp: LinearProgram, slack_zero: np.ndarray, row_scale: np.nd
     """
     from scipy.optimize import lsq_linear
 
-    from blockmpec.formulations._pyomo import LinearProgram
+    from blockmpec.formulations.pyomo_compile import LinearProgram
     from blockmpec.solvers.engines.block_lp import BlockLP
     from blockmpec.solvers.engines.highs import LPOutcome
 
