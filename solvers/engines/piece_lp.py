@@ -229,7 +229,10 @@ LAM_TOL = {False: 1e-9, True: 1e-7}
 AMBIGUOUS = (1e-3, 0.1)
 
 
-def _relative(v: np.ndarray) -> np.ndarray:
+def relative_to_largest(v: np.ndarray) -> np.ndarray:
+    """``v / max(max_i v_i, 1e-300)``: each entry relative to the largest (a nonnegative ``v``), for
+    comparing the two sides ``z`` and ``s`` of the pairs in their own scales (the whole route's first piece takes
+    ``s_i / max s <= z_i / max z``)."""
     return v / max(float(v.max(initial=0.0)), 1e-300)
 
 
@@ -256,7 +259,7 @@ def whole_piece_descent(form, scaling, w_start: np.ndarray, deadline: Deadline =
     interior = piece_lp_whole_engine(form.n_pairs) == "ipm" if interior is None else interior
     plp = PieceLP(form, *scaling, deadline=deadline, interior=interior)
     z, s = plp.sides(np.asarray(w_start, float))
-    zr, sr = _relative(z), _relative(s)
+    zr, sr = relative_to_largest(z), relative_to_largest(s)
     trace: list[dict] = []
     for k, ambiguous in enumerate(AMBIGUOUS):
         free = (np.minimum(zr, sr) > ambiguous * np.maximum(zr, sr)) | (np.maximum(zr, sr) < 1e-12)
@@ -290,7 +293,7 @@ def _descend(plp: PieceLP, slack_zero: np.ndarray, free: np.ndarray, rounds: int
                "not_complementary": int(both_positive.sum())}
         trace.append(rec)
         if both_positive.any():  # a free pair left off its piece: put it on its smaller side, solve again
-            slack_zero = np.where(free, _relative(s) <= _relative(z), slack_zero)
+            slack_zero = np.where(free, relative_to_largest(s) <= relative_to_largest(z), slack_zero)
             free = np.zeros_like(free)
             continue
         free = np.zeros_like(free)
@@ -703,7 +706,7 @@ def piece_descent(form, scaling, w_start: np.ndarray, deadline: Deadline = NEVER
     """
     pieces = SplitPieces(form, *scaling, deadline=deadline, static_engine=static_engine)
     z, s = pieces.sides(np.asarray(w_start, float))
-    zr, sr = _relative(z), _relative(s)
+    zr, sr = relative_to_largest(z), relative_to_largest(s)
     trace: list[dict] = []
     first = None
     message = ""
