@@ -18,8 +18,8 @@ Layers, from the bottom up (a module may import its own layer and the layers bel
 
 Also: no import cycle among the library's modules; only ``blockmpec.solvers.engines.highs`` imports highspy; no
 module of the library or the tests imports ``studies``; tests and studies use blockmpec's public names only (no
-private attribute, module or name: the engines are tested through their public functions).  The registry loads the methods by name at run time
-(``importlib``), which is not an import arrow.
+private attribute, module or name: the engines are tested through their public functions).  The registry loads the
+methods by name at run time (``importlib``), which is not an import arrow.
 """
 
 from __future__ import annotations
