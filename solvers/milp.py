@@ -10,7 +10,7 @@ and built by :func:`blockmpec.formulations.mpec_milp.mpec_milp` (normalisation
 ``lam tau = -f_d^T u + x^T B z`` and its McCormick envelope; the module docstring
 derives every row).  A run has five stages, all timed:
 
-1. **bounds** (:meth:`MILPSolver._bounds` -> :class:`MPECBounds`).  On the statically
+1. **bounds** (:meth:`MILPSolver.lp_bounds` -> :class:`MPECBounds`).  On the statically
    admissible set ``S = {A[equilibrium] (lam, x) = rhs, G x <= 0}`` (which contains
    the force part of every solution of (3)): ``lam_upper = max lam`` (the
    associative multiplier), ``lam_lower = min lam``; ``slack_max_i = max s_i``
