@@ -254,8 +254,8 @@ def compile_mcp(ops: Operators) -> CompiledMCP:
 
 
 def _compile(ops: Operators, dilatancy: np.ndarray) -> CompiledMCP:
-    from blockmpec.formulations.pyomo_compile import PyomoProblem, compile_linear
     from blockmpec.formulations.mcp import mcp
+    from blockmpec.formulations.pyomo_compile import PyomoProblem, compile_linear
 
     problem = mcp(ops, dilatancy=dilatancy)
     model = problem.model

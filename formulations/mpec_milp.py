@@ -94,8 +94,8 @@ from dataclasses import dataclass, field
 import numpy as np
 import scipy.sparse as sp
 
-from blockmpec.formulations.pyomo_compile import LinearProgram
 from blockmpec.formulations.compiled import FRICTION, CompiledMCP
+from blockmpec.formulations.pyomo_compile import LinearProgram
 
 
 @dataclass(frozen=True)

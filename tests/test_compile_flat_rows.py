@@ -12,8 +12,14 @@ import pytest
 import scipy.sparse as sp
 
 import blockmpec as bm
-from blockmpec.formulations import pyomo_compile, kinematic_lp, mcp, modified_lp, static_lp, tie_break_lp
-from blockmpec.formulations.pyomo_compile import PyomoProblem, compile_linear, compile_with_pyomo, linear_dot, sparse_rows
+from blockmpec.formulations import kinematic_lp, mcp, modified_lp, pyomo_compile, static_lp, tie_break_lp
+from blockmpec.formulations.pyomo_compile import (
+    PyomoProblem,
+    compile_linear,
+    compile_with_pyomo,
+    linear_dot,
+    sparse_rows,
+)
 from helpers import assert_same_program
 
 

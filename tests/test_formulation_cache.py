@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 import blockmpec as bm
-from blockmpec.formulations import pyomo_compile, compile_linear, static_lp
+from blockmpec.formulations import compile_linear, pyomo_compile, static_lp
 from helpers import assert_same_program
 
 
