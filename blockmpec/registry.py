@@ -31,6 +31,12 @@ def register_solver(cls: type[SolverBase]) -> type[SolverBase]:
     return cls
 
 
+def unregister_solver(name: str) -> None:
+    """Remove the solver registered as ``name`` (nothing if there is none): for tests and studies that register
+    methods of their own for a while."""
+    _SOLVERS.pop(name, None)
+
+
 def _load_plugins() -> None:
     global _loaded
     if not _loaded:

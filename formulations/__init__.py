@@ -23,11 +23,11 @@ builder with the cyclic garbage collector paused, as the cache does.  The models
 know nothing of any solver.
 """
 
-from blockmpec.formulations._pyomo import LinearProgram, PyomoProblem, compile_linear, compiled_linear, pause_gc
 from blockmpec.formulations.compiled import CompiledMCP, compile_mcp
 from blockmpec.formulations.kinematic_lp import kinematic_lp
 from blockmpec.formulations.mcp import evaluate_mcp, mcp
 from blockmpec.formulations.mpec import mpec
+from blockmpec.formulations.pyomo_compile import LinearProgram, PyomoProblem, compile_linear, compiled_linear, pause_gc
 from blockmpec.formulations.sequence import StepLPs, step_lps
 from blockmpec.formulations.static_lp import modified_lp, static_lp
 from blockmpec.formulations.tie_break import tie_break_lp

@@ -2,7 +2,7 @@ r"""The MCP (3) / MPEC (4) compiled once per structure into one typed object.
 
 :func:`compile_mcp` builds the Pyomo model of :func:`blockmpec.formulations.mcp.mcp`
 (the one statement of (3) as a model), deactivates its ``Complementarity``
-components, compiles every row with :func:`~blockmpec.formulations._pyomo.compile_linear`
+components, compiles every row with :func:`~blockmpec.formulations.pyomo_compile.compile_linear`
 and puts the columns in the canonical order ::
 
     w = (lam, x, u, z),   z = (z_u, z_f),   x[3k:3k+3] = (t_k, n_k, m_k)
@@ -254,8 +254,8 @@ def compile_mcp(ops: Operators) -> CompiledMCP:
 
 
 def _compile(ops: Operators, dilatancy: np.ndarray) -> CompiledMCP:
-    from blockmpec.formulations._pyomo import PyomoProblem, compile_linear
     from blockmpec.formulations.mcp import mcp
+    from blockmpec.formulations.pyomo_compile import PyomoProblem, compile_linear
 
     problem = mcp(ops, dilatancy=dilatancy)
     model = problem.model

@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import pyomo.environ as pyo
 
-from blockmpec.formulations._pyomo import PyomoProblem, linear_dot, sparse_rows
+from blockmpec.formulations.pyomo_compile import PyomoProblem, linear_dot, sparse_rows
 from blockmpec.operators import Operators
 
 

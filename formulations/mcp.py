@@ -11,7 +11,7 @@ Unknowns: ``lam`` (free), ``x`` (3c, free), ``u`` (3b, free), ``z_u >= 0`` and
 
 The pairs are ``pyomo.mpec.Complementarity`` components built with
 ``complements(expr <= 0, z >= 0)``; all rows come from the sparse operators via
-:func:`blockmpec.formulations._pyomo.sparse_rows`.  The bounds ``z >= 0`` are stated both
+:func:`blockmpec.formulations.pyomo_compile.sparse_rows`.  The bounds ``z >= 0`` are stated both
 as variable domains and as the second member of each pair.
 
 The model is a statement of the problem, not a solver input: the linear
@@ -27,7 +27,7 @@ import numpy as np
 import pyomo.environ as pyo
 from pyomo.mpec import Complementarity, complements
 
-from blockmpec.formulations._pyomo import PyomoProblem, linear_dot, sparse_rows
+from blockmpec.formulations.pyomo_compile import PyomoProblem, linear_dot, sparse_rows
 from blockmpec.operators import Operators
 from blockmpec.result import Solution
 

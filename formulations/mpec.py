@@ -12,8 +12,8 @@ from __future__ import annotations
 
 import pyomo.environ as pyo
 
-from blockmpec.formulations._pyomo import PyomoProblem
 from blockmpec.formulations.mcp import evaluate_mcp, mcp
+from blockmpec.formulations.pyomo_compile import PyomoProblem
 from blockmpec.operators import Operators
 
 __all__ = ["evaluate_mcp", "mpec"]

@@ -94,8 +94,8 @@ from dataclasses import dataclass, field
 import numpy as np
 import scipy.sparse as sp
 
-from blockmpec.formulations._pyomo import LinearProgram
 from blockmpec.formulations.compiled import FRICTION, CompiledMCP
+from blockmpec.formulations.pyomo_compile import LinearProgram
 
 
 @dataclass(frozen=True)
@@ -158,7 +158,7 @@ class MPECBounds:
 
 @dataclass(kw_only=True)
 class MixedIntegerMPEC(LinearProgram):
-    r"""A :class:`~blockmpec.formulations._pyomo.LinearProgram` with ``v[integer] in Z`` and, for
+    r"""A :class:`~blockmpec.formulations.pyomo_compile.LinearProgram` with ``v[integer] in Z`` and, for
     ``complementarity="sos1"``, one SOS1 set per row of ``sos1``.
 
     ``v = (w, extra columns)`` where ``w`` is the compiled MCP's vector (so ``v[form.lam]``

@@ -8,7 +8,7 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.sparse as sp
 
-from blockmpec.formulations._pyomo import LinearProgram, compiled_linear
+from blockmpec.formulations.pyomo_compile import LinearProgram, compiled_linear
 from blockmpec.formulations.static_lp import modified_lp, static_lp
 from blockmpec.formulations.tie_break import tie_break_lp
 from blockmpec.operators import Operators

@@ -30,7 +30,7 @@ import numpy as np
 import pyomo.environ as pyo
 import scipy.sparse as sp
 
-from blockmpec.formulations._pyomo import PyomoProblem, sparse_rows
+from blockmpec.formulations.pyomo_compile import PyomoProblem, sparse_rows
 from blockmpec.operators import Operators
 
 

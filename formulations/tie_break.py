@@ -26,7 +26,7 @@ from __future__ import annotations
 import numpy as np
 import pyomo.environ as pyo
 
-from blockmpec.formulations._pyomo import PyomoProblem
+from blockmpec.formulations.pyomo_compile import PyomoProblem
 from blockmpec.formulations.static_lp import modified_lp
 from blockmpec.operators import Operators
 

@@ -10,7 +10,7 @@ and built by :func:`blockmpec.formulations.mpec_milp.mpec_milp` (normalisation
 ``lam tau = -f_d^T u + x^T B z`` and its McCormick envelope; the module docstring
 derives every row).  A run has five stages, all timed:
 
-1. **bounds** (:meth:`MILPSolver._bounds` -> :class:`MPECBounds`).  On the statically
+1. **bounds** (:meth:`MILPSolver.lp_bounds` -> :class:`MPECBounds`).  On the statically
    admissible set ``S = {A[equilibrium] (lam, x) = rhs, G x <= 0}`` (which contains
    the force part of every solution of (3)): ``lam_upper = max lam`` (the
    associative multiplier), ``lam_lower = min lam``; ``slack_max_i = max s_i``
@@ -310,11 +310,22 @@ def per_block_units(form, units):
     return scaled, unit, s
 
 
-class _BoundFailure(Exception):
-    """A bound LP that did not end optimal.  ``proof``: its status says something of (3) itself (the associative LP:
-    infeasible means no statically admissible field, so (3) has no solution; unbounded means no collapse), and is
-    the run's status; any other bound LP's failure only means that ``milp`` has no bound (status ``ERROR``), or
-    ran out of time (``TIME_LIMIT``)."""
+class BoundFailure(Exception):
+    """A bound LP of ``milp`` that did not end optimal (raised by :meth:`MILPSolver.root_bounds` and
+    :meth:`MILPSolver.model_bounds`).
+
+    Parameters
+    ----------
+    status : Status
+        The bound LP's status.
+    message : str
+        What failed, for the run's message.
+    proof : bool
+        The status says something of (3) itself (the associative LP ``max lam`` over the statically admissible
+        set ``S``: infeasible means ``S`` is empty, so (3) has no solution; unbounded means no collapse), and is
+        the run's status; any other bound LP's failure only means that ``milp`` has no bound (status ``ERROR``),
+        or ran out of time (``TIME_LIMIT``).
+    """
 
     def __init__(self, status: Status, message: str, proof: bool = False) -> None:
         super().__init__(message)
@@ -366,14 +377,16 @@ class MILPSolver(SolverBase):
 
     def setup(self, ops):
         from blockmpec.formulations import compile_mcp
-        from blockmpec.formulations._pyomo import LinearProgram
+        from blockmpec.formulations.pyomo_compile import LinearProgram
         from blockmpec.solvers.engines.highs import HighsLP, set_feasibility_tolerances
 
         self.ops = ops
         # the MILP, its bounds and its polish all work on (3) in per-block units (ops.units)
         from blockmpec.solvers.engines.scaling import LoadUnits
 
-        form, self._w_unit, self._lam_unit = per_block_units(compile_mcp(ops), LoadUnits.of(ops))
+        form, self._w_unit, lam_unit = per_block_units(compile_mcp(ops), LoadUnits.of(ops))
+        #: the multiplier unit ``s`` of the MILP's per-block units (a power of two): ``lam = s lam^``
+        self.lam_unit = lam_unit
         self.form = form
         self.engine = self._resolve_engine(form)
         self.lifting = self.settings.lifting or BNB_DEFAULT_LIFTING
@@ -432,22 +445,60 @@ class MILPSolver(SolverBase):
             return "bnb"
         return plan.milp_engine(opt.engine, opt.sense, form.n_pairs)
 
-    def _bounds(self, deadline: Deadline):
-        """All LP bounds (:meth:`_root_bounds` then :meth:`_model_bounds`)."""
-        return self._model_bounds(self._root_bounds(deadline), deadline)
+    def lp_bounds(self, deadline: Deadline):
+        """Every LP bound of the MILP: :meth:`root_bounds` then :meth:`model_bounds` (after :meth:`setup`).
+
+        Parameters
+        ----------
+        deadline : Deadline
+            When the bound LPs stop.
+
+        Returns
+        -------
+        MPECBounds
+            The bounds on ``lam`` and the model's bounds ``slack_max``, ``z_max``, ``tau_max``, in the MILP's
+            per-block units (:func:`per_block_units`; ``lam`` in units of :attr:`lam_unit`).
+
+        Raises
+        ------
+        BoundFailure
+            A bound LP did not end optimal.
+        """
+        return self.model_bounds(self.root_bounds(deadline), deadline)
 
     def _x_bound(self, j: int, direction: float, deadline: Deadline) -> float:
-        """``min direction * x_j`` over the static LP's current set; raises ``_BoundFailure``."""
+        """``min direction * x_j`` over the static LP's current set; raises ``BoundFailure``."""
         cost = np.zeros(self.static.c.size)
         cost[1 + j] = direction  # x columns of the static LP start after lam
         r = self._solve_cost(self.bound_lp, cost, deadline)
         if r.status is not Status.OPTIMAL:
-            raise _BoundFailure(r.status, f"bound LP of x[{j}]: {r.status.value} ({r.raw_status})")
+            raise BoundFailure(r.status, f"bound LP of x[{j}]: {r.status.value} ({r.raw_status})")
         return float(r.objective)
 
-    def _root_bounds(self, deadline: Deadline):
-        """The bounds on lam (enough for a root certificate): an :class:`MPECBounds` whose model
-        bounds (``slack_max``, ``z_max``, ``tau_max``) are not computed yet (None)."""
+    def root_bounds(self, deadline: Deadline):
+        """The LP bounds on ``lam`` (enough for a root certificate), after :meth:`setup`.
+
+        ``lam_upper`` is ``max lam`` over the statically admissible set ``S`` (the associative multiplier),
+        ``lam_static_min`` is ``min lam`` over ``S``, and ``lam_lower`` the largest of the lower bounds proven by
+        LPs (the kinematic minimum ``min -f_d^T u`` over the non-associative mechanisms with ``f_l^T u = 1`` and
+        the work identity's bound), each widened by its round-off margin.
+
+        Parameters
+        ----------
+        deadline : Deadline
+            When the bound LPs stop.
+
+        Returns
+        -------
+        MPECBounds
+            Bounds in the MILP's per-block units whose model bounds (``slack_max``, ``z_max``, ``tau_max``) are
+            not computed yet (None; :meth:`model_bounds` adds them).
+
+        Raises
+        ------
+        BoundFailure
+            A bound LP did not end optimal (``proof``: the associative LP's status is the answer of (3)).
+        """
         from blockmpec.formulations.mpec_milp import MPECBounds, work_matrix
 
         t0 = time.perf_counter()
@@ -458,11 +509,11 @@ class MILPSolver(SolverBase):
         cost[0] = -1.0
         up = self._solve_cost(hl, cost, deadline)
         if up.status is not Status.OPTIMAL:
-            raise _BoundFailure(up.status, f"associative LP (max lam): {up.status.value}", proof=True)
+            raise BoundFailure(up.status, f"associative LP (max lam): {up.status.value}", proof=True)
         cost[0] = 1.0
         lo = self._solve_cost(hl, cost, deadline)
         if lo.status is not Status.OPTIMAL:
-            raise _BoundFailure(lo.status, f"min lam over the statically admissible set is {lo.status.value}: the "
+            raise BoundFailure(lo.status, f"min lam over the statically admissible set is {lo.status.value}: the "
                                 "slacks have no LP bound, so no valid big-M exists")
         lam_assoc, lam_min = float(up.v[0]), float(lo.v[0])
         x_assoc = lp.values("x", up.v)
@@ -478,7 +529,7 @@ class MILPSolver(SolverBase):
         if need_products:
             try:
                 self._product_bounds(Bw, x_lower, x_upper, deadline)
-            except _BoundFailure as fail:
+            except BoundFailure as fail:
                 if fail.status is not Status.TIME_LIMIT:
                     raise
                 need_products = False  # out of time: lam keeps its plain LP bounds (valid), no envelope
@@ -522,7 +573,7 @@ class MILPSolver(SolverBase):
                 if self.settings.envelope:
                     product_lower[e] = self._x_bound(int(Bw.row[e]), 1.0, deadline)
                 product_upper[e] = -self._x_bound(int(Bw.row[e]), -1.0, deadline)
-            except _BoundFailure as fail:
+            except BoundFailure as fail:
                 if fail.status is Status.TIME_LIMIT:
                     raise
                 # the pair is never active on S (or the LP failed): no conditional bound is
@@ -532,8 +583,30 @@ class MILPSolver(SolverBase):
                 h.changeRowBounds(int(rows[i]), -np.inf, 0.0)
         self._products = (product_lower, product_upper)
 
-    def _model_bounds(self, bd, deadline: Deadline):
-        """``slack_max`` (the big-M), ``z_max`` and ``tau_max`` added to the root bounds ``bd``."""
+    def model_bounds(self, bd, deadline: Deadline):
+        """The root bounds ``bd`` with the model's bounds added.
+
+        ``slack_max_i = max s_i`` over ``S ∩ {lam_static_min <= lam <= lam_upper}`` (the big-M of pair ``i``),
+        ``z_max_i = max z_i`` and ``tau_max = max f_l^T u`` over the kinematic set with ``1^T z = 1``, each an LP
+        optimum widened by its round-off margin.
+
+        Parameters
+        ----------
+        bd : MPECBounds
+            The bounds of :meth:`root_bounds`.
+        deadline : Deadline
+            When the bound LPs stop.
+
+        Returns
+        -------
+        MPECBounds
+            ``bd`` with ``slack_max``, ``z_max`` and ``tau_max`` set.
+
+        Raises
+        ------
+        BoundFailure
+            A bound LP did not end optimal.
+        """
         import dataclasses
 
         t0 = time.perf_counter()
@@ -554,7 +627,7 @@ class MILPSolver(SolverBase):
                     cost[1 + Gx.indices[a:b]] = Gx.data[a:b]  # min G_i x = -max s_i
                     r = self._solve_cost(hl, cost, deadline)
                     if r.status is not Status.OPTIMAL:
-                        raise _BoundFailure(r.status, f"slack bound LP {i}: {r.status.value} ({r.raw_status})")
+                        raise BoundFailure(r.status, f"slack bound LP {i}: {r.status.value} ({r.raw_status})")
                     smax[i] = max(-r.objective, 0.0)
             else:
                 smax = self._slack_bounds_by_normal(lambda j, d: self._x_bound(j, d, deadline), x_lower)
@@ -632,7 +705,7 @@ class MILPSolver(SolverBase):
             for i, row in zip(pairs, Gk):
                 status, value = small_lp(row, Gk, np.zeros(pairs.size), lower, np.full(cols.size, np.inf))
                 if status is not Status.OPTIMAL:
-                    raise _BoundFailure(Status.ERROR, f"interface slack LP of pair {i}: {status.value}")
+                    raise BoundFailure(Status.ERROR, f"interface slack LP of pair {i}: {status.value}")
                 smax[i] = max(-value, 0.0)
         return smax
 
@@ -674,7 +747,25 @@ class MILPSolver(SolverBase):
         return float(r.objective - LAM_MARGIN * max(1.0, abs(r.objective)))
 
     # ------------------------------------------------------------------ 2. build
-    def _build(self, bd, tau_min: float = 0.0):
+    def build_mip(self, bd, tau_min: float = 0.0):
+        """The MILP of (4) for the engine that runs (:func:`~blockmpec.formulations.mpec_milp.mpec_milp`).
+
+        Complementarity by big-M rows ``s_i <= M_i (1 - y_i)``, ``z_i <= z_max_i y_i`` with ``M_i = bigm_scale
+        slack_max_i`` (HiGHS) or by SOS1 sets ``{s_i, z_i}`` (the other engines); a pair whose
+        ``slack_max_i = 0`` is fixed active (``y_i = 1``) and one whose ``z_max_i = 0`` fixed idle (``z_i = 0``).
+
+        Parameters
+        ----------
+        bd : MPECBounds
+            The bounds of :meth:`lp_bounds`.
+        tau_min : float
+            Lower bound of ``tau = f_l^T u`` (the restart after a relaxation point with ``tau = 0``).
+
+        Returns
+        -------
+        MixedIntegerMPEC
+            The model, in the MILP's per-block units.
+        """
         from blockmpec.formulations import mpec_milp as fm
 
         opt = self.options
@@ -694,8 +785,25 @@ class MILPSolver(SolverBase):
         self._n_fixed = int(fixed_active.sum() + fixed_idle.sum())
         return mip
 
-    def _start(self, mip, sol: Solution | None) -> np.ndarray | None:
-        """The engine's start vector for a solution of (3), in the model's normalisation ``1^T z = 1``."""
+    def start_vector(self, mip, sol: Solution | None) -> np.ndarray | None:
+        """The MILP's column values at a solution ``sol`` of (3): its start for the engine.
+
+        ``(u, z)`` divided by ``1^T z`` (the model's normalisation ``1^T z = 1``), ``tau = f_l^T u``,
+        ``y_i = [z_i > 0]``, ``s = max(slack, 0)`` and the products ``p = x_r z_i``, ``q = lam tau`` where the
+        model has those columns.
+
+        Parameters
+        ----------
+        mip : MixedIntegerMPEC
+            The model of :meth:`build_mip`.
+        sol : Solution or None
+            A solution of (3) in the MILP's units (:meth:`scaled`).
+
+        Returns
+        -------
+        ndarray or None
+            One value per column of ``mip``; None if ``sol`` is None.
+        """
         if sol is None:
             return None
         form = self.form
@@ -719,10 +827,24 @@ class MILPSolver(SolverBase):
         return v
 
     # ------------------------------------------------------------------ 3. solve
-    def _complementarity_bnb(self, bd, **overrides):
-        """The branch and bound of :mod:`~blockmpec.solvers.engines.complementarity_bnb` on this structure: the
-        LP bounds ``bd`` and the pairs they fix, the options' ``lifting``, ``root_lp`` and ``lam_branching``,
-        leaves polished by :meth:`_polish`; ``overrides`` replace any keyword argument (studies and tests)."""
+    def branch_and_bound(self, bd, **overrides):
+        """The branch and bound of :mod:`~blockmpec.solvers.engines.complementarity_bnb` on this structure.
+
+        Parameters
+        ----------
+        bd : MPECBounds
+            The LP bounds (:meth:`lp_bounds`): ``lam_lower <= lam <= lam_upper``, pairs with ``slack_max_i = 0``
+            fixed active and pairs with ``z_max_i = 0`` fixed idle.
+        **overrides
+            Replace any keyword argument of
+            :class:`~blockmpec.solvers.engines.complementarity_bnb.ComplementarityBnB` (studies and tests).
+
+        Returns
+        -------
+        ComplementarityBnB
+            Not yet run; the settings' ``lifting``, ``root_lp`` and ``lam_branching``, its leaves polished by
+            :meth:`polish`.
+        """
         from blockmpec.formulations.mpec_milp import work_matrix
         from blockmpec.solvers.engines.complementarity_bnb import ComplementarityBnB
 
@@ -731,13 +853,13 @@ class MILPSolver(SolverBase):
                       **lifting_options(self.form, self.lifting, bd.slack_max))
         kwargs.update(overrides)
         return ComplementarityBnB(self.form, work_matrix(self.form), bd.lam_lower, bd.lam_upper,
-                                  lambda active: self._polish(active)[0], **kwargs)
+                                  lambda active: self.polish(active)[0], **kwargs)
 
     def _solve_bnb(self, bd, incumbent: Solution | None, deadline: Deadline, t0: float):
         """engine="bnb": (MIPRun with lam-unit bounds, best polished Solution or None, the branch and bound that
         ran (its LP count and root timings), seconds to build its lifted LP)."""
         tb = time.perf_counter()
-        bnb = self._complementarity_bnb(bd)
+        bnb = self.branch_and_bound(bd)
         t_build = time.perf_counter() - tb
         run, best = bnb.solve(deadline, incumbent, t0=t0)
         return run, best, bnb, t_build
@@ -753,9 +875,23 @@ class MILPSolver(SolverBase):
         return engines.solve_highs(mip, deadline, **kw)
 
     # ------------------------------------------------------------------ 4. polish
-    def _mechanism(self, active: np.ndarray):
-        """``(u, z)`` with ``f_l^T u = 1`` and ``z_i = 0`` off ``active`` (min ``1^T z``), or None: the kinematic
-        half of the piece LP (:func:`~blockmpec.solvers.engines.piece_lp.mechanism_piece`, shared with ``nlp``)."""
+    def pattern_mechanism(self, active: np.ndarray):
+        """The mechanism of the pattern ``active``: the kinematic half of its piece LP.
+
+        ``min 1^T z`` over the compatible ``(u, z)`` with ``f_l^T u = 1``, ``z >= 0`` and ``z_i = 0`` for every
+        pair off ``active`` (:func:`~blockmpec.solvers.engines.piece_lp.mechanism_piece`, shared with ``nlp``).
+
+        Parameters
+        ----------
+        active : ndarray of bool, shape (n_pairs,)
+            The pairs allowed to open.
+
+        Returns
+        -------
+        tuple of ndarray or None
+            ``(u, z)`` in the MILP's units, or None where the LP is not optimal (no mechanism with
+            ``f_l^T u > 0`` on the pattern).
+        """
         from blockmpec.solvers.engines.piece_lp import mechanism_piece
 
         kp = self.kinematic
@@ -764,18 +900,31 @@ class MILPSolver(SolverBase):
             return None
         return kp.values("u", ru.v), kp.values("z", ru.v)
 
-    def _polish(self, active: np.ndarray) -> tuple[Solution | None, str]:
-        """Exact LPs for the pattern ``active`` (one flag per pair); returns (Solution or None, message).
+    def polish(self, active: np.ndarray) -> tuple[Solution | None, str]:
+        """The exact point of (3) on the pattern ``active``: its piece LP in two halves.
 
-        The piece LP of ``active`` in its two halves (:mod:`blockmpec.solvers.engines.piece_lp`, shared with
-        ``nlp``): :func:`~blockmpec.solvers.engines.piece_lp.static_piece` and :meth:`_mechanism`."""
+        The static half (:func:`~blockmpec.solvers.engines.piece_lp.static_piece`) minimises ``lam`` (maximises,
+        ``sense="max"``) over the statically admissible ``(lam, x)`` with ``G_i x = 0`` on the active pairs; the
+        kinematic half is :meth:`pattern_mechanism`.  Together they satisfy (3) with that active set
+        (:mod:`blockmpec.solvers.engines.piece_lp`, shared with ``nlp``).
+
+        Parameters
+        ----------
+        active : ndarray of bool, shape (n_pairs,)
+            One flag per pair: the pairs whose row is held at zero slack and may open.
+
+        Returns
+        -------
+        tuple
+            ``(Solution, "")`` in the MILP's units, or ``(None, message)`` saying which half has no point.
+        """
         from blockmpec.solvers.engines.piece_lp import static_piece
 
         lp = self.static
         rx = static_piece(self.polish_static, active, sense=1.0 if self.options.sense == "min" else -1.0)
         if rx.status is not Status.OPTIMAL:
             return None, f"polish LP for (lam, x) is {rx.status.value}"
-        mech = self._mechanism(active)
+        mech = self.pattern_mechanism(active)
         if mech is None:
             return None, ("polish LP for (u, z) is infeasible: the pattern admits no mechanism with "
                           "f_l^T u > 0 (the relaxation's optimum has tau = 0)")
@@ -796,7 +945,7 @@ class MILPSolver(SolverBase):
         """
         slack = -(self.form.pair_matrix @ bd.x_associative)
         active = slack <= 1e-9 * max(1.0, float(np.abs(slack).max(initial=0.0)))
-        mech = self._mechanism(active)
+        mech = self.pattern_mechanism(active)
         if mech is None:
             return None
         return self._solution(bd.lam_associative, bd.x_associative, *mech)
@@ -822,7 +971,7 @@ class MILPSolver(SolverBase):
                 res = out
                 w = self.form.pack(self.scaled(res.solution))
                 s, z = self.form.slack(w), self.form.multipliers(w)
-                sol, _ = self._polish(z > s)
+                sol, _ = self.polish(z > s)
                 lower = sol is not None and best is not None and sol.multiplier < best.multiplier
                 if sol is not None and (best is None or lower != (opt.sense == "max")):
                     best = sol
@@ -860,9 +1009,9 @@ class MILPSolver(SolverBase):
         out.extra.setdefault(facts.BOUND, None)  # every stop reports its bound (None: none proven yet)
         out.extra["plan"] = [f"LP bounds ({out.extra.get(facts.LP_SOLVES, 0)} LPs)",
                              f"engine: {out.extra.get(facts.ENGINE, self.engine)}", "polish: piece LPs"]
-        unit = self._lam_unit
+        unit = self.lam_unit
         if out.solution is not None and out.solution.multiplier is not None:
-            out.solution = self.form.unpack(self.form.pack(out.solution) * self._w_unit)
+            out.solution = self.unscaled(out.solution)
         if out.extra.get("bigm"):  # slack bounds of the scaled pair rows S G C: slack = slack^ / S
             out.extra["bigm"] = (np.asarray(out.extra["bigm"]) * unit
                                  / self._w_unit[self.form.pair_column]).tolist()
@@ -902,14 +1051,19 @@ class MILPSolver(SolverBase):
         """A point of (3) in the problem's units -> the same point in the MILP's units (:func:`per_block_units`)."""
         return self.form.unpack(self.form.pack(sol) / self._w_unit)
 
+    def unscaled(self, sol: Solution) -> Solution:
+        """A point of (3) in the MILP's units -> the same point in the problem's units: ``w = unit * w^``
+        (:func:`per_block_units`), the inverse of :meth:`scaled`."""
+        return self.form.unpack(self.form.pack(sol) * self._w_unit)
+
     def _run_scaled(self, deadline: Deadline) -> RunOutput:
         opt = self.options
         maximise = opt.sense == "max"
         bound_word = "upper" if maximise else "lower"
         t_start = self._t_start = time.perf_counter()
         try:
-            bd = self._root_bounds(deadline)
-        except _BoundFailure as fail:
+            bd = self.root_bounds(deadline)
+        except BoundFailure as fail:
             return RunOutput(fail.run_status, message=str(fail),
                              extra={"bound_time_s": time.perf_counter() - t_start, facts.SENSE: opt.sense,
                                     facts.LP_SOLVES: self._n_lps})
@@ -924,8 +1078,8 @@ class MILPSolver(SolverBase):
             if root is not None:
                 return root
         try:
-            bd = self._model_bounds(bd, deadline)
-        except _BoundFailure as fail:
+            bd = self.model_bounds(bd, deadline)
+        except BoundFailure as fail:
             extra = {"bound_time_s": time.perf_counter() - t_start, facts.SENSE: opt.sense,
                      facts.LP_SOLVES: self._n_lps, facts.BOUND: bd.lam_upper if maximise else bd.lam_lower}
             if incumbent is not None and fail.status is Status.TIME_LIMIT:
@@ -938,9 +1092,9 @@ class MILPSolver(SolverBase):
         if self.engine == "bnb":  # its own lifted LP: the big-M model is not built
             return self._run_bnb(bd, incumbent, deadline, trace)
         t0 = time.perf_counter()
-        mip = self._build(bd)
+        mip = self.build_mip(bd)
         t_build = time.perf_counter() - t0
-        run = self._solve(mip, deadline, self._start(mip, incumbent), t_start)
+        run = self._solve(mip, deadline, self.start_vector(mip, incumbent), t_start)
         trace += [dict(r, iteration=len(trace) + k, stage="search") for k, r in enumerate(run.trace)]
         sign = mip.objective_sign
         bound = sign * run.dual_bound  # in lam: <= min lam (min), >= max lam (max)
@@ -970,12 +1124,12 @@ class MILPSolver(SolverBase):
             return self._no_point(run, incumbent, bound, extra, trace)
         v = run.point
         active = self._pattern(mip, v)
-        if self._mechanism(active) is None and not deadline.expired():
+        if self.pattern_mechanism(active) is None and not deadline.expired():
             # The relaxation's optimum has tau = 0 (its pattern admits no mechanism with f_l^T u > 0).
             # Its bound stays the certified one; the restriction tau >= tau_restart has only points of (3).
             tau_restart = 1e-6 * (bd.tau_max if np.isfinite(bd.tau_max) else 1.0)
             extra["tau_restart"] = tau_restart
-            rerun = self._solve(self._build(bd, tau_min=tau_restart), deadline, None, t_start)
+            rerun = self._solve(self.build_mip(bd, tau_min=tau_restart), deadline, None, t_start)
             extra["restart_nodes"] = rerun.nodes
             if not rerun.has_point:
                 return RunOutput(Status.NUMERICAL, Solution(), run.nodes, trace,
@@ -993,7 +1147,7 @@ class MILPSolver(SolverBase):
         extra["engine_multiplier"] = float(v[self.form.lam])
         extra["tau"] = float(v[mip.columns["tau"][0]])
         extra["n_active_pairs"] = int(active.sum())
-        sol, pmsg = self._polish(active)
+        sol, pmsg = self.polish(active)
         if sol is None:
             return RunOutput(Status.NUMERICAL, Solution(), run.nodes, trace,
                              f"{pmsg}; the {bound_word} bound {bound:.10g} stands", run.raw_status, extra)

@@ -64,7 +64,7 @@ class StaticLP(SolverBase):
 
     def setup(self, ops):
         from blockmpec.formulations import static_lp
-        from blockmpec.formulations._pyomo import compiled_linear
+        from blockmpec.formulations.pyomo_compile import compiled_linear
         from blockmpec.solvers.engines.block_lp import BlockLP
         from blockmpec.solvers.engines.highs import HighsLP, set_feasibility_tolerances
         from blockmpec.solvers.engines.lp_engine import cold_lp_engine

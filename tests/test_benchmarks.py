@@ -79,7 +79,7 @@ def test_static_lp_build_and_compile_wall_1k(benchmark, wall_1k_ops):
 def test_static_lp_compile_cache_hit_wall_1k(benchmark, wall_1k_ops):
     """A second compile of the same structure is a cache hit (a copy of the matrices, no Pyomo build)."""
     from blockmpec.formulations import compile_linear, static_lp
-    from blockmpec.formulations._pyomo import compiled_linear
+    from blockmpec.formulations.pyomo_compile import compiled_linear
 
     fresh = compile_linear(static_lp(wall_1k_ops))
     compiled_linear(static_lp, wall_1k_ops)

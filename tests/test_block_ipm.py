@@ -267,9 +267,9 @@ def test_reduced_values_on_the_pattern_equal_the_sparse_product(wall_ipm):
     equals A_B H^{-1} A_B^T + delta diag(K) (delta: diagonal_shift) by sparse products, to round-off, entry by entry."""
     ipm, it = wall_ipm
     K_product, _ = ipm.reduced_matrix(it)
-    Hinv, _ = ipm._inverse_blocks(it)
-    K_scatter = ipm._reduced_csc(ipm._reduced_values(Hinv))
-    assert K_scatter.nnz == ipm._K_pattern.nnz >= K_product.nnz
+    Hinv, _ = ipm.inverse_blocks(it)
+    K_scatter = ipm.reduced_csc(ipm.reduced_values(Hinv))
+    assert K_scatter.nnz == ipm.K_pattern.nnz >= K_product.nnz
     difference = abs(K_scatter - K_product).max()
     assert difference <= 1e-13 * abs(K_product).max()
     assert np.array_equal(K_scatter.diagonal() > 0, np.ones(K_scatter.shape[0], dtype=bool))
@@ -292,10 +292,10 @@ def test_diagonal_shift_changes_the_path_never_the_optimum():
         assert out.status is bm.Status.OPTIMAL
         lams.append(-out.objective)
         it = ipm.initial_point()
-        Hinv, _ = ipm._inverse_blocks(it)
-        shifted = ipm._reduced_values(Hinv)[ipm._K_diagonal]
+        Hinv, _ = ipm.inverse_blocks(it)
+        shifted = ipm.reduced_values(Hinv)[ipm.K_diagonal]
         ipm.settings(diagonal_shift=0.0)
-        plain = ipm._reduced_values(Hinv)[ipm._K_diagonal]
+        plain = ipm.reduced_values(Hinv)[ipm.K_diagonal]
         # the shift added, to within one rounding of K_ii (the default's shift is itself of round-off size)
         error = np.abs((shifted - plain) - settings["diagonal_shift"] * plain)
         assert np.all(error <= np.finfo(float).eps * np.abs(plain) + 1e-280)
@@ -313,7 +313,7 @@ def test_auto_correctors_follow_the_size_of_k():
     assert DEFAULT_SETTINGS["correctors"] == "auto" and EXACT_INNER_SETTINGS["correctors"] == 2
     ops = bm.assemble(bm.cases.wall(4, 5))
     ipm = cold_lp_engine(compile_linear(static_lp(ops)), "block-ipm", LoadUnits.of(ops))
-    rows = ipm._K_pattern.shape[0]
+    rows = ipm.K_pattern.shape[0]
     assert ipm.rules == BLOCK_IPM_RULES and rows < BLOCK_IPM_RULES.corrector_rows
     assert ipm.corrector_count == block_ipm.SMALL_CORRECTORS
     ipm.rules = dataclasses.replace(BLOCK_IPM_RULES, corrector_rows=rows)

@@ -66,7 +66,7 @@ def test_inverse_scaled_blocks_are_the_stacked_path_bit_for_bit(wall_ipm):
     assert np.array_equal(X, stacked) and np.array_equal(fused_top_left, top_left)
     assert np.array_equal(H, 0.5 * (top_left + np.swapaxes(top_left, 1, 2)))
     ipm.settings(kernels="compiled")
-    Hinv, (M_inv, _, ipm_top_left) = ipm._inverse_blocks(it)
+    Hinv, (M_inv, _, ipm_top_left) = ipm.inverse_blocks(it)
     ipm.settings(kernels="auto")
     assert np.array_equal(Hinv, H) and np.array_equal(M_inv, stacked) and np.array_equal(ipm_top_left, top_left)
     g_dual = ipm.g_blocks * np.random.default_rng(4).uniform(0.5, 1.0, ipm.g_blocks.shape)
@@ -86,7 +86,7 @@ def test_parallel_kernels_give_the_same_numbers_on_any_number_of_threads(wall_ip
     from concurrent.futures import ThreadPoolExecutor
 
     ipm, it = wall_ipm
-    sqrt_d = ipm._block_scaling(it)
+    sqrt_d = ipm.block_scaling(it)
     rng = np.random.default_rng(6)
     rhs_dual, rhs_primal = rng.normal(size=ipm.n_blocks * ipm.k), rng.normal(size=ipm.h.size)
 
@@ -121,7 +121,7 @@ def test_max_step_is_numpys(wall_ipm):
 def test_block_product_and_reduced_values_match_numpy(wall_ipm):
     ipm, it = wall_ipm
     ipm.settings(kernels="numpy")
-    Hinv, (M_inv, sqrt_d, top_left) = ipm._inverse_blocks(it)
+    Hinv, (M_inv, sqrt_d, top_left) = ipm.inverse_blocks(it)
     rng = np.random.default_rng(5)
     rhs = rng.normal(size=(ipm.n_blocks, M_inv.shape[1]))
     expected = np.matmul(M_inv, rhs[:, :, None])[:, :, 0]
@@ -134,13 +134,13 @@ def test_block_product_and_reduced_values_match_numpy(wall_ipm):
     # the fused block solve against the numpy path's gathers, products and scatters
     blocks = (M_inv, sqrt_d, top_left)
     rhs_dual, rhs_primal = rng.normal(size=ipm.n_blocks * ipm.k), rng.normal(size=ipm.h.size)
-    numpy_dv, numpy_dy = ipm._block_solve(blocks, rhs_dual, rhs_primal)
+    numpy_dv, numpy_dy = ipm.block_solve(blocks, rhs_dual, rhs_primal)
     compiled_dv, compiled_dy = block_kernels.block_solve(M_inv, sqrt_d, rhs_dual, rhs_primal, ipm.block_rows)
     for compiled, expected in ((compiled_dv, numpy_dv), (compiled_dy, numpy_dy)):
         assert np.abs(compiled - expected).max() <= 1e-13 * np.abs(expected).max()
-    numpy_values = ipm._reduced_values(Hinv)
+    numpy_values = ipm.reduced_values(Hinv)
     ipm.settings(kernels="compiled")
-    compiled_values = ipm._reduced_values(Hinv)
+    compiled_values = ipm.reduced_values(Hinv)
     scale = np.abs(numpy_values).max()
     assert np.abs(compiled_values - numpy_values).max() <= 1e-13 * scale
     ipm.settings(kernels="auto")
@@ -238,7 +238,7 @@ def test_block_solve_without_dy_gives_the_same_dv(wall_ipm):
     """The first block solve of a direction needs ``dv`` alone: the kernel that reads only ``dv``'s rows of the block
     inverses gives the full solve's ``dv`` bit for bit."""
     ipm, it = wall_ipm
-    sqrt_d = ipm._block_scaling(it)
+    sqrt_d = ipm.block_scaling(it)
     X, _, _ = block_kernels.inverse_scaled_blocks(ipm.g_blocks, ipm.g_dual_blocks, sqrt_d, True)
     rng = np.random.default_rng(12)
     rhs_dual, rhs_primal = rng.normal(size=ipm.n_blocks * ipm.k), rng.normal(size=ipm.h.size)
@@ -258,7 +258,7 @@ def test_compiled_products_leave_the_iterates_bit_for_bit():
     for products in (False, True):
         ipm = cold_lp_engine(lp, "block-ipm", LoadUnits.of(ops))
         ipm.settings(kernels="compiled", compiled_products=products)
-        assert ipm._products_compiled() is products
+        assert ipm.uses_compiled_products() is products
         outs.append(ipm.solve())
         traces.append([(row["mu"], row["step_primal"], row["step_dual"]) for row in ipm.trace])
     assert outs[0].status is bm.Status.OPTIMAL and outs[0].iterations == outs[1].iterations
@@ -272,14 +272,14 @@ def test_reduced_assembly_and_max_step_are_the_serial_numbers(wall_ipm, monkeypa
     """The parallel assembly of ``K``'s values sums each value's products in the scatter's order: the serial
     kernel's values bit for bit, on one thread and on all; the chunked step to the boundary is the serial one."""
     ipm, it = wall_ipm
-    Hinv, _ = ipm._inverse_blocks(it)
-    serial = block_kernels.reduced_values(ipm._K_slots, Hinv, ipm._K_targets, ipm._K_pattern.nnz)
-    assembly = block_kernels.ReducedAssembly(ipm._K_targets, ipm._K_pattern.nnz)
+    Hinv, _ = ipm.inverse_blocks(it)
+    serial = block_kernels.reduced_values(ipm.K_slots, Hinv, ipm.K_targets, ipm.K_pattern.nnz)
+    assembly = block_kernels.ReducedAssembly(ipm.K_targets, ipm.K_pattern.nnz)
     rng = np.random.default_rng(13)
     z = 10.0 ** rng.uniform(-5, 5, 300_001)
     for cpus in ("2", "1"):
         monkeypatch.setenv("BLOCKMPEC_CPUS", cpus)
-        assert np.array_equal(assembly.values(ipm._K_slots, Hinv), serial)
+        assert np.array_equal(assembly.values(ipm.K_slots, Hinv), serial)
         dz = rng.normal(size=z.size)
         assert block_kernels.max_step(z, dz) == min(1.0, np.min(-z[dz < 0] / dz[dz < 0]))
 

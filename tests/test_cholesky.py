@@ -86,7 +86,7 @@ def test_compiled_symbolic_analysis_gives_the_same_supernodes(wall_K):
     assert np.array_equal(compiled.perm, python.perm)
     assert np.array_equal(compiled.first, python.first) and np.array_equal(compiled.end, python.end)
     assert all(np.array_equal(a, b) for a, b in zip(compiled.rows, python.rows))
-    assert np.array_equal(compiled._assembly_destination, python._assembly_destination)
+    assert np.array_equal(compiled.assembly_destination, python.assembly_destination)
 
 
 def _reduced_K(courses: int, per_course: int, seed: int):
@@ -191,7 +191,7 @@ def test_block_ipm_same_lambda_with_either_factorisation(monkeypatch):
         assert isinstance(engine.factoriser, SupernodalCholesky if factorisation == "supernodal" else SymmetricFactoriser)
         assert max(bm.verify.residuals(ops, static_lp_solution(lp, out), associative=True).values()) <= 1e-8
         if processes == 2:
-            assert engine.factoriser.processes == 2 and engine.factoriser._worker is None  # closed by the solve
+            assert engine.factoriser.processes == 2 and engine.factoriser.worker is None  # closed by the solve
             assert engine.factoriser.worker_factorisations == engine.factoriser.factorisations > 0
         lams[factorisation, processes] = float(lp.values("lam", out.v)[0])
     reference = lams["superlu", 1]
@@ -270,7 +270,7 @@ def test_two_process_factorisation_matches_the_serial_one(wall_K):
         solve_split(b)
     again = split.factorise(K)
     assert np.linalg.norm(again(b) - x_serial) <= 1e-12 * scale
-    process = split._worker.process
+    process = split.worker.process
     split.close()
     assert process.returncode == 0  # stopped when asked, and reaped
     with pytest.raises(ValueError, match="processes must be 1 or 2"):
@@ -321,7 +321,7 @@ def test_auto_factor_processes_takes_two_from_its_threshold_with_two_cpus(monkey
     lp = compile_linear(static_lp(ops))
     engine = cold_lp_engine(lp, "block-ipm", LoadUnits.of(ops))
     assert engine.factor_processes == "auto"
-    n = engine._K_pattern.shape[0]
+    n = engine.K_pattern.shape[0]
     for threshold, cpus, setting, expected in ((n, 2, "auto", 2), (n + 1, 2, "auto", 1), (n, 1, "auto", 1),
                                                (n + 1, 2, 2, 2), (n, 2, 1, 1)):
         monkeypatch.setattr(engine, "rules", dataclasses.replace(BLOCK_IPM_RULES, two_process_rows=threshold))
@@ -336,7 +336,7 @@ def test_auto_factor_processes_takes_two_from_its_threshold_with_two_cpus(monkey
     engine.settings(factor_processes="auto")
     assert engine.supernodal_processes == 1
     with pytest.raises(ValueError, match="processes=2 needs a POSIX system and sys.executable"):
-        SupernodalCholesky(engine._K_pattern, "metis", processes=2)
+        SupernodalCholesky(engine.K_pattern, "metis", processes=2)
 
 
 @pytest.mark.slow
@@ -364,11 +364,11 @@ def test_factorisations_stay_serial_until_the_worker_is_ready(wall_K, monkeypatc
     # sums otherwise than the worker's one thread (3e-14 relative apart, issue 39), so this test pins them too.
     with single_blas_thread():
         with monkeypatch.context() as m:
-            m.setattr(cholesky._HalfWorker, "ready", lambda self: False)
+            m.setattr(cholesky.HalfWorker, "ready", lambda self: False)
             m.setattr(cholesky, "FIRST_WORKER_WAIT", 0.05)
             early = split.factorise(K)
             x_early, X_early = early(b), early(B)
-        assert split.factorisations == 1 and split.worker_factorisations == 0 and split._worker is not None
+        assert split.factorisations == 1 and split.worker_factorisations == 0 and split.worker is not None
         assert np.linalg.norm(x_early - x_serial) <= 1e-12 * np.linalg.norm(x_serial)
         split.start_worker(wait=True)
         shared = split.factorise(K)
@@ -397,7 +397,7 @@ def test_the_first_factorisation_waits_for_a_starting_worker(wall_K, monkeypatch
                                compiled_factorisation=compiled)
     x_first = split.factorise(K)(b)
     assert split.factorisations == split.worker_factorisations == 1
-    assert (len(split._factor_plans) == 2) is compiled  # this process's half (warmed while waiting) and the top
+    assert (len(split.factor_plans) == 2) is compiled  # this process's half (warmed while waiting) and the top
     assert np.linalg.norm(x_first - x_serial) <= 1e-12 * np.linalg.norm(x_serial)
     assert np.array_equal(split.factorise(K)(b), x_first)
     split.close()
@@ -410,15 +410,15 @@ def test_a_worker_stops_with_its_cholesky_before_any_factorisation(wall_K):
     its set-up (it was waiting for it), which also closes the shared memory's file it never mapped."""
     _, pattern = wall_K
     split = SupernodalCholesky(pattern, "metis", processes=2)
-    process = split._worker.process
-    assert split._worker.chol is split
+    process = split.worker.process
+    assert split.worker.chol is split
     split.close()
     assert process.poll() is not None
-    from blockmpec.solvers.linalg.cholesky import _HalfWorker
+    from blockmpec.solvers.linalg.cholesky import HalfWorker
 
-    waiting = _HalfWorker()
+    waiting = HalfWorker()
     assert waiting.chol is None and not waiting.ready()
-    process, (fd,) = waiting.process, waiting._unmapped_fds
+    process, (fd,) = waiting.process, waiting.unmapped_fds
     os.fstat(fd)  # open until the worker is set up or stopped
     waiting.close()
     assert process.poll() is not None
@@ -433,8 +433,8 @@ def test_a_worker_that_dies_is_one_clear_error(wall_K):
     K, pattern = wall_K
     split = SupernodalCholesky(pattern, "metis", processes=2)
     split.start_worker(wait=True)
-    split._worker.process.kill()
-    split._worker.process.wait()
+    split.worker.process.kill()
+    split.worker.process.wait()
     with pytest.raises(RuntimeError, match="worker process ended unexpectedly"):
         split.factorise(K)
     split.close()
@@ -560,10 +560,10 @@ def test_compiled_factorisation_keeps_the_factors_a_solver_still_holds(wall_K):
     for k, solve in enumerate(scaled, start=1):
         assert np.abs(2.0 ** k * (K @ solve(b)) - b).max() <= 1e-8 * np.abs(b).max()
     del kept, scaled
-    factors = chol.factor_plan(range(chol.supernodes))._factor_arrays
-    before = [a.ctypes.data for a in factors]
+    plan = chol.factor_plan(range(chol.supernodes))
+    before = [a.ctypes.data for a in plan.factor_arrays]
     chol.factorise(K)
-    assert [a.ctypes.data for a in factors] == before  # a free array was reused, none added
+    assert [a.ctypes.data for a in plan.factor_arrays] == before  # a free array was reused, none added
 
 
 @pytest.mark.slow
@@ -587,7 +587,7 @@ def test_block_ipm_compiled_solves_follow_the_kernels_and_keep_the_iterates(monk
             assert getattr(engine.factoriser, name) is expected, (name, setting, kernels)
             if name == "compiled_factorisation" and expected:
                 # the solve drops each iteration's factors before the next factorisation, which reuses their array
-                assert [len(plan._factor_arrays) for plan in engine.factoriser._factor_plans.values()] == [1]
+                assert [len(plan.factor_arrays) for plan in engine.factoriser.factor_plans.values()] == [1]
         assert outs[0].status is bm.Status.OPTIMAL
         assert outs[0].iterations == outs[1].iterations and np.array_equal(outs[0].v, outs[1].v), name
         assert outs[2].iterations == outs[3].iterations and np.array_equal(outs[2].v, outs[3].v), name
@@ -623,7 +623,7 @@ def test_two_process_lp_iterates_do_not_depend_on_when_the_worker_is_ready(monke
     """A whole block-IPM LP with ``factor_processes=2``: whether the worker is ready from the first factorisation or
     only from the fourth (the solves before then made here), the iterates, the solution and the duals are the same
     bit for bit -- so one LP's iteration count and digits do not vary with the machine's load."""
-    from blockmpec.solvers.linalg import block_ipm, cholesky
+    from blockmpec.solvers.linalg import cholesky
 
     _supernodal_on_any_size(monkeypatch)
     ops = bm.assemble(bm.cases.wall(10, 20))
@@ -632,7 +632,7 @@ def test_two_process_lp_iterates_do_not_depend_on_when_the_worker_is_ready(monke
     def run(late: int):
         engine = cold_lp_engine(lp, "block-ipm", LoadUnits.of(ops))
         engine.settings(factor_processes=2)
-        ready = cholesky._HalfWorker.ready
+        ready = cholesky.HalfWorker.ready
 
         def ready_later(self):
             if self.chol.factorisations < late:
@@ -642,7 +642,7 @@ def test_two_process_lp_iterates_do_not_depend_on_when_the_worker_is_ready(monke
             return True
 
         with monkeypatch.context() as m:
-            m.setattr(cholesky._HalfWorker, "ready", ready_later)
+            m.setattr(cholesky.HalfWorker, "ready", ready_later)
             m.setattr(cholesky, "FIRST_WORKER_WAIT", 0.05)
             out = engine.solve()
         return out, engine.factoriser.worker_factorisations, [row["mu"] for row in engine.trace]

@@ -251,7 +251,7 @@ def dummies():
         registry.register_solver(cls)
     yield dummy_solvers.NAMES
     for name in dummy_solvers.NAMES:
-        registry._SOLVERS.pop(name, None)
+        registry.unregister_solver(name)
 
 
 @pytest.mark.slow
@@ -407,7 +407,7 @@ def test_solves_side_by_side_share_the_cpus(monkeypatch):
             for res, _ in results.values():
                 assert res.extra["cpus_variable"] == variable and res.extra["usable_cpus"] == cpus, n_jobs
     finally:
-        registry._SOLVERS.pop("test-reports-cpus", None)
+        registry.unregister_solver("test-reports-cpus")
     assert CPUS_VARIABLE not in os.environ
     assert shared_cpus(2) == max(1, usable_cpus() // 2) and shared_cpus(10_000) == 1
 
@@ -480,10 +480,10 @@ def test_progress_shows_the_running_solve_its_elapsed_time_and_failures(tmp_path
     bar.bar.fp = stream
     (tmp_path / "7.start").write_text(repr(time.time() - 12.0))  # a supervisor started task 7 twelve seconds ago
     assert bar.running()[0][1] == "arch · milp" and 12.0 <= bar.running()[0][0] < 60.0
-    assert bar._postfix().startswith("running arch · milp 12s") and bar._postfix().endswith("failed 0")
+    assert bar.postfix().startswith("running arch · milp 12s") and bar.postfix().endswith("failed 0")
     bar.finished({"status": "error"})
     bar.finished({"status": "optimal"})
-    assert bar.failed == 1 and bar.bar.n == 2 and "failed 1" in bar._postfix()
+    assert bar.failed == 1 and bar.bar.n == 2 and "failed 1" in bar.postfix()
     bar.close()
 
 

@@ -12,8 +12,14 @@ import pytest
 import scipy.sparse as sp
 
 import blockmpec as bm
-from blockmpec.formulations import _pyomo, kinematic_lp, mcp, modified_lp, static_lp, tie_break_lp
-from blockmpec.formulations._pyomo import PyomoProblem, compile_linear, compile_with_pyomo, linear_dot, sparse_rows
+from blockmpec.formulations import kinematic_lp, mcp, modified_lp, pyomo_compile, static_lp, tie_break_lp
+from blockmpec.formulations.pyomo_compile import (
+    PyomoProblem,
+    compile_linear,
+    compile_with_pyomo,
+    linear_dot,
+    sparse_rows,
+)
 from helpers import assert_same_program
 
 
@@ -42,7 +48,7 @@ BUILDERS = {
 def test_every_formulation_compiles_flat_and_equals_pyomos_compiler(case, builder):
     ops = bm.assemble(bm.cases.build_case(case))
     problem = BUILDERS[builder](ops)
-    flat = _pyomo._compile_flat_rows(problem)
+    flat = pyomo_compile.compile_flat_rows(problem)
     assert flat is not None, f"{builder} no longer compiles on the flat path"
     assert_same_program(flat, compile_with_pyomo(problem))
 
@@ -86,7 +92,7 @@ def test_compile_linear_equals_pyomos_compiler_on_models_outside_the_bulk_path(k
                                        ("repeated variable", False), ("expression component", False)])
 def test_flat_reader_declines_what_pyomos_compiler_must_do(kind, flat):
     """Symbolic coefficients, fixed or repeated variables and named expressions go to Pyomo's compiler."""
-    assert (_pyomo._compile_flat_rows(_toy(kind)) is not None) is flat
+    assert (pyomo_compile.compile_flat_rows(_toy(kind)) is not None) is flat
 
 
 def test_a_changed_parameter_bound_is_read_at_compile_time():

@@ -14,7 +14,7 @@ import pytest
 import blockmpec as bm
 from blockmpec.cli import main
 from blockmpec.drawings import export_drawing, read_structure
-from blockmpec.drawings.export import _solution_in_structure_frame
+from blockmpec.drawings.export import solution_in_structure_frame
 
 ezdxf = pytest.importorskip("ezdxf")
 
@@ -378,7 +378,7 @@ def test_jpeg_is_refused_with_the_reason(tmp_path):
 def _physical_equilibrium_residual(structure, result):
     """Largest residual, over the free blocks, of sum of interface forces + dead + lam * live = 0, in the
     structure's frame and units, from the exported conversion."""
-    sol = _solution_in_structure_frame(structure, result)
+    sol = solution_in_structure_frame(structure, result)
     f = sol["forces"]
     itf = structure.interfaces
     c = structure.centroid

@@ -17,8 +17,9 @@ Layers, from the bottom up (a module may import its own layer and the layers bel
 9. ``blockmpec.cli`` and ``blockmpec.__main__``.
 
 Also: no import cycle among the library's modules; only ``blockmpec.solvers.engines.highs`` imports highspy; no
-module of the library or the tests imports ``studies``.  The registry loads the methods by name at run time
-(``importlib``), which is not an import arrow.
+module of the library or the tests imports ``studies``; tests and studies use blockmpec's public names only (no
+private attribute, module or name: the engines are tested through their public functions).  The registry loads the
+methods by name at run time (``importlib``), which is not an import arrow.
 """
 
 from __future__ import annotations
@@ -279,3 +280,59 @@ def test_methods_read_problem_3_from_the_compiled_formulation():
             if name in forbidden:
                 found.append(f"{path.name}:{node.lineno}: {name}")
     assert not found, found
+
+
+# ------------------------------------------------------------------ tests and studies use the public API only
+#: attributes with a leading underscore that are public API of other libraries (none of blockmpec's): the standard
+#: library's namedtuple methods
+THIRD_PARTY_ATTRIBUTES = {"_asdict", "_fields", "_make", "_replace"}
+ATTRIBUTE_FUNCTIONS = {"getattr", "setattr", "hasattr", "delattr"}  # also monkeypatch.setattr / delattr
+
+
+def _private(name: str) -> bool:
+    """A name with one leading underscore (``_x``; dunders such as ``__name__`` are not private)."""
+    return name.startswith("_") and not name.startswith("__") and len(name) > 1
+
+
+def private_uses(source: str) -> list[str]:
+    """Where ``source`` reaches into a private name: ``from blockmpec... import _x``, an import of a private
+    ``blockmpec`` module, ``obj._x`` with ``obj`` anything but ``self``/``cls``, or ``setattr(obj, "_x", ...)``
+    (``getattr``/``hasattr``/``delattr``, ``monkeypatch.setattr`` alike)."""
+    found = []
+    for node in ast.walk(ast.parse(source)):
+        if isinstance(node, ast.ImportFrom) and (node.module or "").split(".")[0] == "blockmpec":
+            names = [*node.module.split("."), *(alias.name for alias in node.names)]
+            found += [f"{node.lineno}: from {node.module} import {name}" for name in names if _private(name)][:1]
+        elif isinstance(node, ast.Import):
+            found += [f"{node.lineno}: import {alias.name}" for alias in node.names
+                      if alias.name.split(".")[0] == "blockmpec" and any(map(_private, alias.name.split(".")))]
+        elif isinstance(node, ast.Attribute) and _private(node.attr) and node.attr not in THIRD_PARTY_ATTRIBUTES:
+            if not (isinstance(node.value, ast.Name) and node.value.id in ("self", "cls")):
+                found.append(f"{node.lineno}: {ast.unparse(node)}")
+        elif isinstance(node, ast.Call) and len(node.args) >= 2:
+            function = node.func.id if isinstance(node.func, ast.Name) else getattr(node.func, "attr", None)
+            name = node.args[1]
+            if (function in ATTRIBUTE_FUNCTIONS and isinstance(name, ast.Constant) and isinstance(name.value, str)
+                    and _private(name.value) and name.value not in THIRD_PARTY_ATTRIBUTES):
+                found.append(f"{node.lineno}: {ast.unparse(node.func)}(..., {name.value!r})")
+    return found
+
+
+def test_the_checker_finds_every_kind_of_private_use():
+    source = ("from blockmpec.solvers.milp import _BoundFailure\nfrom blockmpec.formulations import _pyomo\n"
+              "from blockmpec.formulations._pyomo import compile_linear\nimport blockmpec.formulations._pyomo\n"
+              "bnb._apply(state)\nsolver.form._cache\nmonkeypatch.setattr(MILPSolver, '_mechanism', f)\n"
+              "getattr(ipm, '_K_pattern')\n")
+    assert len(private_uses(source)) == 8, private_uses(source)
+    fine = ("from blockmpec.solvers import milp\nimport _common\nself._x = 1\ncls._y\nrow._replace(a=1)\n"
+            "type(x).__name__\nmonkeypatch.setattr(plan, 'MILP_BNB_MAX_PAIRS', 0)\n")
+    assert private_uses(fine) == []
+
+
+@pytest.mark.parametrize("folder", ["tests", "studies"])
+def test_tests_and_studies_call_no_private_name(folder):
+    """Tests and studies test the engines through their public functions and read-only properties: no private
+    attribute of a blockmpec object, no private name or module imported from blockmpec."""
+    found = [f"{path.relative_to(ROOT)}:{use}" for path in sorted((ROOT / folder).rglob("*.py"))
+             for use in private_uses(path.read_text())]
+    assert not found, "\n".join(found)

@@ -13,7 +13,6 @@ built-in cases, and the flipped certificate logic.
 import functools
 import importlib.util
 import itertools
-import time
 
 import numpy as np
 import pytest
@@ -273,14 +272,14 @@ def test_maximum_after_a_zero_live_work_relaxation_point(monkeypatch):
     relaxation's dual bound stays the upper bound; the answer is the associative value 2/3."""
     from blockmpec.solvers.milp import MILPSolver
 
-    mechanism = MILPSolver._mechanism
+    mechanism = MILPSolver.pattern_mechanism
     calls = {"n": 0}
 
     def first_call_fails(self, active):
         calls["n"] += 1
         return None if calls["n"] == 1 else mechanism(self, active)
 
-    monkeypatch.setattr(MILPSolver, "_mechanism", first_call_fails)
+    monkeypatch.setattr(MILPSolver, "pattern_mechanism", first_call_fails)
     res = solve_milp(bm.cases.two_blocks(eta=3, mu=1.5), sense="max", incumbent=False)
     assert calls["n"] >= 2 and "tau_restart" in res.extra
     assert res.status is Status.OPTIMAL, res.message  # the restriction's point meets the relaxation's bound
@@ -317,9 +316,9 @@ def test_every_model_row_holds_at_a_solution(engine, case_id):
     assert_certified(res)
     solver = milp_solver(engine=engine, envelope=True)
     solver.setup(bm.operators.assemble(structure))
-    bd = solver._bounds(Deadline(60))
-    mip = solver._build(bd)
-    v = solver._start(mip, solver.scaled(res.solution))  # the model is in per-block units
+    bd = solver.lp_bounds(Deadline(60))
+    mip = solver.build_mip(bd)
+    v = solver.start_vector(mip, solver.scaled(res.solution))  # the model is in per-block units
     r = mip.A @ v
     scale = max(1.0, float(np.abs(v).max()))
     tol = 1e-7 * scale
@@ -523,7 +522,7 @@ def _lifted(structure, lifting: str):
     """(solver in per-block units, ComplementarityBnB with no incumbent) for ``lifting``."""
     solver = milp_solver(engine="bnb", lifting=lifting, root_lp="simplex")
     solver.setup(bm.operators.assemble(structure))
-    return solver, solver._complementarity_bnb(solver._bounds(Deadline(60)))
+    return solver, solver.branch_and_bound(solver.lp_bounds(Deadline(60)))
 
 
 def _at_root(structure, lifting: str):
@@ -531,7 +530,7 @@ def _at_root(structure, lifting: str):
     for its LPs: ready for the root's interior points."""
     _, bnb = _lifted(structure, lifting)
     bnb.deadline = Deadline(60)
-    bnb._apply(bnb.root, bnb.lam_lower, bnb.lam_cap)
+    bnb.apply_node(bnb.root, bnb.lam_lower, bnb.lam_cap)
     return bnb
 
 
@@ -554,7 +553,7 @@ def test_every_lifted_row_holds_at_a_certified_solution(lifting, case_id):
     form = solver.form
     w = form.pack(solver.scaled(res.solution))
     v = bnb.layout.lift(w[form.lam], w[form.x], w[form.u], w[form.z])
-    bnb._apply(bnb.root, bnb.lam_lower, bnb.lam_cap)
+    bnb.apply_node(bnb.root, bnb.lam_lower, bnb.lam_cap)
     lp = bnb.h.getLp()
     A = bnb.h.getLp().a_matrix_
     import scipy.sparse as sp
@@ -648,12 +647,14 @@ def test_dormant_rows_give_a_relaxation(lifting, case_id):
     """root_lp="ipm" drops rows (those with zero interior-point dual), so its root bound can only be lower than
     the full LP's, and never above the certified minimum; rows were in fact dropped, and the ones woken again
     are exactly the dormant rows violated at the LP point."""
+    import scipy.sparse as sp
+
     from blockmpec.solvers.engines import complementarity_bnb as cb
 
     lam = certified_minimum(case_id).multiplier
     full = _lifted(LIFTING_CASES[case_id](), lifting)[1].root_bound()
     bnb = _at_root(LIFTING_CASES[case_id](), lifting)
-    interior = bnb._interior_root()
+    interior = bnb.interior_root()
     assert bnb.dormant.any()
     # the interior point's dual bound is a lower bound too (weak duality); on the 2x2 wall (an interior point that
     # converges) it meets the LP's optimum; with the opening IPX stops short ("unknown"; with rlt no bound until its
@@ -661,13 +662,14 @@ def test_dormant_rows_give_a_relaxation(lifting, case_id):
     assert interior <= full + 1e-7 * max(1.0, abs(full))
     if case_id == "wall-2x2":
         assert interior >= full - 1e-7
-    st, bound, v = bnb._node_lp(bnb.root, bnb.lam_lower, bnb.lam_cap)
+    st, bound, v = bnb.solve_node(bnb.root, bnb.lam_lower, bnb.lam_cap)
     assert st is Status.OPTIMAL
     assert bound <= full + 1e-7 * max(1.0, abs(full))
     assert bound <= lam + 1e-7 * max(1.0, abs(lam))
     # the last LP point violates no row it carries: every violated dormant row was woken, unless the rounds ran out
-    sleeping = bnb.dormant[bnb._sleep_rows]
-    violated = sleeping & (bnb._sleep_matrix @ v > cb.SEPARATION_TOL)
+    rows = bnb.dormant_candidates
+    sleeping = bnb.dormant[rows]
+    violated = sleeping & (sp.csr_array(bnb.lifted_matrix)[rows] @ v > cb.SEPARATION_TOL)
     assert not violated.any() or bnb.woken > 0
 
 
@@ -695,11 +697,11 @@ def test_a_failed_interior_point_is_repaired_by_crossover(monkeypatch):
     with crossover, whose basic duals still close the root at the certified minimum, bound below it."""
     lam = certified_minimum("wall-2x2").multiplier
     bnb = _at_root(LIFTING_CASES["wall-2x2"](), "rlt-full")
-    solution = bnb._interior_solution
-    monkeypatch.setattr(bnb, "_interior_solution",
+    solution = bnb.interior_solution
+    monkeypatch.setattr(bnb, "interior_solution",
                         lambda *a, crossover=False, **k: solution(*a, crossover=crossover, **k) if crossover
                         else (None, None))
-    bound = bnb._interior_root(lam)
+    bound = bnb.interior_root(lam)
     assert bnb.crossover_runs >= 1
     assert bound <= lam + 1e-7 * max(1.0, abs(lam))
     assert lam - bound <= 1e-7 * max(1.0, abs(lam))
@@ -713,7 +715,7 @@ def test_the_arch_on_buttresses_is_closed_by_the_root_interior_point():
     ref = solve_milp(structure, engine="highs")
     assert_certified(ref)
     bnb = _at_root(structure, "rlt-full")
-    bound = bnb._interior_root(ref.multiplier)
+    bound = bnb.interior_root(ref.multiplier)
     assert bound <= ref.multiplier + 1e-7 * max(1.0, abs(ref.multiplier))
     assert ref.multiplier - bound <= 1e-7 * max(1.0, abs(ref.multiplier))
 
@@ -729,11 +731,11 @@ def test_interior_root_stops_after_one_run_when_it_closes(lifting):
         bnb = _at_root(LIFTING_CASES["wall-2x2"](), lifting)
         before = bnb.n_lps
         recorded = []
-        bound = bnb._interior_root(target, recorded.append)
+        bound = bnb.interior_root(target, recorded.append)
         runs[target] = bnb.n_lps - before
         assert bound <= lam + 1e-7 * max(1.0, abs(lam))
         assert lam - bound <= 1e-7 * max(1.0, abs(lam))
-        assert ("ipm0" in bnb._timing) == (lifting == "rlt-full" and np.isfinite(target))
+        assert ("ipm0" in bnb.root_timing) == (lifting == "rlt-full" and np.isfinite(target))
         # the trace hears of every run's bound as it arrives: one per run, never falling, the last the result
         assert len(recorded) == runs[target] and recorded == sorted(recorded) and recorded[-1] == bound
     assert runs == {lam: 1, np.inf: 2}
@@ -746,10 +748,10 @@ def _null_space_nodes(structure, node_lp="interior"):
     """(solver, ComplementarityBnB) after the root's interior point, its node LPs in null-space coordinates."""
     solver = milp_solver(engine="bnb")
     solver.setup(bm.operators.assemble(structure))
-    bnb = solver._complementarity_bnb(solver._bounds(Deadline(60)), node_lp=node_lp)
+    bnb = solver.branch_and_bound(solver.lp_bounds(Deadline(60)), node_lp=node_lp)
     bnb.deadline = Deadline(60)
-    bnb._apply(bnb.root, bnb.lam_lower, bnb.lam_cap)
-    bnb._interior_root()
+    bnb.apply_node(bnb.root, bnb.lam_lower, bnb.lam_cap)
+    bnb.interior_root()
     assert bnb.nodes_in_null_space
     return solver, bnb
 
@@ -766,7 +768,7 @@ def test_null_space_node_lps_are_the_lifted_node_lps(case_id):
 
     structure = LIFTING_CASES[case_id]()
     solver, bnb = _null_space_nodes(structure)
-    lifted = solver._complementarity_bnb(solver._bounds(Deadline(60)), root_lp="simplex")
+    lifted = solver.branch_and_bound(solver.lp_bounds(Deadline(60)), root_lp="simplex")
     lifted.deadline = Deadline(60)
     assert isinstance(lifted, ComplementarityBnB) and not lifted.nodes_in_null_space
     rng = np.random.default_rng(7)
@@ -777,10 +779,10 @@ def test_null_space_node_lps_are_the_lifted_node_lps(case_id):
         pick = rng.choice(free, size=min(3, free.size), replace=False)
         state[pick] = rng.choice([-1, 1], size=pick.size)
         states.append(state)
-    A = sp.csr_array(lifted._A)
+    A = sp.csr_array(lifted.lifted_matrix)
     for state in states:
-        st_null, bound_null, v_null = bnb._node_lp(state, bnb.lam_lower, np.inf)
-        st_lift, bound_lift, _ = lifted._node_lp(state, lifted.lam_lower, np.inf)
+        st_null, bound_null, v_null = bnb.solve_node(state, bnb.lam_lower, np.inf)
+        st_lift, bound_lift, _ = lifted.solve_node(state, lifted.lam_lower, np.inf)
         assert (st_null is Status.INFEASIBLE) == (st_lift is Status.INFEASIBLE), (state, st_null, st_lift)
         if st_lift is Status.OPTIMAL and st_null is Status.OPTIMAL:
             assert bound_null == pytest.approx(bound_lift, abs=1e-7)

@@ -34,9 +34,9 @@ def _root(case_id: str, root_lp: str = "ipm"):
 
     solver = MILPSolver(engine="bnb", settings=MILPSettings(lifting="rlt-full", root_lp=root_lp))
     solver.setup(bm.operators.assemble(CASES[case_id]()))
-    bnb = solver._complementarity_bnb(solver._bounds(Deadline(60)))
+    bnb = solver.branch_and_bound(solver.lp_bounds(Deadline(60)))
     bnb.deadline = Deadline(60)
-    bnb._apply(bnb.root, bnb.lam_lower, bnb.lam_cap)
+    bnb.apply_node(bnb.root, bnb.lam_lower, bnb.lam_cap)
     return solver, bnb
 
 
@@ -86,8 +86,8 @@ def test_a_certified_minimiser_satisfies_every_row_of_the_null_space_lp(case_id)
     w = form.pack(solver.scaled(res.solution))
     lifted = lay.lift(w[form.lam], w[form.x], w[form.u], w[form.z])
     space = static_null_space(form)
-    c, rl, ru, cl, cu = bnb._lp_arrays()
-    reduced = null_space_lp(bnb._A, c, rl, ru, cl, cu, lay, space)
+    c, rl, ru, cl, cu = bnb.lp_arrays()
+    reduced = null_space_lp(bnb.lifted_matrix, c, rl, ru, cl, cu, lay, space)
     xi = reduced.coordinates(lifted, space, lay)
     not_w = np.ones(lifted.size, dtype=bool)
     not_w[lay.w] = False
@@ -101,7 +101,7 @@ def test_a_certified_minimiser_satisfies_every_row_of_the_null_space_lp(case_id)
     # the rows it keeps from the lifted LP keep their place and bounds
     kept = reduced.lifted_row >= 0
     assert np.all(np.diff(reduced.lifted_row[kept]) > 0)
-    assert reduced.A.shape[0] < bnb._A.shape[0] and reduced.A.shape[1] < bnb._A.shape[1]
+    assert reduced.A.shape[0] < bnb.lifted_matrix.shape[0] and reduced.A.shape[1] < bnb.lifted_matrix.shape[1]
 
 
 @pytest.mark.parametrize("case_id", ["wall-2x2", pytest.param("wall-4x2-stack-mu0.4", marks=pytest.mark.slow),
@@ -114,7 +114,7 @@ def test_the_null_space_root_bound_is_the_lifted_root_bound(case_id):
     bounds = {}
     for root_lp in ("ipm", "ipm-lifted"):
         _, bnb = _root(case_id, root_lp)
-        bounds[root_lp] = bnb._interior_root()
+        bounds[root_lp] = bnb.interior_root()
         assert bnb.null_space_root is (root_lp == "ipm")
         assert bnb.dormant.any()
         assert bounds[root_lp] <= minimum + margin(CERTIFIED_TOL, minimum)
@@ -128,9 +128,9 @@ def test_liftings_without_every_force_tied_keep_the_lifted_root():
 
     solver = MILPSolver(engine="bnb", settings=MILPSettings(lifting="rlt", root_lp="ipm"))
     solver.setup(bm.operators.assemble(CASES["wall-2x2"]()))
-    bnb = solver._complementarity_bnb(solver._bounds(Deadline(60)))
-    bnb._apply(bnb.root, bnb.lam_lower, bnb.lam_cap)
-    assert bnb._null_space_lp(*bnb._lp_arrays()) is None
+    bnb = solver.branch_and_bound(solver.lp_bounds(Deadline(60)))
+    bnb.apply_node(bnb.root, bnb.lam_lower, bnb.lam_cap)
+    assert bnb.null_space_root_lp(*bnb.lp_arrays()) is None
     res = solve_with(CASES["wall-2x2"](), "milp", settings=dict(lifting="rlt"))
     assert_certified(res)
     assert res.multiplier == pytest.approx(certified("wall-2x2").multiplier, abs=1e-7)
@@ -164,6 +164,6 @@ def test_a_null_space_lp_that_fails_its_check_leaves_the_lifted_root(monkeypatch
     monkeypatch.setattr(ns, "null_space_lp", broken)
     minimum = certified("wall-2x2").multiplier
     _, bnb = _root("wall-2x2")
-    bound = bnb._interior_root()
+    bound = bnb.interior_root()
     assert not bnb.null_space_root
     assert minimum - margin(CERTIFIED_TOL, minimum) <= bound <= minimum + margin(CERTIFIED_TOL, minimum)

@@ -33,10 +33,10 @@ def _setup(case, engine="dual-simplex"):
 
 def _start_rounding(pieces, w):
     """The pairs whose slack is relatively the smaller side at ``w`` (the whole route's first piece)."""
-    from blockmpec.solvers.engines.piece_lp import _relative
+    from blockmpec.solvers.engines.piece_lp import relative_to_largest
 
     z, s = pieces.sides(w)
-    return _relative(s) <= _relative(z)
+    return relative_to_largest(s) <= relative_to_largest(z)
 
 
 @pytest.mark.parametrize("case", [bm.cases.wall(3, 2), bm.cases.wall(10, 5)], ids=["wall-3x2", "wall-10x5"])

@@ -32,13 +32,13 @@ def root_lp(lifting: str = "rlt-full", null_space: bool = False):
     (``null_space``: the same LP in null-space coordinates), in the MILP's per-block units (lam unit 1 here)."""
     solver = milp_solver(engine="bnb", lifting=lifting, root_lp="ipm")
     solver.setup(bm.operators.assemble(bm.cases.wall(2, 2, mu=0.65)))
-    assert solver._lam_unit == 1.0
-    bnb = solver._complementarity_bnb(solver._bounds(Deadline(60)))
-    bnb._apply(bnb.root, bnb.lam_lower, bnb.lam_cap)
-    c, rl, ru, cl, cu = bnb._lp_arrays()
+    assert solver.lam_unit == 1.0
+    bnb = solver.branch_and_bound(solver.lp_bounds(Deadline(60)))
+    bnb.apply_node(bnb.root, bnb.lam_lower, bnb.lam_cap)
+    c, rl, ru, cl, cu = bnb.lp_arrays()
     if null_space:
-        return bnb._null_space_lp(c, rl, ru, cl, cu).arrays
-    return sp.csc_array(bnb._A), c, rl, ru, cl, cu
+        return bnb.null_space_root_lp(c, rl, ru, cl, cu).arrays
+    return sp.csc_array(bnb.lifted_matrix), c, rl, ru, cl, cu
 
 
 def interior_bound(lp, tolerance=None) -> float:

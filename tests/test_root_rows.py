@@ -30,9 +30,9 @@ def _rows_bnb(spec):
     """(solver in per-block units, ComplementarityBnB with root_lp="ipm-rows" at the root pattern)."""
     solver = milp_solver(engine="bnb", lifting="rlt-full", root_lp="ipm-rows")
     solver.setup(bm.operators.assemble(_wall(spec)))
-    bnb = solver._complementarity_bnb(solver._bounds(Deadline(60)))
+    bnb = solver.branch_and_bound(solver.lp_bounds(Deadline(60)))
     bnb.deadline = Deadline(60)
-    bnb._apply(bnb.root, bnb.lam_lower, np.inf)
+    bnb.apply_node(bnb.root, bnb.lam_lower, np.inf)
     return solver, bnb
 
 
@@ -56,9 +56,9 @@ def test_every_generated_lp_holds_at_the_lifted_minimiser_and_bounds_below_it(sp
     lam = float(w[form.lam])
     lp = bnb.h.getLp()
     rl, ru = np.asarray(lp.row_lower_), np.asarray(lp.row_upper_)
-    bound = bnb._generated_root()
+    bound = bnb.generated_root()
     tol = 1e-7 * max(1.0, float(np.abs(v).max()))
-    A = sp.csr_array(bnb._A)
+    A = sp.csr_array(bnb.lifted_matrix)
     kept = bnb.root_lp_rows
     assert 0 < kept.sum() < A.shape[0]  # a strict subset: some rows were never needed
     assert _within(A[kept], v, rl[kept], ru[kept], tol)

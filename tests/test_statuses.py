@@ -71,13 +71,13 @@ def test_a_farkas_certificate_is_checked_not_trusted():
 def test_milp_bound_failures_that_prove_nothing_are_errors():
     """Only the associative LP's failure speaks for (3) (no statically admissible field: infeasible; no collapse:
     unbounded); any other bound LP that fails leaves milp without a bound: error, not unbounded or infeasible."""
-    from blockmpec.solvers.milp import _BoundFailure
+    from blockmpec.solvers.milp import BoundFailure
 
-    assert _BoundFailure(Status.INFEASIBLE, "", proof=True).run_status is Status.INFEASIBLE
-    assert _BoundFailure(Status.UNBOUNDED, "", proof=True).run_status is Status.UNBOUNDED
-    assert _BoundFailure(Status.UNBOUNDED, "").run_status is Status.ERROR
-    assert _BoundFailure(Status.INFEASIBLE, "").run_status is Status.ERROR
-    assert _BoundFailure(Status.TIME_LIMIT, "").run_status is Status.TIME_LIMIT
+    assert BoundFailure(Status.INFEASIBLE, "", proof=True).run_status is Status.INFEASIBLE
+    assert BoundFailure(Status.UNBOUNDED, "", proof=True).run_status is Status.UNBOUNDED
+    assert BoundFailure(Status.UNBOUNDED, "").run_status is Status.ERROR
+    assert BoundFailure(Status.INFEASIBLE, "").run_status is Status.ERROR
+    assert BoundFailure(Status.TIME_LIMIT, "").run_status is Status.TIME_LIMIT
 
 
 @pytest.mark.slow

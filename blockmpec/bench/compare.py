@@ -271,20 +271,22 @@ class Progress:
             pass
         return sorted(out, reverse=True)
 
-    def _postfix(self) -> str:
+    def postfix(self) -> str:
+        """The text after the bar: the longest-running solve and its seconds (``running <label> 12s``, with ``(+k)``
+        for the k others running), then ``failed <count>``."""
         run = self.running()
         text = "" if not run else f"running {run[0][1]} {run[0][0]:.0f}s" + (f" (+{len(run) - 1})" if len(run) > 1 else "")
         return f"{text}{', ' if text else ''}failed {self.failed}"
 
     def _tick(self) -> None:
         while not self._stop.wait(0.5):
-            self.bar.set_postfix_str(self._postfix(), refresh=True)
+            self.bar.set_postfix_str(self.postfix(), refresh=True)
 
     def finished(self, row: dict[str, Any]) -> None:
         if row.get("status") in (Status.ERROR.value, Status.TIME_LIMIT.value):
             self.failed += 1
         self.bar.update(1)
-        self.bar.set_postfix_str(self._postfix(), refresh=False)
+        self.bar.set_postfix_str(self.postfix(), refresh=False)
 
     def close(self) -> None:
         self._stop.set()

@@ -39,7 +39,7 @@ _SVG_COLOURS = {"blockmpec-stones": "#888888", "blockmpec-mechanism": "#d9402b",
                 "blockmpec-notes": "#000000"}
 
 
-def _solution_in_structure_frame(structure, result) -> dict[str, Any]:
+def solution_in_structure_frame(structure, result) -> dict[str, Any]:
     """Mechanism and interface forces of ``result`` in the structure's axes, units and ids.
 
     The one place that maps a solver's canonical, nondimensional solution to the user's frame
@@ -48,6 +48,13 @@ def _solution_in_structure_frame(structure, result) -> dict[str, Any]:
     ``length_scale``; interface forces ``(t, n, m)`` (of the plus block on the minus block, the
     structure's orientation) with ``t`` times ``mirror``, ``m`` times ``mirror`` and -1 where the
     canonical order swapped minus and plus, in the structure's force and length units.
+
+    Parameters
+    ----------
+    structure : Structure
+        The structure ``result`` solved.
+    result : Result
+        A result of :func:`blockmpec.solve` on it (with or without a solution).
 
     Returns
     -------
@@ -98,7 +105,7 @@ class _Frame:
 
 def _drawn(structure, result, mechanism_amplitude: float, force_length: float) -> dict[str, Any]:
     """What to draw, in structure coordinates: displaced outlines, force segments, points, scales."""
-    sol = _solution_in_structure_frame(structure, result)
+    sol = solution_in_structure_frame(structure, result)
     free = np.flatnonzero(~structure.fixed)
     size = float(np.median(np.hypot(*np.ptp(structure.vertices[free], axis=1).T)))
     centroid = structure.centroid

@@ -72,7 +72,7 @@ the 4x2 / 5x2 / 4x3 running-bond walls 1.8 / 7.1 / 25.8 s by IPX (HiGHS's "ipm":
 against 21 / > 600 / > 600 s by the dual simplex.  IPX's first run's dual bound is 8e-10 below the 4x2
 minimum and 2.8e-12 below the 4x3 one, so the 4x3 wall is certified at the root by one run (HiGHS's
 "ipm": 3.8e-7 below; a second run without the dormant rows, 5.8e-10 below, is what
-:meth:`ComplementarityBnB._interior_root` does when the first does not close the root).  The dual
+:meth:`ComplementarityBnB.interior_root` does when the first does not close the root).  The dual
 simplex on the remaining rows: 4.0 s (4x2), 7.5-36 s (5x2), > 200 s (4x3).
 
 Null-space coordinates (``root_lp="ipm"`` with ``lifting="rlt-full"``).  Most rows of the lifted LP say that
@@ -87,7 +87,7 @@ in 1,500 s, in 61 s and 123 s.  Its pair rows are rows of the lifted LP, one to 
 duals pick the dormant rows as before; the node LPs stay on the lifted LP.  ``root_lp="ipm-lifted"`` solves the
 lifted LP (``"ipm"`` before).
 
-Row generation (``root_lp="ipm-rows"``, :meth:`ComplementarityBnB._generated_root`): the root LP by rounds of the
+Row generation (``root_lp="ipm-rows"``, :meth:`ComplementarityBnB.generated_root`): the root LP by rounds of the
 same interior point, the first without the copy friction rows and the moments' rows (X), each next one with the
 left-out rows violated at the last point added; every round's dual bound is valid (a relaxation).  Measured
 (``studies/lab/root_rows.py``, rlt-full, CPU s to certify, against ``root_lp="ipm"`` in the same run): 2x4 6.5 / 3.8,
@@ -116,7 +116,7 @@ closed.  On the door wall at mu 0.8 (root bound 0.6245, minimum 0.7058) the root
 node LPs, no branching (mu 0.65: 6 s; mu 0.8: 127-160 s at load 3).
 
 A node whose pairs are all fixed (a leaf) is one pattern: its minimum is the exact
-polish of the pattern (:meth:`MILPSolver._polish`).  Nodes are explored best-bound first;
+polish of the pattern (:meth:`MILPSolver.polish`).  Nodes are explored best-bound first;
 on the lifted LP (``node_lp="simplex"``, or without null-space coordinates) the LP is warm-started from the previous
 node (HiGHS re-solves after bound changes).  An LP that is not optimal never prunes (its node keeps the parent's
 bound); an infeasible LP is pruned on a checked Farkas certificate, or after a cold re-solve that says infeasible
@@ -665,15 +665,18 @@ class ComplementarityBnB:
         own = np.zeros(A.shape[0], dtype=bool)
         own[layout.own_rows] = True
         rows = np.concatenate([layout.copy_pair_rows[j] for j in range(npair)]) if npair else np.zeros(0, int)
-        self._sleep_rows = np.sort(rows[~own[rows]]).astype(np.int32)
-        self._A = sp.csc_array(A)
-        self._sleep_matrix = sp.csr_array(A)[self._sleep_rows]
+        #: the rows that may be made dormant (left out of the node LPs until a point violates them): the copy pair
+        #: rows ``G_j x^(i) <= 0`` with ``j != i``, sorted lifted row indices
+        self.dormant_candidates = np.sort(rows[~own[rows]]).astype(np.int32)
+        #: the lifted LP's constraint matrix ``A`` (CSC; its rows and columns as in :func:`lifted_lp`)
+        self.lifted_matrix = sp.csc_array(A)
+        self._sleep_matrix = sp.csr_array(A)[self.dormant_candidates]
         self.dormant = np.zeros(A.shape[0], dtype=bool)
         #: the dormant rows are free in the node LPs (False: node_lp="interior" in null-space coordinates, where
         #: they sleep only in the dual simplex's sparse LP)
         self.dormant_free = True
         # rows (X) of the forces other than normal and tangential ones (the moments, lifting="rlt-full"): left out
-        # of the root's first interior point (see _interior_root)
+        # of the root's first interior point (see interior_root)
         late = np.zeros(A.shape[0], dtype=bool)
         if layout.tied is not None:
             nt_forces = np.isin(layout.tied, np.r_[form.n, form.t])
@@ -683,7 +686,10 @@ class ComplementarityBnB:
         self.ipm_time = 0.0
         self.ipm_bound = None
         self.crossover_runs = 0  # interior points re-run with crossover (_interior_bound)
-        self._timing = {}
+        #: seconds from the start of the root LP (:meth:`interior_root`, :meth:`generated_root`) to the end of each
+        #: stage that ran: ``"null_space_build"`` (the LP in null-space coordinates built), ``"ipm0"`` (the run
+        #: without the moments' rows), ``"ipm1"`` (the run on the whole LP), ``"ipm"`` (the root LP done)
+        self.root_timing = {}
         self.root = np.zeros(npair, dtype=np.int8)  # 0 free, 1 active, -1 inactive
         if fixed_active is not None:
             self.root[fixed_active] = 1
@@ -710,7 +716,7 @@ class ComplementarityBnB:
     def _changed_rows(self) -> np.ndarray:
         """The lifted rows whose bounds or coefficients the search changes (pair rows, ``zeta`` rows)."""
         lay = self.layout
-        parts = [lay.static_pair_rows, lay.zeta_lower_rows, lay.zeta_upper_rows, lay.own_rows, self._sleep_rows]
+        parts = [lay.static_pair_rows, lay.zeta_lower_rows, lay.zeta_upper_rows, lay.own_rows, self.dormant_candidates]
         parts += [lay.copy_pair_rows[j] for j in range(self.form.n_pairs)]
         return np.concatenate([np.asarray(p, dtype=np.int64).ravel() for p in parts])
 
@@ -728,7 +734,21 @@ class ComplementarityBnB:
                 _checked(h.changeCoeff(int(hi_row), int(lay.z.start + i), -b))
         self._interval = (a, b)
 
-    def _apply(self, state: np.ndarray, a: float, b: float) -> None:
+    def apply_node(self, state: np.ndarray, a: float, b: float) -> None:
+        """Set the LP HiGHS holds to the node LP of the pattern ``state`` over ``a <= lam <= b``.
+
+        Every pair row (static and copies) gets ``-inf <= G_i x <= 0`` (``+inf`` above for a dormant row while
+        dormant rows are free); the rows of the active pairs (``state_i = 1``) and, with ``own_pair_active``,
+        every copy's own pair row get ``G_i x = 0``; ``z_i = 0`` for the idle pairs (``state_i = -1``), else
+        ``0 <= z_i``; and ``a <= lam <= min(b, lam_cap)`` with ``a z_i <= zeta_i <= b z_i`` in every copy.
+
+        Parameters
+        ----------
+        state : ndarray of int8, shape (n_pairs,)
+            ``1`` active, ``-1`` idle, ``0`` free.
+        a, b : float
+            The node's interval of ``lam``.
+        """
         lay, h = self.layout, self.h
         rows = np.concatenate([lay.static_pair_rows] + [lay.copy_pair_rows[j] for j in range(state.size)])
         active_rows = [lay.static_pair_rows[state == 1]] + [lay.copy_pair_rows[j] for j in np.flatnonzero(state == 1)]
@@ -746,8 +766,10 @@ class ComplementarityBnB:
         _checked(h.changeColsBounds(zc.size, zc, np.zeros(zc.size), np.where(state == -1, 0.0, np.inf)))
         self._set_interval(a, min(b, self.lam_cap))
 
-    def _node_lp(self, state: np.ndarray, a: float, b: float):
-        """(status, bound, point) of the node LP.
+    def solve_node(self, state: np.ndarray, a: float, b: float):
+        """``(status, bound, point)`` of the node LP of the pattern ``state`` over ``a <= lam <= b``
+        (:meth:`apply_node`): ``bound`` is the LP's minimum of ``lam``, a lower bound on ``lam`` over every solution
+        of (3) with that pattern in that interval; ``point`` its lifted point (None unless ``OPTIMAL``).
 
         The dual simplex from the last basis (:meth:`_run`).  An infeasible LP is pruned only on a proof: HiGHS's
         dual ray checked as a Farkas certificate (:func:`proves_infeasible`), else a cold re-solve that says
@@ -757,7 +779,7 @@ class ComplementarityBnB:
         returned and the node keeps its parent's bound."""
         if a > min(b, self.lam_cap):
             return Status.INFEASIBLE, None, None
-        self._apply(state, a, b)
+        self.apply_node(state, a, b)
         if self.node_lp == "interior" and self.nodes_in_null_space:
             return self._interior_node_lp(a, b)
         st = self._run()
@@ -854,14 +876,14 @@ class ComplementarityBnB:
         (A, c, rl, ru, cl, cu), lift = self._node_arrays()
         self.interior_nodes += 1
         tolerance = NULL_SPACE_IPM_TOL if self.nodes_in_null_space else None
-        y, xi, basis = self._interior_solution(A, c, rl, ru, cl, cu, crossover=crossover, tolerance=tolerance,
+        y, xi, basis = self.interior_solution(A, c, rl, ru, cl, cu, crossover=crossover, tolerance=tolerance,
                                                basis=True)
         bound = -np.inf if y is None or xi is None else dual_bound(A, c, rl, ru, cl, cu, y)
         if not np.isfinite(bound) and not crossover and y is not None and not self.deadline.expired():
             # an interior point that stopped short (reduced costs left on free columns, as at the root: see
             # _interior_bound) is repaired by its crossover; an infeasible LP gives no duals and is left to the caller
             self.crossover_runs += 1
-            y, xi, basis = self._interior_solution(A, c, rl, ru, cl, cu, crossover=True, tolerance=tolerance,
+            y, xi, basis = self.interior_solution(A, c, rl, ru, cl, cu, crossover=True, tolerance=tolerance,
                                                    basis=True)
             bound = -np.inf if y is None or xi is None else dual_bound(A, c, rl, ru, cl, cu, y)
         if not np.isfinite(bound):
@@ -873,7 +895,7 @@ class ComplementarityBnB:
 
     def _wake(self, v: np.ndarray) -> bool:
         """Wake the dormant rows violated at ``v`` (bound ``<= 0`` again); True if any."""
-        rows = self._sleep_rows
+        rows = self.dormant_candidates
         bad = self.dormant[rows] & (self._sleep_matrix @ v > SEPARATION_TOL)
         if not bad.any():
             return False
@@ -883,15 +905,22 @@ class ComplementarityBnB:
         _checked(self.h.changeRowsBounds(wake.size, wake, np.full(wake.size, -np.inf), np.zeros(wake.size)))
         return True
 
-    def _lp_arrays(self) -> tuple:
-        """``(c, row_lower, row_upper, col_lower, col_upper)`` of the lifted LP as HiGHS holds it now (the node's
-        bounds applied, dormant rows free)."""
+    def lp_arrays(self) -> tuple:
+        """The lifted LP's cost and bounds as HiGHS holds it now (the node's bounds applied, dormant rows free).
+
+        Returns
+        -------
+        tuple of ndarray
+            ``(c, row_lower, row_upper, col_lower, col_upper)``; the LP is ``min c^T v`` subject to
+            ``row_lower <= A v <= row_upper``, ``col_lower <= v <= col_upper`` with ``A`` :attr:`lifted_matrix`.
+        """
         lp = self.h.getLp()
         return (np.asarray(lp.col_cost_), np.asarray(lp.row_lower_), np.asarray(lp.row_upper_),
                 np.asarray(lp.col_lower_), np.asarray(lp.col_upper_))
 
-    def _interior_root(self, target: float = np.inf, record=None) -> float:
-        """``root_lp="ipm"``: the root LP (its bounds already applied) by HiGHS's interior point without
+    def interior_root(self, target: float = np.inf, record=None) -> float:
+        """A lower bound on ``lam`` at the root: ``root_lp="ipm"``, the root LP (its bounds already applied by
+        :meth:`apply_node`) by HiGHS's interior point without
         crossover, at most three times.  With the moments' products in the LP (``lifting="rlt-full"``) and an
         incumbent (``target`` finite), a run without their rows (X) comes first (a relaxation: the LP of
         ``lifting="rlt"``), and closes the root if its dual bound meets ``target`` within ``INTERIOR_CLOSE_TOL``
@@ -906,18 +935,18 @@ class ComplementarityBnB:
         their dual bounds (``-inf`` if none); ``record(bound)`` (if given) is called with the bound so far after
         each run that gave one (the trace: a time-out after the first run still shows its bound)."""
         t0 = time.perf_counter()
-        c, rl, ru, cl, cu = self._lp_arrays()
-        A = self._A
+        c, rl, ru, cl, cu = self.lp_arrays()
+        A = self.lifted_matrix
         late = self._late_rows
         to_lifted = None  # the lifted row of each row of the LP solved (None: the lifted LP itself)
-        reduced = self._null_space_lp(c, rl, ru, cl, cu) if self.root_lp == "ipm" else None
+        reduced = self.null_space_root_lp(c, rl, ru, cl, cu) if self.root_lp == "ipm" else None
         if reduced is not None:
             # the same LP in null-space coordinates (its rows (X) hold every moment's product already)
             A, c, rl, ru, cl, cu = reduced.arrays
             late = np.zeros(A.shape[0], dtype=bool)
             to_lifted = reduced.lifted_row
             self.null_space_root = True
-            self._timing["null_space_build"] = time.perf_counter() - t0
+            self.root_timing["null_space_build"] = time.perf_counter() - t0
 
         tolerance = NULL_SPACE_IPM_TOL if reduced is not None else None
 
@@ -936,18 +965,18 @@ class ComplementarityBnB:
             # first without the moments' products (rows (X) of the moments: a relaxation, the LP of lifting="rlt"),
             # which closes most walls at a fraction of the cost
             bound = bound_without(late)
-            self._timing["ipm0"] = time.perf_counter() - t0
+            self.root_timing["ipm0"] = time.perf_counter() - t0
             note(bound)
         if not _meets(bound, target):
             full, y = self._interior_bound(A, c, rl, ru, cl, cu, tolerance)
             if y is not None:
                 bound = max(bound, full)
-                self._timing["ipm1"] = time.perf_counter() - t0
+                self.root_timing["ipm1"] = time.perf_counter() - t0
                 note(bound)
-                rows = self._sleep_rows
+                rows = self.dormant_candidates
                 y_lifted = y
                 if to_lifted is not None:  # the pair rows are rows of both LPs, one to one
-                    y_lifted = np.zeros(self._A.shape[0])
+                    y_lifted = np.zeros(self.lifted_matrix.shape[0])
                     y_lifted[to_lifted[to_lifted >= 0]] = y[to_lifted >= 0]
                 sleep = rows[np.abs(y_lifted[rows]) <= DORMANT_DUAL_TOL]
                 self.dormant[sleep] = True
@@ -967,25 +996,42 @@ class ComplementarityBnB:
             # from here on every node LP is solved in null-space coordinates, its dormant rows left out; the
             # interior point solves the whole LP (9-block door wall: 0.5-0.6 s a node LP with every row, 1-3 s
             # without the dormant rows and their separation rounds, with weaker bounds)
-            _, row_lower, row_upper, _, _ = self._lp_arrays()
+            _, row_lower, row_upper, _, _ = self.lp_arrays()
             sleeping = np.flatnonzero(self.dormant)
             if self.node_lp == "interior":  # the dormant rows sleep in the sparse LP only
                 self.dormant_free = False
-            nodes = NullSpaceNodes.of(reduced, self._A, self.layout, self.form.n_pairs, self._changed_rows(),
+            nodes = NullSpaceNodes.of(reduced, self.lifted_matrix, self.layout, self.form.n_pairs, self._changed_rows(),
                                       row_lower, row_upper, sleeping)
             if nodes is not None:
                 nodes.use("full" if self.node_lp == "interior" else "sparse")
                 self.h = nodes
                 self.nodes_in_null_space = True
                 self.iteration_limit = max(NODE_LP_ITERATIONS, sum(reduced.A.shape))
-        self.ipm_time = self._timing["ipm"] = time.perf_counter() - t0
+        self.ipm_time = self.root_timing["ipm"] = time.perf_counter() - t0
         self.ipm_bound = bound
         return bound
 
-    def _null_space_lp(self, c, rl, ru, cl, cu, basis: str = "tree"):
-        """The root LP in the null-space coordinates of :mod:`~blockmpec.solvers.linalg.null_space` (self-stress
-        ``basis``), or None where the lifting does not allow them (not every force tied, copies without statics) or
-        the structure has no checked basis."""
+    def null_space_root_lp(self, c, rl, ru, cl, cu, basis: str = "tree"):
+        """The root LP in the null-space coordinates of :mod:`~blockmpec.solvers.linalg.null_space`.
+
+        The static field and every copy are written ``x = x_d + lam x_l + N sigma`` (``N`` a basis of the
+        self-stresses, the null space of the equilibrium matrix ``E``) and the mechanism ``u = L z``, so the rows of
+        equilibrium and of the tree part of compatibility hold identically and drop out; every point of the lifted
+        LP maps to one point of this LP with the same ``lam`` and back, so the two have the same minimum.
+
+        Parameters
+        ----------
+        c, rl, ru, cl, cu : ndarray
+            The lifted LP's cost and bounds (:meth:`lp_arrays`).
+        basis : str
+            The self-stress basis of :func:`~blockmpec.solvers.linalg.null_space.static_null_space`.
+
+        Returns
+        -------
+        NullSpaceLP or None
+            The reduced LP (its ``arrays`` and the map of its rows to the lifted ones), or None where the lifting
+            does not allow it (not every force tied, copies without statics) or the structure has no checked basis.
+        """
         from blockmpec.solvers.linalg.null_space import layout_allows, null_space_lp, static_null_space
 
         lay = self.layout
@@ -995,12 +1041,13 @@ class ComplementarityBnB:
         if space is None:
             return None
         try:
-            return null_space_lp(self._A, c, rl, ru, cl, cu, lay, space)
+            return null_space_lp(self.lifted_matrix, c, rl, ru, cl, cu, lay, space)
         except ValueError:  # a row that should vanish on the null space does not hold: keep the lifted LP
             return None
 
-    def _generated_root(self, target: float = np.inf, record=None) -> float:
-        """``root_lp="ipm-rows"``: the root LP (its bounds already applied) by row generation, each round one
+    def generated_root(self, target: float = np.inf, record=None) -> float:
+        """A lower bound on ``lam`` at the root: ``root_lp="ipm-rows"``, the root LP (its bounds already applied by
+        :meth:`apply_node`) by row generation, each round one
         interior point (no crossover) on a subset of its rows; returns the largest round's dual bound (``-inf``
         if none).
 
@@ -1016,9 +1063,9 @@ class ComplementarityBnB:
         per round (rows, columns, nonzeros, rows added after it, bound, seconds since the start);
         ``self.root_lp_rows``: the rows of the last LP solved (a mask of the lifted LP's rows)."""
         t0 = time.perf_counter()
-        c, rl, ru, cl, cu = self._lp_arrays()
+        c, rl, ru, cl, cu = self.lp_arrays()
         lay = self.layout
-        A = sp.csr_array(self._A)
+        A = sp.csr_array(self.lifted_matrix)
         out = np.zeros(A.shape[0], dtype=bool)
         friction_rows = [lay.copy_pair_rows[j] for j in np.flatnonzero(self.form.pair_kind == FRICTION)]
         out[np.concatenate(friction_rows) if friction_rows else np.zeros(0, int)] = True
@@ -1029,7 +1076,7 @@ class ComplementarityBnB:
         for k in range(ROOT_ROW_ROUNDS):
             keep = ~out
             Ak = sp.csc_array(A[keep])
-            y, vk = self._interior_solution(Ak, c, rl[keep], ru[keep], cl, cu)
+            y, vk = self.interior_solution(Ak, c, rl[keep], ru[keep], cl, cu)
             if y is None:
                 break
             self.root_lp_rows = keep.copy()
@@ -1049,11 +1096,11 @@ class ComplementarityBnB:
                 break
             out &= ~add
         # the copy pair rows still left out sleep in the node LPs
-        sleep = self._sleep_rows[out[self._sleep_rows]]
+        sleep = self.dormant_candidates[out[self.dormant_candidates]]
         self.dormant[sleep] = True
         _checked(self.h.changeRowsBounds(sleep.size, sleep, np.full(sleep.size, -np.inf),
                                          np.full(sleep.size, np.inf)))
-        self.ipm_time = self._timing["ipm"] = time.perf_counter() - t0
+        self.ipm_time = self.root_timing["ipm"] = time.perf_counter() - t0
         self.ipm_bound = bound
         return bound
 
@@ -1068,22 +1115,39 @@ class ComplementarityBnB:
         root then went to the dual simplex (12 s in all); with crossover both ended optimal with the minimum as
         their bound (1.0 s and 2.4 s).  A crossover can take long on the large walls, which is why it is only the
         fallback; its basic duals pick more rows dormant (any choice keeps the bound valid)."""
-        y = self._interior_solution(A, c, rl, ru, cl, cu, tolerance=tolerance)[0]
+        y = self.interior_solution(A, c, rl, ru, cl, cu, tolerance=tolerance)[0]
         bound = -np.inf if y is None else dual_bound(A, c, rl, ru, cl, cu, y)
         if bound == -np.inf and not self.deadline.expired():
             self.crossover_runs += 1
-            y2 = self._interior_solution(A, c, rl, ru, cl, cu, crossover=True, tolerance=tolerance)[0]
+            y2 = self.interior_solution(A, c, rl, ru, cl, cu, crossover=True, tolerance=tolerance)[0]
             bound2 = -np.inf if y2 is None else dual_bound(A, c, rl, ru, cl, cu, y2)
             if y is None or bound2 > bound:
                 bound, y = bound2, y2
         return bound, y
 
-    def _interior_solution(self, A, c, rl, ru, cl, cu, crossover: bool = False,
-                           tolerance: float | None = None, basis: bool = False) -> tuple:
-        """``(row duals, column values)`` of the LP by HiGHS's interior point at its default tolerances (primal and
-        dual feasibility ``tolerance`` if given), without crossover unless ``crossover`` (``(None, None)`` if it
-        gave no duals; the values None if it gave none); with ``basis``, HiGHS's basis (or None) as a third
-        item."""
+    def interior_solution(self, A, c, rl, ru, cl, cu, crossover: bool = False,
+                          tolerance: float | None = None, basis: bool = False) -> tuple:
+        """The LP ``min c^T v`` subject to ``rl <= A v <= ru``, ``cl <= v <= cu`` by HiGHS's interior point (one
+        LP counted in ``n_lps``), within :attr:`deadline`.
+
+        Parameters
+        ----------
+        A : sparse matrix
+        c, rl, ru, cl, cu : ndarray
+        crossover : bool
+            Run HiGHS's crossover after the interior point (a basic solution and a basis).
+        tolerance : float, optional
+            Primal and dual feasibility tolerance (default: HiGHS's).
+        basis : bool
+            Also return HiGHS's basis.
+
+        Returns
+        -------
+        tuple
+            ``(row duals, column values)``: ``(None, None)`` if it gave no duals, the values None if it gave none;
+            with ``basis``, HiGHS's basis (or None: no crossover or no duals) as a third item.  Any row duals give
+            a valid lower bound through :func:`dual_bound`.
+        """
         g = new_highs()
         g.passModel(highs_lp(A, c, rl, ru, cl, cu))
         use_interior_point(g, crossover=crossover, solver=INTERIOR_SOLVER)
@@ -1129,7 +1193,7 @@ class ComplementarityBnB:
         ``nan``: the LP failed); a measurement, not used by :meth:`solve`."""
         a = self.lam_lower if a is None else a
         b = self.lam_cap if b is None else b
-        st, bound, _ = self._node_lp(self.root, a, b)
+        st, bound, _ = self.solve_node(self.root, a, b)
         if st is Status.INFEASIBLE:
             return np.inf
         return bound if st is Status.OPTIMAL else np.nan
@@ -1178,7 +1242,7 @@ class ComplementarityBnB:
                 continue
             if basis is not None:
                 self.h.setBasis(basis)  # warm start from the parent's optimal basis
-            cst, cbound, cv = self._node_lp(child, ca, cb)
+            cst, cbound, cv = self.solve_node(child, ca, cb)
             if cst is Status.INFEASIBLE:
                 kids.append((np.inf, child, ca, cb, None, None))
             elif cst is not Status.OPTIMAL:
@@ -1201,8 +1265,8 @@ class ComplementarityBnB:
             # without the cap lam <= incumbent: with it the LP's optimum sits on the cap and the interior point
             # was seen to stop short (4x2 wall: no bound, where the uncapped LP gave the minimum within 1.4e-8)
             cap, self.lam_cap = self.lam_cap, self.lam_upper
-            self._apply(self.root, a0, b0)
-            root = self._generated_root if self.root_lp == "ipm-rows" else self._interior_root
+            self.apply_node(self.root, a0, b0)
+            root = self.generated_root if self.root_lp == "ipm-rows" else self.interior_root
             interior = root(best_val, lambda bnd: tracer.record(max(a0, min(bnd, best_val)), best_val, force=True))
             self.lam_cap = cap
             if best is not None and _meets(interior, best_val):
@@ -1212,7 +1276,7 @@ class ComplementarityBnB:
                 return MIPRun(Status.OPTIMAL, "optimal", "certified at the root by the interior point's dual bound",
                               None, best_val, min(interior, best_val), 0, time.perf_counter() - t0,
                               tracer.records), best
-        st, bound, v = self._node_lp(self.root, a0, b0)
+        st, bound, v = self.solve_node(self.root, a0, b0)
         if st is Status.OPTIMAL:
             bound = max(bound, interior)
         if st is Status.INFEASIBLE:

@@ -14,7 +14,7 @@ The split.  The pair rows ``G`` are nonzero in the ``x`` columns only, the equil
 couples: the *static half* ``min lam`` s.t. equilibrium, ``G_S x = 0``, ``G_Z x <= 0``
 (:func:`static_program`, :func:`static_piece`) and the *kinematic half*, a mechanism ``f_l^T u = 1``,
 compatibility, ``z_S >= 0``, ``z_Z = 0`` (:func:`kinematic_program`, :func:`mechanism_piece`; ``min 1^T z``
-gives a vertex with few active pairs).  ``milp``'s polish (:meth:`~blockmpec.solvers.milp.MILPSolver._polish`)
+gives a vertex with few active pairs).  ``milp``'s polish (:meth:`~blockmpec.solvers.milp.MILPSolver.polish`)
 is these two functions; ``nlp``'s piece route (:func:`piece_descent`) uses them through :class:`SplitPieces`.
 
 Local minimality.  At a point ``w*`` of (4) let ``B`` be its biactive pairs (``z_i = s_i = 0``).
@@ -77,7 +77,7 @@ from blockmpec.solvers.engines.highs import highs_status, set_deadline
 from blockmpec.solvers.plan import BLOCK_IPM_RULES, piece_lp_static_engine, piece_lp_whole_engine
 
 if TYPE_CHECKING:
-    from blockmpec.formulations._pyomo import LinearProgram
+    from blockmpec.formulations.pyomo_compile import LinearProgram
 
 
 @dataclass
@@ -116,7 +116,7 @@ class PieceLP:
 
     def __init__(self, form, column_scale: np.ndarray, row_scale: np.ndarray, slack_scale: np.ndarray,
                  deadline: Deadline = NEVER, interior: bool = False) -> None:
-        from blockmpec.formulations._pyomo import LinearProgram
+        from blockmpec.formulations.pyomo_compile import LinearProgram
         from blockmpec.solvers.engines.highs import HighsLP, use_interior_point
 
         self.form = form
@@ -229,7 +229,10 @@ LAM_TOL = {False: 1e-9, True: 1e-7}
 AMBIGUOUS = (1e-3, 0.1)
 
 
-def _relative(v: np.ndarray) -> np.ndarray:
+def relative_to_largest(v: np.ndarray) -> np.ndarray:
+    """``v / max(max_i v_i, 1e-300)``: each entry relative to the largest (a nonnegative ``v``), for
+    comparing the two sides ``z`` and ``s`` of the pairs in their own scales (the whole route's first piece takes
+    ``s_i / max s <= z_i / max z``)."""
     return v / max(float(v.max(initial=0.0)), 1e-300)
 
 
@@ -256,7 +259,7 @@ def whole_piece_descent(form, scaling, w_start: np.ndarray, deadline: Deadline =
     interior = piece_lp_whole_engine(form.n_pairs) == "ipm" if interior is None else interior
     plp = PieceLP(form, *scaling, deadline=deadline, interior=interior)
     z, s = plp.sides(np.asarray(w_start, float))
-    zr, sr = _relative(z), _relative(s)
+    zr, sr = relative_to_largest(z), relative_to_largest(s)
     trace: list[dict] = []
     for k, ambiguous in enumerate(AMBIGUOUS):
         free = (np.minimum(zr, sr) > ambiguous * np.maximum(zr, sr)) | (np.maximum(zr, sr) < 1e-12)
@@ -290,7 +293,7 @@ def _descend(plp: PieceLP, slack_zero: np.ndarray, free: np.ndarray, rounds: int
                "not_complementary": int(both_positive.sum())}
         trace.append(rec)
         if both_positive.any():  # a free pair left off its piece: put it on its smaller side, solve again
-            slack_zero = np.where(free, _relative(s) <= _relative(z), slack_zero)
+            slack_zero = np.where(free, relative_to_largest(s) <= relative_to_largest(z), slack_zero)
             free = np.zeros_like(free)
             continue
         free = np.zeros_like(free)
@@ -348,7 +351,7 @@ def static_program(form) -> LinearProgram:
     The pair rows of (3) are nonzero in the ``x`` columns only and the equilibrium rows in ``(lam, x)`` only,
     so this LP and :func:`kinematic_program` together are (PLP) (``milp`` builds the same two for its polish).
     """
-    from blockmpec.formulations._pyomo import LinearProgram
+    from blockmpec.formulations.pyomo_compile import LinearProgram
 
     eq = form.equilibrium
     cols = np.r_[form.lam, np.arange(form.x.start, form.x.stop)]
@@ -366,7 +369,7 @@ def kinematic_program(form) -> LinearProgram:
     """The kinematic half of (PLP) over ``(u, z)``: rows ``compatibility`` ``A[cp] (u, z) = 0``, ``live``
     ``f_l^T u = 1`` and ``total`` ``1^T z`` (free unless a caller bounds it); ``z >= 0`` (a piece sets
     ``z_Z = 0`` by column bounds); no cost."""
-    from blockmpec.formulations._pyomo import LinearProgram
+    from blockmpec.formulations.pyomo_compile import LinearProgram
 
     cp, nm = form.compatibility, form.normalisation
     cols = np.r_[np.arange(form.u.start, form.u.stop), np.arange(form.z.start, form.z.stop)]
@@ -464,7 +467,7 @@ def static_piece_ipm(lp: LinearProgram, slack_zero: np.ndarray, row_scale: np.nd
     """
     from scipy.optimize import lsq_linear
 
-    from blockmpec.formulations._pyomo import LinearProgram
+    from blockmpec.formulations.pyomo_compile import LinearProgram
     from blockmpec.solvers.engines.block_lp import BlockLP
     from blockmpec.solvers.engines.highs import LPOutcome
 
@@ -703,7 +706,7 @@ def piece_descent(form, scaling, w_start: np.ndarray, deadline: Deadline = NEVER
     """
     pieces = SplitPieces(form, *scaling, deadline=deadline, static_engine=static_engine)
     z, s = pieces.sides(np.asarray(w_start, float))
-    zr, sr = _relative(z), _relative(s)
+    zr, sr = relative_to_largest(z), relative_to_largest(s)
     trace: list[dict] = []
     first = None
     message = ""

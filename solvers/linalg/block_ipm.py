@@ -410,8 +410,13 @@ class BlockIPM:
         #: iteration (:meth:`before_iteration` may change them).  The weights change the path, never the
         #: LP's solutions (studies/lab/ipm_crawl.py measures what they change)
         self.path_weights: np.ndarray | None = None
-        self._K_pattern = structural_pattern(self.A_B, self.k)
-        self._K_slots, self._K_targets, self._K_diagonal = self._reduced_scatter()
+        #: the structural pattern of ``K = A_B H^{-1} A_B^T`` (CSC, :func:`structural_pattern`): every entry any
+        #: iterate can make nonzero; the iteration assembles and factorises ``K`` on it
+        self.K_pattern = structural_pattern(self.A_B, self.k)
+        #: the fixed maps that assemble ``K``'s values on :attr:`K_pattern` (:meth:`_reduced_scatter`): ``K_slots``
+        #: the dense ``a_i = A_B[r_i, cols_i]`` per block, ``K_targets`` the position in ``K_pattern.data`` of each
+        #: entry of ``a_i H_i^{-1} a_i^T`` (padding: ``K_pattern.nnz``), ``K_diagonal`` the positions of the diagonal
+        self.K_slots, self.K_targets, self.K_diagonal = self._reduced_scatter()
         #: compiled products per sparse matrix (:meth:`_sparse_products`) and the parallel assembly of ``K``, made on
         #: first use
         self._products_cache: dict = {}
@@ -477,7 +482,7 @@ class BlockIPM:
         (:class:`~blockmpec.solvers.linalg.block_kernels.SparseProducts`, made once per matrix object: a subclass
         or study that replaces ``self.G`` gets new ones), or None where scipy multiplies (``compiled_products``:
         ``"auto"`` with the compiled kernels, True, or False)."""
-        if not self._products_compiled():
+        if not self.uses_compiled_products():
             return None
         from .block_kernels import SparseProducts
 
@@ -486,9 +491,10 @@ class BlockIPM:
             products = self._products_cache[id(M)] = SparseProducts(M)
         return products
 
-    def _products_compiled(self) -> bool:
-        """Whether the ``compiled_products`` setting chooses compiled products: True, or ``"auto"`` with the compiled
-        kernels."""
+    def uses_compiled_products(self) -> bool:
+        """Whether the sparse products ``A v``, ``A^T y`` and ``G v`` and the assembly of ``K`` run compiled (the same
+        numbers): the ``compiled_products`` setting True, or ``"auto"`` with the compiled kernels
+        (:attr:`block_kernels`)."""
         return self.compiled_products is True or (self.compiled_products == "auto" and self.block_kernels is not None)
 
     def _times(self, M, x: np.ndarray) -> np.ndarray:
@@ -535,7 +541,7 @@ class BlockIPM:
         block of its inverse.  Forming ``H_i`` and inverting it instead loses all accuracy.
         """
         k, r = self.k, self.rows_per_block
-        sqrt_d = self._block_scaling(it)
+        sqrt_d = self.block_scaling(it)
         M = np.zeros((self.n_blocks, k + r, k + r))
         M[:, :k, k:] = np.swapaxes(self.g_dual_blocks * sqrt_d[:, :, None], 1, 2)  # B_dual^T (B^T for an LP)
         M[:, k:, :k] = self.g_blocks * sqrt_d[:, :, None]  # B
@@ -543,8 +549,16 @@ class BlockIPM:
         M[:, k + idx, k + idx] = -1.0
         return M, sqrt_d
 
-    def _block_scaling(self, it: IPMIterate) -> np.ndarray:
-        """``sqrt(d)`` per block, ``(n_blocks, r)``: ``d = y / s`` (``s`` floored at ``SLACK_RATIO_FLOOR y``)."""
+    def block_scaling(self, it: IPMIterate) -> np.ndarray:
+        """The scaling ``sqrt(d)`` of the block systems at ``it`` (:meth:`block_systems`).
+
+        ``d_j = y_j / max(s_j, SLACK_RATIO_FLOOR y_j)`` for every inequality row ``j`` (``y`` its dual, ``s`` its
+        slack), gathered by block.
+
+        Returns
+        -------
+        ndarray, shape (n_blocks, rows_per_block)
+        """
         d = it.y / np.maximum(it.s, SLACK_RATIO_FLOOR * it.y)
         return np.sqrt(d)[self.block_rows]
 
@@ -575,7 +589,7 @@ class BlockIPM:
         slot = slot_of_unique[np.searchsorted(unique_key, key)]
         a = np.zeros((nb, slots, k))
         a[block, slot, col % k] = val
-        P = self._K_pattern
+        P = self.K_pattern
         n_rows = P.shape[0]
         pattern_key = np.repeat(np.arange(n_rows, dtype=np.int64), np.diff(P.indptr)) * n_rows + P.indices
         valid = (rows[:, :, None] >= 0) & (rows[:, None, :] >= 0)
@@ -587,8 +601,9 @@ class BlockIPM:
         diagonal = np.searchsorted(pattern_key, np.arange(n_rows, dtype=np.int64) * (n_rows + 1))
         return a, targets.ravel(), diagonal
 
-    def _inverse_blocks(self, it: IPMIterate):
-        r"""``(H^{-1} per block, block factors)`` at ``it``.
+    def inverse_blocks(self, it: IPMIterate):
+        r"""``(H^{-1} per block, block factors)`` at ``it``, with ``H_i = G_i^T D_i G_i`` (``D = diag(y / s)``) the
+        Hessian block of interface ``i``, inverted through its scaled augmented matrix (:meth:`block_systems`).
 
         The block factors are ``(M^{-1}, sqrt(d), H~)``: the inverse of every block's scaled augmented
         matrix (:meth:`block_systems`), the scaling, and ``H~`` the top-left ``k x k`` block of
@@ -602,7 +617,7 @@ class BlockIPM:
         if kernels is not None and type(self).block_systems is BlockIPM.block_systems:
             # compiled, M built inside the loop (the same numbers bit for bit); a subclass that changes the block
             # systems (a study's regularised blocks) takes the general path below
-            sqrt_d = self._block_scaling(it)
+            sqrt_d = self.block_scaling(it)
             M_inv, top_left, Hinv = kernels.inverse_scaled_blocks(self.g_blocks, self.g_dual_blocks, sqrt_d,
                                                                   self.symmetric)
             return Hinv, (M_inv, sqrt_d, top_left)
@@ -613,33 +628,45 @@ class BlockIPM:
         Hinv = 0.5 * (top_left + np.swapaxes(top_left, 1, 2)) if self.symmetric else top_left
         return Hinv, (M_inv, sqrt_d, top_left)
 
-    def _reduced_values(self, Hinv: np.ndarray) -> np.ndarray:
-        """Values of ``K = A_B H^{-1} A_B^T + delta diag(K)`` (``delta``: ``diagonal_shift``) on its structural
-        pattern (``pattern.data`` order)."""
-        a = self._K_slots
+    def reduced_values(self, Hinv: np.ndarray) -> np.ndarray:
+        """The values of the reduced matrix ``K = A_B H^{-1} A_B^T + delta diag(K)`` (``delta``: the
+        ``diagonal_shift`` setting, plus 1e-300 on the diagonal) on :attr:`K_pattern`.
+
+        Parameters
+        ----------
+        Hinv : ndarray, shape (n_blocks, k, k)
+            ``H_i^{-1}`` per block (:meth:`inverse_blocks`).
+
+        Returns
+        -------
+        ndarray, shape (K_pattern.nnz,)
+            In ``K_pattern.data`` order: ``K = sum_i E_i a_i H_i^{-1} a_i^T E_i^T`` scattered by :attr:`K_targets`.
+        """
+        a = self.K_slots
         kernels = self.block_kernels
         if kernels is None:
             products = np.matmul(np.matmul(a, Hinv), np.swapaxes(a, 1, 2))
-            values = np.bincount(self._K_targets, weights=products.reshape(-1), minlength=self._K_pattern.nnz + 1)
+            values = np.bincount(self.K_targets, weights=products.reshape(-1), minlength=self.K_pattern.nnz + 1)
             values = values[:-1]
-        elif self._products_compiled():
+        elif self.uses_compiled_products():
             # on the usable CPUs, the same numbers bit for bit (kernels.ReducedAssembly)
             if self._reduced_assembly is None:
-                self._reduced_assembly = kernels.ReducedAssembly(self._K_targets, self._K_pattern.nnz)
+                self._reduced_assembly = kernels.ReducedAssembly(self.K_targets, self.K_pattern.nnz)
             values = self._reduced_assembly.values(a, Hinv)
         else:
-            values = kernels.reduced_values(a, Hinv, self._K_targets, self._K_pattern.nnz)
+            values = kernels.reduced_values(a, Hinv, self.K_targets, self.K_pattern.nnz)
         # a relative diagonal shift (diagonal_shift K_ii, plus 1e-300) keeps the pivots nonzero where a
         # block's forces are all fixed by active rows; iterative refinement against the exact block solves
         # removes its effect on the direction.  The larger the shift, the less accurate the factors as a
         # preconditioner where K is ill-conditioned (late iterations of large walls), and the more solves the
         # refinement needs: hence round-off level by default (a nonpositive pivot goes to SuperLU's LDL^T)
-        diagonal = self._K_diagonal
+        diagonal = self.K_diagonal
         values[diagonal] += self.diagonal_shift * np.abs(values[diagonal]) + 1e-300
         return values
 
-    def _reduced_csc(self, values: np.ndarray) -> sp.csc_array:
-        P = self._K_pattern
+    def reduced_csc(self, values: np.ndarray) -> sp.csc_array:
+        """``K`` as a CSC matrix on :attr:`K_pattern` with the given values (:meth:`reduced_values`)."""
+        P = self.K_pattern
         return sp.csc_array((values, P.indices, P.indptr), shape=P.shape)
 
     def reduced_matrix(self, it: IPMIterate):
@@ -647,10 +674,10 @@ class BlockIPM:
         drops the exact zeros, e.g. at the starting point) and the block factors ``(M^{-1}, sqrt(d))``.
 
         For studies and tests: the iteration assembles the same matrix on its fixed structural
-        pattern (:meth:`_reduced_values`; equal to round-off), without sparse products.
+        pattern (:meth:`reduced_values`; equal to round-off), without sparse products.
         """
         k, nb = self.k, self.n_blocks
-        Hinv, blocks = self._inverse_blocks(it)
+        Hinv, blocks = self.inverse_blocks(it)
         indptr = np.arange(0, nb * k * k + 1, k)
         indices = (np.arange(nb)[:, None, None] * k + np.arange(k)[None, None, :]).repeat(k, axis=1).ravel()
         Hinv_mat = sp.csr_array((Hinv.ravel(), indices, indptr), shape=(nb * k, nb * k))
@@ -668,15 +695,15 @@ class BlockIPM:
                 raise ValueError(f"block IPM: unknown factorisation {self.factorisation!r}; "
                                  f"use one of {', '.join(FACTORISATIONS)}")
             supernodal = self.symmetric and (self.factorisation == "supernodal" or (
-                self.factorisation == "auto" and self._K_pattern.shape[0] >= self.rules.supernodal_rows))
+                self.factorisation == "auto" and self.K_pattern.shape[0] >= self.rules.supernodal_rows))
             if self.factorisation == "supernodal" and not supernodal:
                 raise ValueError("block IPM: the supernodal Cholesky needs a symmetric K")
-            self._factoriser = (SupernodalCholesky(self._K_pattern, self.ordering,
+            self._factoriser = (SupernodalCholesky(self.K_pattern, self.ordering,
                                                    processes=self.supernodal_processes,
                                                    compiled_symbolic_rows=self.rules.compiled_symbolic_rows,
                                                    **self._cholesky_choices())
                                 if supernodal
-                                else SymmetricFactoriser(self._K_pattern, self.ordering))
+                                else SymmetricFactoriser(self.K_pattern, self.ordering))
         return self._factoriser
 
     def _cholesky_choices(self) -> dict[str, bool]:
@@ -692,7 +719,7 @@ class BlockIPM:
         ``K`` (``rules.corrector_rows``)."""
         if self.correctors != "auto":
             return int(self.correctors)
-        return LARGE_CORRECTORS if self._K_pattern.shape[0] >= self.rules.corrector_rows else SMALL_CORRECTORS
+        return LARGE_CORRECTORS if self.K_pattern.shape[0] >= self.rules.corrector_rows else SMALL_CORRECTORS
 
     @property
     def supernodal_processes(self) -> int:
@@ -701,7 +728,7 @@ class BlockIPM:
         platform is POSIX."""
         if self.factor_processes != "auto":
             return int(self.factor_processes)
-        return 2 if (self._K_pattern.shape[0] >= self.rules.two_process_rows and usable_cpus() >= 2
+        return 2 if (self.K_pattern.shape[0] >= self.rules.two_process_rows and usable_cpus() >= 2
                      and two_processes_available()) else 1
 
     def factorise(self, it: IPMIterate):
@@ -715,8 +742,8 @@ class BlockIPM:
             inverses), a function solving with ``K``, ``K^{-1} A_F`` and the inverse of the border's Schur complement
             ``A_F^T K^{-1} A_F``; what :meth:`direction` and :meth:`refined_direction` take.
         """
-        Hinv, blocks = self._inverse_blocks(it)
-        values = self._reduced_values(Hinv)
+        Hinv, blocks = self.inverse_blocks(it)
+        values = self.reduced_values(Hinv)
         factoriser = self.factoriser
         solve_K = None
         if isinstance(factoriser, SupernodalCholesky):
@@ -728,29 +755,43 @@ class BlockIPM:
                 # a pivot lost definiteness in floating point: SuperLU's LDL^T (same ordering), which
                 # takes any nonzero pivot; its solves are counted with the Cholesky's
                 if self._superlu is None:
-                    self._superlu = SymmetricFactoriser(self._K_pattern, self.ordering, perm=factoriser.perm)
+                    self._superlu = SymmetricFactoriser(self.K_pattern, self.ordering, perm=factoriser.perm)
                 self.cholesky_fallbacks += 1
-                solve_lu = self._superlu.factorise(self._reduced_csc(values))
+                solve_lu = self._superlu.factorise(self.reduced_csc(values))
 
                 def solve_K(rhs, _solve=solve_lu, _counter=factoriser):
                     _counter.solves += 1
                     return _solve(rhs)
         else:
-            solve_K = factoriser.factorise(self._reduced_csc(values))
+            solve_K = factoriser.factorise(self.reduced_csc(values))
         W_F = solve_K(self.A_F) if self.A_F.shape[1] else self.A_F
         # the small dense Schur complement A_F^T K^{-1} A_F, inverted once (np.linalg.solve
         # on a 1-by-1 matrix costs milliseconds per call)
         S_F_inverse = np.linalg.inv(self.A_F.T @ W_F)
         return blocks, solve_K, W_F, S_F_inverse
 
-    def _block_solve(self, blocks, rhs_dual: np.ndarray, rhs_primal: np.ndarray, with_dy: bool = True):
-        """Solve ``G_i^T dy_i = rhs_dual_i``, ``G_i dv_i - (s/y)_i dy_i = rhs_primal_i`` for every block.
-        ``with_dy=False`` allows ``dy`` to be left out (None; the compiled kernel then reads only ``dv``'s rows of
-        the block inverses, with :meth:`_sparse_products`: the same ``dv``)."""
+    def block_solve(self, blocks, rhs_dual: np.ndarray, rhs_primal: np.ndarray, with_dy: bool = True):
+        """Solve ``G_i^T dy_i = rhs_dual_i``, ``G_i dv_i - (s/y)_i dy_i = rhs_primal_i`` for every block ``i``.
+
+        Parameters
+        ----------
+        blocks : tuple
+            The block factors ``(M^{-1}, sqrt(d), H~)`` of :meth:`inverse_blocks`.
+        rhs_dual : ndarray, shape (n_blocks * k,)
+        rhs_primal : ndarray, shape (inequality rows,)
+        with_dy : bool
+            False allows ``dy`` to be left out (None; the compiled kernel then reads only ``dv``'s rows of the block
+            inverses, with :meth:`uses_compiled_products`: the same ``dv``).
+
+        Returns
+        -------
+        tuple of ndarray
+            ``(dv, dy)``: ``dv`` in block order, ``dy`` in the inequality rows' order (or None).
+        """
         M_inv, sqrt_d, _ = blocks
         kernels = self.block_kernels
         if kernels is not None:
-            with_dy = with_dy or not self._products_compiled()
+            with_dy = with_dy or not self.uses_compiled_products()
             return kernels.block_solve(M_inv, sqrt_d, rhs_dual, rhs_primal, self.block_rows, with_dy)
         k = self.k
         rhs = np.empty((self.n_blocks, M_inv.shape[1]))
@@ -768,7 +809,7 @@ class BlockIPM:
         return np.matmul(M_inv, rhs[:, :, None])[:, :, 0]
 
     def _block_dual_solve(self, blocks, rhs_dual: np.ndarray) -> np.ndarray:
-        """``dv`` of :meth:`_block_solve` with ``rhs_primal = 0``: ``H~_i rhs_dual_i`` (``dy`` not formed)."""
+        """``dv`` of :meth:`block_solve` with ``rhs_primal = 0``: ``H~_i rhs_dual_i`` (``dy`` not formed)."""
         top_left = blocks[2]
         rhs = rhs_dual.reshape(self.n_blocks, self.k)
         kernels = self.block_kernels
@@ -801,7 +842,7 @@ class BlockIPM:
             dv_F = S_F_inverse @ (self.A_F.T @ W_r - e_border)
             return W_r - W_F @ dv_F, dv_F
 
-        dv0, _ = self._block_solve(blocks, rhs_dual, rhs_primal, with_dy=False)  # the block step for dw = 0
+        dv0, _ = self.block_solve(blocks, rhs_dual, rhs_primal, with_dy=False)  # the block step for dw = 0
         dw, dv_F = reduced_solve(self._offset_minus_times(self.A_B, r_b, dv0), r_c[self.border])
         target = 1e-1 * self.tol * (1 + _inf(self.b))
         corrections = self.refinements if refinements is None else refinements
@@ -809,7 +850,7 @@ class BlockIPM:
         best = None
         previous_error = np.inf
         for done in range(corrections + 1):
-            dv_B, dy = self._block_solve(blocks, rhs_dual + self._transpose_times(self.A_B, dw), rhs_primal)
+            dv_B, dy = self.block_solve(blocks, rhs_dual + self._transpose_times(self.A_B, dw), rhs_primal)
             if done == corrections and not krylov:
                 # a further correction of dw alone would leave dv_B and dy behind (one solve wasted)
                 break
@@ -890,7 +931,7 @@ class BlockIPM:
             budget -= max(steps[0], 1)
             x_w, x_F = reduced_solve(z[:m], z[m:])
             new_dw, new_dv_F = dw + x_w, dv_F + x_F
-            new_dv_B, new_dy = self._block_solve(blocks, -r_c[bc] + self._transpose_times(self.A_B, new_dw), rhs_primal)
+            new_dv_B, new_dy = self.block_solve(blocks, -r_c[bc] + self._transpose_times(self.A_B, new_dw), rhs_primal)
             new_e_eq, new_e_border = self._equality_errors(r_b, r_c, new_dw, new_dv_F, self._times(self.A_B, new_dv_B))
             new_error = max(_inf(new_e_eq), _inf(new_e_border))
             if not new_error < error:

@@ -309,7 +309,7 @@ def _block_solve(M_inv, sqrt_d, rhs_dual, rhs_primal, block_rows, with_dy):  # p
 
 def block_solve(M_inv: np.ndarray, sqrt_d: np.ndarray, rhs_dual: np.ndarray, rhs_primal: np.ndarray,
                 block_rows: np.ndarray, with_dy: bool = True) -> tuple[np.ndarray, np.ndarray | None]:
-    r"""The block solves of :meth:`~blockmpec.solvers.linalg.block_ipm.BlockIPM._block_solve` in one pass:
+    r"""The block solves of :meth:`~blockmpec.solvers.linalg.block_ipm.BlockIPM.block_solve` in one pass:
     per block ``(x, z) = M_i^{-1} (rhs_dual_i, D_i^{1/2} rhs_primal[rows_i])``, ``dv_i = x``,
     ``dy[rows_i] = D_i^{1/2} z`` (``block_rows`` must cover every inequality row once).  ``with_dy=False``: ``dv``
     alone (the same numbers), from the first ``k`` rows of each ``M_i^{-1}`` (3 of 7 on a wall: less than half the

@@ -21,7 +21,7 @@ factorisations of a symmetric permutation ``P K P^T``:
 
 ``SupernodalCholesky(..., processes=2)`` splits its elimination tree into two subtree halves and their top
 (:meth:`SupernodalCholesky.subtree_halves`) and hands one half of every factorisation and solve to a
-worker process (:class:`_HalfWorker`, a fresh Python process, not a fork): 0.74x the block IPM's wall-clock on the
+worker process (:class:`HalfWorker`, a fresh Python process, not a fork): 0.74x the block IPM's wall-clock on the
 100,014-block wall (251 s against 339 s, ``python studies/lab/lp_timing.py --walls 316x316 --algorithms block-ipm
 --ipm-settings one_process,two_process``; the block IPM's default with this factorisation).  Threads cannot do it: scipy's LAPACK wrappers and each front's numpy work hold the GIL.
 
@@ -52,6 +52,8 @@ import math
 import os
 import threading
 import time
+from collections.abc import Mapping
+from types import MappingProxyType
 
 import numpy as np
 import scipy.sparse as sp
@@ -63,7 +65,7 @@ ORDERINGS = ("auto", "metis", "mmd")
 
 
 def two_processes_available() -> bool:
-    """Whether this interpreter can run a :class:`_HalfWorker`: a POSIX system (the worker inherits file
+    """Whether this interpreter can run a :class:`HalfWorker`: a POSIX system (the worker inherits file
     descriptors) and a known Python executable to start it with (not so in some embedded interpreters)."""
     import sys
 
@@ -285,10 +287,10 @@ class SupernodalCholesky:
         if processes == 2 and not two_processes_available():
             raise ValueError("supernodal Cholesky: processes=2 needs a POSIX system and sys.executable (to start "
                              "its worker process)")
-        #: 2: one subtree half of every factorisation and solve runs in a worker process (:class:`_HalfWorker`)
+        #: 2: one subtree half of every factorisation and solve runs in a worker process (:class:`HalfWorker`)
         self.processes = int(processes)
         # the worker process starts now (set up at the first factorisation): its imports overlap the analysis below
-        self._worker: _HalfWorker | None = _HalfWorker() if processes == 2 else None
+        self._worker: HalfWorker | None = HalfWorker() if processes == 2 else None
         #: CPU seconds of the worker process through its latest factorisation (``processes=2``; not in this
         #: process's ``time.process_time()``)
         self.worker_cpu_s = 0.0
@@ -417,7 +419,9 @@ class SupernodalCholesky:
             local_row = np.searchsorted(R, lower.indices[a:b])
             destination[a:b] = (column_of[a:b] - first[s]) * R.size + local_row  # column-major front
         del order
-        self._assembly_destination = destination
+        #: for each entry of the permuted ``K``'s lower triangle (in its CSC order, grouped by supernode), its flat
+        #: position in its supernode's front (column-major, the front's rows ``self.rows[s]``)
+        self.assembly_destination = destination
         self._assembly_source = lower_source
         #: the rows below each supernode's diagonal block (its panel's rows after the first ``width``; the solves' gathers)
         self.below_rows = [self.rows[s][int(end[s] - first[s]):] for s in range(ns)]
@@ -554,19 +558,30 @@ class SupernodalCholesky:
         return values
 
     def start_worker(self, wait: bool = False) -> None:
-        """With ``processes=2``, start the worker process if it is not running (:class:`_HalfWorker`).  It starts in
+        """With ``processes=2``, start the worker process if it is not running (:class:`HalfWorker`).  It starts in
         the background: until it has its set-up, factorisations are done here alone, the same factors bit for bit.
         ``wait``: return only once it is ready."""
         if self.processes == 2:
             if self._worker is None:
-                self._worker = _HalfWorker()
+                self._worker = HalfWorker()
             if self._worker.chol is None:
                 self._worker.set_up(self)
             if wait:
                 self._worker.wait_ready()
 
+    @property
+    def worker(self) -> HalfWorker | None:
+        """The worker process that factorises and solves one subtree half (``processes=2``; None when there is
+        none: ``processes=1``, or after :meth:`close`)."""
+        return self._worker
+
+    @property
+    def factor_plans(self) -> Mapping:
+        """The compiled factorisation plans made so far (:meth:`factor_plan`), read-only, by their supernodes."""
+        return MappingProxyType(self._factor_plans)
+
     def __getstate__(self) -> dict:
-        """The symbolic analysis without the worker process (what a :class:`_HalfWorker` receives)."""
+        """The symbolic analysis without the worker process (what a :class:`HalfWorker` receives)."""
         return {**self.__dict__, "_worker": None, "processes": 1, "_factor_plans": {}, "_relative": None}
 
     def close(self) -> None:
@@ -659,7 +674,7 @@ class SupernodalCholesky:
         from scipy.linalg.lapack import dpotrf
 
         threaded = _blas_controller() if self.front_threads > 1 else None
-        destination, offsets, source = self._assembly_destination, self._assembly_offsets, self._assembly_source
+        destination, offsets, source = self.assembly_destination, self._assembly_offsets, self._assembly_source
         for s in supernodes:
             m, width = self.rows[s].size, int(self.end[s] - self.first[s])
             F = np.zeros((m, m), order="F")  # the front; its lower triangle holds the values
@@ -797,7 +812,7 @@ class SupernodalCholesky:
         return solve
 
 
-class _HalfWorker:
+class HalfWorker:
     r"""One subtree half of a :class:`SupernodalCholesky`'s factorisations and solves, run by a worker process.
 
     Set-up (once): the halves and their top (:meth:`SupernodalCholesky.subtree_halves`); one shared-memory file
@@ -865,6 +880,12 @@ class _HalfWorker:
         self._senders: list[threading.Thread] = []
         self._finalizer = weakref.finalize(self, _stop_worker, self.connection, process, self._senders,
                                            self._unmapped_fds)
+
+    @property
+    def unmapped_fds(self) -> tuple[int, ...]:
+        """The file descriptors of the shared memory still open and not yet mapped: its file until :meth:`set_up`
+        maps and closes it (closed when the worker stops if it never was)."""
+        return tuple(self._unmapped_fds)
 
     def set_up(self, chol: SupernodalCholesky) -> None:
         """Split ``chol``'s supernodes into two subtree halves and their top, size the shared memory and send the
@@ -1069,7 +1090,7 @@ def _counted_solve(chol: SupernodalCholesky, solve_vector, check=None, single_th
 
 
 def _shared_layout(values: int, n: int, top_rows: int, root_updates: int) -> dict:
-    """Offsets (in float64s) of a :class:`_HalfWorker`'s shared arrays in its shared-memory file."""
+    """Offsets (in float64s) of a :class:`HalfWorker`'s shared arrays in its shared-memory file."""
     sizes = {"values": values, "x": n, "top_change": top_rows, "root_updates": root_updates}
     layout, offset = {}, 0
     for name, size in sizes.items():
@@ -1099,7 +1120,7 @@ def _shared_file(size: int) -> int:
 
 
 def _serve_half(socket_fd: int, memory_fd: int) -> None:  # pragma: no cover - runs in the worker process
-    """The worker process of :class:`_HalfWorker`: factorises and solves with its half until told to stop."""
+    """The worker process of :class:`HalfWorker`: factorises and solves with its half until told to stop."""
     import mmap
     import pickle
     from multiprocessing.connection import Connection
@@ -1171,7 +1192,7 @@ def _serve_half(socket_fd: int, memory_fd: int) -> None:  # pragma: no cover - r
 
 
 def _stop_worker(connection, process, senders: list, unmapped_fds: list) -> None:
-    """Ask a :class:`_HalfWorker`'s process to stop and reap it; kill it if it has not ended within a second
+    """Ask a :class:`HalfWorker`'s process to stop and reap it; kill it if it has not ended within a second
     (or if its set-up is still being sent a second later).  Closes the shared memory's file if it was never set up."""
     import subprocess
 

@@ -288,6 +288,12 @@ class FactorPlan:
         self._reals = np.array([1.0, -1.0])
         self._factor_arrays: list[np.ndarray] = []
 
+    @property
+    def factor_arrays(self) -> tuple[np.ndarray, ...]:
+        """The arrays kept for the factors (at most :data:`FACTOR_ARRAYS`), each reused by a later factorisation once
+        no earlier factorisation's blocks use it."""
+        return tuple(self._factor_arrays)
+
     def _free_factors(self) -> np.ndarray:
         """An array for the factors that no earlier factorisation's blocks still use (their views hold it), else a new
         one (kept for reuse while at most :data:`FACTOR_ARRAYS` are).  Reusing one spares the page faults of a new
@@ -311,7 +317,7 @@ class FactorPlan:
             self.arena[u:u + r * r] = updates.pop(child).ravel(order="F")
         factors = self._free_factors()
         failed = _factor(_DPOTRF, _DTRSM, _DSYRK, self.order, np.ascontiguousarray(values, dtype=np.float64),
-                         chol.first.astype(np.int64), widths, rows, chol._assembly_offsets, chol._assembly_destination,
+                         chol.first.astype(np.int64), widths, rows, chol._assembly_offsets, chol.assembly_destination,
                          chol._assembly_source, self.child_start, self.child_list, self.relative_start, self.relative,
                          self.update_offset, self.exported, self.arena, self.front, self.factor_offset, factors,
                          self._chars, self._ints, self._reals)

@@ -140,9 +140,9 @@ def run_textbook(structure: bm.Structure, time_limit: float, guess: float | None
     solver.setup(bm.operators.assemble(structure))
     t0 = time.perf_counter()
     deadline = Deadline(time_limit)
-    form, unit = solver.form, solver._lam_unit
+    form, unit = solver.form, solver.lam_unit
     if guess is None:
-        bd = solver._model_bounds(solver._root_bounds(deadline), deadline)  # LP-proven slack bounds
+        bd = solver.model_bounds(solver.root_bounds(deadline), deadline)  # LP-proven slack bounds
         mip = textbook_model(form, bd.slack_max, "sum")
     else:
         mip = textbook_model(form, guess, "live")
@@ -153,12 +153,12 @@ def run_textbook(structure: bm.Structure, time_limit: float, guess: float | None
            "time_s": elapsed, "gap_rel": None, "note": ""}
     if run.point is None:
         return row
-    sol, message = solver._polish(run.point[mip.columns["y"]] >= 0.5)
+    sol, message = solver.polish(run.point[mip.columns["y"]] >= 0.5)
     if sol is None:
         row["note"] = f"the optimum's pattern has no point of (3) ({message})"
         return row
     lam = sol.multiplier * unit
-    res = residuals(solver.ops, solver.form.unpack(solver.form.pack(sol) * solver._w_unit), associative=False)
+    res = residuals(solver.ops, solver.unscaled(sol), associative=False)
     verified = max(res.values()) <= 1e-6
     row["incumbent"] = lam if verified else None
     row["gap_rel"] = max(0.0, lam - bound) / max(abs(lam), 1e-12)

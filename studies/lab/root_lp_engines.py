@@ -102,15 +102,15 @@ def root_lp(spec: str, lifting: str = "rlt-full", null_space: str | None = None)
     # the root of milp's branch and bound: its set-up, bounds and root LP (the milp module's own steps)
     solver = MILPSolver(engine="bnb", settings=MILPSettings(lifting=lifting, root_lp="ipm"))
     solver.setup(bm.operators.assemble(named_wall(spec)))
-    bnb = solver._complementarity_bnb(solver._bounds(Deadline(600)))
-    bnb._apply(bnb.root, bnb.lam_lower, bnb.lam_cap)
-    c, rl, ru, cl, cu = bnb._lp_arrays()
+    bnb = solver.branch_and_bound(solver.lp_bounds(Deadline(600)))
+    bnb.apply_node(bnb.root, bnb.lam_lower, bnb.lam_cap)
+    c, rl, ru, cl, cu = bnb.lp_arrays()
     if null_space:
-        reduced = bnb._null_space_lp(c, rl, ru, cl, cu, basis=null_space)
+        reduced = bnb.null_space_root_lp(c, rl, ru, cl, cu, basis=null_space)
         if reduced is None:
             raise SystemExit(f"{spec}: no null-space coordinates for lifting {lifting!r} (needs rlt-full)")
         return reduced.arrays
-    return sp.csc_array(bnb._A), c, rl, ru, cl, cu
+    return sp.csc_array(bnb.lifted_matrix), c, rl, ru, cl, cu
 
 
 def highs_duals(lp, solver: str, options: dict, time_limit: float, crossover: bool = False):

@@ -61,7 +61,7 @@ def sizes(walls: list[str]) -> list[dict]:
         solver = MILPSolver(engine="bnb", settings=MILPSettings(lifting="rlt-full", root_lp="ipm-rows"))
         solver.setup(bm.operators.assemble(named_wall(spec)))
         cpu = time.process_time()
-        bd = solver._bounds(Deadline(600))  # milp's own LP bounds (its module's step)
+        bd = solver.lp_bounds(Deadline(600))  # milp's own LP bounds (its module's step)
         bound_s = time.process_time() - cpu
         form = solver.form
         A, *_, layout = lifted_lp(form, work_matrix(form), bd.lam_lower, bd.lam_upper,
@@ -87,13 +87,13 @@ def copies(walls: list[str], time_limit: float) -> list[dict]:
             solver = MILPSolver(engine="bnb", settings=MILPSettings(lifting="rlt-full", root_lp="ipm"))
             solver.setup(bm.operators.assemble(named_wall(spec)))
             # the root of milp's branch and bound (the milp module's own steps)
-            bnb = solver._complementarity_bnb(solver._bounds(Deadline(time_limit)), static_copies=static_copies)
+            bnb = solver.branch_and_bound(solver.lp_bounds(Deadline(time_limit)), static_copies=static_copies)
             bnb.deadline = Deadline(time_limit)
-            bnb._apply(bnb.root, bnb.lam_lower, np.inf)
+            bnb.apply_node(bnb.root, bnb.lam_lower, np.inf)
             cpu = time.process_time()
-            bound = bnb._interior_root()  # no target: the whole LP (per-block units)
-            row = {"wall": spec, "static_copies": static_copies, "rows": int(bnb._A.shape[0]),
-                   "nnz": int(bnb._A.nnz), "root_bound": bound, "cpu_s": time.process_time() - cpu}
+            bound = bnb.interior_root()  # no target: the whole LP (per-block units)
+            row = {"wall": spec, "static_copies": static_copies, "rows": int(bnb.lifted_matrix.shape[0]),
+                   "nnz": int(bnb.lifted_matrix.nnz), "root_bound": bound, "cpu_s": time.process_time() - cpu}
             print(json.dumps(row), flush=True)
             rows.append(row)
     return rows

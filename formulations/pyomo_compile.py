@@ -1,4 +1,4 @@
-"""Helpers: sparse rows into Pyomo, a compiled matrix form of linear models, and its cache.
+"""Pyomo helpers: sparse rows into Pyomo, a compiled matrix form of linear models, and its cache.
 
 Build and compile run with Python's cyclic garbage collector paused (Pyomo's
 ``PauseGC``): a model is hundreds of thousands of small objects, none of them garbage,
@@ -147,20 +147,20 @@ def compile_linear(problem: PyomoProblem) -> LinearProgram:
     """Compile a linear Pyomo problem to a :class:`LinearProgram` (once).
 
     Models whose every row is already a flat ``LinearExpression`` (what :func:`sparse_rows`
-    and :func:`linear_dot` build) are read directly by :func:`_compile_flat_rows`; any
+    and :func:`linear_dot` build) are read directly by :func:`compile_flat_rows`; any
     other model goes through Pyomo's ``LinearStandardFormCompiler``.  Both give the same
-    matrices, rows and columns, entry for entry (``tests/test_formulation_cache.py``).
+    matrices, rows and columns, entry for entry (``tests/test_compile_flat_rows.py``).
     """
-    lp = _compile_flat_rows(problem)
+    lp = compile_flat_rows(problem)
     return lp if lp is not None else compile_with_pyomo(problem)
 
 
-#: components a model may hold for :func:`_compile_flat_rows` (anything else: Pyomo's compiler)
+#: components a model may hold for :func:`compile_flat_rows` (anything else: Pyomo's compiler)
 _FLAT_COMPONENT_TYPES = (pyo.Var, pyo.Constraint, pyo.Param, pyo.Objective, pyo.Set, pyo.RangeSet)
 
 
 class _NotFlat(Exception):
-    """A model or row outside what :func:`_compile_flat_rows` reads (Pyomo's compiler takes it)."""
+    """A model or row outside what :func:`compile_flat_rows` reads (Pyomo's compiler takes it)."""
 
 
 def _flat_terms(expr, coefs: list, variables: list) -> float:
@@ -168,7 +168,7 @@ def _flat_terms(expr, coefs: list, variables: list) -> float:
 
     Raises :class:`_NotFlat` for anything but a ``LinearExpression`` of monomials, variables
     and numbers, a lone variable, or a number (the coefficients' types are checked later,
-    all at once, in :func:`_compile_flat_rows`).
+    all at once, in :func:`compile_flat_rows`).
     """
     cls = expr.__class__
     if cls is LinearExpression:
@@ -227,7 +227,7 @@ def _monomial_rows(constraints: list):
     return coefs, variables, lengths, lower, upper, kept
 
 
-def _compile_flat_rows(problem: PyomoProblem) -> LinearProgram | None:
+def compile_flat_rows(problem: PyomoProblem) -> LinearProgram | None:
     r"""Pyomo's mixed standard form of a model of flat linear rows, read without an expression walk.
 
     Reproduces ``LinearStandardFormCompiler().write(model, mixed_form=True,
@@ -243,6 +243,19 @@ def _compile_flat_rows(problem: PyomoProblem) -> LinearProgram | None:
 
     Pyomo's compiler walks every row's expression tree; this reads the terms that
     :func:`sparse_rows` put there, in bulk (1,010-block static LP: about 1.5x faster).
+
+    Parameters
+    ----------
+    problem : PyomoProblem
+        A linear model.
+
+    Returns
+    -------
+    LinearProgram or None
+        ``min c^T v`` subject to ``row_lower <= A v <= row_upper``, ``col_lower <= v <= col_upper`` (a
+        maximised objective negated, ``objective_sign = -1``; its constant in ``objective_offset``), equal entry for
+        entry to
+        :func:`compile_with_pyomo`'s; None where the model is not one of flat rows.
     """
     model = problem.model
     for component in model.component_objects(active=True, descend_into=True):
