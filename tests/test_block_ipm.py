@@ -13,9 +13,9 @@ import scipy.sparse as sp
 import blockmpec as bm
 from blockmpec.formulations import compile_linear, static_lp
 from blockmpec.solvers.engines.block_lp import BlockLP, interface_blocks
-from blockmpec.solvers.linalg.block_ipm import DEFAULT_SETTINGS, EXACT_INNER_SETTINGS
-from blockmpec.solvers.engines.scaling import LoadUnits
 from blockmpec.solvers.engines.lp_engine import cold_lp_engine
+from blockmpec.solvers.engines.scaling import LoadUnits
+from blockmpec.solvers.linalg.block_ipm import DEFAULT_SETTINGS, EXACT_INNER_SETTINGS
 from helpers import wall_block_ipm_off_path
 
 

@@ -13,9 +13,9 @@ import pytest
 
 import blockmpec as bm
 from blockmpec.formulations import compile_linear, static_lp
-from blockmpec.solvers.linalg import block_ipm
-from blockmpec.solvers.engines.scaling import LoadUnits
 from blockmpec.solvers.engines.lp_engine import cold_lp_engine
+from blockmpec.solvers.engines.scaling import LoadUnits
+from blockmpec.solvers.linalg import block_ipm
 from blockmpec.solvers.plan import BLOCK_IPM_RULES
 from helpers import wall_block_ipm_off_path
 

@@ -17,6 +17,8 @@ import scipy.sparse as sp
 import blockmpec as bm
 from blockmpec.formulations import compile_linear, static_lp
 from blockmpec.solvers.engines.block_lp import BlockLP
+from blockmpec.solvers.engines.lp_engine import cold_lp_engine
+from blockmpec.solvers.engines.scaling import LoadUnits
 from blockmpec.solvers.linalg.block_ipm import IPMIterate, single_blas_thread
 from blockmpec.solvers.linalg.cholesky import (
     SupernodalCholesky,
@@ -24,8 +26,6 @@ from blockmpec.solvers.linalg.cholesky import (
     column_structures,
     structural_pattern,
 )
-from blockmpec.solvers.engines.scaling import LoadUnits
-from blockmpec.solvers.engines.lp_engine import cold_lp_engine
 from blockmpec.solvers.plan import BLOCK_IPM_RULES
 from helpers import solve_with
 

@@ -204,7 +204,6 @@ def test_warm_start_from_a_solution_of_3_is_a_fixed_point_of_the_step_lp():
     """A solution of (3) solves the LP (5) at its own normal forces: started there, the fixed-coupling
     run stops before its first step with the same multiplier (the best iterate and the warm start hooks)."""
     ops = bm.assemble(bm.cases.wall(courses=4, blocks_per_course=3))
-    lp = _step_lp(ops)
     exact = _engine(ops)
     assert exact.solve().status is bm.Status.OPTIMAL
     best = exact.best_iterate
@@ -269,8 +268,8 @@ def test_central_path_continuation_from_an_early_iterate_reaches_a_solution_of_3
 def test_continuation_ends_at_its_last_point_when_k_is_singular(monkeypatch):
     """A singular ``K`` during the continuation (SuperLU's zero pivot) ends it at its last accepted point, with
     the steps made so far, instead of an exception."""
-    from blockmpec.solvers.linalg.cholesky import SingularMatrixError
     from blockmpec.solvers.engines.interior_fixed_point import continue_central_path
+    from blockmpec.solvers.linalg.cholesky import SingularMatrixError
 
     ops = bm.assemble(bm.cases.wall(courses=10, blocks_per_course=10))
     early = _engine(ops, max_iterations=3)

@@ -14,8 +14,8 @@ from blockmpec.deadline import Deadline
 from blockmpec.formulations import compile_linear, kinematic_lp, static_lp
 from blockmpec.solvers.engines.block_lp import BlockLP, interface_blocks
 from blockmpec.solvers.engines.highs import HighsLP
-from blockmpec.solvers.engines.scaling import LoadUnits
 from blockmpec.solvers.engines.lp_engine import cold_lp_engine
+from blockmpec.solvers.engines.scaling import LoadUnits
 from blockmpec.solvers.plan import LP_BLOCK_IPM_ROWS
 from helpers import assert_success, block_on_block, solve_with, two_block_associative
 

@@ -16,12 +16,12 @@ import itertools
 
 import numpy as np
 import pytest
+from milp_runs import milp_solver, solve_milp
 
 import blockmpec as bm
 from blockmpec.deadline import Deadline
 from blockmpec.result import Status
 from helpers import LIFTING_CASES, assert_certified, two_block_associative, two_block_nonassociative_min
-from milp_runs import milp_solver, solve_milp
 
 ETAS = [1, 2, 3, 4, 5]
 MUS = [0.3, 0.5, 0.65, 0.8, 1.0, 1.2, 1.5]

@@ -9,13 +9,13 @@ these checks."""
 import numpy as np
 import pytest
 import scipy.sparse as sp
+from milp_runs import milp_solver, solve_milp
 
 import blockmpec as bm
 from blockmpec.deadline import Deadline
 from blockmpec.solvers.engines.complementarity_bnb import INTERIOR_SOLVER, NULL_SPACE_IPM_TOL, dual_bound
 from blockmpec.solvers.engines.highs import highs_lp, new_highs, set_feasibility_tolerances, use_interior_point
 from helpers import CERTIFIED_TOL, margin
-from milp_runs import milp_solver, solve_milp
 
 pytest.importorskip("highspy")
 

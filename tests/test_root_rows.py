@@ -6,11 +6,11 @@ certified minimum, and the certified values are those of ``root_lp="ipm"``."""
 import numpy as np
 import pytest
 import scipy.sparse as sp
+from milp_runs import milp_solver, solve_milp
 
 import blockmpec as bm
 from blockmpec.deadline import Deadline
 from helpers import CERTIFIED_TOL, margin
-from milp_runs import milp_solver, solve_milp
 
 WALLS = {"2x2": (2, 2), "3x2": (3, 2)}
 

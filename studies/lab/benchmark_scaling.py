@@ -64,11 +64,11 @@ import blockmpec as bm
 
 # sibling studies (this script's folder is sys.path[0] when run as a script)
 sys.path[:0] = [str(Path(__file__).resolve().parent), str(Path(__file__).resolve().parents[1] / "_common")]
+from _methods import solve  # noqa: E402
 from _tables import fmt as _fmt  # noqa: E402
 from _tables import markdown, peak_memory_mb, write_csv  # noqa: E402
 from _walls import wall_for  # noqa: E402
 from milp_scaling import run_case  # noqa: E402
-from _methods import solve  # noqa: E402
 
 OUT = Path(__file__).resolve().parents[1] / "output" / "benchmark_scaling"
 FAMILIES = ("wall", "arch")
@@ -151,8 +151,7 @@ def child_scaling(spec: dict) -> None:
     """Measure one size of one family (see the module docstring); prints JSON lines."""
     import gc
 
-    from blockmpec.formulations import compile_linear, static_lp
-    from blockmpec.formulations import pause_gc
+    from blockmpec.formulations import compile_linear, pause_gc, static_lp
 
     row: dict = {"family": spec["family"], "target_blocks": spec["n"], "baseline_memory_mb": peak_memory_mb()}
     t0 = time.perf_counter()

@@ -75,8 +75,9 @@ import scipy.sparse.linalg as spla
 from threadpoolctl import threadpool_limits
 
 import blockmpec as bm
-from blockmpec.formulations import compile_linear, static_lp
-from blockmpec.formulations import pause_gc
+from blockmpec.formulations import compile_linear, pause_gc, static_lp
+from blockmpec.solvers.engines.lp_engine import cold_lp_engine
+from blockmpec.solvers.engines.scaling import LoadUnits
 from blockmpec.solvers.linalg.block_ipm import IPMIterate, compiled_kernels_available
 from blockmpec.solvers.linalg.cholesky import (
     SupernodalCholesky,
@@ -84,8 +85,6 @@ from blockmpec.solvers.linalg.cholesky import (
     metis_available,
     structural_pattern,
 )
-from blockmpec.solvers.engines.lp_engine import cold_lp_engine
-from blockmpec.solvers.engines.scaling import LoadUnits
 
 sys.path[:0] = [str(Path(__file__).resolve().parent), str(Path(__file__).resolve().parents[1] / "_common")]
 from _tables import write_csv  # noqa: E402

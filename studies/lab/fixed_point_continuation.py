@@ -92,8 +92,8 @@ from pathlib import Path
 import numpy as np
 
 import blockmpec as bm
-from blockmpec.solvers.linalg.block_ipm import BlockIPM, IPMIterate
 from blockmpec.solvers.engines.interior_fixed_point import InteriorFixedPoint, continue_central_path
+from blockmpec.solvers.linalg.block_ipm import BlockIPM, IPMIterate
 
 sys.path[:0] = [str(Path(__file__).resolve().parent), str(Path(__file__).resolve().parents[1] / "_common")]
 from _tables import markdown, write_csv  # noqa: E402

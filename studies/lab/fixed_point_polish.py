@@ -101,9 +101,9 @@ def main(argv: list[str] | None = None) -> list[dict]:
     from blockmpec.deadline import Deadline
     from blockmpec.formulations import compile_mcp, step_lps
     from blockmpec.solvers.engines.highs import static_lp_solution
-    from blockmpec.solvers.engines.scaling import LoadUnits
     from blockmpec.solvers.engines.interior_fixed_point import InteriorFixedPoint
     from blockmpec.solvers.engines.newton_system import MCPSystem, semismooth_newton
+    from blockmpec.solvers.engines.scaling import LoadUnits
 
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--wall", default="40x60", help="CxB: courses x blocks per course")

@@ -40,8 +40,8 @@ import blockmpec as bm
 from blockmpec.cli import parse_pairs
 
 sys.path[:0] = [str(Path(__file__).resolve().parent), str(Path(__file__).resolve().parents[1] / "_common")]
-from _tables import markdown, peak_memory_mb, write_csv  # noqa: E402
 from _methods import configured  # noqa: E402
+from _tables import markdown, peak_memory_mb, write_csv  # noqa: E402
 from _walls import wall_or_size  # noqa: E402
 
 OUT = Path(__file__).resolve().parents[1] / "output" / "fixed_point_ratio"

@@ -48,18 +48,16 @@ import scipy.sparse as sp
 
 import blockmpec as bm
 from blockmpec.errors import OptionError
-from blockmpec.formulations import compile_linear, static_lp
-from blockmpec.formulations import pause_gc
+from blockmpec.formulations import compile_linear, pause_gc, static_lp
 from blockmpec.result import Status
 from blockmpec.solvers.engines.highs import LPOutcome
 from blockmpec.solvers.engines.lp_engine import cold_lp_engine
 
 sys.path[:0] = [str(Path(__file__).resolve().parent), str(Path(__file__).resolve().parents[1] / "_common")]
-from _clarabel import ClarabelProblem  # noqa: E402
-from _tables import peak_memory_mb, write_csv  # noqa: E402
 import _walls as walls  # noqa: E402
+from _clarabel import ClarabelProblem  # noqa: E402
 from _ipm_settings import named_settings  # noqa: E402
-
+from _tables import peak_memory_mb, write_csv  # noqa: E402
 
 OUT = Path(__file__).resolve().parents[1] / "output" / "lp_timing"
 

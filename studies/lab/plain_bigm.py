@@ -35,16 +35,16 @@ import numpy as np
 import scipy.sparse as sp
 
 import blockmpec as bm
+from blockmpec.deadline import Deadline
 from blockmpec.formulations import compile_mcp
 from blockmpec.formulations.mpec_milp import MixedIntegerMPEC
-from blockmpec.deadline import Deadline
 from blockmpec.operators import assemble
 from blockmpec.solvers.engines.mip import solve_highs
 
 sys.path[:0] = [str(Path(__file__).resolve().parent), str(Path(__file__).resolve().parents[1] / "_common")]
-from _tables import write_csv  # noqa: E402
 from _methods import solve  # noqa: E402
 from _tables import fmt as _fmt  # noqa: E402
+from _tables import write_csv  # noqa: E402
 from certificate_study import CONFIGS, case  # noqa: E402
 
 OUT = Path(__file__).resolve().parents[1] / "output" / "certificate"

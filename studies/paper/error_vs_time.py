@@ -21,8 +21,7 @@ from pathlib import Path
 
 import blockmpec as bm
 from blockmpec.bench.compare import compare, text_table
-from blockmpec.bench.plots import error_vs_time, method_style
-from blockmpec.bench.plots import plot_profiles
+from blockmpec.bench.plots import error_vs_time, method_style, plot_profiles
 from blockmpec.bench.profiles import summary_table, summary_text
 
 OUT = Path(__file__).resolve().parents[1] / "output" / "error_vs_time"
