@@ -95,7 +95,7 @@ def measure(label: str, structure: bm.Structure, time_limit: float, certificate:
 COLUMNS = [
     ("structure", "structure", "{}"), ("blocks", "free blocks", "{:d}"), ("non_convex", "non-convex", "{:d}"),
     ("interfaces", "interfaces", "{:d}"), ("static_lam", "static-lp λ", "{:.8g}"), ("static_s", "static-lp s", "{:.3g}"),
-    ("kinematic_s", "kinematic-lp s", "{:.3g}"), ("lp_rel_diff", "|Δλ| LPs", "{:.1e}"),
+    ("kinematic_s", "kinematic-lp s", "{:.3g}"), ("lp_rel_diff", "\\|Δλ\\| LPs", "{:.1e}"),
     ("fp_lam", "fixed-point λ", "{:.8g}"), ("fp_status", "fixed-point status", "{}"),
     ("fp_verified", "verified", "{}"), ("fp_below_lp", "λ_FP ≤ λ_LP", "{}"), ("fp_iterations", "iterations", "{}"),
     ("fp_s", "fixed-point s", "{:.3g}"), ("fp_over_lp", "FP/LP", "{:.3g}"),
