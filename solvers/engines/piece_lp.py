@@ -73,7 +73,7 @@ import scipy.sparse as sp
 
 from blockmpec.deadline import NEVER, Deadline
 from blockmpec.result import Status
-from blockmpec.solvers.engines.highs import highs_status, set_deadline
+from blockmpec.solvers.engines.highs import MECHANISM_FEASIBILITY_TOL, highs_status, set_deadline
 from blockmpec.solvers.plan import BLOCK_IPM_RULES, piece_lp_static_engine, piece_lp_whole_engine
 
 if TYPE_CHECKING:
@@ -525,8 +525,6 @@ DUAL_TOL = 1e-9
 IPM_DUAL_TOL = 1e-7
 #: static LP engines of the split pieces: HiGHS's dual simplex (a vertex, warm re-solves) or the block IPM
 STATIC_ENGINES = ("auto", "dual-simplex", "block-ipm")
-#: HiGHS's primal feasibility tolerance of the mechanism LPs of :class:`SplitPieces`
-KINEMATIC_FEASIBILITY_TOL = 1e-10
 #: mechanism cost of a pair whose static equality raises lam (its dual, relative to the largest such dual,
 #: times this, plus 1): a vertex then avoids those pairs where it can
 AVOID_WEIGHT = 1e3
@@ -592,7 +590,7 @@ class SplitPieces:
                                  row_scale=np.r_[row_scale[cp], row_scale[nm], 1.0], column_scale=column_scale[k_cols])
         # HiGHS's default primal feasibility tolerance (1e-7 in units) left the compatibility rows of the 2,032-block
         # wall's mechanism at 8.8e-7 relative in the verifier (tolerance 1e-6); 1e-10 there: 3e-11 (one run)
-        self.kinematic.highs.setOptionValue("primal_feasibility_tolerance", KINEMATIC_FEASIBILITY_TOL)
+        self.kinematic.highs.setOptionValue("primal_feasibility_tolerance", MECHANISM_FEASIBILITY_TOL)
         self.deadline = deadline
         self.lp_solves = 0
         self.lp_time_s = 0.0
