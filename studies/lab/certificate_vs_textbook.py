@@ -34,7 +34,6 @@ Writes ``studies/output/certificate_vs_textbook.csv`` and prints a markdown tabl
 from __future__ import annotations
 
 import argparse
-import csv
 import os
 import sys
 import time
@@ -49,6 +48,9 @@ from blockmpec.formulations.mpec_milp import MixedIntegerMPEC
 from blockmpec.solvers.engines.mip import solve_highs
 from blockmpec.solvers.milp import CERTIFICATE_TOL, MILPSettings, MILPSolver
 from blockmpec.verify import residuals
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "_common"))
+from _tables import write_csv  # noqa: E402
 
 OUT = Path(__file__).resolve().parents[1] / "output" / "certificate_vs_textbook.csv"
 COLUMNS = ["case", "blocks", "config", "status", "certified", "incumbent", "bound", "gap_rel", "nodes", "time_s",
@@ -176,15 +178,6 @@ def fmt(value) -> str:
     if isinstance(value, float):
         return f"{value:.7g}"
     return str(value)
-
-
-def write_csv(path: Path, rows: list[dict], columns: list[str]) -> Path:
-    path.parent.mkdir(parents=True, exist_ok=True)
-    with path.open("w", newline="") as fh:
-        writer = csv.DictWriter(fh, fieldnames=columns, extrasaction="ignore")
-        writer.writeheader()
-        writer.writerows(rows)
-    return path
 
 
 def main(argv: list[str] | None = None) -> int:
