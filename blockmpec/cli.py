@@ -165,12 +165,9 @@ def cmd_solve(args: argparse.Namespace) -> int:
 
 
 def _check_figure_format(path: Path) -> None:
-    import matplotlib
+    from matplotlib.backend_bases import FigureCanvasBase
 
-    matplotlib.use("Agg")
-    from matplotlib.figure import Figure
-
-    formats = Figure().canvas.get_supported_filetypes()
+    formats = FigureCanvasBase.get_supported_filetypes()
     suffix = path.suffix.lstrip(".").lower()
     if suffix not in formats:
         raise OptionError(f"--plot {path}: unknown figure format {path.suffix or '(no suffix)'!r}; "
@@ -178,21 +175,20 @@ def _check_figure_format(path: Path) -> None:
 
 
 def _plot_mechanism(structure: Any, result: Any, path: Path) -> None:
-    """The figure of ``solve --plot``: the mechanism (hinges, sliding joints) with its legend."""
-    import matplotlib.pyplot as plt
+    """The figure of ``solve --plot``: the mechanism (hinges, sliding joints) with its legend; a figure outside
+    pyplot, so no backend is chosen and nothing is left to close."""
+    from matplotlib.figure import Figure
 
     from blockmpec import plot
 
     x, y = structure.vertices[..., 0], structure.vertices[..., 1]
     aspect = float(y.max() - y.min()) / max(float(x.max() - x.min()), 1e-300)
-    fig, ax = plt.subplots(figsize=(9, max(2.5, min(9.0, 6.5 * aspect + 0.8))), layout="constrained")
-    plot.mechanism(result, structure, ax=ax)
+    fig = Figure(figsize=(9, max(2.5, min(9.0, 6.5 * aspect + 0.8))), layout="constrained")
+    plot.mechanism(result, structure, ax=fig.add_subplot())
     try:
         fig.savefig(path, dpi=150, bbox_inches="tight")
     except OSError as exc:
         raise OptionError(f"--plot {path}: cannot write ({exc.strerror or exc})") from None
-    finally:
-        plt.close(fig)
 
 
 def cmd_export(args: argparse.Namespace) -> int:
