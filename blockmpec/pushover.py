@@ -643,9 +643,9 @@ def pushover(
         deformed = _contact_structure(structure, vertices, contacts)
         ops = assemble(deformed)
         lonely = _lonely_block(structure, contacts)
-        retried, fall = "", None
-        if falling:  # just past an instability or after a snap: the proof first, it costs one small LP
-            fall = _dead_load_mechanism(ops)
+        retried, checked = "", falling
+        # just past an instability or after a snap: the proof that no lam holds first, it costs one small LP
+        fall = _dead_load_mechanism(ops) if checked else None
         if lonely is not None:  # it cannot stand: no solve (its equilibrium rows would read 0 = weight)
             res = Result(method=method, status=Status.INFEASIBLE, problem=problem,
                          message=f"block {lonely} touches no other block")
@@ -655,10 +655,11 @@ def pushover(
         else:
             res = solve(ops, method, verify_tol=verify_tol, **options)
         falling = False
-        if not res.success and rows and fall is None:
+        if not res.success and rows:
             # a mechanism on which the dead load works and the live load does not proves that no lam holds
             # this configuration (Farkas); without one, the method failed where a solution exists: retry
-            fall = _dead_load_mechanism(ops)
+            if not checked:
+                fall = _dead_load_mechanism(ops)
             for retry in RETRY_OPTIONS.get(method, ()) if fall is None else ():
                 if res.success or set(retry) & set(options):
                     continue
