@@ -122,9 +122,10 @@ def use_interior_point(highs, crossover: bool, solver: str = "ipx") -> None:
 #: 1e-9; lam 1.7e-7 and 1.1e-7 below the block IPM's, whose complementarity residual is 6.7e-10).
 FEASIBILITY_TOL = 1e-9
 
-#: The same for the mechanism LPs: the kinematic LP (2) and the split pieces' mechanism LPs.  At 1e-9 the kinematic
-#: LP of the 2,042-stone wall stopped 3.3e-8 from the block IPM's exact static LP (largest residual of (3) 1.1e-7,
-#: 46 s); at 1e-10 4.1e-9 (1.3e-8, 93 s).  The static LPs keep 1e-9.
+#: Feasibility tolerance of the mechanism LPs: the kinematic LP (2) (primal and dual) and the split pieces' mechanism
+#: LPs (primal; :mod:`~blockmpec.solvers.engines.piece_lp`).  At 1e-9 the kinematic LP of the 2,042-stone wall
+#: stopped 3.3e-8 from the block IPM's exact static LP (largest residual of (3) 1.1e-7, 46 s); at 1e-10 4.1e-9
+#: (1.3e-8, 93 s).  The static LPs keep 1e-9.
 MECHANISM_FEASIBILITY_TOL = 1e-10
 
 
