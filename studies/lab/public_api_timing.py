@@ -22,11 +22,14 @@ from __future__ import annotations
 
 import argparse
 import json
-import resource
+import sys
 import time
 from pathlib import Path
 
 import blockmpec as bm
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "_common"))
+from _tables import peak_memory_mb  # noqa: E402
 
 OUT = Path(__file__).resolve().parents[1] / "output" / "public_api_timing.jsonl"
 
@@ -41,7 +44,7 @@ def measure(label: str, courses: int, per_course: int, method: str) -> dict:
         "status": res.status.value, "lam": res.multiplier, "solve_s": res.solve_time_s, "build_s": res.build_time_s,
         "iterations": res.iterations, "cpu_s": time.process_time() - p0, "wall_s": time.perf_counter() - t0,
         "worker_cpu_s": res.extra.get("factor_worker_cpu_s"),
-        "peak_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024, "verified": bool(res.verified),
+        "peak_mb": peak_memory_mb(), "verified": bool(res.verified),
     }
 
 
