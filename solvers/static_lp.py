@@ -3,6 +3,16 @@
 The collapse mechanism comes from the duals (:func:`blockmpec.solvers.engines.highs.static_lp_solution`):
 ``u = -y_eq`` (equilibrium rows) and ``z = -y`` (inequality rows), which with
 HiGHS's sign convention gives ``E^T u + N_u z_u + N_f z_f = 0`` and ``f_l^T u = 1``.
+
+Fallback.  Under ``algorithm="auto"`` a block-IPM run that ends without a solution (``numerical``, ``error``,
+``iteration_limit``) is followed, in the time left, by HiGHS's interior point with crossover on the same LP: the
+answer is then HiGHS's, and the plan and the message name both.  Where the block IPM fails: stone walls with a
+friction coefficient of about 1 or more (``stone-wall``, 500-2,000 stones, ``mu`` 1.0 and 1.2: 7 of 12 walls,
+``studies/lab/stone_wall_self_stress.py``).  There, wedged stones admit *self-stress*: interface forces in
+equilibrium with no load (``E x = 0``) that satisfy every row of (1) and compress some interfaces (measured by
+``max -sum n`` over such states).  Adding any multiple of one to an optimal ``x`` keeps it optimal, so the optimal
+face is unbounded, the central path has no end point, and the interior iterates lose accuracy near the
+optimum; a simplex vertex is unaffected.  ``lam`` and the mechanism are unique as usual; the forces are not.
 """
 
 from __future__ import annotations
@@ -16,6 +26,9 @@ from blockmpec.options import CommonOptions
 from blockmpec.registry import register_solver
 from blockmpec.result import RunOutput, Solution, Status
 from blockmpec.solvers.plan import LP_ALGORITHMS
+
+#: block-IPM outcomes after which ``algorithm="auto"`` solves the LP again with HiGHS (module docstring)
+BLOCK_IPM_FAILURES = (Status.NUMERICAL, Status.ERROR, Status.ITERATION_LIMIT)
 
 
 @dataclass
@@ -83,12 +96,31 @@ class StaticLP(SolverBase):
             # the mechanism's z >= 0 are duals, held by HiGHS to its dual feasibility tolerance (FEASIBILITY_TOL)
             set_feasibility_tolerances(self.engine.highs)
 
+    def _highs_after_block_ipm(self, failed, deadline):
+        """HiGHS's interior point with crossover on the LP, after a block-IPM run ``failed`` (module docstring)."""
+        from blockmpec.solvers.engines.highs import HighsLP, set_feasibility_tolerances
+        from blockmpec.solvers.engines.scaling import LoadUnits
+
+        row_scale, column_scale = LoadUnits.of(self.ops).static(self.lp)
+        highs = HighsLP(self.lp, "ipm", row_scale=row_scale, column_scale=column_scale)
+        set_feasibility_tolerances(highs.highs)
+        out = highs.solve(deadline=deadline)
+        out.iterations += failed.iterations
+        out.message = (f"{out.message} (HiGHS's interior point with crossover, after the block IPM ended "
+                       f"{failed.status.value}: {failed.message})")
+        return out
+
     def run(self, deadline) -> RunOutput:
         from blockmpec.solvers.engines.block_lp import BlockLP
         from blockmpec.solvers.engines.highs import static_lp_solution
         from blockmpec.solvers.plan import describe_block_ipm
 
         out = self.engine.solve(deadline=deadline)
+        fell_back = (isinstance(self.engine, BlockLP) and self.options.algorithm == "auto"
+                     and out.status in BLOCK_IPM_FAILURES and not deadline.expired())
+        if fell_back:
+            block_ipm_status = out.status
+            out = self._highs_after_block_ipm(out, deadline)
         sol = static_lp_solution(self.lp, out) if out.status.is_success else Solution()
         message = out.message
         if out.status is Status.UNBOUNDED:
@@ -101,6 +133,8 @@ class StaticLP(SolverBase):
         extra: dict = {}
         if isinstance(self.engine, BlockLP):
             extra["plan"] = [f"static LP (1): {describe_block_ipm(self.engine)}"]
+            if fell_back:
+                extra["plan"] += [f"static LP (1): HiGHS ipm (the block IPM ended {block_ipm_status.value})"]
         else:
             extra["plan"] = [f"static LP (1): HiGHS {self.engine.last_algorithm}"]
         factoriser = getattr(self.engine, "_factoriser", None)

@@ -118,3 +118,56 @@ def test_cli_solves_a_stone_wall_with_the_fixed_point():
                        capture_output=True, text=True, timeout=300)
     assert p.returncode == 0, p.stderr
     assert "stone-wall: method=fixed-point" in p.stdout and "success=True" in p.stdout
+
+
+def _wedged_wall(stones, mu):
+    height = 0.3 * np.sqrt(stones / 2.0)
+    return bm.cases.stone_wall(width=2 * height, height=height, stone_size=0.3, irregularity=0.5, mu=mu)
+
+
+def _largest_self_stress(structure):
+    """max -sum n over forces in equilibrium with no load that satisfy every row of (1), -n_k <= 1 (HiGHS)."""
+    import scipy.sparse as sp
+    from scipy.optimize import linprog
+
+    ops = bm.assemble(structure)
+    columns = ops.E.shape[1]
+    interfaces = columns // 3
+    normal = sp.csr_array((np.ones(interfaces), (np.arange(interfaces), np.arange(1, columns, 3))),
+                          shape=(interfaces, columns))
+    A_ub = sp.vstack([ops.N_u.T, ops.N_f.T, -normal]).tocsr()
+    b_ub = np.r_[np.zeros(ops.N_u.shape[1] + ops.N_f.shape[1]), np.ones(interfaces)]
+    cost = np.zeros(columns)
+    cost[1::3] = 1.0
+    out = linprog(cost, A_ub=A_ub, b_ub=b_ub, A_eq=ops.E, b_eq=np.zeros(ops.E.shape[0]), bounds=(None, None),
+                  method="highs")
+    assert out.status == 0
+    return -out.fun
+
+
+def test_static_lp_falls_back_to_highs_where_self_stress_defeats_the_block_ipm():
+    # at mu 1 wedged stones carry a self-stress (none at 0.65): the optimal forces of (1) are unbounded, the block
+    # IPM has no end point and fails; auto then solves the LP with HiGHS, which agrees with HiGHS's simplex
+    assert _largest_self_stress(_wedged_wall(200, 0.65)) == pytest.approx(0.0, abs=1e-9)
+    wall = _wedged_wall(200, 1.0)
+    assert _largest_self_stress(wall) > 1.0
+    alone = bm.solve(wall, "static-lp", algorithm="block-ipm")
+    assert alone.status is bm.Status.NUMERICAL, "the block IPM alone now solves this wall: pick one where it fails"
+    auto = bm.solve(wall, "static-lp")
+    assert auto.success and auto.status is bm.Status.OPTIMAL
+    assert len(auto.extra["plan"]) == 2 and "HiGHS ipm (the block IPM ended numerical)" in auto.extra["plan"][1]
+    assert "after the block IPM ended numerical" in auto.message
+    simplex = bm.solve(wall, "static-lp", algorithm="dual-simplex")
+    assert auto.multiplier == pytest.approx(simplex.multiplier, rel=1e-8)
+    kinematic = bm.solve(wall, "kinematic-lp")
+    assert kinematic.multiplier == pytest.approx(auto.multiplier, rel=1e-6)
+
+
+@pytest.mark.slow
+def test_highs_retries_at_its_default_tolerances_after_a_solve_error():
+    # this wall's static LP ends kSolveError/kNotset by every HiGHS algorithm at the library's tolerance 1e-9
+    wall = _wedged_wall(300, 1.2)
+    res = bm.solve(wall, "static-lp", algorithm="dual-simplex")
+    assert "HiGHS ended" in res.message and "its default 1e-07" in res.message
+    assert res.status is bm.Status.OPTIMAL and res.success  # verified: residuals of (1) within 1e-6
+    assert res.multiplier <= wall.friction + 1e-9  # no more than sliding the wall on its base

@@ -128,6 +128,10 @@ FEASIBILITY_TOL = 1e-9
 #: (1.3e-8, 93 s).  The static LPs keep 1e-9.
 MECHANISM_FEASIBILITY_TOL = 1e-10
 
+#: HiGHS's own primal and dual feasibility tolerance, which :meth:`HighsLP.solve` retries at after a solve error at
+#: tighter ones
+HIGHS_DEFAULT_FEASIBILITY_TOL = 1e-7
+
 
 def set_feasibility_tolerances(highs, tol: float = FEASIBILITY_TOL) -> None:
     """Set HiGHS's primal and dual feasibility tolerances of a ``highspy.Highs`` to ``tol`` (default
@@ -166,6 +170,12 @@ def highs_status(highs, interior_without_crossover: bool = False) -> tuple[Statu
     if interior_without_crossover and raw == "kUnknown" and has_feasible_point(highs, dual=True):
         return Status.OPTIMAL, raw
     return HIGHS_STATUS.get(raw, Status.ERROR), raw
+
+
+def _option_value(highs, name: str):
+    """A HiGHS option's value (highspy up to 1.15 returns ``(status, value)``, later ones the value)."""
+    value = highs.getOptionValue(name)
+    return value[1] if isinstance(value, tuple) else value
 
 
 def has_feasible_point(highs, dual: bool = False) -> bool:
@@ -373,6 +383,9 @@ class HighsLP:
         h.run()
         self._first = False
         status, raw = highs_status(h)
+        retried = ""
+        if status is Status.ERROR:
+            status, raw, retried = self._retry_at_default_tolerances(raw)
         info = h.getInfo()
         iterations = int(max(info.simplex_iteration_count, 0) + max(info.ipm_iteration_count, 0))
         sol = h.getSolution()
@@ -382,8 +395,32 @@ class HighsLP:
             v = np.full(self.lp.c.size, np.nan)
             y = np.full(self.lp.A.shape[0], np.nan)
         obj = float(info.objective_function_value) if status is Status.OPTIMAL else float("nan")
-        return LPOutcome(status, raw, obj, v, y, iterations, message=h.modelStatusToString(h.getModelStatus()),
+        return LPOutcome(status, raw, obj, v, y, iterations,
+                         message=h.modelStatusToString(h.getModelStatus()) + retried,
                          has_feasible_point=has_feasible_point(h))
+
+    def _retry_at_default_tolerances(self, raw: str) -> tuple[Status, str, str]:
+        """After a solve error (``kSolveError``, ``kNotset``) at feasibility tolerances tighter than HiGHS's own:
+        one run at :data:`HIGHS_DEFAULT_FEASIBILITY_TOL`, the tolerances then restored; ``(status, raw, note)``.
+
+        Measured: the static LP of a 304-stone ``stone-wall`` with ``mu`` 1.2, whose optimal forces are unbounded
+        (self-stress, see :mod:`blockmpec.solvers.static_lp`), ends ``kSolveError`` by every HiGHS algorithm at
+        1e-9 and ``kOptimal`` at 1e-7 (its kinematic LP alike); the verifier then judges the point."""
+        h = self.highs
+        names = ("primal_feasibility_tolerance", "dual_feasibility_tolerance")
+        tight = {name: float(_option_value(h, name)) for name in names}
+        if all(value >= HIGHS_DEFAULT_FEASIBILITY_TOL for value in tight.values()):
+            return Status.ERROR, raw, ""
+        set_feasibility_tolerances(h, HIGHS_DEFAULT_FEASIBILITY_TOL)
+        try:
+            h.run()
+        finally:
+            for name, value in tight.items():
+                h.setOptionValue(name, value)
+        status, retried_raw = highs_status(h)
+        note = (f" (at feasibility tolerances {max(tight.values()):g} HiGHS ended {raw}; this is its run at its "
+                f"default {HIGHS_DEFAULT_FEASIBILITY_TOL:g})")
+        return status, retried_raw, note
 
     def set_row_upper(self, rows: np.ndarray, upper: np.ndarray) -> None:
         """Change the upper bounds of ``rows`` (lower bounds kept)."""
