@@ -1,0 +1,133 @@
+"""The fixed point on irregular stone walls (issue 42): a damped sequence of interior-point LPs, then Newton on (3).
+
+``fixed-point`` does not verify on ``stone-wall`` from about 1,000 stones: its interior engine (Newton on (3))
+stalls with a relative complementarity of 0.1-1 and its central-path continuation does not converge, and the
+simplex engine's LP steps wander (``||n - n*|| / ||n||`` about 0.2 step after step).  This study measures a route
+that is not in the library:
+
+1. The paper's iteration with each step LP (5) solved by the block IPM (an optimal point of the LP's optimal face
+   near its analytic centre, not a vertex), damped: ``n* <- n* + relaxation (n - n*)``, from the associative
+   forces, until ``||n - n*|| / ||n|| <= --stop``.  Any fixed point of this map solves (3), as for the simplex steps.
+2. Newton on (3) (the interior engine's iteration) from the last LP's iterate, its slacks recomputed for (3) and
+   ``s, y`` raised by ``sqrt(f mu)`` for each ``f`` of ``--recentre``; then, if it stalls, the central-path
+   continuation from its best iterate.
+
+One row per stage: residual of (3) (the verifier's largest), ``lam``, iterations and seconds.
+
+Usage::
+
+    python studies/lab/fixed_point_irregular.py --stones 1000 --irregularity 0.5 --recentre 30,100,300
+    python studies/lab/fixed_point_irregular.py --stones 60 --stop 1e-3 --recentre 100      # seconds
+
+Writes ``studies/output/fixed_point_irregular/<stones>.csv``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+import blockmpec as bm
+from blockmpec.deadline import Deadline
+from blockmpec.formulations import step_lps
+from blockmpec.solvers.engines.highs import static_lp_solution
+from blockmpec.solvers.engines.interior_fixed_point import InteriorFixedPoint, continue_central_path
+from blockmpec.solvers.engines.lp_engine import cold_lp_engine
+from blockmpec.solvers.engines.scaling import LoadUnits
+from blockmpec.verify import residuals
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "_common"))
+from _tables import markdown, write_csv  # noqa: E402
+
+OUT = Path(__file__).resolve().parents[1] / "output" / "fixed_point_irregular"
+
+
+def residual_of_3(ops, lp, outcome) -> tuple[float, float]:
+    """(largest residual of (3), lam) of an outcome of the step LP (5) read as a point of (3)."""
+    solution = static_lp_solution(lp, outcome)
+    return max(residuals(ops, solution, associative=False).values()), solution.multiplier
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--stones", type=int, default=1000)
+    parser.add_argument("--irregularity", type=float, default=0.5)
+    parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--relaxation", type=float, default=0.3)
+    parser.add_argument("--stop", type=float, default=1e-2, help="end the LP sequence at this ||n - n*|| / ||n||")
+    parser.add_argument("--max-lps", type=int, default=400)
+    parser.add_argument("--recentre", default="100", help="comma-separated factors f (0: no recentring)")
+    parser.add_argument("--time-limit", type=float, default=300.0, help="seconds per Newton run and continuation")
+    args = parser.parse_args(argv)
+
+    height = 0.3 * math.sqrt(args.stones / 2.0)
+    wall = bm.cases.stone_wall(width=2 * height, height=height, stone_size=0.3, irregularity=args.irregularity,
+                               seed=args.seed)
+    ops = bm.assemble(wall)
+    lps = step_lps(ops, tie_break=False, associative=True)
+    units = LoadUnits.of(ops)
+    label = f"stone-wall {wall.n_blocks - 1} stones r={args.irregularity:g}"
+    rows = []
+
+    t0 = time.perf_counter()
+    associative = cold_lp_engine(lps.associative, "block-ipm", units).solve()
+    n_star = np.minimum(static_lp_solution(lps.associative, associative).x[1::3], 0.0)
+    sequence = InteriorFixedPoint(lps.step, lps.associative, units, coupling="fixed", tol=1e-9, max_iterations=200,
+                                  deadline=math.inf)
+    change, lps_solved = math.inf, 0
+    for lps_solved in range(1, args.max_lps + 1):
+        sequence.set_n_star(n_star)
+        sequence.best_error, sequence.best_iterate = np.inf, None
+        outcome = sequence.solve()
+        n = static_lp_solution(lps.step, outcome).x[1::3]
+        change = float(np.linalg.norm(n - n_star) / max(np.linalg.norm(n), 1e-300))
+        if change <= args.stop:
+            break
+        n_star = np.minimum(n_star + args.relaxation * (n - n_star), 0.0)
+    worst, lam = residual_of_3(ops, lps.step, outcome)
+    rows.append({"structure": label, "stage": f"LP sequence (relaxation {args.relaxation:g})", "n_change": change,
+                 "residual": worst, "lam": lam, "iterations": lps_solved, "seconds": time.perf_counter() - t0})
+    print(rows[-1], flush=True)
+
+    start = sequence.best_iterate
+    for factor in [float(f) for f in args.recentre.split(",")]:
+        newton = InteriorFixedPoint(lps.step, lps.associative, units, coupling="exact", tol=1e-9, max_iterations=300,
+                                    deadline=time.perf_counter() + args.time_limit)
+        z = start.copy()
+        mu = float(start.s @ start.y) / start.s.size
+        shift = max(math.sqrt(factor * mu), 1e-12)
+        z.s = np.maximum(newton.h - newton.G @ z.v, 0.0) + shift
+        z.y = z.y + shift
+        newton.start_iterate = z
+        t1 = time.perf_counter()
+        outcome = newton.solve()
+        best = newton.best_iterate
+        worst, lam = residual_of_3(ops, lps.step, newton.outcome_at(best))
+        rows.append({"structure": label, "stage": f"Newton on (3), f={factor:g}", "residual": worst, "lam": lam,
+                     "iterations": outcome.iterations, "seconds": time.perf_counter() - t1,
+                     "status": outcome.status.value})
+        print(rows[-1], flush=True)
+        if outcome.status.is_success:
+            continue
+        t1 = time.perf_counter()
+        end, info = continue_central_path(newton, best, tol=1e-9, deadline=Deadline(args.time_limit), max_steps=400)
+        worst, lam = residual_of_3(ops, lps.step, newton.outcome_at(end))
+        rows.append({"structure": label, "stage": f"  then continuation, f={factor:g}", "residual": worst, "lam": lam,
+                     "iterations": info["steps"], "seconds": time.perf_counter() - t1,
+                     "status": "verified" if worst <= 1e-6 else "not verified"})
+        print(rows[-1], flush=True)
+
+    print(markdown(rows, [("stage", "stage", "{}"), ("n_change", "n change", "{:.1e}"),
+                          ("residual", "largest residual of (3)", "{:.1e}"), ("lam", "lam", "{:.6f}"),
+                          ("iterations", "iterations", "{}"), ("seconds", "s", "{:.1f}"), ("status", "status", "{}")]))
+    write_csv(OUT / f"{args.stones}.csv", rows)
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
