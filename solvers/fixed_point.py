@@ -195,6 +195,10 @@ class FixedPointSettings:
         Interior engine: weight of the least-compressed aim term (0: none).
     interior_continuation : bool
         Interior engine: when the run stalls, follow its central path by arclength continuation.
+    interior_sequence : bool
+        Interior engine: when the run (and its continuation) still fails, the damped sequence of interior-point step
+        LPs, then Newton on (3) from near its fixed point
+        (:func:`~blockmpec.solvers.engines.interior_fixed_point.sequence_then_newton`).
     """
 
     fold_weight: float = 1e-4
@@ -203,6 +207,7 @@ class FixedPointSettings:
     algorithm: str = "auto"
     interior_weight: float = INTERIOR_AIM_WEIGHT
     interior_continuation: bool = True
+    interior_sequence: bool = True
 
     def __post_init__(self) -> None:
         from blockmpec.solvers.engines.lp_sequence import ACCELERATIONS
@@ -213,6 +218,7 @@ class FixedPointSettings:
         check.choice(self, "algorithm", plan.BASIS_ALGORITHMS)
         check.interval(self, "interior_weight", 0, 10, closed="both")
         check.boolean(self, "interior_continuation")
+        check.boolean(self, "interior_sequence")
 
 
 @register_solver
@@ -283,7 +289,7 @@ class FixedPoint(SolverBase):
         lps = self.interior_lps
         out, facts = run_interior(lps.step, lps.associative, self.units, tol=o.tol, max_iterations=o.max_iterations,
                                   deadline=deadline, fold_weight=st.interior_weight,
-                                  continuation=st.interior_continuation)
+                                  continuation=st.interior_continuation, sequence=st.interior_sequence)
         out.extra[fact_names.ENGINE] = "interior"
         out.extra["plan"] = [f"interior fixed point on (3): {facts.pop('plan', 'block IPM')}"]
         if o.engine != "auto" or not fallback or self._verified(out) or deadline.expired():

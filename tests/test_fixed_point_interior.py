@@ -308,3 +308,46 @@ def test_a_stalled_interior_run_is_continued_and_the_steps_are_traced():
     plain, plain_facts = run_interior(lps.step, lps.associative, units, tol=1e-17, max_iterations=60,
                                       deadline=Deadline(30.0), fold_weight=0.0, continuation=False)
     assert plain_facts["continuation_steps"] == 0 and len(plain.trace) < len(out.trace)
+
+
+def _stone_wall(stones, irregularity):
+    height = 0.3 * np.sqrt(stones / 2.0)
+    return bm.cases.stone_wall(width=2 * height, height=height, stone_size=0.3, irregularity=irregularity)
+
+
+def test_damped_interior_lp_steps_then_newton_reach_a_solution_of_3():
+    """The interior engine's last stage (:func:`sequence_then_newton`) on a 62-stone wall: damped interior-point
+    step LPs until ``||n - n*|| / ||n||`` reaches a checkpoint, then Newton on (3) from there; its point is a
+    solution of (3) by the shared verifier, not above the associative multiplier."""
+    from blockmpec.solvers.engines.highs import static_lp_solution
+    from blockmpec.solvers.engines.interior_fixed_point import sequence_then_newton
+    from blockmpec.verify import residuals
+
+    ops = bm.assemble(_stone_wall(60, 0.5))
+    lps = step_lps(ops, tie_break=False, associative=True)
+    traced = []
+    newton, out, facts = sequence_then_newton(lps.step, lps.associative, LoadUnits.of(ops), tol=1e-9, max_steps=200,
+                                              deadline=Deadline(120.0), record=lambda **v: traced.append(v))
+    assert out is not None and out.status is bm.Status.OPTIMAL
+    assert facts["sequence_lps"] > 1 and facts["sequence_newton_runs"] >= 1
+    assert facts["sequence_n_change"] <= 1e-2  # Newton started at a checkpoint
+    assert [v["stage"] for v in traced].count("sequence") == facts["sequence_lps"]
+    solution = static_lp_solution(lps.step, out)
+    assert max(residuals(ops, solution, associative=False).values()) <= VERIFY_TOL
+    assoc = bm.solve(ops, "static-lp").multiplier
+    assert solution.multiplier <= assoc * (1 + 1e-9)
+
+
+@pytest.mark.slow
+def test_irregular_wall_where_the_interior_run_stalls_is_solved_by_the_lp_steps_and_newton():
+    """517 stones (irregularity 0.7): Newton on (3) from Mehrotra's start stalls and its continuation does not
+    converge; the damped LP steps and Newton then give a verified solution of (3) below the associative
+    multiplier.  Without that stage (setting ``interior_sequence=False``) the run ends without one."""
+    wall = _stone_wall(500, 0.7)
+    res = bm.solve(wall, "fixed-point", verify_tol=VERIFY_TOL)
+    assert res.success and res.status is bm.Status.CONVERGED, res.message
+    assert res.extra["engine"] == "interior" and res.extra["sequence_lps"] > 0
+    assert "damped interior-point LP steps" in res.message
+    assert res.multiplier <= bm.solve(wall, "static-lp").multiplier * (1 + 1e-9)
+    without = solve_with(wall, "fixed-point", {"interior_sequence": False}, engine="interior")
+    assert not without.success and without.extra["sequence_lps"] == 0

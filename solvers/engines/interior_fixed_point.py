@@ -163,6 +163,15 @@ FOLD_OFF = 1e-9
 CONTINUATION_STEPS = 3000
 CORRECTOR_TOL = 0.3
 CONTINUATION_MU_RISE = 1e3
+#: the damped sequence of interior-point step LPs (:func:`sequence_then_newton`): its relaxation ``omega``, the first
+#: and the last checkpoint of ``||n - n*|| / ||n||`` (halved after each) at which Newton on (3) is tried, and the
+#: recentring factors ``f`` of those Newton runs, in the order tried (``studies/lab/fixed_point_irregular.py``)
+SEQUENCE_RELAXATION = 0.3
+SEQUENCE_FIRST_CHECKPOINT = 1e-2
+SEQUENCE_LAST_CHECKPOINT = 1e-4
+SEQUENCE_RECENTRING = (10.0, 30.0, 100.0)
+#: most iterations of each of those Newton runs (they took 20-30 where they converged)
+SEQUENCE_NEWTON_ITERATIONS = 300
 
 
 class InteriorFixedPoint(BlockLP):
@@ -423,8 +432,83 @@ def continue_central_path(engine: InteriorFixedPoint, start: IPMIterate, *, tol:
     return z, {"steps": steps, "factorisations": factorisations, "mu": mu}
 
 
+def sequence_then_newton(lp, coulomb_lp, units, *, tol: float, max_steps: int, deadline: Deadline = NEVER,
+                         ordering: str = "auto", record=None):
+    r"""The paper's iteration with interior-point step LPs, damped, then Newton on (3) from near its fixed point.
+
+    1. ``n*`` starts at the associative forces (the static LP (1) by the block IPM).  Each step solves the step
+       LP (5) at ``n*`` by the block IPM (:class:`InteriorFixedPoint` with ``coupling="fixed"``: an optimal point
+       near the analytic centre of the optimal face, not a vertex), giving ``n``; then
+       ``n* <- min(n* + omega (n - n*), 0)`` (:data:`SEQUENCE_RELAXATION`).  A fixed point of this map solves (3),
+       as one of the simplex steps does.
+    2. When ``||n - n*|| / ||n||`` first falls to a checkpoint (:data:`SEQUENCE_FIRST_CHECKPOINT`, then half of it
+       ..., down to :data:`SEQUENCE_LAST_CHECKPOINT`), Newton on (3) (``coupling="exact"``) starts from the step
+       LP's iterate: its slacks ``s = h - G_phi v`` of (3), and ``s, y`` both raised by ``sqrt(f mu)`` for each
+       ``f`` of :data:`SEQUENCE_RECENTRING` in turn (``mu`` the LP iterate's).  The first run whose residuals of
+       (3) reach ``tol`` ends the stage.
+
+    Why: on irregular stone walls from ~500 stones, Newton on (3) from Mehrotra's start stalls (relative
+    complementarity 0.01-1) and the central path through the stalled point does not lead to a solution;
+    the simplex steps jump between optimal vertices (``||n - n*|| / ||n||`` ~ 0.2 step after step).  The damped
+    interior-point steps converge, slowly (linearly); close to their fixed point Newton converges in 20-30
+    iterations (``studies/lab/fixed_point_irregular.py``; 516 stones: 38 LPs; 1,005 stones: 125 LPs).
+
+    ``record(stage=..., ...)`` is called after every LP step and every Newton run.  Returns
+    ``(engine, outcome, facts)``: the Newton engine and its outcome on success, else ``(None, None, facts)``;
+    facts: ``sequence_lps``, ``sequence_newton_runs``, ``sequence_n_change`` (the last).
+    """
+    from blockmpec.result import Status
+    from blockmpec.solvers.engines.highs import static_lp_solution
+    from blockmpec.solvers.engines.lp_engine import cold_lp_engine
+
+    facts = {"sequence_lps": 0, "sequence_newton_runs": 0, "sequence_n_change": float("nan")}
+    start = cold_lp_engine(coulomb_lp, "block-ipm", units).solve(deadline)
+    if not start.status.is_success:
+        return None, None, facts
+    n_star = np.minimum(static_lp_solution(coulomb_lp, start).x[1::3], 0.0)
+    steps = InteriorFixedPoint(lp, coulomb_lp, units, coupling="fixed", tol=tol, deadline=deadline.end,
+                               ordering=ordering)
+    checkpoint = SEQUENCE_FIRST_CHECKPOINT
+    while facts["sequence_lps"] < max_steps and checkpoint >= SEQUENCE_LAST_CHECKPOINT and not deadline.expired():
+        steps.set_n_star(n_star)
+        steps.best_error, steps.best_iterate = np.inf, None
+        out = steps.solve()
+        facts["sequence_lps"] += 1
+        if not out.status.is_success:
+            break
+        n = steps.normal_forces(steps.best_iterate)
+        change = float(np.linalg.norm(n - n_star)) / max(float(np.linalg.norm(n)), 1e-300)
+        facts["sequence_n_change"] = change
+        if record is not None:
+            record(stage="sequence", n_change=change, multiplier=float(static_lp_solution(lp, out).multiplier))
+        iterate, n_star = steps.best_iterate, np.minimum(n_star + SEQUENCE_RELAXATION * (n - n_star), 0.0)
+        if change > checkpoint:
+            continue
+        checkpoint /= 2.0
+        mu = float(iterate.s @ iterate.y) / iterate.s.size
+        for factor in SEQUENCE_RECENTRING:
+            if deadline.expired():
+                break
+            newton = InteriorFixedPoint(lp, coulomb_lp, units, tol=tol, max_iterations=SEQUENCE_NEWTON_ITERATIONS,
+                                        deadline=deadline.end, ordering=ordering)
+            shift = max(np.sqrt(factor * mu), 1e-12)
+            z = iterate.copy()
+            z.s = np.maximum(newton.h - newton.G @ z.v, 0.0) + shift
+            z.y = z.y + shift
+            newton.start_iterate = z
+            ended = newton.solve()
+            facts["sequence_newton_runs"] += 1
+            if record is not None:
+                record(stage="sequence newton", recentring=factor, newton_iterations=ended.iterations,
+                       kkt_residual=newton.best_error)
+            if ended.status is Status.OPTIMAL:
+                return newton, ended, facts
+    return None, None, facts
+
+
 def run_interior(lp, coulomb_lp, units, *, tol: float, max_iterations: int, deadline: Deadline = NEVER,
-                 fold_weight: float, fold_off: float = FOLD_OFF, ordering: str = "auto", continuation: bool = True):
+                 fold_weight: float, fold_off: float = FOLD_OFF, ordering: str = "auto", continuation: bool = True,
+                 sequence: bool = True):
     r"""The interior-point fixed point on the compiled step LP ``lp``: ``(RunOutput, facts)``.
 
     ``coulomb_lp`` and ``units`` as for :class:`InteriorFixedPoint`; ``deadline``: the run's.
@@ -489,10 +573,25 @@ def run_interior(lp, coulomb_lp, units, *, tol: float, max_iterations: int, dead
         continued["iterations"] = out.iterations  # of the stalled run
         if ended.status is Status.OPTIMAL:
             out = ended
+    sequenced = None
+    if (sequence and out is not None and out.status not in (Status.OPTIMAL, Status.TIME_LIMIT)
+            and crit.remaining() > 0):
+        t0 = time.perf_counter()
+
+        def record_step(**values):
+            crit.iterations += 1
+            crit.record(fold_weight=0.0, **values)
+
+        newton, ended, sequenced = sequence_then_newton(lp, coulomb_lp, units, tol=tol, max_steps=max_iterations,
+                                                        deadline=deadline, ordering=ordering, record=record_step)
+        seconds += time.perf_counter() - t0
+        if ended is not None:
+            out, engine = ended, newton
     facts = {fact_names.LP_SOLVES: runs, fact_names.LP_TIME_S: {"interior": round(seconds, 6)},
              "fold_weight_used": engine.fold_weight if engine is not None else None,
              "continuation_steps": continued["steps"] if continued else 0,
-             "continuation_factorisations": continued["factorisations"] if continued else 0}
+             "continuation_factorisations": continued["factorisations"] if continued else 0,
+             **(sequenced or {"sequence_lps": 0, "sequence_newton_runs": 0})}
     if engine is not None and engine._factoriser is not None:
         facts["plan"] = describe_block_ipm(engine)
     if out is None:
@@ -508,10 +607,18 @@ def run_interior(lp, coulomb_lp, units, *, tol: float, max_iterations: int, dead
     iterations = out.iterations if continued is None else continued["iterations"]
     message = out.message if status is not Status.CONVERGED else (
         f"interior-point fixed point: residuals of (3) {error:.1e} <= {tol:g} after {iterations} iterations")
-    if continued is not None:
+    if sequenced is not None and status is Status.CONVERGED:
+        message = (f"interior-point fixed point: residuals of (3) {error:.1e} <= {tol:g} by Newton on (3) after "
+                   f"{sequenced['sequence_lps']} damped interior-point LP steps (||n - n*||/||n|| = "
+                   f"{sequenced['sequence_n_change']:.1e}); the interior run from Mehrotra's start stalled")
+    elif continued is not None:
         message += (f" (the interior run stalled there; continuation of its central path: {continued['steps']} "
                     f"steps to mu {continued['mu']:.1e}{'' if status is Status.CONVERGED else ', not converged'})")
-    if runs > 1:
+    if sequenced is not None and status is not Status.CONVERGED:
+        message += (f" (then {sequenced['sequence_lps']} damped interior-point LP steps to ||n - n*||/||n|| = "
+                    f"{sequenced['sequence_n_change']:.1e} and {sequenced['sequence_newton_runs']} Newton runs on (3): "
+                    "none reached a solution of (3))")
+    if runs > 1 and not (sequenced is not None and status is Status.CONVERGED):
         message += " (second run, without the aim term: the first one failed)"
     return RunOutput(status, sol, crit.iterations, crit.trace, message, out.raw_status, extra=facts), facts
 
