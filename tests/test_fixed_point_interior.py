@@ -298,7 +298,7 @@ def test_a_stalled_interior_run_is_continued_and_the_steps_are_traced():
     lps = _lps(ops)
     units = LoadUnits.of(ops)
     out, facts = run_interior(lps.step, lps.associative, units, tol=1e-17, max_iterations=60, deadline=Deadline(30.0),
-                              fold_weight=0.0)
+                              fold_weight=0.0, sequence=False)
     assert out.status is not bm.Status.CONVERGED
     assert facts["continuation_steps"] > 0
     traced = [rec for rec in out.trace if rec.get("stage") == "continuation"]
@@ -306,7 +306,7 @@ def test_a_stalled_interior_run_is_continued_and_the_steps_are_traced():
     assert [rec["iteration"] for rec in out.trace] == list(range(1, len(out.trace) + 1))
     assert "continuation" in out.message
     plain, plain_facts = run_interior(lps.step, lps.associative, units, tol=1e-17, max_iterations=60,
-                                      deadline=Deadline(30.0), fold_weight=0.0, continuation=False)
+                                      deadline=Deadline(30.0), fold_weight=0.0, continuation=False, sequence=False)
     assert plain_facts["continuation_steps"] == 0 and len(plain.trace) < len(out.trace)
 
 

@@ -453,15 +453,21 @@ def sequence_then_newton(lp, coulomb_lp, units, *, tol: float, max_steps: int, d
     interior-point steps converge, slowly (linearly); close to their fixed point Newton converges in 20-30
     iterations (``studies/lab/fixed_point_irregular.py``; 516 stones: 38 LPs; 1,005 stones: 125 LPs).
 
+    The steps stop when their smallest ``||n - n*|| / ||n||`` has not halved in
+    :data:`~blockmpec.solvers.plan.FIXED_POINT_STALL_STEPS` steps (the simplex steps' rule; on the 2,042-stone wall
+    they hovered at 0.07-0.12 from step 40 to 90).
+
     ``record(stage=..., ...)`` is called after every LP step and every Newton run.  Returns
     ``(engine, outcome, facts)``: the Newton engine and its outcome on success, else ``(None, None, facts)``;
-    facts: ``sequence_lps``, ``sequence_newton_runs``, ``sequence_n_change`` (the last).
+    facts: ``sequence_lps``, ``sequence_newton_runs``, ``sequence_n_change`` (the last), ``sequence_stalled``.
     """
     from blockmpec.result import Status
     from blockmpec.solvers.engines.highs import static_lp_solution
     from blockmpec.solvers.engines.lp_engine import cold_lp_engine
+    from blockmpec.solvers.plan import FIXED_POINT_STALL_STEPS
 
-    facts = {"sequence_lps": 0, "sequence_newton_runs": 0, "sequence_n_change": float("nan")}
+    facts = {"sequence_lps": 0, "sequence_newton_runs": 0, "sequence_n_change": float("nan"),
+             "sequence_stalled": False}
     start = cold_lp_engine(coulomb_lp, "block-ipm", units).solve(deadline)
     if not start.status.is_success:
         return None, None, facts
@@ -469,7 +475,11 @@ def sequence_then_newton(lp, coulomb_lp, units, *, tol: float, max_steps: int, d
     steps = InteriorFixedPoint(lp, coulomb_lp, units, coupling="fixed", tol=tol, deadline=deadline.end,
                                ordering=ordering)
     checkpoint = SEQUENCE_FIRST_CHECKPOINT
+    smallest, smallest_at = np.inf, 0  # the stall rule: the smallest change must halve within FIXED_POINT_STALL_STEPS
     while facts["sequence_lps"] < max_steps and checkpoint >= SEQUENCE_LAST_CHECKPOINT and not deadline.expired():
+        if facts["sequence_lps"] - smallest_at >= FIXED_POINT_STALL_STEPS:
+            facts["sequence_stalled"] = True
+            break
         steps.set_n_star(n_star)
         steps.best_error, steps.best_iterate = np.inf, None
         out = steps.solve()
@@ -479,6 +489,8 @@ def sequence_then_newton(lp, coulomb_lp, units, *, tol: float, max_steps: int, d
         n = steps.normal_forces(steps.best_iterate)
         change = float(np.linalg.norm(n - n_star)) / max(float(np.linalg.norm(n)), 1e-300)
         facts["sequence_n_change"] = change
+        if change <= 0.5 * smallest:
+            smallest, smallest_at = change, facts["sequence_lps"]
         if record is not None:
             record(stage="sequence", n_change=change, multiplier=float(static_lp_solution(lp, out).multiplier))
         iterate, n_star = steps.best_iterate, np.minimum(n_star + SEQUENCE_RELAXATION * (n - n_star), 0.0)
@@ -518,8 +530,10 @@ def run_interior(lp, coulomb_lp, units, *, tol: float, max_iterations: int, dead
     run without the aim term in the time left.  If the last run stalls (neither ``OPTIMAL``
     nor out of time or iterations) and ``continuation``, :func:`continue_central_path` follows
     the central path from its best iterate in the time and iterations left (its steps count as
-    iterations); its end is taken when its residuals of (3) are at most ``tol``.  A :class:`~blockmpec.solvers.engines.stopping.StoppingCriterion`
-    records every iteration and continuation step (``kkt_residual`` = max of the relative
+    iterations); its end is taken when its residuals of (3) are at most ``tol``.  If that fails too and
+    ``sequence``, :func:`sequence_then_newton` runs in the time and iterations left (each LP step and each Newton
+    run counts as one iteration).  A :class:`~blockmpec.solvers.engines.stopping.StoppingCriterion`
+    records every iteration, continuation step and sequence step (``kkt_residual`` = max of the relative
     primal, dual and complementarity residuals of (3)) and the final test ``kkt_residual <= tol``.
 
     Returns
@@ -575,14 +589,15 @@ def run_interior(lp, coulomb_lp, units, *, tol: float, max_iterations: int, dead
             out = ended
     sequenced = None
     if (sequence and out is not None and out.status not in (Status.OPTIMAL, Status.TIME_LIMIT)
-            and crit.remaining() > 0):
+            and crit.remaining() > 0 and crit.iterations < max_iterations):
         t0 = time.perf_counter()
 
         def record_step(**values):
             crit.iterations += 1
             crit.record(fold_weight=0.0, **values)
 
-        newton, ended, sequenced = sequence_then_newton(lp, coulomb_lp, units, tol=tol, max_steps=max_iterations,
+        newton, ended, sequenced = sequence_then_newton(lp, coulomb_lp, units, tol=tol,
+                                                        max_steps=max_iterations - crit.iterations,
                                                         deadline=deadline, ordering=ordering, record=record_step)
         seconds += time.perf_counter() - t0
         if ended is not None:
@@ -591,7 +606,7 @@ def run_interior(lp, coulomb_lp, units, *, tol: float, max_iterations: int, dead
              "fold_weight_used": engine.fold_weight if engine is not None else None,
              "continuation_steps": continued["steps"] if continued else 0,
              "continuation_factorisations": continued["factorisations"] if continued else 0,
-             **(sequenced or {"sequence_lps": 0, "sequence_newton_runs": 0})}
+             **(sequenced or {"sequence_lps": 0, "sequence_newton_runs": 0, "sequence_stalled": False})}
     if engine is not None and engine._factoriser is not None:
         facts["plan"] = describe_block_ipm(engine)
     if out is None:
@@ -616,8 +631,8 @@ def run_interior(lp, coulomb_lp, units, *, tol: float, max_iterations: int, dead
                     f"steps to mu {continued['mu']:.1e}{'' if status is Status.CONVERGED else ', not converged'})")
     if sequenced is not None and status is not Status.CONVERGED:
         message += (f" (then {sequenced['sequence_lps']} damped interior-point LP steps to ||n - n*||/||n|| = "
-                    f"{sequenced['sequence_n_change']:.1e} and {sequenced['sequence_newton_runs']} Newton runs on (3): "
-                    "none reached a solution of (3))")
+                    f"{sequenced['sequence_n_change']:.1e}{' (stalled)' if sequenced['sequence_stalled'] else ''} and "
+                    f"{sequenced['sequence_newton_runs']} Newton runs on (3): none reached a solution of (3))")
     if runs > 1 and not (sequenced is not None and status is Status.CONVERGED):
         message += " (second run, without the aim term: the first one failed)"
     return RunOutput(status, sol, crit.iterations, crit.trace, message, out.raw_status, extra=facts), facts

@@ -1,22 +1,23 @@
 """The fixed point on irregular stone walls (issue 42): a damped sequence of interior-point LPs, then Newton on (3).
 
-``fixed-point`` does not verify on ``stone-wall`` from about 1,000 stones: its interior engine (Newton on (3))
-stalls with a relative complementarity of 0.1-1 and its central-path continuation does not converge, and the
-simplex engine's LP steps wander (``||n - n*|| / ||n||`` about 0.2 step after step).  This study measures a route
-that is not in the library:
+``fixed-point``'s interior engine (Newton on (3) from Mehrotra's start) stalls on ``stone-wall`` from about 500
+stones, with a relative complementarity of 0.01-1, and its central-path continuation does not converge; the simplex
+engine's LP steps jump between optimal vertices (``||n - n*|| / ||n||`` about 0.2 step after step).  This study
+measures the stage that the interior engine now runs last
+(:func:`blockmpec.solvers.engines.interior_fixed_point.sequence_then_newton`), with its knobs exposed:
 
-1. The paper's iteration with each step LP (5) solved by the block IPM (an optimal point of the LP's optimal face
-   near its analytic centre, not a vertex), damped: ``n* <- n* + relaxation (n - n*)``, from the associative
-   forces, until ``||n - n*|| / ||n|| <= --stop``.  Any fixed point of this map solves (3), as for the simplex steps.
-2. Newton on (3) (the interior engine's iteration) from the last LP's iterate, its slacks recomputed for (3) and
-   ``s, y`` raised by ``sqrt(f mu)`` for each ``f`` of ``--recentre``; then, if it stalls, the central-path
-   continuation from its best iterate.
+1. The paper's iteration with each step LP (5) solved by the block IPM (an optimal point near the analytic centre of
+   the optimal face, not a vertex), damped: ``n* <- n* + relaxation (n - n*)``, from the associative forces.  Any
+   fixed point of this map solves (3), as for the simplex steps.
+2. At checkpoints of ``||n - n*|| / ||n||`` (``--stop``, then half of it ..., down to ``--last-checkpoint``),
+   Newton on (3) from the last LP's iterate, its slacks recomputed for (3) and ``s, y`` raised by ``sqrt(f mu)``
+   for each ``f`` of ``--recentre`` in turn, until one run reaches a solution of (3).
 
-One row per stage: residual of (3) (the verifier's largest), ``lam``, iterations and seconds.
+One row per checkpoint and per Newton run: the largest residual of (3) (the verifier's), ``lam``, iterations, seconds.
 
 Usage::
 
-    python studies/lab/fixed_point_irregular.py --stones 1000 --irregularity 0.5 --recentre 30,100,300
+    python studies/lab/fixed_point_irregular.py --stones 1000 --irregularity 0.5
     python studies/lab/fixed_point_irregular.py --stones 60 --stop 1e-3 --recentre 100      # seconds
 
 Writes ``studies/output/fixed_point_irregular/<stones>.csv``.
@@ -62,6 +63,8 @@ def main(argv=None) -> int:
                         help="first checkpoint: try Newton when ||n - n*|| / ||n|| is below it, then at half of it ...")
     parser.add_argument("--last-checkpoint", type=float, default=1e-4, help="stop after this checkpoint")
     parser.add_argument("--max-lps", type=int, default=400)
+    parser.add_argument("--lp-tol-factor", type=float, default=0.0,
+                        help="solve each step LP to tolerance factor * the last ||n - n*||/||n|| (0: 1e-9)")
     parser.add_argument("--recentre", default="10,30,100", help="comma-separated factors f, tried in this order")
     parser.add_argument("--time-limit", type=float, default=300.0, help="seconds per Newton run")
     args = parser.parse_args(argv)
@@ -81,13 +84,18 @@ def main(argv=None) -> int:
     sequence = InteriorFixedPoint(lps.step, lps.associative, units, coupling="fixed", tol=1e-9, max_iterations=200,
                                   deadline=math.inf)
     checkpoint, factors, verified = args.stop, [float(f) for f in args.recentre.split(",")], False
+    change = math.inf
     for lps_solved in range(1, args.max_lps + 1):
+        if args.lp_tol_factor > 0:
+            sequence.tol = min(1e-4, max(1e-9, args.lp_tol_factor * change))
         sequence.set_n_star(n_star)
         sequence.best_error, sequence.best_iterate = np.inf, None
         outcome = sequence.solve()
         n = static_lp_solution(lps.step, outcome).x[1::3]
         change = float(np.linalg.norm(n - n_star) / max(np.linalg.norm(n), 1e-300))
         n_star = np.minimum(n_star + args.relaxation * (n - n_star), 0.0)
+        if lps_solved % 10 == 0:
+            print(f"LP {lps_solved}: ||n - n*||/||n|| = {change:.2e}, {time.perf_counter() - t0:.1f} s", flush=True)
         if change > checkpoint:
             continue
         checkpoint /= 2.0
