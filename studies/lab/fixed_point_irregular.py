@@ -63,6 +63,8 @@ def main(argv=None) -> int:
                         help="first checkpoint: try Newton when ||n - n*|| / ||n|| is below it, then at half of it ...")
     parser.add_argument("--last-checkpoint", type=float, default=1e-4, help="stop after this checkpoint")
     parser.add_argument("--max-lps", type=int, default=400)
+    parser.add_argument("--aim", type=float, default=0.0,
+                        help="weight of the least-compressed aim term kept in every step LP (0: none)")
     parser.add_argument("--lp-tol-factor", type=float, default=0.0,
                         help="solve each step LP to tolerance factor * the last ||n - n*||/||n|| (0: 1e-9)")
     parser.add_argument("--recentre", default="10,30,100", help="comma-separated factors f, tried in this order")
@@ -82,7 +84,8 @@ def main(argv=None) -> int:
     associative = cold_lp_engine(lps.associative, "block-ipm", units).solve()
     n_star = np.minimum(static_lp_solution(lps.associative, associative).x[1::3], 0.0)
     sequence = InteriorFixedPoint(lps.step, lps.associative, units, coupling="fixed", tol=1e-9, max_iterations=200,
-                                  deadline=math.inf)
+                                  deadline=math.inf, fold_weight=args.aim)
+    sequence.keep_aim = args.aim > 0
     checkpoint, factors, verified = args.stop, [float(f) for f in args.recentre.split(",")], False
     change = math.inf
     for lps_solved in range(1, args.max_lps + 1):
