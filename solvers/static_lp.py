@@ -81,8 +81,6 @@ class StaticLP(SolverBase):
         from blockmpec.formulations import static_lp
         from blockmpec.formulations.pyomo_compile import compiled_linear
         from blockmpec.solvers.engines.block_lp import BlockLP
-        from blockmpec.solvers.engines.highs import HighsLP, set_feasibility_tolerances
-        from blockmpec.solvers.engines.lp_engine import cold_lp_engine
         from blockmpec.solvers.engines.scaling import LoadUnits
 
         processes = self.settings.factor_processes
@@ -91,22 +89,25 @@ class StaticLP(SolverBase):
                               f"{self.settings.factor_processes!r}")
         self.ops = ops
         self.lp = compiled_linear(static_lp, ops)  # cached per structure (content hash of ops)
-        self.engine = cold_lp_engine(self.lp, self.options.algorithm, LoadUnits.of(ops))
+        self.units = LoadUnits.of(ops)
+        self.engine = self._lp_engine(self.options.algorithm)
         if isinstance(self.engine, BlockLP):
             self.engine.settings(factor_processes=self.settings.factor_processes)
-        if isinstance(self.engine, HighsLP):
-            # the mechanism's z >= 0 are duals, held by HiGHS to its dual feasibility tolerance (FEASIBILITY_TOL)
-            set_feasibility_tolerances(self.engine.highs)
+
+    def _lp_engine(self, algorithm: str):
+        """The LP's engine for ``algorithm`` (:func:`~blockmpec.solvers.engines.lp_engine.cold_lp_engine`, in load
+        units); a HiGHS engine holds the mechanism's ``z >= 0`` (its duals) to FEASIBILITY_TOL."""
+        from blockmpec.solvers.engines.highs import HighsLP, set_feasibility_tolerances
+        from blockmpec.solvers.engines.lp_engine import cold_lp_engine
+
+        engine = cold_lp_engine(self.lp, algorithm, self.units)
+        if isinstance(engine, HighsLP):
+            set_feasibility_tolerances(engine.highs)
+        return engine
 
     def _highs_after_block_ipm(self, failed, deadline):
         """HiGHS's interior point with crossover on the LP, after a block-IPM run ``failed`` (module docstring)."""
-        from blockmpec.solvers.engines.highs import HighsLP, set_feasibility_tolerances
-        from blockmpec.solvers.engines.scaling import LoadUnits
-
-        row_scale, column_scale = LoadUnits.of(self.ops).static(self.lp)
-        highs = HighsLP(self.lp, "ipm", row_scale=row_scale, column_scale=column_scale)
-        set_feasibility_tolerances(highs.highs)
-        out = highs.solve(deadline=deadline)
+        out = self._lp_engine("ipm").solve(deadline=deadline)
         out.iterations += failed.iterations
         out.message = (f"{out.message} (HiGHS's interior point with crossover, after the block IPM ended "
                        f"{failed.status.value}: {failed.message})")

@@ -432,6 +432,18 @@ def continue_central_path(engine: InteriorFixedPoint, start: IPMIterate, *, tol:
     return z, {"steps": steps, "factorisations": factorisations, "mu": mu}
 
 
+def recentred_start(newton: InteriorFixedPoint, iterate: IPMIterate, factor: float) -> IPMIterate:
+    """Newton on (3)'s start from an iterate of the step LP (5) (the same internal units): ``v, w`` kept, the slacks
+    of (3) ``s = max(h - G_phi v, 0)``, and ``s, y`` both raised by ``sqrt(factor mu)`` (``mu`` the iterate's mean
+    complementarity product; at least 1e-12)."""
+    mu = float(iterate.s @ iterate.y) / iterate.s.size
+    shift = max(float(np.sqrt(factor * mu)), 1e-12)
+    start = iterate.copy()
+    start.s = np.maximum(newton.h - newton.G @ start.v, 0.0) + shift
+    start.y = start.y + shift
+    return start
+
+
 def sequence_then_newton(lp, coulomb_lp, units, *, tol: float, max_steps: int, deadline: Deadline = NEVER,
                          ordering: str = "auto", record=None):
     r"""The paper's iteration with interior-point step LPs, damped, then Newton on (3) from near its fixed point.
@@ -497,17 +509,12 @@ def sequence_then_newton(lp, coulomb_lp, units, *, tol: float, max_steps: int, d
         if change > checkpoint:
             continue
         checkpoint /= 2.0
-        mu = float(iterate.s @ iterate.y) / iterate.s.size
         for factor in SEQUENCE_RECENTRING:
             if deadline.expired():
                 break
             newton = InteriorFixedPoint(lp, coulomb_lp, units, tol=tol, max_iterations=SEQUENCE_NEWTON_ITERATIONS,
                                         deadline=deadline.end, ordering=ordering)
-            shift = max(np.sqrt(factor * mu), 1e-12)
-            z = iterate.copy()
-            z.s = np.maximum(newton.h - newton.G @ z.v, 0.0) + shift
-            z.y = z.y + shift
-            newton.start_iterate = z
+            newton.start_iterate = recentred_start(newton, iterate, factor)
             ended = newton.solve()
             facts["sequence_newton_runs"] += 1
             if record is not None:

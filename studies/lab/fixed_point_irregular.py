@@ -36,7 +36,7 @@ import numpy as np
 import blockmpec as bm
 from blockmpec.formulations import step_lps
 from blockmpec.solvers.engines.highs import static_lp_solution
-from blockmpec.solvers.engines.interior_fixed_point import InteriorFixedPoint
+from blockmpec.solvers.engines.interior_fixed_point import InteriorFixedPoint, recentred_start
 from blockmpec.solvers.engines.lp_engine import cold_lp_engine
 from blockmpec.solvers.engines.scaling import LoadUnits
 from blockmpec.verify import residuals
@@ -111,12 +111,7 @@ def main(argv=None) -> int:
         for factor in factors:
             newton = InteriorFixedPoint(lps.step, lps.associative, units, coupling="exact", tol=1e-9,
                                         max_iterations=300, deadline=time.perf_counter() + args.time_limit)
-            z = start.copy()
-            mu = float(start.s @ start.y) / start.s.size
-            shift = max(math.sqrt(factor * mu), 1e-12)
-            z.s = np.maximum(newton.h - newton.G @ z.v, 0.0) + shift
-            z.y = z.y + shift
-            newton.start_iterate = z
+            newton.start_iterate = recentred_start(newton, start, factor)
             t1 = time.perf_counter()
             outcome = newton.solve()
             worst, lam = residual_of_3(ops, lps.step, newton.outcome_at(newton.best_iterate))
