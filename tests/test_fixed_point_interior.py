@@ -290,6 +290,33 @@ def test_continuation_ends_at_its_last_point_when_k_is_singular(monkeypatch):
     assert np.all(np.isfinite(end.v)) and np.all(end.s > 0) and np.all(end.y > 0)
 
 
+def test_continuation_stops_when_mu_crawls(monkeypatch):
+    """The continuation stops once ``mu`` has not fallen tenfold in ``CONTINUATION_DECADE_STEPS`` steps (with the
+    limit at 3 on the 10x10 wall, where it converges at its own pace otherwise), unconverged, with ``mu`` above a tenth
+    of the last decade's."""
+    import blockmpec.solvers.engines.interior_fixed_point as ifp
+
+    ops = bm.assemble(bm.cases.wall(courses=10, blocks_per_course=10))
+    early = _engine(ops, max_iterations=3)
+    early.solve()
+    full_steps = []
+    ifp.continue_central_path(early, early.best_iterate, tol=1e-9, deadline=Deadline(60.0),
+                              record=lambda **values: full_steps.append(values["mu"]))
+    monkeypatch.setattr(ifp, "CONTINUATION_DECADE_STEPS", 3)
+    steps = []
+    end, facts = ifp.continue_central_path(early, early.best_iterate, tol=1e-9, deadline=Deadline(60.0),
+                                           record=lambda **values: steps.append(values["mu"]))
+    assert max(early.measures(end)) > 1e-9 and facts["steps"] < len(full_steps)
+    # it stopped exactly when three steps in a row had not brought mu down tenfold since the last decade
+    mu0 = float(early.best_iterate.s @ early.best_iterate.y) / early.best_iterate.s.size
+    decade, since = mu0, 0
+    for mu in steps:
+        since += 1
+        if mu <= 0.1 * decade:
+            decade, since = mu, 0
+    assert since == 3
+
+
 @pytest.mark.slow
 def test_a_stalled_interior_run_is_continued_and_the_steps_are_traced():
     """``run_interior`` continues a run that stalls (here: a tolerance of 1e-17, below round-off) along its
@@ -351,3 +378,20 @@ def test_irregular_wall_where_the_interior_run_stalls_is_solved_by_the_lp_steps_
     assert res.multiplier <= bm.solve(wall, "static-lp").multiplier * (1 + 1e-9)
     without = solve_with(wall, "fixed-point", {"interior_sequence": False}, engine="interior")
     assert not without.success and without.extra["sequence_lps"] == 0
+
+
+@pytest.mark.slow
+def test_crawling_continuation_leaves_the_lp_steps_their_iterations():
+    """A 516-stone wall (irregularity 0.7, seed 1) where the continuation crawls (``mu`` 1.6e-6 to 1.1e-6 in 2,500
+    steps): it stops after ``CONTINUATION_DECADE_STEPS``, and the damped LP steps and Newton give a verified
+    solution of (3) below the associative multiplier within the default 500 iterations (before: ``numerical``,
+    the continuation had used them all)."""
+    from blockmpec.solvers.engines.interior_fixed_point import CONTINUATION_DECADE_STEPS
+
+    height = 0.3 * np.sqrt(250.0)
+    wall = bm.cases.stone_wall(width=2 * height, height=height, stone_size=0.3, irregularity=0.7, seed=1)
+    res = bm.solve(wall, "fixed-point", engine="interior", verify_tol=VERIFY_TOL)
+    assert res.success and res.status is bm.Status.CONVERGED, res.message
+    assert 0 < res.extra["continuation_steps"] <= CONTINUATION_DECADE_STEPS < 2500
+    assert res.extra["sequence_lps"] > 0
+    assert res.multiplier <= bm.solve(wall, "static-lp").multiplier * (1 + 1e-9)

@@ -20,6 +20,7 @@ Usage::
 
     python studies/lab/stone_wall_scale.py                     # ~200 stones, the 10x20 wall, certificate
     python studies/lab/stone_wall_scale.py --stones 2000 --walls 40x50 --no-certificate
+    python studies/lab/stone_wall_scale.py --stones 1000 --seeds 0,1,2 --walls= --no-kinematic --no-certificate
 
 Prints a markdown table and writes ``studies/output/stone_wall_scale/scale_<stones>.csv``.
 """
@@ -49,24 +50,26 @@ def stone_wall_of(stones: int, irregularity: float, stone_size: float, seed: int
 
 
 def measure(label: str, structure: bm.Structure, time_limit: float, certificate: bool,
-            milp_time_limit: float) -> dict:
-    """One row: the LPs, the fixed point and (``certificate``) milp and nlp on ``structure``."""
+            milp_time_limit: float, kinematic: bool = True) -> dict:
+    """One row: the LPs (the kinematic one if ``kinematic``), the fixed point and (``certificate``) milp and nlp on
+    ``structure``."""
     row: dict = {"structure": label, "blocks": structure.n_blocks - int(structure.fixed.sum()),
                  "non_convex": structure.metadata.get("non_convex_stones", 0), "interfaces": len(structure.interfaces)}
     t0 = time.perf_counter()
     bm.assemble(structure)
     row["assemble_s"] = time.perf_counter() - t0
     static = bm.solve(structure, "static-lp", time_limit=time_limit)
-    kinematic = bm.solve(structure, "kinematic-lp", time_limit=time_limit)
     fp = bm.solve(structure, "fixed-point", time_limit=time_limit)
     row.update(static_status=static.status.value, static_lam=static.multiplier, static_s=static.solve_time_s,
-               static_setup_s=static.build_time_s, kinematic_status=kinematic.status.value,
-               kinematic_lam=kinematic.multiplier, kinematic_s=kinematic.solve_time_s,
-               fp_status=fp.status.value, fp_verified=fp.success, fp_lam=fp.multiplier, fp_s=fp.solve_time_s,
-               fp_iterations=fp.iterations)
-    if static.multiplier is not None and kinematic.multiplier is not None:
-        row["lp_rel_diff"] = abs(static.multiplier - kinematic.multiplier) / max(1.0, abs(static.multiplier))
-        row["lps_agree"] = static.success and kinematic.success and row["lp_rel_diff"] <= 1e-8
+               static_setup_s=static.build_time_s, fp_status=fp.status.value, fp_verified=fp.success,
+               fp_lam=fp.multiplier, fp_s=fp.solve_time_s, fp_iterations=fp.iterations,
+               fp_sequence_lps=fp.extra.get("sequence_lps", 0))
+    kin = bm.solve(structure, "kinematic-lp", time_limit=time_limit) if kinematic else None
+    if kin is not None:
+        row.update(kinematic_status=kin.status.value, kinematic_lam=kin.multiplier, kinematic_s=kin.solve_time_s)
+    if kin is not None and static.multiplier is not None and kin.multiplier is not None:
+        row["lp_rel_diff"] = abs(static.multiplier - kin.multiplier) / max(1.0, abs(static.multiplier))
+        row["lps_agree"] = static.success and kin.success and row["lp_rel_diff"] <= 1e-8
     if fp.multiplier is not None and static.multiplier is not None:
         row["fp_below_lp"] = fp.multiplier <= static.multiplier * (1 + 1e-9)
     if static.solve_time_s > 0:
@@ -99,6 +102,7 @@ COLUMNS = [
     ("fp_lam", "fixed-point λ", "{:.8g}"), ("fp_status", "fixed-point status", "{}"),
     ("fp_verified", "verified", "{}"), ("fp_below_lp", "λ_FP ≤ λ_LP", "{}"), ("fp_iterations", "iterations", "{}"),
     ("fp_s", "fixed-point s", "{:.3g}"), ("fp_over_lp", "FP/LP", "{:.3g}"),
+    ("fp_sequence_lps", "damped LP steps", "{}"),
 ]
 CERTIFICATE_COLUMNS = [
     ("structure", "structure", "{}"), ("milp_status", "milp status", "{}"), ("milp_lam", "milp λ", "{:.8g}"),
@@ -115,6 +119,9 @@ def main(argv: list[str] | None = None) -> list[dict]:
     parser.add_argument("--irregularity", type=float, default=0.7)
     parser.add_argument("--stone-size", type=float, default=0.3, help="mean stone size (m)")
     parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--seeds", default=None, help="comma-separated seeds, one stone wall each (default: --seed)")
+    parser.add_argument("--kinematic", action=argparse.BooleanOptionalAction, default=True,
+                        help="also the kinematic LP (default: yes)")
     parser.add_argument("--mu", type=float, default=0.65)
     parser.add_argument("--walls", default="10x20", help="running-bond walls CxB to compare with (default 10x20)")
     parser.add_argument("--time-limit", type=float, default=600.0, help="seconds per LP / fixed-point / nlp solve")
@@ -123,20 +130,27 @@ def main(argv: list[str] | None = None) -> list[dict]:
     parser.add_argument("--milp-time-limit", type=float, default=300.0)
     args = parser.parse_args(argv)
     certificate = args.stones <= 300 if args.certificate is None else args.certificate
-    t0 = time.perf_counter()
-    wall = stone_wall_of(args.stones, args.irregularity, args.stone_size, args.seed, args.mu)
-    generated = time.perf_counter() - t0
-    label = f"stone-wall {wall.metadata['width']:.3g}x{wall.metadata['height']:.3g} r={args.irregularity:g}"
-    print(f"{label}: {wall.metadata['stones']} stones ({wall.metadata['non_convex_stones']} non-convex), "
-          f"{len(wall.interfaces)} interfaces, generated and validated in {generated:.2f} s", flush=True)
-    rows = [measure(label, wall, args.time_limit, certificate, args.milp_time_limit)]
-    rows[0]["generate_s"] = generated
+    seeds = [args.seed] if args.seeds is None else [int(s) for s in args.seeds.split(",") if s.strip()]
+    rows = []
+    for seed in seeds:
+        t0 = time.perf_counter()
+        wall = stone_wall_of(args.stones, args.irregularity, args.stone_size, seed, args.mu)
+        generated = time.perf_counter() - t0
+        label = f"stone-wall {wall.metadata['width']:.3g}x{wall.metadata['height']:.3g} r={args.irregularity:g}"
+        if len(seeds) > 1 or seed != 0:
+            label += f" seed {seed}"
+        print(f"{label}: {wall.metadata['stones']} stones ({wall.metadata['non_convex_stones']} non-convex), "
+              f"{len(wall.interfaces)} interfaces, generated and validated in {generated:.2f} s", flush=True)
+        rows.append(measure(label, wall, args.time_limit, certificate, args.milp_time_limit, args.kinematic))
+        rows[-1]["generate_s"] = generated
+    stone_rows = len(rows)
     for spec in [w for w in args.walls.split(",") if w.strip()]:
-        rows.append(measure(f"wall {spec}", named_wall(spec, mu=args.mu), args.time_limit, False, 0.0))
+        rows.append(measure(f"wall {spec}", named_wall(spec, mu=args.mu), args.time_limit, False, 0.0,
+                            args.kinematic))
     print(markdown(rows, COLUMNS))
     if certificate:
         print()
-        print(markdown(rows[:1], CERTIFICATE_COLUMNS))
+        print(markdown(rows[:stone_rows], CERTIFICATE_COLUMNS))
     path = write_csv(OUT / f"scale_{args.stones}.csv", rows)
     print(f"\nwrote {path}")
     return rows
