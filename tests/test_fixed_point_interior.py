@@ -337,9 +337,9 @@ def test_a_stalled_interior_run_is_continued_and_the_steps_are_traced():
     assert plain_facts["continuation_steps"] == 0 and len(plain.trace) < len(out.trace)
 
 
-def _stone_wall(stones, irregularity):
+def _stone_wall(stones, irregularity, seed=0):
     height = 0.3 * np.sqrt(stones / 2.0)
-    return bm.cases.stone_wall(width=2 * height, height=height, stone_size=0.3, irregularity=irregularity)
+    return bm.cases.stone_wall(width=2 * height, height=height, stone_size=0.3, irregularity=irregularity, seed=seed)
 
 
 def test_damped_interior_lp_steps_then_newton_reach_a_solution_of_3():
@@ -388,8 +388,7 @@ def test_crawling_continuation_leaves_the_lp_steps_their_iterations():
     the continuation had used them all)."""
     from blockmpec.solvers.engines.interior_fixed_point import CONTINUATION_DECADE_STEPS
 
-    height = 0.3 * np.sqrt(250.0)
-    wall = bm.cases.stone_wall(width=2 * height, height=height, stone_size=0.3, irregularity=0.7, seed=1)
+    wall = _stone_wall(500, 0.7, seed=1)
     res = bm.solve(wall, "fixed-point", engine="interior", verify_tol=VERIFY_TOL)
     assert res.success and res.status is bm.Status.CONVERGED, res.message
     assert 0 < res.extra["continuation_steps"] <= CONTINUATION_DECADE_STEPS < 2500
