@@ -110,7 +110,8 @@ polished point is kept only if Newton converged and ``lam`` moved by at most
 Status: ``LOCALLY_OPTIMAL`` when Ipopt solved every stage (or the piece LPs certified their
 point), ``ACCEPTABLE`` when some stage ended at Ipopt's "solved to acceptable level", otherwise
 the stage's failure (``ITERATION_LIMIT``, ``TIME_LIMIT``, ``NUMERICAL`` or ``ERROR``) with the
-last iterate; on the ``pieces`` route, the piece LPs' limit or ``NUMERICAL`` with their best point.
+last iterate; on the ``pieces`` route, the piece LPs' limit, or ``CONVERGED`` with their best point when its
+certificate fails (an exact solution of (3), not proven a local minimum).
 Ipopt's "Infeasible_Problem_Detected" is local (a stationary point of the constraint
 violation), so it maps to ``NUMERICAL``, not ``INFEASIBLE``; only an infeasible
 associative start LP (no equilibrium at all) gives ``INFEASIBLE``.
@@ -544,6 +545,7 @@ class RelaxedNLP(SolverBase):
         import cyipopt
 
         from blockmpec import facts
+        from blockmpec.solvers.engines.exact_point import exact_solution
         from blockmpec.solvers.engines.stopping import StoppingCriterion
 
         opt, st = self.options, self.settings
@@ -629,6 +631,9 @@ class RelaxedNLP(SolverBase):
                 solution, note = self._polish(solution, stop)
                 message += f"; {note}"
                 extra["polish"] = note
+            # the lam of an exact solution of (3): the piece LPs on the point's pattern (issue 53)
+            solution, note = exact_solution(self.form, self.scaling, solution, stop.deadline)
+            message += f"; {note}"
         if self.use_pieces and (not self.use_ipopt or final in (Status.LOCALLY_OPTIMAL, Status.ACCEPTABLE)):
             extra["plan"].append(f"piece LPs ({st.piece_lps})")
             solution, final, note = self._piece_finish(solution, final, stop, extra)
@@ -717,9 +722,10 @@ class RelaxedNLP(SolverBase):
         # (two blocks: z_f+- = 7519), which without_free_sliding removes
         new = without_free_sliding(self.form, self.form.unpack(out.w))
         new.x[self.form.t[self.form.friction == 0]] = 0.0  # tan(phi_k) = 0 forces t_k = 0 (exact zero)
-        # not certified: a limit, or an LP failure on a later piece (never a statement that (3) is infeasible)
+        # not certified: a limit, or a piece whose duals do not certify a local minimum; its point is an exact
+        # solution of (3) all the same (CONVERGED: a solution of the MCP, no claim of minimality; issue 53)
         status = (Status.LOCALLY_OPTIMAL if out.certified else
-                  out.status if out.status in (Status.TIME_LIMIT, Status.ITERATION_LIMIT) else Status.NUMERICAL)
+                  out.status if out.status in (Status.TIME_LIMIT, Status.ITERATION_LIMIT) else Status.CONVERGED)
         return new, status, out.message
 
     def _polish(self, solution: Solution, stop) -> tuple[Solution, str]:
