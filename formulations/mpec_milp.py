@@ -133,6 +133,9 @@ class MPECBounds:
         (conditional OBBT; a sliding joint that must carry load gets ``hi < 0``: dissipation ``> 0``).
     verified : bool
         Every LP behind the record reported optimal (False: the record must not certify).
+    models_complete : bool
+        Every ``slack_max`` and ``z_max`` was proven by its LP (False: some are the trivial ``inf`` or 1, left when
+        their LPs ran out of time or failed; the big-M model needs every ``slack_max`` finite).
     n_lps : int
     time_s : float
     """
@@ -152,6 +155,7 @@ class MPECBounds:
     product_lower: np.ndarray | None = None
     product_upper: np.ndarray | None = None
     verified: bool = True
+    models_complete: bool = True
     n_lps: int = 0
     time_s: float = 0.0
 

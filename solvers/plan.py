@@ -91,7 +91,7 @@ FIXED_POINT_ENGINES = ("auto", "simplex", "interior")
 #: nlp routes
 NLP_ROUTES = ("auto", "ipopt", "pieces")
 #: milp engines
-MILP_ENGINES = ("auto", "highs", "scip", "bnb")
+MILP_ENGINES = ("auto", "highs", "bnb")
 
 
 def lp_algorithm(algorithm: str, n_rows: int, load_spread: float = 1.0, need_basis: bool = False,

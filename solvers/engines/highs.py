@@ -370,8 +370,36 @@ class HighsLP:
             self._first = False
         return ok
 
-    def solve(self, algorithm: str | None = None, deadline: Deadline = NEVER) -> LPOutcome:
-        """Solve within ``deadline`` (warm from the previous basis if there is one); ``algorithm`` overrides once.
+    # ------------------------------------------------------------------ setters in the problem's units
+    # (the names and signatures of issue 50's wrapper, added here minimally for issue 53's engines)
+    def set_costs(self, columns, costs) -> None:
+        """Costs of ``columns`` (HiGHS's model only)."""
+        columns = np.asarray(columns, dtype=np.int32)
+        self.highs.changeColsCost(columns.size, columns, self.column_scale[columns] * np.asarray(costs, float))
+
+    def set_row_bounds(self, rows, lower, upper) -> None:
+        """Lower and upper bounds of ``rows`` (HiGHS's model only; ``+-inf`` for none)."""
+        rows = np.asarray(rows, dtype=np.int32)
+        scale = self.row_scale[rows]
+        self.highs.changeRowsBounds(rows.size, rows, scale * np.asarray(lower, float), scale * np.asarray(upper, float))
+
+    def set_column_bounds(self, columns, lower, upper) -> None:
+        """Lower and upper bounds of ``columns`` (HiGHS's model only; ``+-inf`` for none)."""
+        columns = np.asarray(columns, dtype=np.int32)
+        scale = self.column_scale[columns]
+        self.highs.changeColsBounds(columns.size, columns, np.asarray(lower, float) / scale,
+                                    np.asarray(upper, float) / scale)
+
+    def set_feasibility_tolerances(self, tol: float | None = None) -> None:
+        """HiGHS's primal and dual feasibility tolerances (default :data:`FEASIBILITY_TOL`)."""
+        set_feasibility_tolerances(self.highs, FEASIBILITY_TOL if tol is None else tol)
+
+    def clear_basis(self) -> None:
+        """Forget the basis and the factorisation (the next solve is cold)."""
+        self.highs.clearSolver()
+
+    def solve(self, algorithm: str | None = None, deadline: Deadline = NEVER, cold: bool = False) -> LPOutcome:
+        """Solve within ``deadline`` (warm from the previous basis unless ``cold``); ``algorithm`` overrides once.
 
         A deadline already passed returns ``TIME_LIMIT`` without running HiGHS."""
         h = self.highs
@@ -379,6 +407,8 @@ class HighsLP:
             nan = np.full(self.lp.c.size, np.nan)
             return LPOutcome(Status.TIME_LIMIT, "kTimeLimit", float("nan"), nan, np.full(self.lp.A.shape[0], np.nan),
                              0, message="time limit reached before the LP")
+        if cold:
+            h.clearSolver()
         self.set_algorithm(algorithm or self.algorithm)
         h.run()
         self._first = False
