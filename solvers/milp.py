@@ -55,18 +55,14 @@ from blockmpec.options import CommonOptions
 from blockmpec.registry import get_solver, register_solver
 from blockmpec.result import RunOutput, Solution, Status
 from blockmpec.solvers import plan
+from blockmpec.solvers.engines.milp_search import CERTIFICATE_TOL, lifting_options  # noqa: F401 (lifting_options: API)
 
 ENGINES = plan.MILP_ENGINES
 #: defaults of the bnb engine's settings (None in MILPSettings: "not set")
 BNB_DEFAULT_LIFTING = "rlt-full"
 BNB_DEFAULT_ROOT_LP = "ipm"
 LIFTINGS = ("friction", "mechanism", "all", "rlt", "rlt-full")
-ROOT_LPS = ("simplex", "ipm", "ipm-rows", "ipm-lifted")  # see complementarity_bnb.ROOT_LPS
-#: the engine's dual bound and the exact multiplier of the same pattern may differ by this much (times
-#: ``max(1, |lam|)``) without any real gap (the engines solve to their feasibility tolerances)
-CERTIFICATE_TOL = 1e-7
-#: a slack within this (times the largest bound) of its big-M is "at its bound"
-ACTIVE_TOL = 1e-7
+ROOT_LPS = ("simplex", "ipm", "ipm-lifted")  # see complementarity_bnb.ROOT_LPS
 
 
 @dataclass(frozen=True)
@@ -99,17 +95,6 @@ class Budget:
 
 #: the one budget of every milp run
 BUDGET = Budget()
-
-
-def lifting_options(form, lifting: str, slack_max: np.ndarray | None) -> dict:
-    """The arguments of :class:`~blockmpec.solvers.engines.complementarity_bnb.ComplementarityBnB` that
-    ``lifting`` (:data:`LIFTINGS`) sets: which copies of the static field, the products ``lam u``, the forces
-    tied to ``u`` (``x u^T``: normal and tangential ones for ``"rlt"``, all for ``"rlt-full"``), and the
-    LP-proven slack bounds (``slack_max``, when every one is finite), which the ``rlt`` liftings do without."""
-    usable = slack_max is not None and np.all(np.isfinite(slack_max))
-    return dict(slack_max=None if lifting.startswith("rlt") or not usable else slack_max,
-                all_copies=lifting in ("all", "rlt", "rlt-full"), lam_mechanism=lifting != "friction",
-                force_mechanism={"rlt": np.sort(np.r_[form.n, form.t]), "rlt-full": True}.get(lifting))
 
 
 @dataclass

@@ -554,15 +554,11 @@ def test_every_lifted_row_holds_at_a_certified_solution(lifting, case_id):
     w = form.pack(solver.scaled(res.solution))
     v = bnb.layout.lift(w[form.lam], w[form.x], w[form.u], w[form.z])
     bnb.apply_node(bnb.root, bnb.lam_lower, bnb.lam_cap)
-    lp = bnb.h.getLp()
-    A = bnb.h.getLp().a_matrix_
-    import scipy.sparse as sp
-
-    M = sp.csc_array((A.value_, A.index_, A.start_), shape=(lp.num_row_, lp.num_col_))
-    r = M @ v
+    _, row_lower, row_upper, col_lower, col_upper = bnb.lp_arrays()
+    r = bnb.lifted_matrix @ v
     tol = 1e-7 * max(1.0, float(np.abs(v).max()))
-    assert np.all(r >= np.asarray(lp.row_lower_) - tol) and np.all(r <= np.asarray(lp.row_upper_) + tol)
-    assert np.all(v >= np.asarray(lp.col_lower_) - tol) and np.all(v <= np.asarray(lp.col_upper_) + tol)
+    assert np.all(r >= row_lower - tol) and np.all(r <= row_upper + tol)
+    assert np.all(v >= col_lower - tol) and np.all(v <= col_upper + tol)
     lam = w[form.lam]
     assert bnb.root_bound() <= lam + 1e-7 * max(1.0, abs(lam))
     fixed = bnb.root_bound(lam - 1e-9, lam + 1e-9)
@@ -697,10 +693,12 @@ def test_a_failed_interior_point_is_repaired_by_crossover(monkeypatch):
     with crossover, whose basic duals still close the root at the certified minimum, bound below it."""
     lam = certified_minimum("wall-2x2").multiplier
     bnb = _at_root(LIFTING_CASES["wall-2x2"](), "rlt-full")
+    from blockmpec.solvers.engines.node_lp import InteriorPoint
+
     solution = bnb.interior_solution
     monkeypatch.setattr(bnb, "interior_solution",
                         lambda *a, crossover=False, **k: solution(*a, crossover=crossover, **k) if crossover
-                        else (None, None))
+                        else InteriorPoint(None, None))
     bound = bnb.interior_root(lam)
     assert bnb.crossover_runs >= 1
     assert bound <= lam + 1e-7 * max(1.0, abs(lam))
@@ -786,13 +784,13 @@ def test_null_space_node_lps_are_the_lifted_node_lps(case_id):
         assert (st_null is Status.INFEASIBLE) == (st_lift is Status.INFEASIBLE), (state, st_null, st_lift)
         if st_lift is Status.OPTIMAL and st_null is Status.OPTIMAL:
             assert bound_null == pytest.approx(bound_lift, abs=1e-7)
-            lp = lifted.h.getLp()
+            _, row_lower, row_upper, _, _ = lifted.lp_arrays()
             keep = np.ones(A.shape[0], dtype=bool)
             keep[lifted.layout.tied_rows.ravel()] = False  # rows (X) of W = x u^T, which the lifted point leaves at 0
             r = (A @ v_null)[keep]
             tol = 1e-6 * max(1.0, float(np.abs(v_null).max()))
-            assert np.all(r >= np.asarray(lp.row_lower_)[keep] - tol)
-            assert np.all(r <= np.asarray(lp.row_upper_)[keep] + tol)
+            assert np.all(r >= row_lower[keep] - tol)
+            assert np.all(r <= row_upper[keep] + tol)
 
 
 def test_an_unchecked_infeasible_node_is_not_pruned(monkeypatch):

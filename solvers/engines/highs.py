@@ -305,6 +305,11 @@ def static_lp_solution(lp: LinearProgram, outcome: LPOutcome) -> Solution:
     )
 
 
+#: HiGHS's interior point IPX without its crossover (no basis; the run ends ``kUnknown`` at its tolerances, read
+#: as ``OPTIMAL`` when HiGHS calls both points feasible): an algorithm of :class:`HighsLP` only, not a user's choice
+IPM_WITHOUT_CROSSOVER = "ipm-without-crossover"
+
+
 class HighsLP:
     """A HiGHS instance holding one compiled LP; re-solves after bound changes are warm.
 
@@ -316,7 +321,7 @@ class HighsLP:
 
     def __init__(self, lp: LinearProgram, algorithm: str = "auto", threads: int = 0,
                  row_scale: np.ndarray | None = None, column_scale: np.ndarray | None = None) -> None:
-        if algorithm not in BASIS_ALGORITHMS:
+        if algorithm not in (*BASIS_ALGORITHMS, IPM_WITHOUT_CROSSOVER):
             raise ValueError(f"algorithm must be one of {BASIS_ALGORITHMS}; got {algorithm!r}")
         self.lp = lp
         h = new_highs()
@@ -339,11 +344,12 @@ class HighsLP:
         resolves it (``"auto"``: the dual simplex on a warm re-solve), recorded in :attr:`last_algorithm`.  Every
         :meth:`solve` calls it; a subclass may choose other HiGHS options here (e.g. another interior point)."""
         h = self.highs
-        algorithm = lp_algorithm(algorithm, self.lp.A.shape[0], need_basis=True, warm=not self._first)
+        if algorithm != IPM_WITHOUT_CROSSOVER:
+            algorithm = lp_algorithm(algorithm, self.lp.A.shape[0], need_basis=True, warm=not self._first)
         #: the algorithm of the latest solve (for the run's plan)
         self.last_algorithm = algorithm
-        if algorithm == "ipm":
-            use_interior_point(h, crossover=True)
+        if algorithm in ("ipm", IPM_WITHOUT_CROSSOVER):
+            use_interior_point(h, crossover=algorithm == "ipm")
         else:
             h.setOptionValue("solver", "simplex")
             strategy = {"simplex": 0, "dual-simplex": 1, "primal-simplex": 4}[algorithm]
@@ -390,6 +396,35 @@ class HighsLP:
         self.highs.changeColsBounds(columns.size, columns, np.asarray(lower, float) / scale,
                                     np.asarray(upper, float) / scale)
 
+    def set_coefficients(self, rows, columns, values) -> None:
+        """Matrix entries ``A[rows[j], columns[j]] = values[j]`` (HiGHS's model only; the basis is kept)."""
+        rows, columns = np.asarray(rows, dtype=np.int64), np.asarray(columns, dtype=np.int64)
+        scaled = self.row_scale[rows] * np.asarray(values, float) * self.column_scale[columns]
+        for r, c, v in zip(rows.tolist(), columns.tolist(), scaled.tolist()):
+            if not change_applied(self.highs.changeCoeff(r, c, v)):
+                raise RuntimeError("HiGHS rejected a change of its LP")
+
+    def add_rows(self, matrix, lower, upper) -> None:
+        """Append the rows ``lower <= matrix v <= upper`` (``matrix`` sparse, one row per new row; unscaled)."""
+        rows = sp.csr_array(sp.csr_array(matrix) @ sp.diags(self.column_scale))
+        status = self.highs.addRows(rows.shape[0], np.asarray(lower, float), np.asarray(upper, float), int(rows.nnz),
+                                    rows.indptr[:-1].astype(np.int32), rows.indices.astype(np.int32), rows.data)
+        if not change_applied(status):
+            raise RuntimeError("HiGHS rejected a change of its LP")
+        self.row_scale = np.concatenate([self.row_scale, np.ones(rows.shape[0])])
+
+    def set_iteration_limit(self, iterations: int) -> None:
+        """HiGHS's simplex iteration limit of each later solve (the status is then ``ITERATION_LIMIT``)."""
+        self.highs.setOptionValue("simplex_iteration_limit", int(iterations))
+
+    def dual_ray(self) -> np.ndarray | None:
+        """HiGHS's dual ray after an infeasible solve (a Farkas certificate to check), or None when it has none."""
+        try:
+            _, has_ray, ray = self.highs.getDualRay()
+        except Exception:  # noqa: BLE001 - highspy raises when no ray is held
+            return None
+        return self.row_scale * np.asarray(ray, float) if has_ray else None
+
     def set_feasibility_tolerances(self, tol: float | None = None) -> None:
         """HiGHS's primal and dual feasibility tolerances (default :data:`FEASIBILITY_TOL`)."""
         set_feasibility_tolerances(self.highs, FEASIBILITY_TOL if tol is None else tol)
@@ -412,7 +447,7 @@ class HighsLP:
         self.set_algorithm(algorithm or self.algorithm)
         h.run()
         self._first = False
-        status, raw = highs_status(h)
+        status, raw = highs_status(h, interior_without_crossover=self.last_algorithm == IPM_WITHOUT_CROSSOVER)
         retried = ""
         if status is Status.ERROR:
             status, raw, retried = self._retry_at_default_tolerances(raw)

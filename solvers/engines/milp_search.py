@@ -21,6 +21,24 @@ import numpy as np
 from blockmpec.deadline import Deadline
 from blockmpec.result import RunOutput, Solution, Status
 
+#: the engine's dual bound and the exact multiplier of the same pattern may differ by this much (times
+#: ``max(1, |lam|)``) without any real gap (the engines solve to their feasibility tolerances)
+CERTIFICATE_TOL = 1e-7
+#: a slack within this (times the largest bound) of its big-M is "at its bound"
+ACTIVE_TOL = 1e-7
+
+
+def lifting_options(form, lifting: str, slack_max: np.ndarray | None) -> dict:
+    """The arguments of :class:`~blockmpec.solvers.engines.complementarity_bnb.ComplementarityBnB` that ``lifting``
+    (``friction``, ``mechanism``, ``all``, ``rlt``, ``rlt-full``) sets: which copies of the static field, the
+    products ``lam u``, the forces tied to ``u`` (``x u^T``: normal and tangential ones for ``"rlt"``, all for
+    ``"rlt-full"``), and the LP-proven slack bounds (``slack_max``, when every one is finite), which the ``rlt``
+    liftings do without."""
+    usable = slack_max is not None and np.all(np.isfinite(slack_max))
+    return dict(slack_max=None if lifting.startswith("rlt") or not usable else slack_max,
+                all_copies=lifting in ("all", "rlt", "rlt-full"), lam_mechanism=lifting != "friction",
+                force_mechanism={"rlt": np.sort(np.r_[form.n, form.t]), "rlt-full": True}.get(lifting))
+
 
 # ---------------------------------------------------------------------------------------------- the lifted-LP search
 def branch_and_bound(solver, bd, **overrides):
@@ -43,7 +61,6 @@ def branch_and_bound(solver, bd, **overrides):
         :meth:`~blockmpec.solvers.milp.MILPSolver.polish`.
     """
     from blockmpec.solvers.engines.complementarity_bnb import ComplementarityBnB
-    from blockmpec.solvers.milp import lifting_options
 
     slack_max = bd.slack_max if bd.slack_max is not None else np.full(solver.form.n_pairs, np.inf)
     z_max = bd.z_max if bd.z_max is not None else np.ones(solver.form.n_pairs)
@@ -183,9 +200,6 @@ def bigm_search(solver, bd, stop, deadline: Deadline, extra: dict) -> RunOutput:
     return certify(solver, stop, run, bd, extra)
 
 
-#: a slack within this (times the largest bound) of its big-M is "at its bound"
-ACTIVE_TOL = 1e-7
-
 
 def mip_pattern(mip, v: np.ndarray) -> np.ndarray:
     """The active pairs of a point of the big-M model: ``y_i = 1``."""
@@ -233,8 +247,6 @@ def certify(solver, stop, run, bd, extra: dict) -> RunOutput:
     """The run's status from the engine's ``run`` and ``stop`` (best exact point, bound): ``OPTIMAL`` only when the
     engine closed its gap, the best point meets the bound within the certificate tolerance, no slack sits at its
     big-M, ``bigm_scale >= 1`` and every bound LP was optimal."""
-    from blockmpec.solvers.milp import CERTIFICATE_TOL
-
     opt, st = solver.options, solver.settings
     lam = stop.best.multiplier
     tol = CERTIFICATE_TOL * max(1.0, abs(lam))
