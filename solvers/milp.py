@@ -81,7 +81,7 @@ class Budget:
     """
 
     heuristic_share: float = 0.1
-    heuristic_max_s: float = 30.0
+    heuristic_max_s: float = 60.0
     bounds_share: float = 0.25
 
     def heuristic(self, deadline: Deadline) -> Deadline:

@@ -43,8 +43,10 @@ LP_MARGIN = 1e-6
 #: relative widening of the lam lower bounds of the kinematic LPs, solved at ``BOUND_LP_TOL``
 LAM_MARGIN = 1e-8
 #: HiGHS's feasibility tolerances of the kinematic bound LPs (below milp's certificate tolerance, so that a root
-#: bound can close the gap)
+#: bound can close the gap) and of the static ones; a reduced cost within the latter on a free column counts as zero
+#: in the weak-duality value that certifies each optimum
 BOUND_LP_TOL = 1e-10
+STATIC_LP_TOL = 1e-9
 
 
 class BoundFailure(Exception):
@@ -99,6 +101,61 @@ def kinematic_program(form):
     return piece_kinematic(form)
 
 
+class _CertifiedLP:
+    """One bound LP held by HiGHS (:class:`~blockmpec.solvers.engines.highs.HighsLP`) with its current bounds kept
+    here: each optimum is taken from the weak-duality value of the solve's row duals
+    (:func:`~blockmpec.solvers.engines.lifted_lp.dual_bound`), a valid bound whatever HiGHS's answer, so re-solves
+    may be warm (HiGHS's warm re-solves after a change of costs were seen to end "optimal" at a wrong value, which
+    the certificate catches); a solve whose duals certify nothing is repeated cold, whose optimum is taken."""
+
+    def __init__(self, lp, tolerance: float) -> None:
+        from blockmpec.solvers.engines.highs import HighsLP
+
+        self.lp = lp
+        # the primal simplex: after a change of costs the last basis stays primal feasible (wall 6 of ferris-tinloi,
+        # 40 slack bounds: 0.08 s an LP warm by the primal simplex, 0.15 s by the dual, 1.2 s cold)
+        self.hl = HighsLP(lp, "primal-simplex")
+        self.hl.set_feasibility_tolerances(tolerance)
+        self.tolerance = max(tolerance, STATIC_LP_TOL)
+        self.A = sp.csc_array(lp.A)
+        self.rl, self.ru = lp.row_lower.copy(), lp.row_upper.copy()
+        self.cl, self.cu = lp.col_lower.copy(), lp.col_upper.copy()
+        self.solves = 0
+
+    def set_row_bounds(self, rows, lower, upper) -> None:
+        rows = np.atleast_1d(rows)
+        self.rl[rows], self.ru[rows] = lower, upper
+        self.hl.set_row_bounds(rows, self.rl[rows], self.ru[rows])
+
+    def set_column_bounds(self, cols, lower, upper) -> None:
+        cols = np.atleast_1d(cols)
+        self.cl[cols], self.cu[cols] = lower, upper
+        self.hl.set_column_bounds(cols, self.cl[cols], self.cu[cols])
+
+    def solve(self, cost: np.ndarray, deadline: Deadline, cold: bool = True):
+        """``min cost^T v``: HiGHS's outcome (cold unless ``cold`` is False)."""
+        self.hl.set_costs(np.arange(cost.size), cost)
+        self.solves += 1
+        return self.hl.solve(deadline=deadline, cold=cold)
+
+    def minimum(self, cost: np.ndarray, deadline: Deadline) -> float | None:
+        """A certified lower bound on ``min cost^T v`` (the optimum within HiGHS's tolerances), or None when neither
+        the warm solve's duals nor a cold solve give one."""
+        from blockmpec.solvers.engines.lifted_lp import dual_bound
+
+        for cold in (False, True):
+            out = self.solve(cost, deadline, cold)
+            if out.status is not Status.OPTIMAL:
+                continue
+            value = dual_bound(self.A, cost, self.rl, self.ru, self.cl, self.cu, out.row_dual, tol=self.tolerance,
+                               correct=False)
+            if np.isfinite(value):
+                return float(value)
+            if cold:
+                return float(out.objective)
+        return None
+
+
 class BoundLPs:
     """The bound LPs of one structure's (3): a HiGHS model of ``S`` and one of ``K`` (see the module docstring).
 
@@ -109,28 +166,25 @@ class BoundLPs:
     """
 
     def __init__(self, form) -> None:
-        from blockmpec.solvers.engines.highs import HighsLP
-
         self.form = form
         self.static = static_program(form)
         self.kinematic = kinematic_program(form)
-        self.static_lp = HighsLP(self.static, "dual-simplex")
-        self.kinematic_lp = HighsLP(self.kinematic, "dual-simplex")
-        self.kinematic_lp.set_feasibility_tolerances(BOUND_LP_TOL)
-        #: LPs solved so far
-        self.n_lps = 0
+        self.static_lp = _CertifiedLP(self.static, STATIC_LP_TOL)
+        self.kinematic_lp = _CertifiedLP(self.kinematic, BOUND_LP_TOL)
+
+    @property
+    def n_lps(self) -> int:
+        """LPs solved so far."""
+        return self.static_lp.solves + self.kinematic_lp.solves
 
     # ------------------------------------------------------------------ one LP
-    def _optimum(self, hl, cost: np.ndarray, deadline: Deadline):
-        """``min cost^T v`` over the model ``hl`` (cold): the LP's outcome."""
-        hl.set_costs(np.arange(cost.size), cost)
-        self.n_lps += 1
-        return hl.solve(deadline=deadline, cold=True)
+    def _optimum(self, model, cost: np.ndarray, deadline: Deadline):
+        """``min cost^T v`` over ``model`` (cold): the LP's outcome."""
+        return model.solve(cost, deadline)
 
     def _static_optimum(self, cost: np.ndarray, deadline: Deadline) -> float | None:
-        """``min cost^T (lam, x)`` over ``S`` as the model holds it now; None unless optimal."""
-        out = self._optimum(self.static_lp, cost, deadline)
-        return float(out.objective) if out.status is Status.OPTIMAL else None
+        """A certified lower bound on ``min cost^T (lam, x)`` over ``S`` as the model holds it now (None: none)."""
+        return self.static_lp.minimum(cost, deadline)
 
     def _x_cost(self, j: int, direction: float) -> np.ndarray:
         cost = np.zeros(self.static.c.size)
@@ -139,7 +193,7 @@ class BoundLPs:
 
     def set_lam_range(self, lower: float, upper: float) -> None:
         """Bound ``lam`` in the model of ``S`` (``-inf, inf``: free again)."""
-        self.static_lp.set_column_bounds([0], [lower], [upper])
+        self.static_lp.set_column_bounds(0, lower, upper)
 
     # ------------------------------------------------------------------ lam
     def associative(self, deadline: Deadline) -> tuple[float, float, np.ndarray]:
@@ -163,12 +217,12 @@ class BoundLPs:
 
     def _kinematic_lower(self, z_cost: np.ndarray, deadline: Deadline) -> float | None:
         kp, hl = self.kinematic, self.kinematic_lp
-        hl.set_row_bounds(kp.rows["live"], [1.0], [1.0])
-        hl.set_row_bounds(kp.rows["total"], [-np.inf], [np.inf])
-        out = self._optimum(hl, np.r_[-self.form.f_d, z_cost], deadline)
-        if out.status is not Status.OPTIMAL:
+        hl.set_row_bounds(kp.rows["live"], 1.0, 1.0)
+        hl.set_row_bounds(kp.rows["total"], -np.inf, np.inf)
+        value = hl.minimum(np.r_[-self.form.f_d, z_cost], deadline)
+        if value is None:
             return None
-        return float(out.objective - LAM_MARGIN * max(1.0, abs(out.objective)))
+        return float(value - LAM_MARGIN * max(1.0, abs(value)))
 
     def dissipation_minimum(self, B: sp.coo_array, upper: np.ndarray, deadline: Deadline) -> float | None:
         r"""A lower bound on lam from the work identity with the friction work bounded below.
@@ -207,13 +261,13 @@ class BoundLPs:
             if deadline.expired():
                 return out
             row = int(rows[int(B.col[e])])
-            self.static_lp.set_row_bounds([row], [0.0], [0.0])
+            self.static_lp.set_row_bounds(row, 0.0, 0.0)
             try:
                 if lower:
                     out["product_lower"][e] = self._bound_or(self._x_cost(int(B.row[e]), 1.0), 1.0, -np.inf, deadline)
                 out["product_upper"][e] = -self._bound_or(self._x_cost(int(B.row[e]), -1.0), 1.0, -np.inf, deadline)
             finally:
-                self.static_lp.set_row_bounds([row], [-np.inf], [0.0])
+                self.static_lp.set_row_bounds(row, -np.inf, 0.0)
         out["complete"] = not deadline.expired()
         return out
 
@@ -268,13 +322,13 @@ class BoundLPs:
         """``(z_max, tau_max, complete)``: ``max z_i`` (``per_pair``; else the trivial 1) and ``max f_l^T u`` over
         ``K`` with ``1^T z = 1``, widened; the trivial bound (1, ``inf``) where an LP failed or was not reached."""
         kp, hl = self.kinematic, self.kinematic_lp
-        hl.set_row_bounds(kp.rows["live"], [-np.inf], [np.inf])
-        hl.set_row_bounds(kp.rows["total"], [1.0], [1.0])
+        hl.set_row_bounds(kp.rows["live"], -np.inf, np.inf)
+        hl.set_row_bounds(kp.rows["total"], 1.0, 1.0)
         nu, npair = kp.columns["u"].size, kp.columns["z"].size
         cost = np.zeros(kp.c.size)
         cost[:nu] = -self.form.f_l
-        out = self._optimum(hl, cost, deadline)
-        tau_max = -out.objective * (1 + LP_MARGIN) + LP_MARGIN if out.status is Status.OPTIMAL else np.inf
+        value = hl.minimum(cost, deadline)
+        tau_max = -value * (1 + LP_MARGIN) + LP_MARGIN if value is not None else np.inf
         z_max = np.ones(npair)
         complete = True
         for i in range(npair if per_pair else 0):
@@ -283,9 +337,9 @@ class BoundLPs:
                 break
             cost = np.zeros(kp.c.size)
             cost[kp.columns["z"][i]] = -1.0
-            out = self._optimum(hl, cost, deadline)
-            if out.status is Status.OPTIMAL:
-                zi = -out.objective
+            value = hl.minimum(cost, deadline)
+            if value is not None:
+                zi = -value
                 z_max[i] = 0.0 if zi <= 1e-12 else min(1.0, zi * (1 + BOUND_MARGIN_REL) + BOUND_MARGIN_ABS)
         return z_max, float(tau_max), complete
 
@@ -306,6 +360,7 @@ def root_bounds(lps: BoundLPs, B: sp.coo_array, products: bool, envelope: bool, 
     lam_assoc, lam_min, x_assoc = associative if associative is not None else lps.associative(deadline)
     lam_upper = lam_assoc + LP_MARGIN * max(1.0, abs(lam_assoc))
     lam_lower = lam_min - LP_MARGIN * max(1.0, abs(lam_min))
+    kin = lps.kinematic_minimum(deadline)  # one LP: before the many of the force bounds
     nx = lps.form.pair_matrix.shape[1]
     x_lower, x_upper = np.full(nx, -np.inf), np.full(nx, np.inf)
     product_lower = product_upper = diss = None
@@ -326,7 +381,6 @@ def root_bounds(lps: BoundLPs, B: sp.coo_array, products: bool, envelope: bool, 
                 diss = lps.dissipation_minimum(B, np.minimum(x_upper[B.row], product_upper), deadline)
         else:
             product_lower = product_upper = None
-    kin = lps.kinematic_minimum(deadline)
     lower = max([lam_lower] + [v for v in (kin, diss) if v is not None])
     return MPECBounds(lam_associative=lam_assoc, lam_static_min=lam_min, lam_kinematic=kin, lam_dissipation=diss,
                       lam_lower=lower, lam_upper=lam_upper, slack_max=None, z_max=None, tau_max=None, x_lower=x_lower,
