@@ -52,3 +52,20 @@ def test_mu_dilatancy_and_wall_are_parameters():
     for bad in (0, 7, 1.5, "2"):
         with pytest.raises(bm.errors.OptionError, match="wall"):
             bm.cases.build_case("ferris-tinloi", wall=bad)
+
+
+@pytest.mark.slow
+def test_milp_stops_with_its_bound_and_its_best_exact_point():
+    """Not certified in a short run (the lifted root LP of wall 1 gives no bound within the time limit): the stop
+    returns its best exact point of (3), at most the fixed point's (its heuristics run first; the fixed point's lam
+    is that of an exact solution only to its verification tolerance, 1e-6), and a bound below it; the message and
+    ``extra`` report both and the gap."""
+    wall = bm.cases.build_case("ferris-tinloi")
+    res = bm.solve(wall, "milp", time_limit=30)
+    fixed_point = bm.solve(wall, "fixed-point")
+    assert fixed_point.verified
+    assert res.status is bm.Status.TIME_LIMIT, res.message
+    assert res.verified and res.multiplier <= fixed_point.multiplier + 1e-6
+    assert res.extra["bound"] is not None and res.extra["bound"] <= res.multiplier
+    assert res.extra["gap_abs"] == pytest.approx(res.multiplier - res.extra["bound"], abs=1e-12)
+    assert "best lam" in res.message and "bound" in res.message and "gap" in res.message

@@ -44,6 +44,7 @@ CONFIGS = {
     "highs+env": ("milp", {"engine": "highs", "envelope": True}),
     # the bnb engine as first measured (its defaults are now lifting="rlt-full", root_lp="ipm": "bnb-rltfull-ipm")
     "bnb": ("milp", {"engine": "bnb", "lifting": "friction", "root_lp": "simplex"}),
+    "bnb-friction-ipm": ("milp", {"engine": "bnb", "lifting": "friction", "root_lp": "ipm"}),
     "bnb+lam": ("milp", {"engine": "bnb", "lifting": "friction", "root_lp": "simplex", "lam_branching": True}),
     "bnb-mechanism": ("milp", {"engine": "bnb", "lifting": "mechanism", "root_lp": "simplex"}),
     "bnb-rlt": ("milp", {"engine": "bnb", "lifting": "rlt", "root_lp": "simplex"}),
@@ -59,7 +60,9 @@ COLUMNS = ["case", "blocks", "config", "status", "certified", "multiplier", "roo
 
 def case(spec: str) -> bm.Structure:
     """``CxB`` running-bond wall, ``CxBs`` stack wall, ``arch:N`` round arch of N voussoirs,
-    ``buttress:N:K`` arch on buttresses; mu = 0.65, psi = 0."""
+    ``buttress:N:K`` arch on buttresses, ``ft:N`` MPECLib's Ferris & Tin-Loi wall N; mu = 0.65, psi = 0."""
+    if spec.startswith("ft:"):
+        return bm.cases.build_case("ferris-tinloi", wall=int(spec.split(":")[1]))
     if spec.startswith("arch:"):
         return bm.cases.round_arch(n_voussoirs=int(spec.split(":")[1]))
     if spec.startswith("buttress:"):
