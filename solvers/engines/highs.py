@@ -447,7 +447,8 @@ class HighsLP:
         self.set_algorithm(algorithm or self.algorithm)
         h.run()
         self._first = False
-        status, raw = highs_status(h, interior_without_crossover=self.last_algorithm == IPM_WITHOUT_CROSSOVER)
+        interior = self.last_algorithm == IPM_WITHOUT_CROSSOVER
+        status, raw = highs_status(h, interior_without_crossover=True) if interior else highs_status(h)
         retried = ""
         if status is Status.ERROR:
             status, raw, retried = self._retry_at_default_tolerances(raw)

@@ -49,6 +49,10 @@ def _num(v, digits: int = 7) -> str:
     return "–" if v is None else f"{v:.{digits}f}"
 
 
+def _bound(v) -> str:
+    return "–" if v is None else f"{v:.7g}"
+
+
 def summary(rows: list[dict]) -> str:
     """Issue 53's table: per wall, the associative lam, the best exact point found (by which method) and milp's stop."""
     lines = ["| wall | free blocks | associative λ | best exact point found (method) | issue 53's best | `milp` |",
@@ -61,7 +65,7 @@ def summary(rows: list[dict]) -> str:
         best = min(exact, key=lambda r: r["lam"]) if exact else None
         milp = next((r for r in mine if r["method"] == "milp"), None)
         stop = "–" if milp is None else (f"{milp['status']} after {milp['solve_s']:.0f} s: λ {_num(milp['lam'])}, "
-                                         f"bound {_num(milp['bound'], 4)}, gap {_num(milp['gap_rel'], 3)}")
+                                         f"bound {_bound(milp['bound'])}, gap {_num(milp['gap_rel'], 3)}")
         found = "–" if best is None else f"{_num(best['lam'])} ({best['method']})"
         lines.append(f"| {wall} | {mine[0]['blocks']} | {_num(assoc)} | {found} | {ISSUE_BEST.get(wall, '–')} | "
                      f"{stop} |")
@@ -74,7 +78,7 @@ def long_table(rows: list[dict]) -> str:
              "| ---: | --- | --- | --- | ---: | ---: | ---: | ---: | ---: |"]
     for r in sorted(rows, key=lambda r: (r["wall"], METHODS.index(r["method"]) if r["method"] in METHODS else 99)):
         lines.append(f"| {r['wall']} | {r['method']} | {r['status']} | {'yes' if r['verified'] else 'no'} | "
-                     f"{_num(r['lam'])} | {_num(r['bound'], 4)} | {_num(r['gap_rel'], 3)} | {r['solve_s']:.1f} | "
+                     f"{_num(r['lam'])} | {_bound(r['bound'])} | {_num(r['gap_rel'], 3)} | {r['solve_s']:.1f} | "
                      f"{r['load']:.1f} |")
     return "\n".join(lines)
 
