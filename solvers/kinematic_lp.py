@@ -41,20 +41,19 @@ class KinematicLP(SolverBase):
 
     def setup(self, ops):
         from blockmpec.formulations import compile_linear, kinematic_lp
-        from blockmpec.solvers.engines.highs import MECHANISM_FEASIBILITY_TOL, HighsLP, set_feasibility_tolerances
+        from blockmpec.solvers.engines.highs import MECHANISM_FEASIBILITY_TOL, HighsLP
         from blockmpec.solvers.engines.scaling import LoadUnits
 
         self.ops = ops
         self.units = LoadUnits.of(ops)
         self.lp = compile_linear(kinematic_lp(ops))
-        row_scale, column_scale = self.units.kinematic(self.lp)
-        self.highs = HighsLP(self.lp, self.options.algorithm, row_scale=row_scale, column_scale=column_scale)
+        self.engine = HighsLP(self.lp, self.options.algorithm, scaling=self.units.kinematic(self.lp))
         # z >= 0 are column bounds, held by HiGHS only to its primal feasibility tolerance (see FEASIBILITY_TOL and
         # MECHANISM_FEASIBILITY_TOL: at 1e-10 the kinematic LP agrees with the exact static LP to 1e-8 at 2,000 blocks)
-        set_feasibility_tolerances(self.highs.highs, MECHANISM_FEASIBILITY_TOL)
+        self.engine.set_feasibility_tolerances(MECHANISM_FEASIBILITY_TOL)
 
     def run(self, deadline) -> RunOutput:
-        out = self.highs.solve(deadline=deadline)
+        out = self.engine.solve(deadline=deadline)
         lp = self.lp
         sol = Solution()
         message = out.message
@@ -72,7 +71,7 @@ class KinematicLP(SolverBase):
             message = "the kinematic LP is unbounded: no equilibrium exists (e.g. unstable under dead load)"
             out.status = Status.INFEASIBLE  # a dual with an unbounded objective proves the static LP infeasible
         return RunOutput(out.status, sol, out.iterations, message=message, raw_status=out.raw_status,
-                         extra={"plan": [f"kinematic LP (2): HiGHS {self.highs.last_algorithm}"]})
+                         extra={"plan": [f"kinematic LP (2): HiGHS {self.engine.last_algorithm}"]})
 
     def _no_mechanism(self, status: Status, deadline) -> tuple[Status, str]:
         """Status and message when the kinematic LP has no feasible mechanism.

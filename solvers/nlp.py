@@ -18,7 +18,8 @@ pair rows ``G w <= 0``, multipliers ``z = w[pair_column]``), with the pair slack
 magnitudes of ``z`` and ``s`` at the starting point, each in its pair's units, so
 ``eps`` is scale-free.
 
-Units.  Ipopt solves the NLP in the units of :func:`nlp_scaling`, built from the one
+Units.  Ipopt solves the NLP in the units of
+:meth:`LoadUnits.mcp <blockmpec.solvers.engines.scaling.LoadUnits.mcp>`, built from the one
 units object ``ops.units`` (:mod:`blockmpec.units`) as the LPs are
 (:mod:`blockmpec.solvers.engines.scaling`): block ``i``'s equilibrium rows over its load
 ``l_i``, interface ``k``'s forces in ``(l_k, l_k, l_k L_k)``, the mechanism and multipliers
@@ -264,18 +265,19 @@ def eps_schedule(options: NLPOptions, settings: NLPSettings) -> list[float]:
 class RelaxedMPEC:
     """cyipopt callbacks of the relaxed NLP in units; variables ``v^ = (w^, s^)`` with ``w = D w^``, ``s = S s^``.
 
-    ``D`` (``column_scale``, one entry per column of ``w``) and ``S`` (``slack_scale``, one per
-    pair) come from :func:`nlp_scaling`; the equality rows are multiplied by ``row_scale``
+    ``D`` (``scaling.column``, one entry per column of ``w``) and ``S`` (``scaling.slack``, one per
+    pair) come from the :class:`~blockmpec.solvers.engines.scaling.MCPScaling` ``scaling``; the equality rows are
+    multiplied by ``scaling.row``
     and each slack row ``G_i w + s_i = 0`` by ``1 / S_i`` (its ``s^_i`` coefficient stays 1).
     The product rows are ``z^_i s^_i / P``: since ``S_i`` is the reciprocal of the unit of
     ``z_i``, ``z^_i s^_i = z_i s_i`` (a work in ``lam`` units), and ``P`` is measured on the
     scaled start.
     """
 
-    def __init__(self, form, scale: float, column_scale: np.ndarray, row_scale: np.ndarray,
-                 slack_scale: np.ndarray) -> None:
+    def __init__(self, form, scale: float, scaling) -> None:
         import scipy.sparse as sp
 
+        column_scale, row_scale, slack_scale = scaling
         self.form = form
         p = form.n_pairs
         n_w = form.n_columns
@@ -455,22 +457,6 @@ def without_free_sliding(form, solution: Solution) -> Solution:
     return solution
 
 
-def nlp_scaling(form, units) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Column, equality-row and slack scales of the relaxed NLP: the per-block units of
-    :meth:`LoadUnits.mcp <blockmpec.solvers.engines.scaling.LoadUnits.mcp>` (shared with ``milp``), each pair slack
-    in the reciprocal unit of its multiplier, so that the products ``z^ s^`` equal ``z s`` (works
-    in ``lam`` units) and Ipopt's absolute tolerances hold block by block.
-
-    Returns
-    -------
-    column_scale : ndarray, shape (n_columns,)
-    row_scale : ndarray, shape (rows of ``form.A``,)
-    slack_scale : ndarray, shape (n_pairs,)
-    """
-    column_scale, row_scale = units.mcp(form)
-    return column_scale, row_scale, 1.0 / column_scale[form.pair_column]
-
-
 @register_solver
 class RelaxedNLP(SolverBase):
     """MPEC (4) by Scholtes-relaxed complementarity, Ipopt (cyipopt), eps homotopy."""
@@ -502,7 +488,7 @@ class RelaxedNLP(SolverBase):
             method, start_options = _START_METHODS[self.start]
             self.start_solver = get_solver(method)(**start_options)
             self.start_solver.setup(ops)
-        self.scaling = nlp_scaling(self.form, LoadUnits.of(ops))
+        self.scaling = LoadUnits.of(ops).mcp(self.form)
         self.nlp = None  # built in run(): its scale depends on the starting point
         self.start_time_s = 0.0  # seconds of the start's solve (part of the run's solve time)
 
@@ -512,7 +498,7 @@ class RelaxedNLP(SolverBase):
         ``v0 = (w0, s0)`` is the start's solution (associative: the static LP's; fixed-point: the
         registered method's, run here with the time left on ``stop``) with ``s0 = -G w0``
         (negative parts of ``z0`` and ``s0`` cut to 0), or None for a cold start.
-        ``P = max(z^0) max(s^0)`` in the units of :func:`nlp_scaling`; cold: ``max|f^_d| / sum|f^_l|``
+        ``P = max(z^0) max(s^0)`` in the units of :attr:`scaling`; cold: ``max|f^_d| / sum|f^_l|``
         (a force times the size of ``z`` implied by ``f_l^T u = 1``, in units).
         """
         from blockmpec import facts
@@ -559,7 +545,7 @@ class RelaxedNLP(SolverBase):
             passed_on = (Status.UNBOUNDED, Status.INFEASIBLE, Status.INFEASIBLE_OR_UNBOUNDED, Status.TIME_LIMIT)
             return RunOutput(fail if fail in passed_on else Status.ERROR, message=start_msg,
                              raw_status="static LP" if self.start == "associative" else self.start)
-        nlp = (PenaltyMPEC if penalty else RelaxedMPEC)(self.form, scale, *self.scaling)
+        nlp = (PenaltyMPEC if penalty else RelaxedMPEC)(self.form, scale, self.scaling)
         self.nlp = nlp
         v = np.zeros(nlp.n) if v0 is None else nlp.to_units(v0)
         mult = None

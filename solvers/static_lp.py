@@ -97,12 +97,12 @@ class StaticLP(SolverBase):
     def _lp_engine(self, algorithm: str):
         """The LP's engine for ``algorithm`` (:func:`~blockmpec.solvers.engines.lp_engine.cold_lp_engine`, in load
         units); a HiGHS engine holds the mechanism's ``z >= 0`` (its duals) to FEASIBILITY_TOL."""
-        from blockmpec.solvers.engines.highs import HighsLP, set_feasibility_tolerances
+        from blockmpec.solvers.engines.highs import HighsLP
         from blockmpec.solvers.engines.lp_engine import cold_lp_engine
 
         engine = cold_lp_engine(self.lp, algorithm, self.units)
         if isinstance(engine, HighsLP):
-            set_feasibility_tolerances(engine.highs)
+            engine.set_feasibility_tolerances()
         return engine
 
     def _highs_after_block_ipm(self, failed, deadline):

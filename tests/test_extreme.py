@@ -350,7 +350,7 @@ def test_unstable_under_any_live_load_is_infeasible(method):
 # scales, the load ``l_i`` of each block (``units.block_load``, rows scale ``units.equilibrium_row_scale()``)
 # and the force unit of each interface (``units.interface_force``, columns ``units.force_column_scale()``,
 # multipliers ``units.multiplier_column_scale(friction)``).  The LP methods use it through
-# solvers/engines/scaling.py, milp and nlp in their own models (solvers/milp.py, nlp_scaling in
+# solvers/engines/scaling.py, milp and nlp in their own models (solvers/milp.py, LoadUnits.mcp in
 # solvers/nlp.py).  Every test below once was an xfail(strict=True) naming what a method had to change.
 
 import json as _json  # noqa: E402

@@ -336,3 +336,106 @@ def test_tests_and_studies_call_no_private_name(folder):
     found = [f"{path.relative_to(ROOT)}:{use}" for path in sorted((ROOT / folder).rglob("*.py"))
              for use in private_uses(path.read_text())]
     assert not found, "\n".join(found)
+
+
+# ------------------------------------------------------------------ one owner of HiGHS
+#: modules still holding raw HiGHS calls, each with its reason; the test fails once one no longer needs its entry
+HIGHS_NOT_YET_MOVED = {
+    "solvers/engines/complementarity_bnb.py": "its node LPs and the null-space LP pair are being rewritten by the "
+                                              "certificate's owner; they move onto HighsLP's setters after that lands",
+    "solvers/milp.py": "its bound and polish LPs edit HiGHS models by hand; being rewritten by the certificate's owner",
+    "solvers/engines/lp_sequence.py": "the fixed point's LP sequence edits costs, bounds and coefficients by hand; "
+                                      "being rewritten by the fixed point's owner",
+    "solvers/engines/mip.py": "the SCIP engine's pyscipopt calls (addVar) share a method name with highspy",
+}
+
+
+def test_nothing_outside_the_highs_wrapper_touches_highspy():
+    """No library module but ``solvers/engines/highs.py`` calls a highspy method, reads a ``HighsLP``'s ``.highs``,
+    imports a wrapper name outside its ``__all__`` or imports highspy (the not-yet-moved modules excepted)."""
+    from code_counts import HIGHS_WRAPPER, highs_touches, library_files, relative
+
+    found = {relative(p): highs_touches(p) for p in library_files() if relative(p) != HIGHS_WRAPPER}
+    bad = {k: v for k, v in found.items() if v and k not in HIGHS_NOT_YET_MOVED}
+    assert not bad, bad
+    moved = [k for k in HIGHS_NOT_YET_MOVED if not found.get(k)]
+    assert not moved, f"no longer touching HiGHS, drop from HIGHS_NOT_YET_MOVED: {moved}"
+
+
+def test_the_highs_checker_finds_every_touch(tmp_path):
+    from code_counts import highs_touches
+
+    source = ("import highspy\nfrom blockmpec.solvers.engines.highs import new_highs, HighsLP\n"
+              "h = new_highs()\nh.changeColsCost(1, [0], [1.0])\nlp = HighsLP(x)\nlp.highs.run()\n")
+    path = tmp_path / "module.py"
+    path.write_text(source)
+    assert len(highs_touches(path)) == 4, highs_touches(path)  # import highspy, new_highs, changeColsCost, .highs
+
+
+# ------------------------------------------------------------------ units of code a reader can hold
+_FIXED_POINT = "the fixed point's engines are being rewritten by their owner: split after that lands"
+_CERTIFICATE = "the certificate's engines are being rewritten by their owner: split after that lands"
+_DRAWINGS = "the drawing readers are being changed by their owner: split after that lands"
+_BENCH = "the comparator is being changed by its owner (plug-ins): split after that lands"
+_TO_SPLIT = "to be split (this change)"
+
+#: library functions longer than code_counts.FUNCTION_LINES lines, each with its reason
+LONG_FUNCTIONS = {
+    "solvers/linalg/block_ipm.py:_solve": "numerical kernel: one Mehrotra iteration with its correctors, refinement "
+                                          "and stopping tests; read whole against the module docstring's algorithm",
+    "solvers/linalg/block_ipm.py:__init__": "numerical kernel: the block IPM's standard form (rows split, scaled, "
+                                            "interface blocks gathered) in the order the iteration relies on",
+    "solvers/linalg/cholesky.py:__init__": "numerical kernel: the supernodal symbolic analysis (elimination tree, "
+                                           "supernodes, fronts, relative indices) in one pass",
+    "solvers/linalg/null_space.py:static_null_space": "numerical kernel: the static LP's null-space basis, one "
+                                                      "elimination read top to bottom",
+    "solvers/engines/lp_sequence.py:run_sequence": _FIXED_POINT,
+    "solvers/engines/newton_system.py:semismooth_newton": _FIXED_POINT,
+    "solvers/engines/interior_fixed_point.py:run_interior": _FIXED_POINT,
+    "solvers/engines/interior_fixed_point.py:continue_central_path": _FIXED_POINT,
+    "solvers/engines/complementarity_bnb.py:solve": _CERTIFICATE,
+    "solvers/engines/complementarity_bnb.py:lifted_lp": _CERTIFICATE,
+    "solvers/engines/complementarity_bnb.py:interior_root": _CERTIFICATE,
+    "solvers/milp.py:_run_scaled": _CERTIFICATE,
+    "formulations/mpec_milp.py:mpec_milp": _CERTIFICATE,
+    "solvers/engines/mip.py:solve_scip": _CERTIFICATE,
+    "blockmpec/drawings/image.py:read_image": _DRAWINGS,
+    "blockmpec/drawings/dxf.py:read_dxf": _DRAWINGS,
+    "blockmpec/drawings/svg.py:read_svg": _DRAWINGS,
+    "blockmpec/bench/compare.py:_run": _BENCH,
+    "blockmpec/bench/compare.py:compare": _BENCH,
+    "blockmpec/bench/compare.py:add_references": _BENCH,
+    "blockmpec/pushover.py:pushover": _TO_SPLIT,
+    "blockmpec/operators.py:assemble": _TO_SPLIT,
+    "blockmpec/plot.py:mechanism": _TO_SPLIT,
+    "blockmpec/plot.py:convergence": _TO_SPLIT,
+    "blockmpec/plot.py:multiplier_map": _TO_SPLIT,
+    "formulations/pyomo_compile.py:compile_flat_rows": _TO_SPLIT,
+    "solvers/engines/piece_lp.py:piece_descent": _TO_SPLIT,
+    "solvers/nlp.py:run": _TO_SPLIT,
+    "blockmpec/geometry.py:snap_polygons": _TO_SPLIT,
+    "blockmpec/geometry.py:make_structure": _TO_SPLIT,
+    "blockmpec/contacts.py:find_contacts": _TO_SPLIT,
+    "blockmpec/structure_file.py:structure_from_dict": _TO_SPLIT,
+}
+#: classes longer than code_counts.CLASS_LINES lines, each with its reason
+LONG_CLASSES = {
+    "solvers/linalg/block_ipm.py:BlockIPM": "numerical kernel: the block IPM's state and its iteration; its linear "
+                                            "algebra is already apart (cholesky, block_kernels)",
+    "solvers/linalg/cholesky.py:SupernodalCholesky": "numerical kernel: the supernodal factorisation's symbolic and "
+                                                     "numeric phases share their index arrays",
+    "solvers/milp.py:MILPSolver": _CERTIFICATE,
+    "solvers/engines/complementarity_bnb.py:ComplementarityBnB": _CERTIFICATE,
+}
+
+
+def test_no_library_function_or_class_is_longer_than_a_reader_can_hold():
+    """No library function over ~80 lines and no class over ~400, but the listed ones (each with its reason); an
+    entry no longer needed fails too."""
+    from code_counts import CLASS_LINES, long_units
+
+    functions, classes = long_units(), long_units(kind=ast.ClassDef, limit=CLASS_LINES)
+    assert not set(functions) - set(LONG_FUNCTIONS), sorted(set(functions) - set(LONG_FUNCTIONS))
+    assert not set(classes) - set(LONG_CLASSES), sorted(set(classes) - set(LONG_CLASSES))
+    stale = sorted((set(LONG_FUNCTIONS) - set(functions)) | (set(LONG_CLASSES) - set(classes)))
+    assert not stale, f"no longer long, drop from the allow-list: {stale}"

@@ -176,7 +176,7 @@ def test_infeasible_or_unbounded_static_lp_message_is_truthful(monkeypatch):
     # reported as "no collapse mechanism": the structure may as well be unstable under dead load
     import blockmpec.solvers.engines.highs as highs
 
-    monkeypatch.setattr(highs, "highs_status", lambda h: (bm.Status.INFEASIBLE_OR_UNBOUNDED, "kUnboundedOrInfeasible"))
+    monkeypatch.setattr(highs, "highs_status", lambda h, **_: (bm.Status.INFEASIBLE_OR_UNBOUNDED, "kUnboundedOrInfeasible"))
     res = bm.solve(_frictionless_block_between_walls(), "static-lp", algorithm="dual-simplex")
     assert res.status is bm.Status.INFEASIBLE_OR_UNBOUNDED and not res.success
     assert res.raw_status == "kUnboundedOrInfeasible"

@@ -116,11 +116,11 @@ def test_iteration_callback_stops_ipopt_at_the_deadline():
     import time
 
     from blockmpec.formulations import compile_mcp
-    from blockmpec.solvers.nlp import RelaxedMPEC, nlp_scaling
+    from blockmpec.solvers.nlp import RelaxedMPEC
 
     ops = bm.assemble(bm.cases.two_blocks(eta=3, mu=0.65))
     form = compile_mcp(ops)
-    nlp = RelaxedMPEC(form, 1.0, *nlp_scaling(form, LoadUnits.of(ops)))
+    nlp = RelaxedMPEC(form, 1.0, LoadUnits.of(ops).mcp(form))
     args = (0.0,) * 9
     nlp.start_clock(float("inf"))
     assert nlp.intermediate(0, 0, *args) and nlp.intermediate(0, 1, *args)
@@ -153,11 +153,11 @@ def test_bad_settings(bad):
 def test_callbacks_have_exact_derivatives():
     """Jacobian and Lagrangian Hessian of the relaxed NLP against finite differences."""
     from blockmpec.formulations import compile_mcp
-    from blockmpec.solvers.nlp import RelaxedMPEC, nlp_scaling
+    from blockmpec.solvers.nlp import RelaxedMPEC
 
     ops = bm.assemble(bm.cases.two_blocks(eta=3, mu=0.65, dilatancy=0.2))
     form = compile_mcp(ops)
-    nlp = RelaxedMPEC(form, 2.5, *nlp_scaling(form, LoadUnits.of(ops)))
+    nlp = RelaxedMPEC(form, 2.5, LoadUnits.of(ops).mcp(form))
     rng = np.random.default_rng(0)
     v = rng.normal(size=nlp.n)
     rows, cols = nlp.jacobianstructure()
@@ -185,16 +185,16 @@ def test_callbacks_have_exact_derivatives():
 
 
 def test_rows_in_units_are_the_rows_of_4_scaled_and_products_unchanged():
-    """A 1e-3 block on a unit block (loads 1e-6 apart): the NLP in units (solvers/nlp.py, nlp_scaling) has
+    """A 1e-3 block on a unit block (loads 1e-6 apart): the NLP in units (solvers/nlp.py, LoadUnits.mcp) has
     rows ``R (A w - rhs)`` and ``(G w + s) / S`` at ``v^ = v / D``, the same products ``z_i s_i / P``,
     and every block's equilibrium rows and load within O(1) (the unscaled rows are 1e-6 apart)."""
     from blockmpec.formulations import compile_mcp
-    from blockmpec.solvers.nlp import RelaxedMPEC, nlp_scaling
+    from blockmpec.solvers.nlp import RelaxedMPEC
 
     ops = bm.assemble(block_on_block(1.0, 1e-3))
     form = compile_mcp(ops)
-    column_scale, row_scale, slack_scale = nlp_scaling(form, LoadUnits.of(ops))
-    nlp = RelaxedMPEC(form, 2.5, column_scale, row_scale, slack_scale)
+    column_scale, row_scale, slack_scale = LoadUnits.of(ops).mcp(form)
+    nlp = RelaxedMPEC(form, 2.5, (column_scale, row_scale, slack_scale))
     rng = np.random.default_rng(1)
     w, s = rng.normal(size=form.n_columns), rng.random(form.n_pairs)
     g = nlp.constraints(nlp.to_units(np.concatenate([w, s]))) - np.concatenate([nlp.rhs, np.zeros(form.n_pairs)])
@@ -258,11 +258,11 @@ def test_bad_penalty_options(bad):
 def test_penalty_callbacks_have_exact_derivatives():
     """Gradient and Lagrangian Hessian of the penalty NLP against finite differences."""
     from blockmpec.formulations import compile_mcp
-    from blockmpec.solvers.nlp import PenaltyMPEC, nlp_scaling
+    from blockmpec.solvers.nlp import PenaltyMPEC
 
     ops = bm.assemble(bm.cases.two_blocks(eta=3, mu=0.65, dilatancy=0.2))
     form = compile_mcp(ops)
-    nlp = PenaltyMPEC(form, 2.5, *nlp_scaling(form, LoadUnits.of(ops)))
+    nlp = PenaltyMPEC(form, 2.5, LoadUnits.of(ops).mcp(form))
     nlp.rho = 7.0
     rng = np.random.default_rng(2)
     v = rng.normal(size=nlp.n)
@@ -284,13 +284,12 @@ def test_penalty_callbacks_have_exact_derivatives():
 
 def _form_and_fixed_point(case):
     from blockmpec.formulations import compile_mcp
-    from blockmpec.solvers.nlp import nlp_scaling
 
     ops = bm.assemble(case)
     form = compile_mcp(ops)
     fp = bm.solve(case, "fixed-point")
     assert fp.success
-    return ops, form, nlp_scaling(form, LoadUnits.of(ops)), fp
+    return ops, form, LoadUnits.of(ops).mcp(form), fp
 
 
 def test_piece_descent_is_exact_below_its_start_and_its_certificate_holds():
@@ -307,7 +306,7 @@ def test_piece_descent_is_exact_below_its_start_and_its_certificate_holds():
     assert max(residuals(ops, form.unpack(out.w), associative=False).values()) <= 1e-12
     assert out.multiplier <= fp.multiplier + 1e-12
     assert out.multiplier < fp.multiplier - 1e-3  # the fixed point is not a local minimum here
-    plp = PieceLP(form, *scaling)
+    plp = PieceLP(form, scaling)
     z, s = plp.sides(out.w)
     both_zero = (z <= 1e-9) & (s <= 1e-9)
     assert both_zero.any()

@@ -23,12 +23,11 @@ def assert_verified(res):
 def _setup(case, engine="dual-simplex"):
     from blockmpec.formulations import compile_mcp
     from blockmpec.solvers.engines.piece_lp import SplitPieces
-    from blockmpec.solvers.nlp import nlp_scaling
 
     ops = bm.assemble(case)
     form = compile_mcp(ops)
-    scaling = nlp_scaling(form, LoadUnits.of(ops))
-    return ops, form, scaling, SplitPieces(form, *scaling, static_engine=engine)
+    scaling = LoadUnits.of(ops).mcp(form)
+    return ops, form, scaling, SplitPieces(form, scaling, static_engine=engine)
 
 
 def _start_rounding(pieces, w):
@@ -48,7 +47,7 @@ def test_split_halves_are_the_whole_piece_lp(case):
     ops, form, scaling, pieces = _setup(case)
     fp = bm.solve(case, "fixed-point")
     piece = _start_rounding(pieces, form.pack(fp.solution))
-    whole = PieceLP(form, *scaling)
+    whole = PieceLP(form, scaling)
     whole.set_piece(piece)
     out = whole.solve()
     static = pieces.static_lp(piece)
@@ -79,7 +78,7 @@ def test_certificate_fails_where_the_relaxed_lp_goes_lower():
     cert = pieces.certificate(w, static)
     assert not cert.holds and cert.wrong_signs > 0
     assert cert.stationarity <= 1e-9 and cert.complementarity <= 1e-9  # an exact solution of (3) ...
-    whole = PieceLP(form, *scaling)
+    whole = PieceLP(form, scaling)
 
     def relaxed_lam(point):
         z, s = whole.sides(point)

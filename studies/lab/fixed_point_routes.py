@@ -424,7 +424,6 @@ def route_pieces(ops, args) -> list[dict]:
     from blockmpec.formulations import compile_mcp
     from blockmpec.solvers.engines.piece_lp import piece_descent
     from blockmpec.solvers.engines.scaling import LoadUnits
-    from blockmpec.solvers.nlp import nlp_scaling
 
     lp = step_lp(ops)
     t0 = time.process_time()
@@ -433,7 +432,7 @@ def route_pieces(ops, args) -> list[dict]:
                        time.process_time() - t0, out.status.value)]
     form = compile_mcp(ops)
     t1 = time.process_time()
-    descent = piece_descent(form, nlp_scaling(form, LoadUnits.of(ops)), form.pack(start),
+    descent = piece_descent(form, LoadUnits.of(ops).mcp(form), form.pack(start),
                             deadline=Deadline(args.time_limit), static_engine=args.static_engine)
     first = "; ".join(f"{r['lp']} {r['status']} (support {r.get('support', '-')})" for r in descent.trace[:3])
     sol = form.unpack(descent.w) if descent.w is not None else bm.Solution()

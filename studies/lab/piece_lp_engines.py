@@ -38,13 +38,13 @@ def run(courses: int, per_course: int, engines: list[str], time_limit: float, ap
     from blockmpec.formulations import compile_mcp
     from blockmpec.solvers.engines.piece_lp import piece_descent, whole_piece_descent
     from blockmpec.solvers.engines.scaling import LoadUnits
-    from blockmpec.solvers.nlp import nlp_scaling, without_free_sliding
+    from blockmpec.solvers.nlp import without_free_sliding
     from blockmpec.verify import residuals
 
     case = bm.cases.wall(courses=courses, blocks_per_course=per_course)
     ops = bm.assemble(case)
     form = compile_mcp(ops)
-    scaling = nlp_scaling(form, LoadUnits.of(ops))
+    scaling = LoadUnits.of(ops).mcp(form)
     fp = bm.solve(case, "fixed-point")
     w0 = form.pack(fp.solution)
     rows = []
