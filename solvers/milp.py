@@ -296,7 +296,7 @@ def per_block_units(form, units):
     """
     import dataclasses
 
-    column, row = units.mcp(form)
+    column, row, _ = units.mcp(form)
     s = float(column[form.lam])
     r = column[form.u]
     A = sp.csr_array(sp.diags_array(row) @ form.A @ sp.diags_array(column))
