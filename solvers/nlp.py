@@ -487,7 +487,12 @@ class RelaxedNLP(SolverBase):
 
             method, start_options = _START_METHODS[self.start]
             self.start_solver = get_solver(method)(**start_options)
+            self.start_solver.verify_tol = self.verify_tol
             self.start_solver.setup(ops)
+        st = self.settings
+        self.plan = plan.nlp_plan(self.route, self.start, opt.complementarity, len(eps_schedule(opt, st)),
+                                  polish=st.polish and st.polish_iterations > 0,
+                                  piece_lps=st.piece_lps if self.use_pieces else None, n_pairs=self.form.n_pairs)
         self.scaling = LoadUnits.of(ops).mcp(self.form)
         self.nlp = None  # built in run(): its scale depends on the starting point
         self.start_time_s = 0.0  # seconds of the start's solve (part of the run's solve time)
@@ -540,6 +545,7 @@ class RelaxedNLP(SolverBase):
         # the trace's measure: the stage's eps, or its rho in the penalty NLP
         stop = StoppingCriterion(opt.eps_final, 2 * len(schedule) + 2, deadline,
                                  measure_name="rho" if penalty else "eps").start()
+        self.plan.start("start")
         v0, scale, fail, start_msg, lam_associative = self._start_point(stop)
         if fail is not None:
             passed_on = (Status.UNBOUNDED, Status.INFEASIBLE, Status.INFEASIBLE_OR_UNBOUNDED, Status.TIME_LIMIT)
@@ -548,37 +554,47 @@ class RelaxedNLP(SolverBase):
         nlp = (PenaltyMPEC if penalty else RelaxedMPEC)(self.form, scale, self.scaling)
         self.nlp = nlp
         v = np.zeros(nlp.n) if v0 is None else nlp.to_units(v0)
-        mult = None
-        total_iter = 0
-        final = Status.LOCALLY_OPTIMAL
-        raw = ""
-        message = ""
+        final, raw, message, total_iter = Status.LOCALLY_OPTIMAL, "", "", 0
+        if self.use_ipopt:
+            self.plan.start("ipopt")
+            v, final, raw, message, total_iter = self._ipopt_stages(cyipopt, nlp, v, schedule, scale, stop)
+        trace = stop.trace
+        solution = without_free_sliding(self.form, nlp.split(v))
+        n_stages = len({t["stage"] for t in trace})
+        extra = {"stages": n_stages, "ipopt_solves": len(trace), "scale": scale, "start": self.start, "route": self.route,
+                 "start_time_s": self.start_time_s, "complementarity": opt.complementarity}
+        if lam_associative is not None:
+            extra[facts.ASSOCIATIVE_MULTIPLIER] = lam_associative
+        if not message and self.use_ipopt:
+            last = trace[-1]
+            final_value = (f"final rho = {last['rho']:.3g}, max z_i s_i / P = {last.get('max_work', math.nan):.3g}"
+                           if penalty else f"final eps = {last['eps']:.3g}")
+            message = f"{n_stages} stages ({len(trace)} Ipopt solves), {final_value}; {start_msg}"
+            if "polish" in self.plan:
+                self.plan.start("polish")
+                solution, note = self._polish(solution, stop)
+                message += f"; {note}"
+                extra["polish"] = note
+        if "pieces" in self.plan and (not self.use_ipopt or final in (Status.LOCALLY_OPTIMAL, Status.ACCEPTABLE)):
+            self.plan.start("pieces")
+            solution, final, note = self._piece_finish(solution, final, stop, extra)
+            message = f"{message}; {note}" if message else f"{start_msg}; {note}"
+        return RunOutput(final, solution, iterations=total_iter, trace=trace, message=message, raw_status=raw,
+                         extra=extra)
+
+    def _ipopt_stages(self, cyipopt, nlp: RelaxedMPEC, v: np.ndarray, schedule: list[float], scale: float, stop):
+        """The Ipopt stages of ``schedule`` from the scaled point ``v``, each warm from the one before, until one
+        fails (penalty: until every product ``z^_i s^_i <= eps_final P``); ``(v, status, raw, message, iterations)``
+        with ``raw`` Ipopt's name of the last solve and ``message`` empty unless a stage failed."""
+        opt = self.options
+        penalty = isinstance(nlp, PenaltyMPEC)
+        mult, final, raw, message, total = None, Status.LOCALLY_OPTIMAL, "", "", 0
         for k, eps in enumerate(schedule):
-            attempts = [True, False] if st.warm_start and mult is not None else [False]
             if penalty:
                 nlp.rho = eps
-            for use_mult in attempts:
-                remaining = stop.remaining()
-                if remaining <= 0:
-                    status, name, info = Status.TIME_LIMIT, "time_limit", {"status_msg": "time limit before the stage"}
-                    v_new = v
-                    break
-                t0 = time.perf_counter()
-                v_new, info = self.solve_stage(cyipopt, nlp, eps, v, mult if use_mult else None, remaining)
-                dt = time.perf_counter() - t0
-                code = int(info["status"])
-                status, name = _IPOPT_STATUS.get(code, (Status.ERROR, f"ipopt_status_{code}"))
-                if nlp.deadline_hit and code == _USER_STOP:  # our callback stopped it: the time limit
-                    status, name = Status.TIME_LIMIT, "time_limit_callback"
-                total_iter += nlp.iterations
-                lam_k = float(v_new[self.form.lam] * nlp.column_scale[self.form.lam])
-                stop.check(eps, stage=k + 1, multiplier=lam_k, ipopt_status=name,
-                           ipopt_iterations=nlp.iterations, warm_multipliers=use_mult, stage_time_s=dt,
-                           longest_iteration_s=nlp.longest_iteration_s)
-                raw = name
-                # a failed warm-started stage is tried once more from the same primal point, cold
-                if status.is_success or status is Status.TIME_LIMIT:
-                    break
+            status, name, info, v_new, iterations, last_raw = self._stage(cyipopt, nlp, k, eps, v, mult, stop)
+            total += iterations
+            raw = raw if last_raw is None else last_raw
             if status in (Status.LOCALLY_OPTIMAL, Status.ACCEPTABLE):
                 v = np.asarray(v_new, float)
                 mult = (np.asarray(info["mult_g"], float), np.asarray(info["mult_x_L"], float),
@@ -597,30 +613,35 @@ class RelaxedNLP(SolverBase):
             final = status
             message = f"stage {k + 1} (eps = {eps:.3g}) ended with Ipopt status {name}: {info.get('status_msg', b'')!r}"
             break
-        trace = stop.trace
-        solution = without_free_sliding(self.form, nlp.split(v))
-        n_stages = len({t["stage"] for t in trace})
-        extra = {"stages": n_stages, "ipopt_solves": len(trace), "scale": scale, "start": self.start, "route": self.route,
-                 "start_time_s": self.start_time_s, "complementarity": opt.complementarity,
-                 "plan": [f"start: {self.start}"] + ([f"Ipopt: {n_stages} {opt.complementarity} stages"]
-                                                      if self.use_ipopt else [])}
-        if lam_associative is not None:
-            extra[facts.ASSOCIATIVE_MULTIPLIER] = lam_associative
-        if not message and self.use_ipopt:
-            last = trace[-1]
-            final_value = (f"final rho = {last['rho']:.3g}, max z_i s_i / P = {last.get('max_work', math.nan):.3g}"
-                           if penalty else f"final eps = {last['eps']:.3g}")
-            message = f"{n_stages} stages ({len(trace)} Ipopt solves), {final_value}; {start_msg}"
-            if st.polish and st.polish_iterations > 0:
-                solution, note = self._polish(solution, stop)
-                message += f"; {note}"
-                extra["polish"] = note
-        if self.use_pieces and (not self.use_ipopt or final in (Status.LOCALLY_OPTIMAL, Status.ACCEPTABLE)):
-            extra["plan"].append(f"piece LPs ({st.piece_lps})")
-            solution, final, note = self._piece_finish(solution, final, stop, extra)
-            message = f"{message}; {note}" if message else f"{start_msg}; {note}"
-        return RunOutput(final, solution, iterations=total_iter, trace=trace, message=message, raw_status=raw,
-                         extra=extra)
+        return v, final, raw, message, total
+
+    def _stage(self, cyipopt, nlp: RelaxedMPEC, k: int, eps: float, v: np.ndarray, mult, stop):
+        """Stage ``k`` at ``eps`` from ``v``: one Ipopt solve (warm with the multipliers ``mult`` when the settings
+        say so), and after a failed warm solve one more from ``v`` without them.  Each solve is a record of ``stop``.
+        Returns ``(status, Ipopt's name, info, point, Ipopt iterations, name of the last solve or None)``."""
+        attempts = [True, False] if self.settings.warm_start and mult is not None else [False]
+        iterations, last_raw = 0, None
+        for use_mult in attempts:
+            remaining = stop.remaining()
+            if remaining <= 0:
+                return (Status.TIME_LIMIT, "time_limit", {"status_msg": "time limit before the stage"}, v, iterations,
+                        last_raw)
+            t0 = time.perf_counter()
+            v_new, info = self.solve_stage(cyipopt, nlp, eps, v, mult if use_mult else None, remaining)
+            dt = time.perf_counter() - t0
+            code = int(info["status"])
+            status, name = _IPOPT_STATUS.get(code, (Status.ERROR, f"ipopt_status_{code}"))
+            if nlp.deadline_hit and code == _USER_STOP:  # our callback stopped it: the time limit
+                status, name = Status.TIME_LIMIT, "time_limit_callback"
+            iterations += nlp.iterations
+            lam_k = float(v_new[self.form.lam] * nlp.column_scale[self.form.lam])
+            stop.check(eps, stage=k + 1, multiplier=lam_k, ipopt_status=name,
+                       ipopt_iterations=nlp.iterations, warm_multipliers=use_mult, stage_time_s=dt,
+                       longest_iteration_s=nlp.longest_iteration_s)
+            last_raw = name
+            if status.is_success or status is Status.TIME_LIMIT:
+                break
+        return status, name, info, v_new, iterations, last_raw
 
     def solve_stage(self, cyipopt, nlp: RelaxedMPEC, eps: float, v: np.ndarray, mult, remaining: float):
         """One Ipopt solve of the relaxed NLP ``nlp`` at ``eps`` from ``v`` (with multipliers ``mult`` if given),

@@ -694,17 +694,21 @@ class BlockIPM:
             if self.factorisation not in FACTORISATIONS:
                 raise ValueError(f"block IPM: unknown factorisation {self.factorisation!r}; "
                                  f"use one of {', '.join(FACTORISATIONS)}")
-            supernodal = self.symmetric and (self.factorisation == "supernodal" or (
-                self.factorisation == "auto" and self.K_pattern.shape[0] >= self.rules.supernodal_rows))
-            if self.factorisation == "supernodal" and not supernodal:
+            if self.factorisation == "supernodal" and not self.supernodal:
                 raise ValueError("block IPM: the supernodal Cholesky needs a symmetric K")
             self._factoriser = (SupernodalCholesky(self.K_pattern, self.ordering,
                                                    processes=self.supernodal_processes,
                                                    compiled_symbolic_rows=self.rules.compiled_symbolic_rows,
                                                    **self._cholesky_choices())
-                                if supernodal
+                                if self.supernodal
                                 else SymmetricFactoriser(self.K_pattern, self.ordering))
         return self._factoriser
+
+    @property
+    def supernodal(self) -> bool:
+        """Whether :attr:`factoriser` is the supernodal Cholesky (decided without building it)."""
+        return self.symmetric and (self.factorisation == "supernodal" or (
+            self.factorisation == "auto" and self.K_pattern.shape[0] >= self.rules.supernodal_rows))
 
     def _cholesky_choices(self) -> dict[str, bool]:
         """The supernodal Cholesky's ``compiled_solves`` and ``compiled_factorisation``: the settings, ``"auto"``
