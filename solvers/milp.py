@@ -260,8 +260,6 @@ BOUND_LP_TOL = 1e-10
 CERTIFICATE_TOL = 1e-7
 #: a slack within this (times the largest bound) of its M is "at its bound"
 ACTIVE_TOL = 1e-7
-#: the heuristic's point is an incumbent when every residual of (3) is at most this (the verifier's default)
-HEURISTIC_VERIFY_TOL = 1e-6
 
 
 def _widen(lower: np.ndarray, upper: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -389,6 +387,7 @@ class MILPSolver(SolverBase):
         self.lam_unit = lam_unit
         self.form = form
         self.engine = self._resolve_engine(form)
+        self.plan = plan.milp_plan(self.engine, self.settings.incumbent)
         self.lifting = self.settings.lifting or BNB_DEFAULT_LIFTING
         self.root_lp = self.settings.root_lp or BNB_DEFAULT_ROOT_LP
         eq, cp, nm = form.equilibrium, form.compatibility, form.normalisation
@@ -959,15 +958,13 @@ class MILPSolver(SolverBase):
         for name in heuristic_names(self.settings.heuristic):
             if deadline.expired():
                 break
-            from blockmpec.verify import residuals
-
             # the registered method's own adapter, within a quarter of the time left (at most 30 s); its point is
-            # an incumbent only when the shared verifier accepts it
+            # an incumbent only when the shared verifier accepts it at the run's verify_tol
             heuristic = get_solver(name)()
+            heuristic.verify_tol = self.verify_tol
             heuristic.setup(self.ops)
             out = heuristic.run(deadline.within(max(min(0.25 * deadline.remaining(), 30.0), 1e-3)))
-            checked = residuals(self.ops, out.solution, associative=heuristic.problem == "associative")
-            if out.status.is_success and checked and max(checked.values()) <= HEURISTIC_VERIFY_TOL:
+            if out.status.is_success and heuristic.verified(out.solution):
                 res = out
                 w = self.form.pack(self.scaled(res.solution))
                 s, z = self.form.slack(w), self.form.multipliers(w)
@@ -1007,8 +1004,6 @@ class MILPSolver(SolverBase):
         """Stages 1-5 on the scaled (3), then the point, the bounds and the gaps back in the problem's units."""
         out = self._run_scaled(deadline)
         out.extra.setdefault(facts.BOUND, None)  # every stop reports its bound (None: none proven yet)
-        out.extra["plan"] = [f"LP bounds ({out.extra.get(facts.LP_SOLVES, 0)} LPs)",
-                             f"engine: {out.extra.get(facts.ENGINE, self.engine)}", "polish: piece LPs"]
         unit = self.lam_unit
         if out.solution is not None and out.solution.multiplier is not None:
             out.solution = self.unscaled(out.solution)
@@ -1061,6 +1056,7 @@ class MILPSolver(SolverBase):
         maximise = opt.sense == "max"
         bound_word = "upper" if maximise else "lower"
         t_start = self._t_start = time.perf_counter()
+        self.plan.start("bounds")
         try:
             bd = self.root_bounds(deadline)
         except BoundFailure as fail:
@@ -1069,6 +1065,8 @@ class MILPSolver(SolverBase):
                                     facts.LP_SOLVES: self._n_lps})
         trace = [{"iteration": 0, "stage": "bounds", "time_s": bd.time_s,
                   "bound": bd.lam_lower if not maximise else bd.lam_upper, "incumbent": None, "gap_abs": None}]
+        if self.settings.incumbent:
+            self.plan.start("incumbent")
         incumbent = self._incumbent(bd, deadline) if self.settings.incumbent else None
         if incumbent is not None:
             trace.append({"iteration": len(trace), "stage": "incumbent", "time_s": time.perf_counter() - t_start,
@@ -1089,6 +1087,7 @@ class MILPSolver(SolverBase):
                                  f"best lam {incumbent.multiplier:.10g}, bound {extra[facts.BOUND]:.10g}",
                                  "bounds", extra)
             return RunOutput(fail.run_status, message=str(fail), extra=extra)
+        self.plan.start("engine")
         if self.engine == "bnb":  # its own lifted LP: the big-M model is not built
             return self._run_bnb(bd, incumbent, deadline, trace)
         t0 = time.perf_counter()
@@ -1147,6 +1146,7 @@ class MILPSolver(SolverBase):
         extra["engine_multiplier"] = float(v[self.form.lam])
         extra["tau"] = float(v[mip.columns["tau"][0]])
         extra["n_active_pairs"] = int(active.sum())
+        self.plan.start("polish")
         sol, pmsg = self.polish(active)
         if sol is None:
             return RunOutput(Status.NUMERICAL, Solution(), run.nodes, trace,
