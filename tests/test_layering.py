@@ -344,9 +344,6 @@ def test_tests_and_studies_call_no_private_name(folder):
 HIGHS_NOT_YET_MOVED = {
     "solvers/engines/complementarity_bnb.py": "its node LPs and the null-space LP pair are being rewritten by the "
                                               "certificate's owner; they move onto HighsLP's setters after that lands",
-    "solvers/milp.py": "its bound and polish LPs edit HiGHS models by hand; being rewritten by the certificate's owner",
-    "solvers/engines/lp_sequence.py": "the fixed point's LP sequence edits costs, bounds and coefficients by hand; "
-                                      "being rewritten by the fixed point's owner",
     "solvers/engines/mip.py": "the SCIP engine's pyscipopt calls (addVar) share a method name with highspy",
 }
 
