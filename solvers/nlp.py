@@ -277,7 +277,6 @@ class RelaxedMPEC:
     def __init__(self, form, scale: float, scaling) -> None:
         import scipy.sparse as sp
 
-        column_scale, row_scale, slack_scale = scaling
         self.form = form
         p = form.n_pairs
         n_w = form.n_columns
@@ -285,10 +284,9 @@ class RelaxedMPEC:
         self.i_w = slice(0, n_w)
         self.i_s = slice(n_w, n_w + p)
         self.n = n_w + p
-        self.column_scale = np.concatenate([column_scale, slack_scale])
-        D = sp.diags_array(column_scale)
-        A_eq = sp.diags_array(row_scale) @ form.A @ D  # R A D w^ = R rhs
-        G = sp.diags_array(1.0 / slack_scale) @ form.G @ D  # G w + s = 0 divided by S
+        #: the units of ``(w, s)``: ``v = units * v^``
+        self.units = scaling.with_slacks()
+        A_eq, G, rhs = scaling.nlp_rows(form)  # R A D w^ = R rhs; (G w + s) / S = 0
         A = sp.bmat([[A_eq, None], [G, sp.eye_array(p)]], format="csr")
         self.m_lin = A.shape[0]
         self.m = self.m_lin + p
@@ -306,18 +304,18 @@ class RelaxedMPEC:
         # Lagrangian Hessian: d2(z_i s_i)/dz_i ds_i; lower triangle (s columns after z columns).
         self._hess_rows = s_cols.astype(np.int32)
         self._hess_cols = z_cols.astype(np.int32)
-        self.rhs = np.concatenate([row_scale * form.rhs, np.zeros(p)])
+        self.rhs = np.concatenate([rhs, np.zeros(p)])
         self.grad = np.zeros(self.n)
         self.grad[form.lam] = 1.0
         self.start_clock(math.inf)
 
     def to_units(self, v: np.ndarray) -> np.ndarray:
         """``(w, s)`` -> ``(w^, s^)``."""
-        return np.asarray(v, float) / self.column_scale
+        return np.asarray(v, float) / self.units
 
     def from_units(self, v: np.ndarray) -> np.ndarray:
         """``(w^, s^)`` -> ``(w, s)``."""
-        return np.asarray(v, float) * self.column_scale
+        return np.asarray(v, float) * self.units
 
     # ---- cyipopt interface
     def objective(self, v):
@@ -509,10 +507,8 @@ class RelaxedNLP(SolverBase):
         from blockmpec import facts
 
         form = self.form
-        column_scale, row_scale, slack_scale = self.scaling
         if self.start_solver is None:
-            rows = row_scale[form.equilibrium]
-            f_d, f_l = rows * form.f_d, rows * form.f_l * column_scale[form.lam]
+            f_d, f_l = self.scaling.loads(form)
             force = float(np.max(np.abs(f_d))) if f_d.size else 1.0
             scale = force / max(float(np.sum(np.abs(f_l))), 1e-300)
             return None, (scale if scale > 0 else 1.0), None, "cold start", None
@@ -527,7 +523,7 @@ class RelaxedNLP(SolverBase):
         s0 = np.maximum(form.slack(w0), 0.0)
         z0 = np.maximum(form.multipliers(w0), 0.0)
         w0[form.pair_column] = z0
-        scale = _typical_work(z0 / column_scale[form.pair_column], s0 / slack_scale)
+        scale = _typical_work(*self.scaling.pair_sides(form, z0, s0))
         lam_associative = sol.multiplier if name == "associative" else start.extra.get(facts.ASSOCIATIVE_MULTIPLIER)
         return np.concatenate([w0, s0]), scale, None, f"{name} start lam = {sol.multiplier:.9g}", lam_associative
 
@@ -634,7 +630,7 @@ class RelaxedNLP(SolverBase):
             if nlp.deadline_hit and code == _USER_STOP:  # our callback stopped it: the time limit
                 status, name = Status.TIME_LIMIT, "time_limit_callback"
             iterations += nlp.iterations
-            lam_k = float(v_new[self.form.lam] * nlp.column_scale[self.form.lam])
+            lam_k = float(v_new[self.form.lam] * nlp.units[self.form.lam])
             stop.check(eps, stage=k + 1, multiplier=lam_k, ipopt_status=name,
                        ipopt_iterations=nlp.iterations, warm_multipliers=use_mult, stage_time_s=dt,
                        longest_iteration_s=nlp.longest_iteration_s)

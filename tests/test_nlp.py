@@ -193,8 +193,9 @@ def test_rows_in_units_are_the_rows_of_4_scaled_and_products_unchanged():
 
     ops = bm.assemble(block_on_block(1.0, 1e-3))
     form = compile_mcp(ops)
-    column_scale, row_scale, slack_scale = LoadUnits.of(ops).mcp(form)
-    nlp = RelaxedMPEC(form, 2.5, (column_scale, row_scale, slack_scale))
+    scaling = LoadUnits.of(ops).mcp(form)
+    column_scale, row_scale, slack_scale = scaling
+    nlp = RelaxedMPEC(form, 2.5, scaling)
     rng = np.random.default_rng(1)
     w, s = rng.normal(size=form.n_columns), rng.random(form.n_pairs)
     g = nlp.constraints(nlp.to_units(np.concatenate([w, s]))) - np.concatenate([nlp.rhs, np.zeros(form.n_pairs)])

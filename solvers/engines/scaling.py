@@ -153,6 +153,27 @@ class MCPScaling(NamedTuple):
         """``w^ -> w``."""
         return np.asarray(w, float) * self.column
 
+    def nlp_rows(self, form) -> tuple[sp.csr_array, sp.csr_array, np.ndarray]:
+        """The rows of (3) for a solver of ``(w^, s^)`` (``w = D w^``, ``s = S s^``): ``R A D`` with right-hand side
+        ``R rhs``, and the pair rows ``G w + s = 0`` divided by ``S`` (``S^-1 G D``, the coefficient of ``s^_i`` then
+        1)."""
+        D = sp.diags_array(self.column)
+        return (sp.diags_array(self.row) @ form.A @ D, sp.diags_array(1.0 / self.slack) @ form.G @ D,
+                self.row * form.rhs)
+
+    def with_slacks(self) -> np.ndarray:
+        """The units of ``(w, s)``: ``(D, S)``."""
+        return np.concatenate([self.column, self.slack])
+
+    def pair_sides(self, form, z: np.ndarray, s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The pair multipliers ``z`` and slacks ``s`` in units: ``(z / D_z, s / S)``."""
+        return z / self.column[form.pair_column], s / self.slack
+
+    def loads(self, form) -> tuple[np.ndarray, np.ndarray]:
+        """The dead and live loads ``(f_d^, f_l^)`` of the scaled equilibrium rows (``f_l`` times ``lam``'s unit)."""
+        rows = self.row[form.equilibrium]
+        return rows * form.f_d, rows * form.f_l * self.column[form.lam]
+
     def apply(self, form) -> ScaledMCP:
         """(3) of the compiled MCP ``form`` in these units, with the inverse that travels with it.
 
