@@ -1,12 +1,9 @@
 r"""``nlp``: the MPEC (4) by a relaxed-complementarity NLP (Ferris & Tin-Loi 2001 style).
 
-Problem
--------
-The MPEC (4) is ``min lam`` over the solutions of the MCP (3).  (3) is read from
-its compiled formulation (:func:`blockmpec.formulations.compile_mcp`: ``A w = rhs``,
-pair rows ``G w <= 0``, multipliers ``z = w[pair_column]``), with the pair slacks
-``s = -G w`` as extra variables; the NLP's variables are ``v = (w, s)``,
-``w = (lam, x, u, z)``::
+Problem.  The MPEC (4) is ``min lam`` over the solutions of the MCP (3), read from its compiled formulation
+(:func:`blockmpec.formulations.compile_mcp`: ``A w = rhs``, pair rows ``G w <= 0``, multipliers
+``z = w[pair_column]``), with the pair slacks ``s = -G w`` as extra variables; the NLP's variables are
+``v = (w, s)``, ``w = (lam, x, u, z)``::
 
     min  lam
     s.t. A w = rhs                              (equilibrium, compatibility, normalisation)
@@ -14,107 +11,53 @@ pair rows ``G w <= 0``, multipliers ``z = w[pair_column]``), with the pair slack
          z_i s_i / P <= eps                     (relaxed complementarity, 4c rows)
          z >= 0, s >= 0
 
-(Scholtes relaxation).  ``P = max(z^0) * max(s^0)`` is the product of the typical
-magnitudes of ``z`` and ``s`` at the starting point, each in its pair's units, so
-``eps`` is scale-free.
+(Scholtes relaxation), ``P = max(z^0) * max(s^0)`` the product of the typical magnitudes of ``z`` and ``s`` at the
+start, each in its pair's units, so ``eps`` is scale-free.  ``eps`` runs from ``eps_initial`` down to
+``eps_final`` by the factor ``eps_factor``, each stage warm-started from the one before (primal point and, with the
+setting ``warm_start``, Ipopt's multipliers; a failed warm stage is tried once more without them).
 
-Units.  Ipopt solves the NLP in the units of
-:meth:`LoadUnits.mcp <blockmpec.solvers.engines.scaling.LoadUnits.mcp>`, built from the one
-units object ``ops.units`` (:mod:`blockmpec.units`) as the LPs are
-(:mod:`blockmpec.solvers.engines.scaling`): block ``i``'s equilibrium rows over its load
-``l_i``, interface ``k``'s forces in ``(l_k, l_k, l_k L_k)``, the mechanism and multipliers
-in the reciprocal (kinematic) units, each slack in the reciprocal unit of its multiplier.
-So ``z^_i s^_i = z_i s_i`` (a work in ``lam`` units) and a 1e-5 block on a unit block, or
-dead point loads 1e10 times the weights, keep every block's rows and pairs O(1) for
-Ipopt's absolute tolerances.  Before (``P`` from the largest ``z`` and ``s`` of the whole
-structure) a tiny block's products were relaxed by its big neighbour's ``P`` (``lam < 0``,
-unverified, at size ratio 1e3).  An interface with ``tan(phi) = 0`` has ``t_k`` fixed at 0
-(its pair rows ``+-t_k <= 0`` force it), so ``mu = 0`` gives an exact ``t = 0`` and
-``lam = 0``.
-``eps`` is driven from ``eps_initial`` down to ``eps_final`` by the factor
-``eps_factor``; each stage is warm-started from the previous one (primal point and,
-with the setting ``warm_start``, Ipopt's multipliers); a
-:class:`~blockmpec.solvers.engines.stopping.StoppingCriterion` on ``eps`` keeps the time
-limit and writes the trace (one record per Ipopt solve: ``iteration, time_s, eps,
-stage, multiplier, ipopt_status, ipopt_iterations, warm_multipliers, stage_time_s,
-longest_iteration_s``).  Within a stage the time limit is kept by Ipopt's ``max_wall_time``
-(the time left) and by the iteration callback, which stops Ipopt once the time left is
-shorter than its longest iteration so far (Ipopt tests ``max_wall_time`` only after an
-iteration, and one iteration with inertia corrections is several factorisations).
-Every stage is solved by Ipopt through
-cyipopt, with exact sparse derivatives: the Jacobian is the constant matrix of the
-linear rows plus two nonzeros per product row (``s_i/P`` and ``z_i/P``), and the
-Hessian of the Lagrangian has one nonzero per pair,
-``d^2 L / dz_i ds_i = y_i / P`` (``y_i`` the multiplier of product row ``i``).
-Ipopt runs with ``mumps_pivtol = 1e-8`` (the default 1e-6 makes MUMPS reallocate
-endlessly on these degenerate systems), ``mu_strategy = adaptive`` (about half the
-iterations of the monotone strategy on walls) and ``bound_relax_factor =
-min(1e-8, eps/10)`` (Ipopt's own bound relaxation must not exceed ``eps``);
-``ipopt_options`` override any of these.
+Units.  Ipopt solves in the units of :meth:`LoadUnits.mcp <blockmpec.solvers.engines.scaling.LoadUnits.mcp>`:
+block ``i``'s equilibrium rows over its load ``l_i``, interface ``k``'s forces in ``(l_k, l_k, l_k L_k)``, the
+mechanism and multipliers in the reciprocal units, each slack in the reciprocal unit of its multiplier, so
+``z^_i s^_i = z_i s_i`` (a work in ``lam`` units) and Ipopt's absolute tolerances hold block by block.  An interface
+with ``tan(phi) = 0`` has ``t_k`` fixed at 0 (its pair rows ``+-t_k <= 0`` force it).
 
-The default start is the associative solution (static LP (1) with HiGHS, mechanism
-from its duals), which satisfies every row except the non-associative flow rule.  The
-associative multiplier is an upper bound of every solution of (3) (its ``x`` is
-statically admissible), and the NLP reaches a *local* minimum of (4), so
-``lam_NA_min <= lam_nlp <= lam_assoc``.  When ``tan(psi) = tan(phi)`` (associative case)
-the answer is the LP multiplier.
+Ipopt (through cyipopt) gets exact sparse derivatives: the Jacobian is the constant matrix of the linear rows plus
+``s_i/P`` and ``z_i/P`` per product row, the Hessian of the Lagrangian ``y_i / P`` on each ``(z_i, s_i)``.  It runs
+with ``mumps_pivtol = 1e-8``, ``mu_strategy = adaptive`` and ``bound_relax_factor = min(1e-8, eps/10)`` (its bound
+relaxation must not exceed ``eps``); ``ipopt_options`` override them.  Within a stage the time limit is Ipopt's
+``max_wall_time`` and the iteration callback, which stops Ipopt once the time left is shorter than its longest
+iteration so far.  A :class:`~blockmpec.solvers.engines.stopping.StoppingCriterion` writes one trace record per
+Ipopt solve.
 
-Penalty NLP (``complementarity="penalty"``).  The product rows are replaced by a term of
-the objective (the penalty formulation of Leyffer, López-Calva & Nocedal 2006)::
+Penalty NLP (``complementarity="penalty"``, Leyffer, López-Calva & Nocedal 2006): the product rows become the term
+``rho sum_i z^_i s^_i`` of the objective (``rho`` dimensionless), so every row is linear; ``rho`` runs from
+``penalty`` up by ``penalty_factor`` (at most ``penalty_stages`` stages) until every ``z^_i s^_i <= eps_final P``.
+Ipopt then runs with ``mu_strategy = monotone`` and ``mu_init = bound_push = bound_frac = 1e-6`` (the start
+already satisfies the linear rows).
 
-    min  lam + rho sum_i z^_i s^_i    s.t.  the linear rows above,  z >= 0, s >= 0,
+Starts (``start``): ``"associative"`` (the static LP's solution, which satisfies every row but the non-associative
+flow rule; its multiplier bounds every solution of (3) above, so ``lam_NA_min <= lam_nlp <= lam_assoc``),
+``"cold"`` (Ipopt's push from 0) or ``"fixed-point"`` (the registered method's solution of (3), its time counted
+in this run).  The NLP finds a *local* minimum of (4).
 
-(``z^_i s^_i = z_i s_i``, works in ``lam`` units, so ``rho`` is dimensionless).  Its rows are
-linear, so the degenerate product rows (no constraint qualification at ``z_i = s_i = 0``)
-are gone; the Hessian is the constant ``rho`` on each ``(z^_i, s^_i)``.  ``rho`` runs from
-``penalty`` up by ``penalty_factor`` (at most ``penalty_stages`` stages, each warm-started)
-until every ``z^_i s^_i <= eps_final P``; the polish then makes the products exact.  (The
-trace records the stage's ``rho`` as ``rho``, where the relaxed NLP records ``eps``, and ``max_work``,
-the largest ``z^_i s^_i / P``.)  Ipopt
-runs with ``mu_strategy = monotone`` and ``mu_init = bound_push = bound_frac = 1e-6``: the
-start already satisfies the linear rows and a barrier of Ipopt's default size (0.1, push
-1e-2) first drives the iterate far from it (10x10 wall from the fixed point: 86 Ipopt
-iterations against 315 with the defaults).
+Finishing.  With the setting ``polish`` a few semismooth Newton steps on (3) make the last stage's products
+``z_i s_i`` exact zeros (kept only if Newton converged and ``lam`` moved by at most ``1e-6 max(1, |lam|)``).  With
+the setting ``piece_lp`` (and always on the ``pieces`` route) the point goes to
+:func:`~blockmpec.solvers.engines.piece_lp.piece_descent`: with every pair's zero side fixed, (4) is an LP whose
+minimiser solves (3) exactly; its static half's duals certify a local minimum of (4) (checked, not assumed).  After
+the stages its point is kept only when certified and its ``lam`` is not higher.
 
-Starts (``start``).  ``"fixed-point"`` runs the registered ``fixed-point`` method (its
-defaults, the time left of this run; its seconds are part of this run's solve time and
-are reported as ``extra["start_time_s"]``) and starts the NLP from its solution of (3),
-which satisfies every row; the NLP then moves it to a nearby local minimum of (4) (its
-multiplier may end above the start's: the NLP is local, not a descent from it).
+Route (``route``): ``"ipopt"`` runs the stages above; ``"pieces"`` sends the fixed point's solution of (3) straight
+to the piece LPs, whatever ``start`` says; ``"auto"`` takes ``"pieces"`` from
+:data:`~blockmpec.solvers.plan.NLP_PIECE_ROUTE_BLOCKS` free blocks on (``docs/methods/nlp.md``
+gives the measurements).  The run's stages are its :func:`~blockmpec.solvers.plan.nlp_plan`.
 
-Piece LPs (setting ``piece_lp``, and the ``pieces`` route).  After the stages (and the polish), the point is finished by
-:func:`~blockmpec.solvers.engines.piece_lp.piece_descent`: with every pair's zero side fixed
-by the point, (4) is a linear program (a *piece*), whose minimiser solves (3) exactly.  The piece LP is
-two LPs that no row couples, a static one in ``(lam, x)`` and a mechanism in ``(u, z)``
-(setting ``piece_lps="split"``, the default; ``"whole"`` solves each piece as one HiGHS LP, the route before,
-kept for measurement).  The static LP on the support of a mechanism is the relaxed LP at its point, so
-its duals certify a local minimum of (4) (checked, not assumed); further mechanisms that free pairs whose
-equalities raise ``lam`` descend from there.  The certified point replaces Ipopt's when its ``lam`` is
-not higher.  On the ``pieces`` route there are no stages: the start (the fixed point's solution of (3)) goes
-straight to the piece LPs, and their outcome is the run's.
-
-Route (``route``).  ``"ipopt"`` runs the options above; ``"pieces"`` starts from the fixed point and goes
-straight to the piece LPs, whatever ``start`` says; ``"auto"`` (default) takes ``"pieces"`` from
-:data:`~blockmpec.solvers.plan.NLP_PIECE_ROUTE_BLOCKS` free blocks on.  Measured (``studies/lab/nlp_scaling.py``, one loaded run):
-the Ipopt stages reach at most ~69 blocks within 60 s, while the piece route solves the 2,032-block wall
-(certified local minimum 0.42179, below the fixed point's 0.42633) in ~19 s CPU: the fixed point ~5 s,
-the static halves by the block IPM, the mechanisms by HiGHS.  Below the threshold Ipopt is kept: its
-local minima are lower on small walls (10x5: 0.50530 against the pieces' 0.50582).
-
-A stage that fails after a warm start is tried once more from the same primal
-point without Ipopt's multipliers.  With the setting ``polish`` the last stage's point is
-finished by a few semismooth Newton steps on (3) (the products ``z_i s_i`` of order
-``eps`` become exact zeros) and round-off entries of ``u`` and ``z`` are zeroed; the
-polished point is kept only if Newton converged and ``lam`` moved by at most
-``1e-6 max(1, |lam|)``.
-
-Status: ``LOCALLY_OPTIMAL`` when Ipopt solved every stage (or the piece LPs certified their
-point), ``ACCEPTABLE`` when some stage ended at Ipopt's "solved to acceptable level", otherwise
-the stage's failure (``ITERATION_LIMIT``, ``TIME_LIMIT``, ``NUMERICAL`` or ``ERROR``) with the
-last iterate; on the ``pieces`` route, the piece LPs' limit or ``NUMERICAL`` with their best point.
-Ipopt's "Infeasible_Problem_Detected" is local (a stationary point of the constraint
-violation), so it maps to ``NUMERICAL``, not ``INFEASIBLE``; only an infeasible
-associative start LP (no equilibrium at all) gives ``INFEASIBLE``.
+Status: ``LOCALLY_OPTIMAL`` when Ipopt solved every stage (or the piece LPs certified their point), ``ACCEPTABLE``
+when some stage ended at Ipopt's "solved to acceptable level", otherwise the stage's failure
+(``ITERATION_LIMIT``, ``TIME_LIMIT``, ``NUMERICAL`` or ``ERROR``) with the last iterate; on the ``pieces`` route,
+the piece LPs' limit or ``NUMERICAL`` with their best point.  Ipopt's "Infeasible_Problem_Detected" is local, so it
+maps to ``NUMERICAL``; only an infeasible associative start LP gives ``INFEASIBLE``.
 """
 
 from __future__ import annotations
