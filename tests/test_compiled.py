@@ -65,7 +65,6 @@ def test_blocks_equal_the_operators(compiled):
     assert form.G.nnz == form.pair_matrix.nnz
     np.testing.assert_array_equal(form.friction, ops.friction)
     np.testing.assert_array_equal(form.dilatancy, ops.dilatancy)
-    np.testing.assert_array_equal(form.friction_gap, ops.friction - ops.dilatancy)
 
 
 def test_pair_layout(compiled):

@@ -10,11 +10,9 @@ Engines: HiGHS (:class:`~blockmpec.solvers.engines.highs.HighsLP`: ``dual-simple
 from __future__ import annotations
 
 from blockmpec.formulations import LinearProgram
-from blockmpec.solvers.plan import BASIS_ALGORITHMS, HIGHS_ALGORITHMS, LP_ALGORITHMS, lp_algorithm
+from blockmpec.solvers.plan import lp_algorithm
 
-#: kept under their former names for callers of this module
-ALGORITHMS = LP_ALGORITHMS
-__all__ = ["ALGORITHMS", "BASIS_ALGORITHMS", "HIGHS_ALGORITHMS", "cold_lp_engine"]
+__all__ = ["cold_lp_engine"]
 
 
 def cold_lp_engine(lp: LinearProgram, algorithm: str = "auto", units=None):

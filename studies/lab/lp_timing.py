@@ -13,7 +13,7 @@ default from 30,000 rows of ``K`` when two CPUs are usable) the worker process's
 factorisation (``--factorisations``: ``auto``, ``supernodal``, ``superlu``), its per-interface kernels
 (``--kernels``: ``auto``, ``numpy``, ``compiled``, the last needing numba), the number of factorisations and
 solves with ``K`` and their CPU time.
-Algorithms are those of ``static-lp`` (``blockmpec.solvers.engines.lp_engine.ALGORITHMS``):
+Algorithms are those of ``static-lp`` (``blockmpec.solvers.plan.LP_ALGORITHMS``):
 HiGHS's ``dual-simplex``, ``primal-simplex``, ``ipm`` (with crossover), the
 ``block-ipm``, or ``auto``; and, for a side-by-side measurement of the library
 alternative, HiGHS's new interior-point solver HiPO (``hipo``: without crossover,
