@@ -37,6 +37,10 @@ from blockmpec.units import Frame, block_extent, power_of_two
 #: Default relative tolerance for geometric tests (scaled by block size).
 DEFAULT_GEOMETRY_TOL = 1e-6
 
+#: the friction coefficient ``tan(phi)`` of the built-in cases and of the drawing readers unless given (their
+#: parameter ``mu``)
+DEFAULT_FRICTION = 0.65
+
 
 @dataclass(frozen=True)
 class PointLoad:
