@@ -24,7 +24,7 @@ from blockmpec.drawings._common import (
     scale_option,
 )
 from blockmpec.errors import OptionError, StructureFileError
-from blockmpec.geometry import Structure
+from blockmpec.geometry import DEFAULT_FRICTION, Structure
 
 #: Entities that can be stones.
 POLYLINES = ("LWPOLYLINE", "POLYLINE")
@@ -76,7 +76,7 @@ def read_dxf(
     layers: list | None = None,
     units: str | None = None,
     scale: float | None = None,
-    mu: float = 0.65,
+    mu: float = DEFAULT_FRICTION,
     dilatancy: float = 0.0,
     density: float = 1.0,
     live_direction: int = 1,

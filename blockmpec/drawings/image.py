@@ -29,7 +29,7 @@ import numpy as np
 
 from blockmpec.drawings._common import Stone, build_structure, check_common
 from blockmpec.errors import GeometryError, OptionError, SolverUnavailableError, StructureFileError
-from blockmpec.geometry import Structure
+from blockmpec.geometry import DEFAULT_FRICTION, Structure
 
 #: Image files read (besides ``.npy`` arrays).
 IMAGE_SUFFIXES = (".png", ".tif", ".tiff", ".bmp", ".npy")
@@ -149,7 +149,7 @@ def read_image(
     joint_width: float | None = None,
     simplify: float | None = None,
     min_contact: float = 2.0,
-    mu: float = 0.65,
+    mu: float = DEFAULT_FRICTION,
     dilatancy: float = 0.0,
     density: float = 1.0,
     live_direction: int = 1,

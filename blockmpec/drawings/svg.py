@@ -30,7 +30,7 @@ from blockmpec.drawings._common import (
     scale_option,
 )
 from blockmpec.errors import OptionError, StructureFileError
-from blockmpec.geometry import Structure
+from blockmpec.geometry import DEFAULT_FRICTION, Structure
 
 _INKSCAPE_LABEL = "{http://www.inkscape.org/namespaces/inkscape}label"
 _PHYSICAL = {"mm": 0.001, "cm": 0.01, "m": 1.0, "in": 0.0254, "pt": 0.0254 / 72, "pc": 0.0254 / 6}
@@ -100,7 +100,7 @@ def read_svg(
     fixed_class: str = "fixed",
     units: str | None = None,
     scale: float | None = None,
-    mu: float = 0.65,
+    mu: float = DEFAULT_FRICTION,
     dilatancy: float = 0.0,
     density: float = 1.0,
     live_direction: int = 1,
