@@ -66,6 +66,7 @@ import numpy as np
 from blockmpec import facts as fact_names
 from blockmpec.deadline import NEVER, Deadline
 from blockmpec.formulations.sequence import StepLPs
+from blockmpec.formulations.static_lp import cohesion_factor, surface_slope
 from blockmpec.result import RunOutput, Solution, Status
 from blockmpec.solvers.engines.highs import AT_LOWER, AT_UPPER, BASIC, FEASIBILITY_TOL, static_lp_solution
 from blockmpec.verify import positive_part_ratio
@@ -271,15 +272,14 @@ class LPSequence:
         if alpha == self.alpha:
             return
         lps = self.lps
-        slope = lps.dilatancy + alpha * (lps.friction - lps.dilatancy)
-        slope = np.broadcast_to(slope, (self.n_interfaces,))
+        slope = np.broadcast_to(surface_slope(lps.friction, lps.dilatancy, alpha), (self.n_interfaces,))
         for lp, highs in ((self.step_lp, self.step_highs), (self.tie_lp, self.tie_highs)):
             if highs is None:
                 continue
             highs.set_coefficients(lp.rows["friction"], np.repeat(lp.columns["x"][1::3], 2), np.repeat(slope, 2))
         self.alpha = float(alpha)
         self.slope = slope
-        self.cohesion_factor = lps.friction - slope
+        self.cohesion_factor = cohesion_factor(lps.friction, slope)
 
     def set_sensitivity(self, z_f: np.ndarray | None) -> None:
         """Friction multipliers for the first folded ``"min-lambda"`` step (e.g. the associative LP's)."""
