@@ -50,7 +50,7 @@ FIXED_POINT_STALL_STEPS = 50
 NLP_PIECE_ROUTE_BLOCKS = 100
 #: the piece LPs' static halves run on the block IPM from this many complementarity pairs (HiGHS's dual simplex
 #: below), and their whole LPs on HiGHS's interior point from ``PIECE_LP_IPM_PAIRS``
-#: (``studies/lab/piece_lp_engines.py``)
+#: (``studies/lab/piece_lp_engines.py``, in git history up to e31e02c)
 PIECE_LP_BLOCK_IPM_PAIRS = 4_000
 PIECE_LP_IPM_PAIRS = 10_000
 

@@ -224,21 +224,32 @@ ENGINE_PREFIXES = ("blockmpec.solvers", "blockmpec.formulations")
 
 def study_reaches(path: Path, root: Path = ROOT) -> list[str]:
     """Where a study reaches past the public API: a name imported from an engine, linear-algebra or formulation
-    module that is not in that module's ``__all__`` (or from a module without one); ``setattr`` on a module or class
-    (a monkeypatch); ``exec``/``compile`` of source."""
+    module that is not in that module's ``__all__`` (or from a module without one; a submodule imported whole is
+    fine), ``setattr`` on an imported module or class (a monkeypatch), ``exec``/``compile`` of source."""
+    tree = parsed(path)
+    imported = {alias.asname or alias.name.split(".")[0] for node in ast.walk(tree)
+                if isinstance(node, ast.Import | ast.ImportFrom) for alias in node.names}
     found = []
-    for node in ast.walk(parsed(path)):
+    for node in ast.walk(tree):
         if isinstance(node, ast.ImportFrom) and (node.module or "").startswith(ENGINE_PREFIXES):
             public = module_all(node.module, root)
             found += [f"{node.lineno}: from {node.module} import {a.name}" for a in node.names
-                      if public is None or a.name not in public]
+                      if not is_module(f"{node.module}.{a.name}", root) and (public is None or a.name not in public)]
         elif isinstance(node, ast.Call) and getattr(node.func, "id", None) in ("exec", "compile"):
             found.append(f"{node.lineno}: {node.func.id}()")
-        elif (isinstance(node, ast.Call) and getattr(node.func, "id", None) == "setattr" and node.args
-              and isinstance(node.args[0], ast.Name) and node.args[0].id[:1].isalpha()
-              and node.args[0].id not in ("self", "args", "row", "out")):
+        elif (isinstance(node, ast.Call) and getattr(node.func, "attr", getattr(node.func, "id", None)) == "setattr"
+              and node.args and isinstance(node.args[0], ast.Name) and node.args[0].id in imported):
             found.append(f"{node.lineno}: setattr({node.args[0].id}, ...)")
     return found
+
+
+def is_module(name: str, root: Path = ROOT) -> bool:
+    """Whether ``blockmpec.x.y`` names a module (or package) of the library."""
+    parts = name.split(".")[1:]
+    base = root / "blockmpec"
+    if parts[:1] in (["solvers"], ["formulations"]):
+        base, parts = root / parts[0], parts[1:]
+    return base.joinpath(*parts).with_suffix(".py").is_file() or (base.joinpath(*parts) / "__init__.py").is_file()
 
 
 def lab_counts(root: Path = ROOT) -> dict[str, object]:

@@ -16,6 +16,8 @@ from blockmpec.solvers.engines.highs import LPOutcome
 from blockmpec.solvers.engines.scaling import Scaling
 from blockmpec.solvers.linalg.block_ipm import BlockIPM, IPMOutcome
 
+__all__ = ["BlockLP", "interface_blocks", "lp_outcome"]
+
 
 def lp_outcome(out: IPMOutcome) -> LPOutcome:
     """The block IPM's outcome with the library's status (the same name: ``optimal``, ``acceptable`` ...)."""

@@ -77,6 +77,10 @@ from blockmpec.solvers.engines.highs import IPM_WITHOUT_CROSSOVER, MECHANISM_FEA
 from blockmpec.solvers.engines.scaling import MCPScaling, Scaling
 from blockmpec.solvers.plan import BLOCK_IPM_RULES, piece_lp_static_engine, piece_lp_whole_engine
 
+__all__ = ["Certificate", "PieceLP", "PieceOutcome", "STATIC_ENGINES", "SplitPieces", "closed_interfaces",
+           "kinematic_program", "mechanism_piece", "piece_descent", "static_piece", "static_piece_ipm",
+           "static_program", "whole_piece_descent"]
+
 if TYPE_CHECKING:
     from blockmpec.formulations.pyomo_compile import LinearProgram
 

@@ -51,6 +51,8 @@ import scipy.sparse as sp
 from blockmpec.formulations import LinearProgram
 from blockmpec.units import Units
 
+__all__ = ["LoadUnits", "MCPScaling", "MULTIPLIER_SCALE_RANGE", "ScaledMCP", "Scaling"]
+
 #: The multiplier is rescaled only when the live load in block units is outside [1/this, this].
 MULTIPLIER_SCALE_RANGE = 1e3
 

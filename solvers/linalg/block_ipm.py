@@ -92,6 +92,10 @@ from .cholesky import (
     usable_cpus,
 )
 
+__all__ = ["AutoRules", "BlockIPM", "DEFAULT_SETTINGS", "EXACT_INNER_SETTINGS", "FACTORISATIONS", "IPMIterate",
+           "IPMOutcome", "IPMStatus", "KERNELS", "WIDE_DIAGONAL_SHIFT", "compiled_kernels_available",
+           "single_blas_thread"]
+
 
 class IPMStatus(str, Enum):
     """Why :meth:`BlockIPM.solve` stopped (the values are the library's status names; the engines map them)."""
@@ -408,7 +412,7 @@ class BlockIPM:
         #: the iterates follow the weighted central path ``s_i y_i = w_i mu``, ``mu = mean(s o y / w)``.
         #: ``None``: all ones, the central path itself (the same iterates, bit for bit).  Read at every
         #: iteration (:meth:`before_iteration` may change them).  The weights change the path, never the
-        #: LP's solutions (studies/lab/ipm_crawl.py measures what they change)
+        #: LP's solutions (the study that measured what they change, studies/lab/ipm_crawl.py, is in git history up to e31e02c)
         self.path_weights: np.ndarray | None = None
         #: the structural pattern of ``K = A_B H^{-1} A_B^T`` (CSC, :func:`structural_pattern`): every entry any
         #: iterate can make nonzero; the iteration assembles and factorises ``K`` on it
@@ -808,8 +812,7 @@ class BlockIPM:
     @staticmethod
     def block_product(M_inv: np.ndarray, rhs: np.ndarray) -> np.ndarray:
         """``M_inv[i] @ rhs[i]`` for every block (``(n, q, q)`` by ``(n, q)``), by ``matmul``: the numpy block solve
-        (a replaceable attribute: ``studies/lab/ipm_crawl.py --roundoff`` swaps in ``einsum``, the same sums in another
-        order)."""
+        (a replaceable attribute: a study may swap in ``einsum``, the same sums in another order)."""
         return np.matmul(M_inv, rhs[:, :, None])[:, :, 0]
 
     def _block_dual_solve(self, blocks, rhs_dual: np.ndarray) -> np.ndarray:

@@ -61,6 +61,9 @@ import scipy.sparse.linalg as spla
 
 from .cpus import usable_cpus  # noqa: F401 - the CPUs "auto" counts, capped by BLOCKMPEC_CPUS
 
+__all__ = ["ORDERINGS", "SingularMatrixError", "SupernodalCholesky", "SymmetricFactoriser", "metis_available",
+           "structural_pattern", "two_processes_available"]
+
 ORDERINGS = ("auto", "metis", "mmd")
 
 
