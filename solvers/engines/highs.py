@@ -531,7 +531,10 @@ class HighsLP:
     def dual_ray(self) -> np.ndarray | None:
         """HiGHS's dual ray after an infeasible solve (a Farkas certificate to check), in the problem's units, or
         None when HiGHS has none."""
-        _, has_ray, ray = self._highs.getDualRay()
+        try:
+            _, has_ray, ray = self._highs.getDualRay()
+        except Exception:  # noqa: BLE001 - highspy raises when it holds no ray
+            return None
         return self.scaling.dual(ray) if has_ray else None
 
     def _retry_at_default_tolerances(self, raw: str) -> tuple[Status, str, str]:
