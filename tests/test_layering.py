@@ -404,10 +404,6 @@ LONG_FUNCTIONS = {
 }
 #: classes longer than code_counts.CLASS_LINES lines, each with its reason
 LONG_CLASSES = {
-    "solvers/linalg/block_ipm.py:BlockIPM": "numerical kernel: the block IPM's state and its iteration; its linear "
-                                            "algebra is already apart (cholesky, block_kernels)",
-    "solvers/linalg/cholesky.py:SupernodalCholesky": "numerical kernel: the supernodal factorisation's symbolic and "
-                                                     "numeric phases share their index arrays",
     "solvers/milp.py:MILPSolver": _CERTIFICATE,
     "solvers/engines/complementarity_bnb.py:ComplementarityBnB": _CERTIFICATE,
 }
