@@ -399,7 +399,6 @@ LONG_FUNCTIONS = {
     "blockmpec/plot.py:mechanism": _TO_SPLIT,
     "blockmpec/plot.py:convergence": _TO_SPLIT,
     "formulations/pyomo_compile.py:compile_flat_rows": _TO_SPLIT,
-    "blockmpec/structure_file.py:structure_from_dict": _TO_SPLIT,
 }
 #: classes longer than code_counts.CLASS_LINES lines, each with its reason
 LONG_CLASSES = {
