@@ -396,8 +396,6 @@ LONG_FUNCTIONS = {
     "formulations/mpec_milp.py:mpec_milp": _CERTIFICATE,
     "blockmpec/drawings/image.py:read_image": _DRAWINGS,
     "blockmpec/bench/compare.py:_run": _BENCH,
-    "blockmpec/plot.py:mechanism": _TO_SPLIT,
-    "blockmpec/plot.py:convergence": _TO_SPLIT,
     "formulations/pyomo_compile.py:compile_flat_rows": _TO_SPLIT,
 }
 #: classes longer than code_counts.CLASS_LINES lines, each with its reason
