@@ -11,10 +11,8 @@ friction coefficient of about 1 or more.  There, wedged stones admit *self-stres
 with no load (``E x = 0``) that satisfy every row of (1) and compress some interfaces.  Adding any multiple of one
 to an optimal ``x`` keeps it optimal, so the optimal face is unbounded, the central path has no end point, and the
 interior iterates can lose accuracy near the optimum; a simplex vertex is unaffected.  ``lam`` and the mechanism are
-unique as usual; the forces are not.  Measured (``python studies/lab/stone_wall_self_stress.py --stones 500,1000
---reference``): of 16 walls (about 500 and 1,000 stones, irregularity 0.5 and 0.7, ``mu`` 0.65 to 1.2) 6 carry a
-self-stress; the block IPM alone ends ``numerical`` on 3 of them, and ``auto`` then solves 2 with HiGHS (the same
-``lam`` as HiGHS alone); on the third (1,029 stones, ``mu`` 1.2) HiGHS too reaches the 600 s limit.
+unique as usual; the forces are not (the measurements: ``docs/performance-irregular.md``).  The stages are the
+plan's (:func:`~blockmpec.solvers.plan.static_lp_plan`).
 """
 
 from __future__ import annotations

@@ -40,21 +40,18 @@ LP each: if (RLP) goes lower, each biactive pair that its minimiser leaves posit
 that piece, and the next piece is solved (at most ``rounds`` pieces).
 
 Rounding the start.  A start that solves (3) only approximately (an interior-point fixed point,
-products ``z_i s_i`` of 1e-10) may round onto an empty piece (measured on the 2,032-block wall:
-HiGHS proves the rounded piece infeasible).  So the first LP leaves *ambiguous* pairs free (both
-sides ``>= 0``, as in (RLP)): those whose smaller side, relative to its largest value over all pairs,
-is more than a fraction (:data:`AMBIGUOUS`, first 1e-3) of the larger side; if its minimiser leaves both sides of a free pair
-positive, the pair goes to its relatively smaller side and the LP is solved again.  When that
+products ``z_i s_i`` of 1e-10) may round onto an empty piece.  So the first LP leaves *ambiguous* pairs free
+(both sides ``>= 0``, as in (RLP)): those whose smaller side, relative to its largest value over all pairs, is
+more than a fraction (:data:`AMBIGUOUS`, first 1e-3) of the larger side; if its minimiser leaves both sides of a
+free pair positive, the pair goes to its relatively smaller side and the LP is solved again.  When that
 ends without a solution of (3), a coarser threshold is tried (:data:`AMBIGUOUS`).  The split route lets
 the first mechanism use the same pairs (slack the smaller side, or ambiguous).
 
 LP algorithms.  Whole route: dual simplex (a vertex, exact zeros) below
-:data:`~blockmpec.solvers.plan.PIECE_LP_IPM_PAIRS` pairs; above,
-HiGHS's interior point without crossover (measured on the 2,032-block wall, first piece: dual simplex
-110 s CPU, interior point with crossover 102 s, without 34 s).  Split route: mechanisms by HiGHS's dual
-simplex (warm; primal feasibility 1e-10); static halves by HiGHS's dual simplex below
-:data:`~blockmpec.solvers.plan.PIECE_LP_BLOCK_IPM_PAIRS` pairs and by the block interior-point method above (:func:`static_piece_ipm`;
-measured on the 2,032-block wall, first static half: dual simplex 32 s CPU, block IPM ~2 s).
+:data:`~blockmpec.solvers.plan.PIECE_LP_IPM_PAIRS` pairs, HiGHS's interior point without crossover above.  Split
+route: mechanisms by HiGHS's dual simplex (warm; primal feasibility 1e-10); static halves by HiGHS's dual simplex
+below :data:`~blockmpec.solvers.plan.PIECE_LP_BLOCK_IPM_PAIRS` pairs and by the block interior-point method above
+(:func:`static_piece_ipm`).  The measurements behind both thresholds are in the changelog.
 
 Units: HiGHS solves in the units of :meth:`LoadUnits.mcp <blockmpec.solvers.engines.scaling.LoadUnits.mcp>` (each block's rows
 over its load, pair slacks in the reciprocal units of their multipliers), so that "zero" means

@@ -64,10 +64,8 @@ costs``): ``y_row = w`` on equality rows, ``-y`` on ``<=`` rows and ``+y`` on ``
 rows (which are negated internally), so :func:`blockmpec.solvers.engines.highs.static_lp_solution`
 reads the mechanism as it does for HiGHS.
 
-Why not a general LP code: on a 10,000-block wall HiGHS's interior-point solver
-(IPX) needs ~16 s per iteration here and did not finish in 900 s; the block
-structure makes the same step a batch of 7-by-7 inversions plus one sparse
-factorisation of a mesh matrix (``studies/lab/lp_timing.py``).  Without a basis the
+Why not a general LP code: the block structure makes an interior-point step a batch of 7-by-7 inversions plus
+one sparse factorisation of a mesh matrix (the measurements against HiGHS's IPX: ``docs/performance.md``).  Without a basis the
 point returned is close to the analytic centre of the optimal face, not a vertex,
 so it cannot start HiGHS's warm simplex re-solves (the fixed point needs them).
 """

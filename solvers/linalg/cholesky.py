@@ -21,9 +21,9 @@ factorisations of a symmetric permutation ``P K P^T``:
 
 ``SupernodalCholesky(..., processes=2)`` splits its elimination tree into two subtree halves and their top
 (:meth:`SupernodalCholesky.subtree_halves`) and hands one half of every factorisation and solve to a
-worker process (:class:`HalfWorker`, a fresh Python process, not a fork): 0.74x the block IPM's wall-clock on the
-100,014-block wall (251 s against 339 s, ``python studies/lab/lp_timing.py --walls 316x316 --algorithms block-ipm
---ipm-settings one_process,two_process``; the block IPM's default with this factorisation).  Threads cannot do it: scipy's LAPACK wrappers and each front's numpy work hold the GIL.
+worker process (:class:`HalfWorker`, a fresh Python process, not a fork; the block IPM's default from
+``rules.two_process_rows`` rows of ``K``).  Threads cannot do it: scipy's LAPACK wrappers and each front's numpy
+work hold the GIL.
 
 Orderings (:data:`ORDERINGS`):
 
@@ -33,15 +33,7 @@ Orderings (:data:`ORDERINGS`):
   fallback when pymetis is not installed;
 * ``"auto"``: ``"metis"`` if importable, else ``"mmd"``.
 
-Measured on one ``K`` of a wall at a generic interior point (``python studies/lab/cholesky_choice.py
---walls 100x100,316x316 --methods supernodal-metis,superlu-metis --extend-add-runs 2,8``, CPU time, idle machine): 100,014 blocks
-(300,042 rows), METIS: SuperLU 71.5M nonzeros in ``L+U``, 4.59 s per factorisation, 0.108 s per
-solve; the supernodal Cholesky 1.57 s (0.34x; 35.7M structural nonzeros in ``L``, 48.7M stored with
-the amalgamation zeros), 0.115 s per solve, 10.0 s of ordering and symbolic analysis (once), with
-:data:`EXTEND_ADD_RUNS` = 2.  No wheel on PyPI offers a faster
-permissive sparse Cholesky here: CHOLMOD (``sksparse-minimal``/``cholespy``) bundles its GPL
-Supernodal module, ``qdldl`` (Apache-2.0, AMD) took 29 s on the 100k matrix, and MUMPS/SPRAL
-(``python-mumps``, ``pyspral``) have no wheel for this platform.
+The factorisation packages measured against it (fill, time, licence) are in ``docs/performance.md``.
 """
 
 from __future__ import annotations
