@@ -566,7 +566,6 @@ def run_interior(lp, coulomb_lp, units, *, tol: float, max_iterations: int, dead
     from blockmpec.result import RunOutput, Solution, Status
     from blockmpec.solvers.engines.highs import static_lp_solution
     from blockmpec.solvers.engines.stopping import StoppingCriterion
-    from blockmpec.solvers.plan import describe_block_ipm
 
     crit = StoppingCriterion(tol, max_iterations, deadline, measure_name="kkt_residual").start()
     runs, seconds = 0, 0.0
@@ -622,8 +621,6 @@ def run_interior(lp, coulomb_lp, units, *, tol: float, max_iterations: int, dead
              "continuation_steps": continued["steps"] if continued else 0,
              "continuation_factorisations": continued["factorisations"] if continued else 0,
              **(sequenced or {"sequence_lps": 0, "sequence_newton_runs": 0, "sequence_stalled": False})}
-    if engine is not None and engine._factoriser is not None:
-        facts["plan"] = describe_block_ipm(engine)
     if out is None:
         return RunOutput(Status.TIME_LIMIT, Solution(), crit.iterations, crit.trace,
                          "time limit reached before the interior run", extra=facts), facts
