@@ -437,7 +437,6 @@ def static_piece_ipm(lp: LinearProgram, slack_zero: np.ndarray, scaling: Scaling
     from blockmpec.formulations.pyomo_compile import LinearProgram
     from blockmpec.solvers.engines.block_lp import BlockLP
 
-    row_scale, column_scale = scaling
     pairs = lp.rows["pairs"]
     eq_rows = lp.rows["equilibrium"]
     x_cols = lp.columns["x"].reshape(-1, 3)
@@ -450,7 +449,7 @@ def static_piece_ipm(lp: LinearProgram, slack_zero: np.ndarray, scaling: Scaling
     A = lp.A.tocsr()
     rows = np.r_[eq_rows, keep_pairs, eq_pairs]
     A_ipm = sp.csr_array(A[rows][:, keep_cols])
-    p_unit = 1.0 / row_scale[keep_pairs]  # S_i
+    p_unit = scaling.row_units(keep_pairs)  # S_i
     upper = np.r_[lp.row_upper[eq_rows], np.where(slack_zero[open_pair], p_unit, 0.0), np.zeros(eq_pairs.size)]
     lower = np.r_[lp.row_lower[eq_rows], np.full(keep_pairs.size, -np.inf), np.zeros(eq_pairs.size)]
     c = np.zeros(keep_cols.size)
@@ -458,7 +457,7 @@ def static_piece_ipm(lp: LinearProgram, slack_zero: np.ndarray, scaling: Scaling
     n_keep = keep_cols.size
     ipm_lp = LinearProgram(c=c, A=A_ipm, row_lower=lower, row_upper=upper, col_lower=np.full(n_keep, -np.inf),
                            col_upper=np.full(n_keep, np.inf), columns={}, rows={}, objective_sign=1.0)
-    ipm = BlockLP(ipm_lp, np.arange(1, n_keep).reshape(-1, 3), Scaling(row_scale[rows], column_scale[keep_cols]),
+    ipm = BlockLP(ipm_lp, np.arange(1, n_keep).reshape(-1, 3), Scaling(scaling.row[rows], scaling.column[keep_cols]),
                   tol=tol, deadline=deadline.end, rules=BLOCK_IPM_RULES)
     out = ipm.solve()
     status = Status.OPTIMAL if out.status in (Status.OPTIMAL, Status.ACCEPTABLE) else out.status
@@ -624,7 +623,7 @@ class SplitPieces:
         y = static_out.row_dual
         c = np.zeros(lp.c.size)
         c[lp.columns["lam"][0]] = 1.0  # min lam
-        reduced = (c - lp.A.T @ y) * self.static.column_scale
+        reduced = self.static.scaling.costs(np.arange(c.size), c - lp.A.T @ y)  # in units
         pair_dual = y[lp.rows["pairs"]] * self.s_unit  # dual of the row (G_i x) / S_i
         wrong = int(np.sum(~on & (pair_dual > tol)))
         g = (form.G @ w) / self.s_unit  # pair rows in units (<= 0 when admissible)

@@ -119,6 +119,10 @@ class Scaling(NamedTuple):
         """Row duals in the LP's units: ``y = R y^``."""
         return self.row * np.asarray(y, float)
 
+    def row_units(self, rows) -> np.ndarray:
+        """The unit of each row of ``rows`` in the LP's units (``1 / R``: one unit of the scaled row)."""
+        return 1.0 / self.row[rows]
+
     def reduced_costs(self, d) -> np.ndarray:
         """Reduced costs in the LP's units: ``d = d^ / C``."""
         return np.asarray(d, float) / self.column
