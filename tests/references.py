@@ -33,6 +33,11 @@ TWO_BLOCKS_MINIMUM = 1 / 3
 #: (3) is the same 0.1603447650886125
 ROUND_ARCH_ASSOCIATIVE = 0.1603447650886125
 ROUND_ARCH_PUBLISHED = 0.16034  # the paper's Table 1 (five digits)
+#: ``cases.arch_on_buttresses()``: associative (independent LP) and the least multiplier of (3) (SCIP, certified): equal
+ARCH_ON_BUTTRESSES_ASSOCIATIVE = 0.11736637355005171
+#: ``cases.wall(2, 2)`` and ``cases.wall(3, 2)`` (running bond, mu = 0.65): the least multiplier of (3) is mu (SCIP,
+#: certified; the associative one is mu too: the walls slide on their base)
+WALL_2X2_MINIMUM = WALL_3X2_MINIMUM = 0.65
 #: ``cases.wall(4, 2, bond="stack")``: associative (independent LP) and least multiplier of (3) (SCIP, certified)
 STACK_WALL_4X2_ASSOCIATIVE = 0.5540166204986149
 STACK_WALL_4X2_MINIMUM = 0.5
@@ -85,6 +90,10 @@ REFERENCES = [
     Reference("two-blocks", lambda: bm.cases.two_blocks(eta=3, mu=0.65), "minimum", TWO_BLOCKS_MINIMUM),
     Reference("round-arch", bm.cases.round_arch, "associative", ROUND_ARCH_ASSOCIATIVE),
     Reference("round-arch", bm.cases.round_arch, "minimum", ROUND_ARCH_ASSOCIATIVE),
+    Reference("arch-on-buttresses", bm.cases.arch_on_buttresses, "associative", ARCH_ON_BUTTRESSES_ASSOCIATIVE),
+    Reference("arch-on-buttresses", bm.cases.arch_on_buttresses, "minimum", ARCH_ON_BUTTRESSES_ASSOCIATIVE),
+    Reference("wall-2x2", lambda: bm.cases.wall(2, 2), "minimum", WALL_2X2_MINIMUM),
+    Reference("wall-3x2", lambda: bm.cases.wall(3, 2), "minimum", WALL_3X2_MINIMUM),
     Reference("wall-4x2-stack", lambda: bm.cases.wall(4, 2, bond="stack"), "associative", STACK_WALL_4X2_ASSOCIATIVE),
     Reference("wall-4x2-stack", lambda: bm.cases.wall(4, 2, bond="stack"), "minimum", STACK_WALL_4X2_MINIMUM),
     Reference("wall-4x3", lambda: bm.cases.wall(4, 3), "associative", WALL_4X3_ASSOCIATIVE),
