@@ -18,8 +18,14 @@ sys.path[:] = [p for p in sys.path if Path(p or ".").resolve() != _ROOT]
 import os  # noqa: E402
 
 import pytest  # noqa: E402
+from hypothesis import settings  # noqa: E402
 
 import blockmpec as bm  # noqa: E402
+
+#: property tests (hypothesis) draw the same examples on every run and machine (a failure reproduces; CI never
+#: passes by luck); no deadline: an example is a solve, whose time depends on the machine's load
+settings.register_profile("blockmpec", derandomize=True, database=None, deadline=None, print_blob=True)
+settings.load_profile("blockmpec")
 
 _MUTATION = Path(__file__).resolve().parent / "mutation"
 

@@ -110,6 +110,15 @@ def problem(structure) -> Problem:
 def associative_multiplier(structure) -> float:
     """The optimum of the static LP (1): ``max lam`` s.t. ``E x + f_d + lam f_l = 0``, ``N_u^T x <= 0``,
     ``N_f^T x <= 0`` (scipy.optimize.linprog with HiGHS, tolerances 1e-10)."""
+    status, lam = static_lp(structure)
+    if status != "optimal":
+        raise RuntimeError(f"static LP: {status}")
+    return lam
+
+
+def static_lp(structure) -> tuple[str, float | None]:
+    """``(status, lam)`` of the static LP (1): "optimal", "infeasible" (no equilibrium for any lam) or "unbounded"
+    (no collapse)."""
     p = problem(structure)
     n_x = p.E.shape[1]
     cost = np.zeros(1 + n_x)
@@ -119,9 +128,13 @@ def associative_multiplier(structure) -> float:
                                  A_eq=np.hstack([p.f_l[:, None], p.E]), b_eq=-p.f_d, bounds=(None, None),
                                  method="highs", options={"primal_feasibility_tolerance": 1e-10,
                                                           "dual_feasibility_tolerance": 1e-10})
+    if run.status == 2:
+        return "infeasible", None
+    if run.status == 3:
+        return "unbounded", None
     if run.status != 0:
         raise RuntimeError(f"static LP: {run.message}")
-    return float(run.x[0])
+    return "optimal", float(run.x[0])
 
 
 @dataclass
