@@ -4,14 +4,10 @@
 import numpy as np
 import pytest
 
-pytest.importorskip("cyipopt")
-pytest.importorskip("highspy")
-pytest.importorskip("pyomo")
-
-import blockmpec as bm  # noqa: E402
-from blockmpec.result import Status  # noqa: E402
-from blockmpec.solvers.engines.scaling import LoadUnits  # noqa: E402
-from helpers import assert_residuals_within, two_block_associative, two_block_nonassociative_min  # noqa: E402
+import blockmpec as bm
+from blockmpec.result import Status
+from blockmpec.solvers.engines.scaling import LoadUnits
+from helpers import assert_residuals_within, two_block_associative, two_block_nonassociative_min
 
 TOL = 1e-6
 
