@@ -1,29 +1,9 @@
 """Helpers shared by the tests (closed forms, tolerances, assertions); fixtures live in conftest."""
 
-import importlib.util
-from pathlib import Path
-
 import numpy as np
 import scipy.sparse as sp
 
 import blockmpec as bm
-
-#: the repository's studies/ folder (plain scripts, not part of the installed package)
-STUDIES = Path(__file__).resolve().parents[1] / "studies"
-
-
-def load_study(name: str):
-    """The study script ``studies/{lab,paper}/<name>.py`` imported as a module.
-
-    Deprecated: tests test the library, not the studies (issue 40; ``.ci/run`` runs every study's smallest case).
-    Kept only for ``test_benchmarks.py`` and ``test_root_lp_engines.py`` until their owners move them off it."""
-    path = next((p for p in (STUDIES / "lab" / f"{name}.py", STUDIES / "paper" / f"{name}.py") if p.exists()), None)
-    if path is None:
-        raise FileNotFoundError(f"no study {name!r} in {STUDIES / 'lab'} or {STUDIES / 'paper'}")
-    spec = importlib.util.spec_from_file_location(name, path)
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
 
 
 def solve_with(case, method: str, settings: dict | None = None, *, verify_tol: float = 1e-6, **options) -> bm.Result:
