@@ -43,7 +43,7 @@ STACK_WALL_4X2_ASSOCIATIVE = 0.5540166204986149
 STACK_WALL_4X2_MINIMUM = 0.5
 #: ``cases.wall(4, 3)`` (running bond): associative (independent LP), and 7/11, a solution of (3): SCIP finds one at
 #: 7/11 and the least lam over its pattern of active pairs is exactly 7/11 (the library's milp certifies 7/11 as the
-#: least multiplier of (3) in 24 s; SCIP's own certificate takes longer than 120 s, so it is not checked here)
+#: least multiplier of (3) in 24 s; SCIP does not certify it within 20 minutes, its bound stays at 0)
 WALL_4X3_ASSOCIATIVE = 0.6415508412582297
 WALL_4X3_MINIMUM = 7 / 11
 #: the README's wall ``cases.wall(6, 4, mu=0.65)``: associative (independent LP, 0.5976), and 11/19 = 0.5789, a solution
