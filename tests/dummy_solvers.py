@@ -87,19 +87,3 @@ NAMES = [c.name for c in DUMMIES]
 registry.list_solvers()  # load the real plug-ins first
 for _cls in (*DUMMIES, ReportsCpus):
     registry.register_solver(_cls)
-
-
-class ReturnsPoint(_Base):
-    """Returns a point made by the test as a converged solution of (3) (not registered): how a test hands
-    :func:`blockmpec.run_solver` a point of its own making, to see the shared verifier judge it.
-
-    ``ReturnsPoint(solution)``; ``problem`` is the non-associative one, as for the other dummies."""
-
-    name = "test-returns-point"
-
-    def __init__(self, point: Solution) -> None:
-        super().__init__()
-        self.point = point
-
-    def run(self, deadline):
-        return RunOutput(Status.CONVERGED, self.point, message="the test's point")

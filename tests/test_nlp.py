@@ -297,7 +297,7 @@ def _form_and_fixed_point(case):
 
 
 def test_piece_descent_is_exact_below_its_start_and_its_certificate_holds():
-    """From the fixed point of the 10x5 wall (lam 0.51447, README): an exact solution of (3) (residuals <= 1e-12),
+    """From the fixed point of the 10x5 wall (lam 0.51447, measured): an exact solution of (3) (residuals <= 1e-12),
     lam not above the start's, certified; the certificate re-checked by solving the relaxed LP (biactive pairs
     free on both sides) explicitly: it does not go below lam."""
     from blockmpec.solvers.engines.piece_lp import PieceLP, piece_descent

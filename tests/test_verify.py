@@ -6,7 +6,7 @@ form), violates exactly the condition that residual measures, and asserts that
 * that residual flags it (at least :data:`FLAGGED`, 1e4 times ``solve``'s default ``verify_tol``),
 * every residual of the other conditions stays at round-off (:data:`ROUND_OFF`), and
 * :func:`blockmpec.run_solver` downgrades the point's claimed success (a dummy method that returns it,
-  :class:`dummy_solvers.ReturnsPoint`) to ``numerical``, naming the residual.
+  :class:`ReturnsPoint`) to ``numerical``, naming the residual.
 
 The two admissibility conditions of (3) each have two measures, the paper's global one and the per-interface
 ``local_admissibility``: a violation of ``N_u^T x <= 0`` or ``N_f^T x <= 0`` raises both, except at a light
@@ -21,16 +21,32 @@ always 0; each test below then fails, and ``studies/lab/verifier_mutation.py`` r
 import numpy as np
 import pytest
 import scipy.linalg
-from dummy_solvers import ReturnsPoint
 
 import blockmpec as bm
-from blockmpec.result import Solution, Status
+from blockmpec.result import RunOutput, Solution, Status
+from blockmpec.solver import SolverBase
 from blockmpec.verify import RESIDUAL_NAMES, positive_part_ratio, residuals
 
 #: the exact points below have residuals of at most 2e-16 (measured); a residual of another condition stays below this
 ROUND_OFF = 1e-14
 #: each violation below raises its residual to 0.016 .. 1 (measured): at least this, 1e4 x the default verify_tol
 FLAGGED = 1e-2
+
+
+class ReturnsPoint(SolverBase):
+    """A method (not registered) that returns the point it was made with as a converged solution of (3): how a test
+    hands :func:`blockmpec.run_solver` a point of its own making, to see the shared verifier judge it."""
+
+    name = "test-returns-point"
+    problem = "non-associative"
+    summary = "returns a given point"
+
+    def __init__(self, point: Solution) -> None:
+        super().__init__()
+        self.point = point
+
+    def run(self, deadline):
+        return RunOutput(Status.CONVERGED, self.point, message="the test's point")
 
 
 def exact_point(structure: bm.Structure, closed_form: float):
