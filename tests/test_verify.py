@@ -75,7 +75,7 @@ def self_stress(ops, component: int) -> np.ndarray:
     return dx
 
 
-def bridge(height: float, friction: float, scale: float = 1.0, at=(0.0, 0.0)) -> list[np.ndarray]:
+def bridge(height: float, scale: float = 1.0, at=(0.0, 0.0)) -> list[np.ndarray]:
     """A ``3 x height`` block on two fixed ``1 x 1`` pedestals 1 apart (polygons, times ``scale``, moved to ``at``):
     its two collinear joints make a self-stress of opposite shears, and one of opposite moments."""
     polygons = [[[0, -1], [1, -1], [1, 0], [0, 0]], [[2, -1], [3, -1], [3, 0], [2, 0]],
@@ -103,7 +103,7 @@ def two_blocks():
 def sliding_bridge():
     """The bridge of height 1 with mu = 0.2 slides on both pedestals at lam = mu (it would rock at 3/h = 3):
     no unilateral multiplier."""
-    ops, point = exact_point(bm.make_structure(bridge(1.0, 0.2), [True, True, False], friction=0.2), 0.2)
+    ops, point = exact_point(bm.make_structure(bridge(1.0), [True, True, False], friction=0.2), 0.2)
     assert not point.z_u.any()
     return ops, point
 
@@ -112,7 +112,7 @@ def sliding_bridge():
 def rocking_bridge():
     """The bridge of height 6 with mu = 0.65 rocks about its outer toe at lam = 3/h = 1/2 (below mu): no friction
     multiplier."""
-    ops, point = exact_point(bm.make_structure(bridge(6.0, 0.65), [True, True, False], friction=0.65), 0.5)
+    ops, point = exact_point(bm.make_structure(bridge(6.0), [True, True, False], friction=0.65), 0.5)
     assert not point.z_f.any()
     return ops, point
 
@@ -122,7 +122,7 @@ def tiny_bridge_beside_a_block():
     """A 1 x 2 block on a base (it rocks at lam = 1/2) and, beside it, a bridge 1e-4 times smaller on its own
     pedestals (it would slide at mu = 0.65): the bridge stays at rest, its loads 1e-8 of the block's."""
     polygons = [np.array([[-3.0, -1], [3, -1], [3, 0], [-3, 0]]), np.array([[-2.0, 0], [-1, 0], [-1, 2], [-2, 2]]),
-                *bridge(1.0, 0.65, scale=1e-4, at=(1.0, 1e-4))]
+                *bridge(1.0, scale=1e-4, at=(1.0, 1e-4))]
     ops, point = exact_point(bm.make_structure(polygons, [True, False, True, True, False], friction=0.65), 0.5)
     return ops, point
 
