@@ -12,11 +12,9 @@ import numpy as np
 import pytest
 import scipy.sparse as sp
 
-pytest.importorskip("pyomo")
-
-import blockmpec as bm  # noqa: E402
-from blockmpec.formulations import compile_mcp, evaluate_mcp, mcp  # noqa: E402
-from blockmpec.formulations.compiled import FRICTION, UNILATERAL  # noqa: E402
+import blockmpec as bm
+from blockmpec.formulations import compile_mcp, evaluate_mcp, mcp
+from blockmpec.formulations.compiled import FRICTION, UNILATERAL
 
 CASES = {
     "two-blocks-dilatant": lambda: bm.cases.two_blocks(eta=3, mu=0.65, dilatancy=0.2),

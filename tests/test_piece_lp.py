@@ -4,14 +4,10 @@
 import numpy as np
 import pytest
 
-pytest.importorskip("cyipopt")
-pytest.importorskip("highspy")
-pytest.importorskip("pyomo")
-
-import blockmpec as bm  # noqa: E402
-from blockmpec.result import Status  # noqa: E402
-from blockmpec.solvers.engines.scaling import LoadUnits  # noqa: E402
-from helpers import assert_residuals_within, two_block_associative, two_block_nonassociative_min  # noqa: E402
+import blockmpec as bm
+from blockmpec.result import Status
+from blockmpec.solvers.engines.scaling import LoadUnits
+from helpers import assert_residuals_within, two_block_associative, two_block_nonassociative_min
 
 TOL = 1e-6
 
@@ -97,7 +93,7 @@ def test_certificate_fails_where_the_relaxed_lp_goes_lower():
 
 def test_certificate_fails_when_lam_is_not_the_lps_optimum():
     """The fixed point's own solution of (3) with the duals of the static LP of its support: lam is above that
-    LP's optimum (0.51447 against 0.50582 on the 10x5 wall), so those duals certify nothing."""
+    LP's optimum (0.51447 against 0.50582 on the 10x5 wall, measured), so those duals certify nothing."""
     case = bm.cases.wall(10, 5)
     ops, form, scaling, pieces = _setup(case)
     fp = bm.solve(case, "fixed-point")
