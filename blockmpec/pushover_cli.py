@@ -158,6 +158,6 @@ def _print_curve(case: str, method: str, curve) -> None:
     print(f"{case}: method={method} rows={len(curve)} control=block {a['control_block']} "
           f"step={a['step_size']:.4g} stop: {a['stop_reason']}")
     shown = curve[["step", "displacement", "rotation", "multiplier", "status", "event"]]
-    print(shown.to_string(index=False, float_format=lambda v: f"{v:.6g}"))
+    print(shown.to_string(index=False, float_format=lambda v: f"{v + 0.0:.6g}"))  # + 0.0: no -0
     if a.get("ultimate_displacement") is not None:
         print(f"  lambda reaches 0 at displacement {a['ultimate_displacement']:.6g}")

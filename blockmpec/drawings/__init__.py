@@ -24,6 +24,7 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
+from blockmpec.drawings._common import DrawingWarning
 from blockmpec.drawings.export import export_drawing
 from blockmpec.errors import OptionError
 from blockmpec.geometry import Structure
@@ -97,4 +98,4 @@ def reader_options(path: str | Path) -> dict[str, Any]:
     return {k: p.default for k, p in inspect.signature(reader(path)).parameters.items() if k != "path"}
 
 
-__all__ = ["READERS", "SUFFIXES", "export_drawing", "is_drawing", "read_structure", "reader", "reader_options"]
+__all__ = ["READERS", "SUFFIXES", "DrawingWarning", "export_drawing", "is_drawing", "read_structure", "reader", "reader_options"]
