@@ -924,6 +924,14 @@ def test_svg_stretched_unequally_is_refused_unless_the_unit_is_given(tmp_path):
     assert read_structure(path, units="mm").metadata["drawing"]["scale"] == 0.001
 
 
+def test_svg_nested_viewbox_is_refused_not_misplaced(tmp_path):
+    # svgelements 1.9 places a nested <svg>'s content without its viewBox's scaling: refused, with the element
+    path = _svg(tmp_path / "nested.svg", SVG_BASE + '<svg id="inner" x="0" y="-30" width="10" height="30" '
+                'viewBox="0 0 1 3"><rect width="1" height="3"/></svg>')
+    with pytest.raises(bm.StructureFileError, match=r'<svg id="inner"> has a viewBox of its own'):
+        read_structure(path)
+
+
 @pytest.mark.parametrize("content", [b"not an image", b"\x89PNG\r\n\x1a\nbroken"])
 def test_unreadable_image_is_one_line_without_install_advice(tmp_path, capsys, content):
     pytest.importorskip("skimage")

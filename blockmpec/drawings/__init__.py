@@ -8,15 +8,17 @@
 
 Readers (one per kind of file, chosen by the suffix in :func:`read_structure`):
 
-* ``.dxf``: :func:`blockmpec.drawings.dxf.read_dxf` (closed polylines; a ``fixed`` layer);
-* ``.svg``: :func:`blockmpec.drawings.svg.read_svg` (closed paths and polygons; class ``fixed``;
-  SVG's ``y`` axis points down and is turned up);
+* ``.dxf``: :func:`blockmpec.drawings.dxf.read_dxf` (closed polylines and loops of lines in world
+  coordinates, block references followed; a ``fixed`` layer);
+* ``.svg``: :func:`blockmpec.drawings.svg.read_svg` (closed shapes and loops of lines through their
+  transformations; class ``fixed``; SVG's ``y`` axis points down and is turned up);
 * ``.png``, ``.tif``, ``.tiff``, ``.bmp``, ``.npy``: :func:`blockmpec.drawings.image.read_image`
   (labelled or binary images; needs ``pip install 'blockmpec[image]'``).
 
 Every error names the file and the entity (DXF handle and layer, SVG id, image label).  The
-structure's ``metadata["drawing"]`` records the file's frame (scale, ``y`` direction) and the
-entity of each block; ``metadata["snapping"]`` what was snapped.
+structure's ``metadata["drawing"]`` records the file's frame (scale, ``y`` direction), the entity of
+each block, the summary line of what was read and left out (``summary``, counts in ``read``) and the
+warnings (``warnings``; each also a :class:`DrawingWarning`); ``metadata["snapping"]`` what was snapped.
 """
 
 from __future__ import annotations

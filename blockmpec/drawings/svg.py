@@ -200,6 +200,19 @@ def _read_shapes(svg, inverse: np.ndarray, fixed_class: str, curve_segments: int
     return stones, segments
 
 
+def _refuse_inner_viewboxes(root, p: Path) -> None:
+    """A nested ``<svg>``, or a ``<symbol>`` that a ``<use>`` draws, with a viewBox of its own is a
+    StructureFileError: svgelements places their content without that viewBox's scaling (1.9)."""
+    used = {str(v).lstrip("#") for e in root.iter() if e.tag.rsplit("}", 1)[-1] == "use"
+            for k, v in e.attrib.items() if k.rsplit("}", 1)[-1] == "href"}
+    for e in root.iter():
+        tag = e.tag.rsplit("}", 1)[-1]
+        if e is not root and e.get("viewBox") and (tag == "svg" or tag == "symbol" and e.get("id") in used):
+            name = f'<{tag} id="{e.get("id")}">' if e.get("id") else f"a nested <{tag}>"
+            raise StructureFileError(f"{p}: {name} has a viewBox of its own, whose scaling blockmpec cannot apply; "
+                                     "ungroup it into plain groups (Inkscape: Object > Ungroup) or remove its viewBox")
+
+
 def _parse(p: Path):
     """The svgelements document and the number of drawn elements that ``display:none`` hides."""
     import io
@@ -216,6 +229,7 @@ def _parse(p: Path):
         raise StructureFileError(f"{p}: not valid XML ({exc})") from None
     if not root.tag.endswith("svg"):
         raise StructureFileError(f"{p}: not an SVG file (its root element is <{root.tag}>)")
+    _refuse_inner_viewboxes(root, p)
     try:
         svg = SVG.parse(io.BytesIO(text), reify=True)
     except Exception as exc:  # svgelements raises several types for broken files
