@@ -712,6 +712,64 @@ def test_dxf_lines_are_joined_and_counted_and_the_rest_is_skipped_by_kind(tmp_pa
     assert "1 LINE on layers not read" in s.metadata["drawing"]["summary"]
 
 
+def _rect_lines(msp, x0, y0, x1, y1, over=0.0, under=0.0):
+    """A rectangle drawn with four LINEs as a draughtsman might: each one `over` past its far corner, or
+    ending `under` short of it."""
+    for a, b, d in [((x0, y0), (x1, y0), (1, 0)), ((x1, y0), (x1, y1), (0, 1)), ((x1, y1), (x0, y1), (-1, 0)),
+                    ((x0, y1), (x0, y0), (0, -1))]:
+        start = (a[0] - over * d[0], a[1] - over * d[1])
+        end = (b[0] + (over - under) * d[0], b[1] + (over - under) * d[1])
+        msp.add_line(start, end, dxfattribs={"layer": "stones"})
+
+
+@pytest.mark.parametrize(("over", "under", "rel"), [(0.0, 0.0, 1e-9), (50.0, 0.0, 1e-9), (0.0, 0.1, 1e-4)],
+                         ids=["exact", "overshooting", "undershooting"])
+def test_dxf_two_blocks_drawn_with_lines_as_drafted(tmp_path, over, under, rel):
+    """The two-block problem (mm) with each block drawn with its own four LINEs: exactly, past the corners by
+    50 mm (the pieces past a corner are loose ends, or lie on the neighbour's outline: drawn twice there),
+    and 0.1 mm short (the end joined with the corner's: the corner moves by 0.05 mm, which moves lam by
+    less than 1e-4; measured 6.6e-5)."""
+    doc, msp = _dxf_doc()
+    msp.add_lwpolyline([(-1000, -500), (3000, -500), (3000, 0), (-1000, 0)], close=True,
+                       dxfattribs={"layer": "fixed"})
+    _rect_lines(msp, 0, 0, 1000, 3000, over, under)
+    _rect_lines(msp, 1000, 0, 2000, 3000, over, under)
+    doc.saveas(tmp_path / "drafted.dxf")
+    s = read_structure(tmp_path / "drafted.dxf", mu=0.65)
+    assert s.metadata["drawing"]["summary"] == "read 2 stones and 1 support (2 joined from 8 LINE); skipped nothing"
+    assert bm.solve(s, "static-lp").multiplier == pytest.approx(closed_forms(3.0, 0.65)[0], rel=rel)
+
+
+def test_dxf_space_enclosed_by_stones_drawn_with_lines_is_not_a_stone(tmp_path):
+    """A window: a sill, two jambs and a lintel, each drawn with its own lines, enclose a space whose edges
+    are each drawn once (by the stone beside it): four stones, not five."""
+    doc, msp = _dxf_doc()
+    msp.add_lwpolyline([(-1000, -500), (4000, -500), (4000, 0), (-1000, 0)], close=True,
+                       dxfattribs={"layer": "fixed"})
+    for box in [(0, 0, 3000, 500), (0, 500, 1000, 1500), (2000, 500, 3000, 1500), (0, 1500, 3000, 2000)]:
+        _rect_lines(msp, *box)
+    doc.saveas(tmp_path / "window.dxf")
+    s = read_structure(tmp_path / "window.dxf")
+    assert_stones(s, [([(-1, -0.5), (4, -0.5), (4, 0), (-1, 0)], True)] + [
+        ([(x0 / 1000, y0 / 1000), (x1 / 1000, y0 / 1000), (x1 / 1000, y1 / 1000), (x0 / 1000, y1 / 1000)], False)
+        for x0, y0, x1, y1 in [(0, 0, 3000, 500), (0, 500, 1000, 1500), (2000, 500, 3000, 1500), (0, 1500, 3000, 2000)]])
+
+
+def test_dxf_stone_wall_exploded_into_lines_reads_back_the_same_wall(tmp_path):
+    """A rubble wall of the built-in generator (stones of 5 to 9 edges sharing corners and T-junctions) with
+    every outline exploded by ezdxf into LINEs: the same stones, hence the same lam as the wall itself."""
+    wall = bm.cases.stone_wall(width=4.0, height=2.0, stone_size=0.3, irregularity=0.8, seed=2)
+    doc = ezdxf.new(units=6)  # metres
+    for i in range(wall.n_blocks):
+        layer = "fixed" if wall.fixed[i] else "stones"
+        doc.modelspace().add_lwpolyline(wall.polygon(i), close=True, dxfattribs={"layer": layer}).explode()
+    doc.saveas(tmp_path / "wall.dxf")
+    s = read_structure(tmp_path / "wall.dxf", mu=0.65)
+    assert s.metadata["drawing"]["read"]["joined"]["LINE"] == sum(len(wall.polygon(i)) for i in range(wall.n_blocks))
+    assert_stones(s, [(wall.polygon(i), bool(wall.fixed[i])) for i in range(wall.n_blocks)])
+    assert bm.solve(s, "static-lp").multiplier == pytest.approx(bm.solve(wall, "static-lp").multiplier, rel=1e-9)
+
+
 def arched_stone_lambda(sx, sy):
     """lam of a stone 1000 mm wide with walls 1000 mm high and a semicircular top (radius 500 mm), scaled by sx
     and sy, rocking on a base (mu = 5).  Unscaled: area A0 = 1000^2 + pi 500^2 / 2, centroid height

@@ -9,10 +9,12 @@ unary union: overlapping pieces merged, crossings split) and the bounded faces o
 found (shapely's ``polygonize``).  Each *piece* of the arrangement is covered by ``m`` segments
 (``m = 2`` along a joint drawn once for each of its two stones) and borders one or two faces.  A face
 is a stone or a space (a void enclosed by stones): a face beside the outside is a stone, and across a
-piece covered ``m`` times the two faces hold ``m`` stones in all.  A drawing where this has no
-solution (a joint drawn once for two stones, an outline drawn twice over, a line cutting across a
-stone) is refused with one line naming the segments of the piece where it fails.  Faces thinner
-than the joining tolerance (slivers between two outlines that nearly coincide) are spaces.
+piece drawn once from a stone lies a space, across one drawn twice (or more: a line drawn over
+again, one drawn past its corner) a stone.  A piece beside more stones than it is drawn (a joint drawn
+once for two stones, a line cutting across a stone) is refused with one line naming its segments.
+Faces thinner than the joining tolerance (slivers between two outlines that nearly coincide) are
+spaces.  An end that meets no other end is moved onto a segment closer than the tolerance (a line
+drawn short of another).
 
 Segments on no stone's outline are left over: lines are skipped (and counted by the reader), an open
 polyline is an error (usually a stone whose closing was forgotten).
@@ -45,7 +47,9 @@ class Segment:
 
 
 def _joined_ends(segments: list[Segment], tolerance: float) -> list[np.ndarray]:
-    """The segments' points with ends closer than ``tolerance`` moved to their common mean."""
+    """The segments' points with ends closer than ``tolerance`` moved to their common mean, and an end that
+    meets no other end moved onto a segment closer than ``tolerance`` (a line drawn short of another)."""
+    import shapely
     from scipy.sparse import coo_array
     from scipy.sparse.csgraph import connected_components
     from scipy.spatial import cKDTree
@@ -64,6 +68,17 @@ def _joined_ends(segments: list[Segment], tolerance: float) -> list[np.ndarray]:
         p = np.array(s.points, float)
         p[0], p[-1] = merged[2 * k], merged[2 * k + 1]
         out.append(p)
+    lone = np.flatnonzero(np.bincount(label)[label] == 1)
+    if lone.size:
+        lines = np.array([shapely.LineString(p) for p in out], dtype=object)
+        tree = shapely.STRtree(lines)
+        for end in lone.tolist():
+            k, point = end // 2, shapely.Point(ends[end])
+            near = [j for j in tree.query(point, predicate="dwithin", distance=tolerance).tolist() if j != k]
+            if near:
+                j = min(near, key=lambda j: shapely.distance(lines[j], point))
+                on = shapely.line_interpolate_point(lines[j], shapely.line_locate_point(lines[j], point))
+                out[k][0 if end % 2 == 0 else -1] = shapely.get_coordinates(on)[0]
     return out
 
 
@@ -90,8 +105,9 @@ def _arrangement(points: list[np.ndarray], tolerance: float):
 
 def _stone_faces(pieces, n_faces: int, piece_faces: list[list[int]], covering: list[list[int]],
                  segments: list[Segment], source: str) -> np.ndarray:
-    """Whether each face is a stone: beside the outside a stone, across a piece covered m times m stones
-    in all (a breadth-first walk from the outside inwards); no solution is a StructureFileError."""
+    """Whether each face is a stone: beside the outside a stone, across a piece covered once from a stone a
+    space, twice or more a stone (a breadth-first walk from the outside inwards); a piece beside more
+    stones than it is drawn is a StructureFileError."""
     from collections import deque
 
     stone = np.full(n_faces, -1)
@@ -110,7 +126,7 @@ def _stone_faces(pieces, n_faces: int, piece_faces: list[list[int]], covering: l
                 stone[other[0]] = min(max(len(covering[i]) - stone[f], 0), 1)
                 queue.append(other[0])
     for i, faces in enumerate(piece_faces):
-        if faces and (sum(int(stone[f]) for f in faces) != len(covering[i]) or min(stone[f] for f in faces) < 0):
+        if faces and (sum(int(stone[f]) for f in faces) > len(covering[i]) or min(stone[f] for f in faces) < 0):
             names = ", ".join(segments[k].name for k in covering[i])
             a, b = pieces[i].coords[0], pieces[i].coords[-1]
             drawn = {1: "once", 2: "twice"}.get(len(covering[i]), f"{len(covering[i])} times")
@@ -161,15 +177,17 @@ def join_loops(segments: list[Segment], snap: float, source: str) -> tuple[list[
     pieces, faces, piece_faces, covering = _arrangement([points[k] for k in keep], tolerance)
     kept = [segments[k] for k in keep]
     stone = _stone_faces(pieces, len(faces), piece_faces, covering, kept, source)
-    faces_of = [None] * len(kept)  # the stone faces each segment borders all along
+    faces_of = [None] * len(kept)  # the stone faces each segment borders all along (its loose ends aside)
+    near: list[set] = [set() for _ in range(len(faces))]  # the segments along each face
     for i, fs in enumerate(piece_faces):
         on = {f for f in fs if stone[f]}
-        for k in covering[i]:
+        for k in covering[i] if fs else ():
             faces_of[k] = on if faces_of[k] is None else faces_of[k] & on
+            near[fs[0]].add(k), near[fs[-1]].add(k)
     stones = []
     for f in np.flatnonzero(stone):
-        border = [k for k in range(len(kept)) if faces_of[k] and f in faces_of[k]]
-        own = [kept[k] for k in border if len(faces_of[k]) == 1] or [kept[k] for k in border]
+        border = [k for k in sorted(near[f]) if faces_of[k] and f in faces_of[k]] or sorted(near[f])
+        own = [kept[k] for k in border if faces_of[k] == {f}] or [kept[k] for k in border]
         name = _loop_name(own)
         if len(faces[f].interiors):
             raise StructureFileError(f"{source}: {name} surrounds a space or another stone; a stone must be a "
