@@ -928,9 +928,17 @@ def _two_rects_one_joint(msp):
         msp.add_line(a, b, dxfattribs={"layer": "stones"})
 
 
+def _block_inserting_itself(msp):
+    block = msp.doc.blocks.new("SELF")
+    block.add_lwpolyline([(0, 0), (1, 0), (1, 1)], close=True)
+    block.add_blockref("SELF", (1, 0))
+    msp.add_blockref("SELF", (0, 0))
+
+
 @pytest.mark.parametrize(
     ("draw", "message"),
     [
+        (_block_inserting_itself, r"block 'SELF' inserts itself \(SELF > SELF\)"),
         (_two_rects_one_joint,
          r"LINE #\w+ on layer 'stones': cannot tell the stones from the spaces between them along \[1, 0\] - \[1, 3\] "
          r"\(drawn once there, between two faces\)"),
@@ -941,7 +949,7 @@ def _two_rects_one_joint(msp):
                                         dxfattribs={"layer": "stones", "extrusion": (0, 1, 0)}),
          r"LWPOLYLINE #\w+ on layer 'stones' does not lie in a plane parallel to x-y \(its z runs from 0 to 1\)"),
     ],
-    ids=["joint-drawn-once", "line-across-a-stone", "outside-the-x-y-plane"],
+    ids=["block-inserting-itself", "joint-drawn-once", "line-across-a-stone", "outside-the-x-y-plane"],
 )
 def test_dxf_that_cannot_be_read_gets_one_line_naming_the_entities(tmp_path, capsys, draw, message):
     doc = ezdxf.new()

@@ -183,7 +183,8 @@ def join_loops(segments: list[Segment], snap: float, source: str) -> tuple[list[
         on = {f for f in fs if stone[f]}
         for k in covering[i] if fs else ():
             faces_of[k] = on if faces_of[k] is None else faces_of[k] & on
-            near[fs[0]].add(k), near[fs[-1]].add(k)
+            for f in fs:
+                near[f].add(k)
     stones = []
     for f in np.flatnonzero(stone):
         border = [k for k in sorted(near[f]) if faces_of[k] and f in faces_of[k]] or sorted(near[f])

@@ -54,8 +54,8 @@ LINES = ("LINE", "ARC", "ELLIPSE")
 #: circle; 48 "segments" split a polyline's arc into 16 curves (an elliptic arc into 48), each at most
 #: 22.5 degrees for a half circle, off by about 1e-9 of the radius ((22.5 / 90)^6 2.7e-4 / 4^0).
 BEZIER_SEGMENTS = 48
-#: Deepest nesting of block references followed (a deeper one is a block that contains itself).
-MAX_DEPTH = 16
+#: Deepest nesting of block references followed.
+MAX_DEPTH = 32
 
 
 @dataclass
@@ -98,11 +98,11 @@ def _open(p: Path):
     return doc, handles, _header_int(raw, "INSUNITS") or 0
 
 
-def _entities(doc, handles: bool, skipped: Counter) -> Iterator[_Item]:
+def _entities(doc, handles: bool, skipped: Counter, source: Path) -> Iterator[_Item]:
     """Every graphic entity of the model space, block references followed (counting their attributes
     and external references as skipped)."""
 
-    def visit(entities, matrix, parent_layer, where, depth):
+    def visit(entities, matrix, parent_layer, where, blocks):
         for number, e in enumerate(entities, 1):
             kind = e.dxftype()
             layer = e.dxf.get("layer", "0")
@@ -110,18 +110,20 @@ def _entities(doc, handles: bool, skipped: Counter) -> Iterator[_Item]:
                 layer = parent_layer
             label = (f"{kind} #{e.dxf.handle}" if handles and e.dxf.get("handle") else f"{kind} number {number}") + where
             if kind == "INSERT":
-                yield from inserted(e, matrix, layer, label, depth)
+                yield from inserted(e, matrix, layer, label, blocks)
             elif kind != "ATTDEF" or matrix is None:  # a block's attribute templates: drawn as its ATTRIBs
                 yield _Item(e, matrix, layer, label)
 
-    def inserted(insert, matrix, layer, label, depth):
-        block = insert.block()
+    def inserted(insert, matrix, layer, label, blocks):
+        block, name = insert.block(), insert.dxf.name
         if block is None:
-            raise StructureFileError(f"{label} on layer {layer!r} inserts block {insert.dxf.name!r}, which the file "
+            raise StructureFileError(f"{source}: {label} on layer {layer!r} inserts block {name!r}, which the file "
                                      "does not define")
-        if depth >= MAX_DEPTH:
-            raise StructureFileError(f"{label} on layer {layer!r}: block references nested more than {MAX_DEPTH} "
-                                     "deep (a block that contains itself?)")
+        if name in blocks:
+            raise StructureFileError(f"{source}: block {name!r} inserts itself ({' > '.join((*blocks, name))}); a "
+                                     "block that contains itself cannot be drawn")
+        if len(blocks) >= MAX_DEPTH:
+            raise StructureFileError(f"{source}: {label}: block references nested more than {MAX_DEPTH} deep")
         skipped.update({"ATTRIB": len(insert.attribs)} if insert.attribs else {})
         if block.block is not None and block.block.is_xref:
             skipped["INSERT of an external reference"] += 1
@@ -129,9 +131,9 @@ def _entities(doc, handles: bool, skipped: Counter) -> Iterator[_Item]:
         copies = list(insert.multi_insert()) if insert.mcount > 1 else [insert]
         for copy in copies:
             m = copy.matrix44() if matrix is None else copy.matrix44() @ matrix
-            yield from visit(block, m, layer, f" in block {insert.dxf.name!r} of {label}", depth + 1)
+            yield from visit(block, m, layer, f" in block {name!r} of {label}", (*blocks, name))
 
-    yield from visit(doc.modelspace(), None, None, "", 0)
+    yield from visit(doc.modelspace(), None, None, "", ())
 
 
 def _points(item: _Item, arc_tolerance: float, source: Path) -> tuple[np.ndarray, bool]:
@@ -165,7 +167,7 @@ def _read_entities(doc, handles: bool, wanted, fixed_layer: str, arc_tolerance: 
                    reading: Reading) -> tuple[list[Stone], list[Segment]]:
     """Stones (closed outlines) and segments (lines, arcs, open outlines) of the layers read; the rest counted."""
     stones, segments = [], []
-    for item in _entities(doc, handles, reading.skipped):
+    for item in _entities(doc, handles, reading.skipped, p):
         e, kind = item.entity, item.entity.dxftype()
         if kind not in OUTLINES + LINES:
             reading.skipped[kind] += 1

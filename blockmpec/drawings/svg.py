@@ -167,8 +167,8 @@ def _shapes(svg, fixed_class: str, reading: Reading):
                 yield element, fixed or _marks_fixed(element, fixed_class), via
             else:
                 tag = _attributes(element).get("tag", "")
-                if tag in ("text", "tspan", "image"):
-                    reading.skipped[f"<{tag}>"] += tag != "tspan"
+                if tag in ("text", "image"):  # a <text>'s <tspan>s are part of it
+                    reading.skipped[f"<{tag}>"] += 1
 
     yield from visit(svg, _marks_fixed(svg, fixed_class), "")
 
