@@ -1080,14 +1080,15 @@ def test_argparse_errors_are_one_line_and_help_stays_whole(capsys):
     assert exit_.value.code == 0 and out.startswith("usage: blockmpec solve") and "--export-drawing" in out
 
 
-def test_pushover_prints_no_negative_zero(capsys):
-    import pandas as pd
+def test_pushover_prints_no_negative_zero(tmp_path, capsys):
+    """A parallelogram whose centroid (1, 1) stands over its toe (1, 0) has lam = 0, which the LP returns as
+    -0.0: the table prints 0."""
+    from blockmpec.structure_file import save_structure
 
-    from blockmpec.pushover_cli import _print_curve
-
-    curve = pd.DataFrame({"step": [0, 1], "displacement": [0.0, 0.1], "rotation": [-0.0, -0.05],
-                          "multiplier": [0.25, -0.0], "status": ["optimal"] * 2, "event": ["start", "step"]})
-    curve.attrs.update(control_block=1, step_size=0.1, stop_reason="the load multiplier reached 0")
-    _print_curve("case", "static-lp", curve)
+    s = bm.make_structure([[[-2, -1], [4, -1], [4, 0], [-2, 0]], [[0, 0], [1, 0], [2, 2], [1, 2]]], [True, False],
+                          friction=5.0)
+    save_structure(s, tmp_path / "leaning.json")
+    assert main(["pushover", str(tmp_path / "leaning.json"), "--no-figure", "--out", str(tmp_path / "out")]) == 0
     out = capsys.readouterr().out
+    assert re.search(r"^\s+0\s+0\s+0\s+0 optimal start$", out, re.M), out
     assert not re.search(r"(?<![\w.])-0(?![.\d])", out), out
