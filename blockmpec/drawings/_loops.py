@@ -164,6 +164,8 @@ def join_loops(segments: list[Segment], snap: float, source: str) -> tuple[list[
         No consistent choice of stones (naming the segments where it fails), a loop around a space or
         another stone, a loop of segments both on and off the supports.
     """
+    import shapely
+
     used = np.zeros(len(segments), bool)
     if not segments:
         return [], used
@@ -195,7 +197,9 @@ def join_loops(segments: list[Segment], snap: float, source: str) -> tuple[list[
                                      "simple polygon")
         if len({s.fixed for s in own}) > 1:
             raise StructureFileError(f"{source}: {name} mixes supports and stones; draw a stone's lines on one layer")
-        stones.append(Stone(np.asarray(faces[f].exterior.coords)[:-1], own[0].fixed, name))
+        # without the vertices where other lines end on its straight sides (T-junctions of the arrangement)
+        outline = shapely.simplify(faces[f].exterior, 1e-12 * extent)
+        stones.append(Stone(np.asarray(outline.coords)[:-1], own[0].fixed, name))
     for i, fs in enumerate(piece_faces):
         if any(stone[f] for f in fs):
             used[[keep[k] for k in covering[i]]] = True
