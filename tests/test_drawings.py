@@ -660,6 +660,16 @@ def dxf_polyline2d(path):
     return {}
 
 
+def dxf_spline(path):
+    """The L as a SPLINE of degree 1, which is the polygon through its control points (its last one repeating
+    the first: closed)."""
+    doc, msp = _dxf_doc()
+    msp.add_lwpolyline(BASE_MM, close=True, dxfattribs={"layer": "fixed"})
+    msp.add_open_spline(L_MM + L_MM[:1], degree=1, dxfattribs={"layer": "stones"})
+    doc.saveas(path)
+    return {}
+
+
 def dxf_r12_without_handles(path):
     """An R12 file as ezdxf's r12writer writes it: no header, no handles, so no unit (units='mm' given)."""
     from ezdxf.addons import r12writer
@@ -680,7 +690,7 @@ def dxf_r12(path):
 
 
 DXF_VARIANTS = [dxf_plain, dxf_mirrored_insert, dxf_extrusion, dxf_layer_zero, dxf_rotated_scaled_insert,
-                dxf_non_uniform_insert, dxf_nested, dxf_lines, dxf_exploded, dxf_polyline2d,
+                dxf_non_uniform_insert, dxf_nested, dxf_lines, dxf_exploded, dxf_polyline2d, dxf_spline,
                 dxf_r12_without_handles, dxf_r12]
 
 

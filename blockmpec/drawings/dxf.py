@@ -141,17 +141,17 @@ def _points(item: _Item, arc_tolerance: float, source: Path) -> tuple[np.ndarray
     import ezdxf.path
 
     e = item.entity
-    try:
-        path = ezdxf.path.make_path(e, segments=BEZIER_SEGMENTS)
-    except Exception as exc:  # ezdxf refuses entities it cannot represent as a path
+    try:  # a spline is evaluated as the B-spline it is (ezdxf's path holds it as approximate Bezier curves)
+        curve = e.construction_tool() if e.dxftype() == "SPLINE" else ezdxf.path.make_path(e, segments=BEZIER_SEGMENTS)
+    except Exception as exc:  # ezdxf refuses entities it cannot represent
         raise StructureFileError(f"{source}: {item.name} cannot be read as an outline "
                                  f"({type(exc).__name__}: {exc})") from None
     if item.matrix is not None:
-        path = path.transform(item.matrix)
-    control = np.array([tuple(v) for v in path.control_vertices()], float).reshape(-1, 3)
+        curve = curve.transform(item.matrix)
+    vertices = curve.control_points if e.dxftype() == "SPLINE" else curve.control_vertices()
+    control = np.array([tuple(v) for v in vertices], float).reshape(-1, 3)
     size = float(np.hypot(*np.ptp(control[:, :2], axis=0))) if control.size else 0.0
-    points = np.array([tuple(v) for v in path.flattening(distance=arc_tolerance * (size or 1.0))],
-                      float).reshape(-1, 3)
+    points = np.array([tuple(v) for v in curve.flattening(arc_tolerance * (size or 1.0))], float).reshape(-1, 3)
     if points.shape[0] and np.ptp(points[:, 2]) > 1e-9 * max(size, float(np.abs(points).max())):
         raise StructureFileError(f"{source}: {item.name} does not lie in a plane parallel to x-y (its z runs from "
                                  f"{points[:, 2].min():.6g} to {points[:, 2].max():.6g}); blockmpec reads the "
