@@ -12,8 +12,8 @@ Every entity is taken to world coordinates by ezdxf: its own object coordinate s
 transformation of each block reference around it (mirrored, rotated, non-uniformly scaled, nested)
 by :meth:`Insert.matrix44 <ezdxf.entities.Insert.matrix44>`, applied to the entity's path, so
 that arcs stay exact curves under any scaling.  Block content on layer ``0`` takes the layer of its
-``INSERT`` (the CAD convention).  Curves are replaced by chords with a sagitta of at most
-``arc_tolerance`` times the entity's size.  ``z`` is dropped; an entity that does not lie in a plane
+``INSERT`` (the CAD convention).  Curves (splines evaluated as their B-splines) are replaced by chords
+with a sagitta of at most ``arc_tolerance`` times the entity's size.  ``z`` is dropped; an entity that does not lie in a plane
 parallel to ``x``-``y`` is an error.
 
 Everything else (texts, dimensions, hatches, circles, points, lines on no stone's outline ...) is
@@ -50,9 +50,9 @@ from blockmpec.geometry import Structure
 OUTLINES = ("LWPOLYLINE", "POLYLINE", "SPLINE")
 #: Entities joined where they close loops (a full ELLIPSE is left out, as a CIRCLE is).
 LINES = ("LINE", "ARC", "ELLIPSE")
-#: ezdxf's paths hold arcs as cubic Bezier curves, off the circle by 2.7e-4 of its radius for a quarter
-#: circle; 48 "segments" split a polyline's arc into 16 curves (an elliptic arc into 48), each at most
-#: 22.5 degrees for a half circle, off by about 1e-9 of the radius ((22.5 / 90)^6 2.7e-4 / 4^0).
+#: ezdxf's paths hold arcs as cubic Bezier curves, off the circle by about 2.7e-4 (theta / 90 deg)^6 of its
+#: radius for an arc of theta; with 48 "segments" a polyline's arc (bulge) becomes 16 curves, 11.25 deg each
+#: for a half circle (off by 1e-9 of the radius), and an ARC or ELLIPSE 48.
 BEZIER_SEGMENTS = 48
 #: Deepest nesting of block references followed.
 MAX_DEPTH = 32
