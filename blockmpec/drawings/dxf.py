@@ -254,15 +254,15 @@ def read_dxf(
         raise OptionError(f"arc_tolerance: must be a number in (0, 1); got {arc_tolerance!r}")
     p = Path(path)
     doc, handles, insunits = _open(p)
-    default = 1.0
+    default = None
     if insunits:
         try:
             default = dxf_units.conversion_factor(insunits, dxf_units.M)
-        except Exception:  # an unknown unit code: metres
-            default = 1.0
-    factor = scale_option(units, scale, default, str(p))
+        except Exception:  # a unit code ezdxf does not know: as if there were none
+            default = None
+    factor = scale_option(units, scale, default or 1.0, str(p))
     reading = Reading()
-    if not insunits and units is None and scale is None:
+    if default is None and units is None and scale is None:
         reading.unit_missing = ("no length unit ($INSUNITS) in the drawing, so read in metres",
                                 "that looks like millimetres: give -p units=mm (or the drawing's unit)")
     wanted = None if layers is None else {x.lower() for x in layers} | {fixed_layer.lower()}
