@@ -229,7 +229,7 @@ def _load(case: str, params: dict[str, Any], stream) -> Any:
 
 def cmd_import(args: argparse.Namespace) -> int:
     """``blockmpec import DRAWING -o FILE.json``: a drawing or image as a structure file."""
-    from blockmpec.drawings import is_drawing, read_structure
+    from blockmpec.drawings import is_drawing
 
     if not is_drawing(args.drawing):
         from blockmpec.drawings import SUFFIXES
@@ -238,8 +238,7 @@ def cmd_import(args: argparse.Namespace) -> int:
     out = Path(args.output)
     if out.is_dir() or not out.parent.is_dir():
         raise OptionError(f"-o {args.output}: " + ("is a folder" if out.is_dir() else f"folder {out.parent} does not exist"))
-    structure = read_structure(args.drawing, **parse_pairs(args.param, "-p"))
-    print(f"{args.drawing}: {structure.metadata['drawing']['summary']}")
+    structure = _load(args.drawing, parse_pairs(args.param, "-p"), sys.stdout)
     try:
         save_structure(structure, args.output)
     except OSError as exc:

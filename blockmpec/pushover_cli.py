@@ -17,7 +17,7 @@ def add_parser(sub, command) -> None:
     """Add ``blockmpec pushover`` to the CLI's subparsers (:mod:`blockmpec.cli`), run by ``command(args)``."""
     p = sub.add_parser("pushover", help="capacity curve: the load multiplier as the structure moves along its "
                        "mechanism (incremental limit analysis)")
-    p.add_argument("case", help="built-in case name or structure file (.json)")
+    p.add_argument("case", help="built-in case name, structure file (.json) or drawing (.dxf, .svg, an image)")
     p.add_argument("--method", "-m", default="static-lp",
                    help="method, or comma-separated methods for one figure (default static-lp; fixed-point for "
                         "the non-associative problem)")
