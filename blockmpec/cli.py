@@ -28,11 +28,13 @@ import math
 import os
 import sys
 import time
+import warnings
 from pathlib import Path
 from typing import Any
 
 from blockmpec.bench.suite import BENCHMARK_SUITE
 from blockmpec.cases import CASES, load_case
+from blockmpec.drawings import DrawingWarning
 from blockmpec.errors import BlockmpecError, OptionError
 from blockmpec.registry import get_solver, list_solvers
 from blockmpec.result import Result
@@ -131,7 +133,7 @@ def cmd_solve(args: argparse.Namespace) -> int:
     plot_path = _output_file(args.plot, "--plot", "mechanism.png")
     if plot_path is not None:
         _check_figure_format(plot_path)
-    structure = load_case(args.case, params)
+    structure = _load(args.case, params, sys.stderr if args.json else sys.stdout)
     with _stdout_to_stderr() if args.json else contextlib.nullcontext():
         result = solve(structure, args.method, verify_tol=verify_tol, **options)
     if args.json:
@@ -197,7 +199,7 @@ def cmd_export(args: argparse.Namespace) -> int:
         raise OptionError(f"-o {args.output}: is a folder; give a file name such as {out / 'structure.json'}")
     if not out.parent.is_dir():
         raise OptionError(f"-o {args.output}: folder {out.parent} does not exist")
-    structure = load_case(args.case, parse_pairs(args.param, "-p"))
+    structure = _load(args.case, parse_pairs(args.param, "-p"), sys.stdout)
     try:
         save_structure(structure, args.output)
     except OSError as exc:
@@ -212,12 +214,22 @@ def cmd_pushover(args: argparse.Namespace) -> int:
 
     verify_tol = check_tolerance(args.verify_tol)
     pairs = parse_pairs(args.option, "-O")
-    return run_command(args, lambda: load_case(args.case, parse_pairs(args.param, "-p")), pairs, verify_tol)
+    return run_command(args, lambda: _load(args.case, parse_pairs(args.param, "-p"), sys.stdout), pairs, verify_tol)
+
+
+def _load(case: str, params: dict[str, Any], stream) -> Any:
+    """``load_case``; for a drawing, its reader's summary line (what it read and skipped) goes to ``stream``."""
+    structure = load_case(case, params)
+    from blockmpec.drawings import is_drawing
+
+    if is_drawing(case):
+        print(f"{case}: {structure.metadata['drawing']['summary']}", file=stream)
+    return structure
 
 
 def cmd_import(args: argparse.Namespace) -> int:
     """``blockmpec import DRAWING -o FILE.json``: a drawing or image as a structure file."""
-    from blockmpec.drawings import is_drawing, read_structure
+    from blockmpec.drawings import is_drawing
 
     if not is_drawing(args.drawing):
         from blockmpec.drawings import SUFFIXES
@@ -226,7 +238,7 @@ def cmd_import(args: argparse.Namespace) -> int:
     out = Path(args.output)
     if out.is_dir() or not out.parent.is_dir():
         raise OptionError(f"-o {args.output}: " + ("is a folder" if out.is_dir() else f"folder {out.parent} does not exist"))
-    structure = read_structure(args.drawing, **parse_pairs(args.param, "-p"))
+    structure = _load(args.drawing, parse_pairs(args.param, "-p"), sys.stdout)
     try:
         save_structure(structure, args.output)
     except OSError as exc:
@@ -323,7 +335,7 @@ def compare_cases(items: list[str]) -> list[Any]:
         elif item in CASES:
             run = CaseRun(item, item, {})
         elif item.lower().endswith(".json") or Path(item).exists():
-            run = CaseRun(Path(item).stem, None, {}, load_case(item, {}))
+            run = CaseRun(Path(item).stem, None, {}, _load(item, {}, sys.stderr))
         else:
             raise OptionError(f"--cases: {item!r} is not a suite case ({', '.join(BENCHMARK_SUITE)}), a built-in "
                               f"case ({', '.join(CASES)}) nor a structure file")
@@ -565,10 +577,21 @@ def _table(df, key: str, fmt: str, title: str, reference: bool = False, median: 
     return text_table(df, key, fmt, title, reference=reference, note=note, median=median)
 
 
+class OneLineParser(argparse.ArgumentParser):
+    """argparse's parser whose usage errors are one line, ``blockmpec: error: ...`` (exit 2), not the whole
+    usage; ``--help`` prints the usage in full as before."""
+
+    def error(self, message: str):
+        command = self.prog.partition(" ")[2]
+        where = f"{command}: " if command else ""
+        self.exit(2, f"blockmpec: error: {where}{message} (blockmpec {command + ' ' if command else ''}--help for "
+                     "the usage)\n")
+
+
 def build_parser() -> argparse.ArgumentParser:
     from blockmpec import __version__
 
-    parser = argparse.ArgumentParser(prog="blockmpec", description=__doc__.splitlines()[0])
+    parser = OneLineParser(prog="blockmpec", description=__doc__.splitlines()[0])
     parser.add_argument("--version", action="version", version=f"blockmpec {__version__}")
     parser.add_argument("--debug", action="store_true", help="show tracebacks of internal errors")
     sub = parser.add_subparsers(dest="command", required=True)
@@ -655,11 +678,25 @@ def _detach_stdout() -> None:
         pass
 
 
+def _one_line_warnings(default):
+    """``warnings.showwarning`` that prints a drawing's warnings as ``blockmpec: warning: ...``, one line each."""
+    def show(message, category, filename, lineno, file=None, line=None):
+        if issubclass(category, DrawingWarning):
+            print(f"blockmpec: warning: {message}", file=sys.stderr)
+        else:
+            default(message, category, filename, lineno, file, line)
+
+    return show
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
     try:
-        code = int(args.func(args))
+        with warnings.catch_warnings():
+            warnings.simplefilter("always", DrawingWarning)
+            warnings.showwarning = _one_line_warnings(warnings.showwarning)
+            code = int(args.func(args))
         sys.stdout.flush()  # here, so that a reader gone by now is the BrokenPipeError below, not one at exit
         return code
     except BlockmpecError as exc:

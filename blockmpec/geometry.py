@@ -848,8 +848,8 @@ def _check_connectivity(s: Structure) -> None:
     lonely = np.flatnonzero(~touched & ~s.fixed)
     if lonely.size:
         raise StructureError(
-            f"block {lonely[0]} touches no other block (free blocks without interfaces: {lonely[:10].tolist()}); "
-            "move it into contact or remove it"
+            f"block {lonely[0]} touches no other block (free blocks without interfaces: {lonely[:10].tolist()}"
+            f"{_more(lonely.size, 10)}); move it into contact or remove it"
         )
     graph = coo_array((np.ones(len(itf)), (itf.minus, itf.plus)), shape=(s.n_blocks, s.n_blocks))
     from scipy.sparse.csgraph import connected_components  # imported here, as cKDTree above
@@ -860,8 +860,14 @@ def _check_connectivity(s: Structure) -> None:
     floating = np.flatnonzero(~supported[label])
     if floating.size:
         raise StructureError(
-            f"blocks {floating[:10].tolist()} are not connected to any fixed block through interfaces"
+            f"blocks {floating[:10].tolist()}{_more(floating.size, 10)} are not connected to any fixed block through "
+            "interfaces"
         )
+
+
+def _more(total: int, shown: int) -> str:
+    """What a message listing the first ``shown`` of ``total`` items adds: `` and 5 more (15 in all)``."""
+    return f" and {total - shown} more ({total} in all)" if total > shown else ""
 
 
 def _normalised(s: Structure) -> tuple[Structure, Frame]:
