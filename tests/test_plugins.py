@@ -23,7 +23,7 @@ import blockmpec as bm
 from blockmpec import registry
 from blockmpec.cli import main
 from blockmpec.errors import PluginWarning
-from blockmpec.testing import ConformanceError, Reference, ReferenceCase, assert_methods_agree, check_solver
+from blockmpec.testing import CHECKS, ConformanceError, Reference, ReferenceCase, assert_methods_agree, check_solver
 from blockmpec.testing import reference_cases as all_reference_cases
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -84,7 +84,8 @@ def cli(*args) -> tuple[int, str, str]:
 
 def test_an_installed_plugin_is_a_method_like_the_built_in_ones(install):
     dist = install({"test-plugin-lp": "plugin_solvers:DelegatingLP"})
-    assert bm.list_solvers()[-1] == "test-plugin-lp" and "test-plugin-lp" in bm.list_solvers("associative")
+    names = bm.list_solvers()
+    assert "test-plugin-lp" in bm.list_solvers("associative") and names.index("test-plugin-lp") > names.index("milp")
     assert bm.get_solver("test-plugin-lp") is plugin_solvers.DelegatingLP
     assert registry.solver_source("test-plugin-lp") == \
         f"plug-in test-plugin-lp = plugin_solvers:DelegatingLP (entry point of {dist})"
@@ -255,6 +256,11 @@ def test_a_broken_plugin_fails_the_checks_that_name_what_is_broken(broken, faile
                 plugin_solvers.IgnoresTimeLimit: "returned optimal although its deadline",
                 plugin_solvers.UncheckedOption: "scale='not-a-number' was accepted"}[broken]
     assert expected in first["message"]
+
+
+def test_the_guide_explains_every_check():
+    page = (ROOT / "docs" / "guide" / "your-own-method.md").read_text()
+    assert [check for check in CHECKS if f"`{check}`" not in page] == []
 
 
 def test_the_table_can_be_read_without_raising():
