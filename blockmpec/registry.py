@@ -107,20 +107,26 @@ def _distribution(ep) -> str:
     return f"{dist.name} {dist.version}" if dist is not None else "an unknown distribution"
 
 
+def bad_name(name: object) -> str | None:
+    """Why ``name`` cannot name a method, or None: a method's name is a non-empty string without spaces, commas or
+    colons (lists of methods on the command line are comma-separated, and ``module:Class`` names a class)."""
+    if not isinstance(name, str) or not name or any(c.isspace() or c in ",:" for c in name):
+        return f"a method's name is a non-empty string without spaces, commas or colons; got {name!r}"
+    return None
+
+
 def not_a_method(obj: object, name: str | None = None) -> str | None:
     """Why ``obj`` cannot be registered as a method (as ``name``, if given), or None.
 
-    A method is a :class:`~blockmpec.method.SolverBase` subclass with a ``name`` (a non-empty string without
-    spaces, commas or colons, as lists of methods on the command line need) and a ``problem`` in :data:`PROBLEMS`.
-    The whole contract is checked by :func:`blockmpec.testing.check_solver`."""
+    A method is a :class:`~blockmpec.method.SolverBase` subclass with a ``name`` (:func:`bad_name`) and a
+    ``problem`` in :data:`PROBLEMS`.  The whole contract is checked by :func:`blockmpec.testing.check_solver`."""
     from blockmpec.method import SolverBase
 
     if not (isinstance(obj, type) and issubclass(obj, SolverBase)):
         return f"{obj!r} is not a subclass of blockmpec.SolverBase"
     own = getattr(obj, "name", None)
-    if not isinstance(own, str) or not own or any(c.isspace() or c in ",:" for c in own):
-        return f"class {obj.__name__} needs a name attribute: a non-empty string without spaces, commas or colons; " \
-               f"got {own!r}"
+    if bad_name(own):
+        return f"class {obj.__name__}: {bad_name(own)}"
     if name is not None and own != name:
         return f"the entry point's name {name!r} and the class's name {own!r} differ; make them equal"
     if getattr(obj, "problem", None) not in PROBLEMS:

@@ -258,6 +258,19 @@ def test_a_broken_plugin_fails_the_checks_that_name_what_is_broken(broken, faile
     assert expected in first["message"]
 
 
+@pytest.mark.slow
+def test_the_full_suite_adds_the_larger_cases():
+    """``quick=False``: ferris-tinloi and the default sizes too (for an associative method the references are LPs,
+    so this takes seconds; a non-associative one waits for milp's certificates)."""
+    table = check_solver("static-lp", quick=False)
+    larger = [label for label, case in all_reference_cases(quick=False).items() if not case.quick]
+    assert "ferris-tinloi" in larger and set(larger) <= set(table["subject"])
+    ferris = table[(table["check"] == "case") & (table["subject"] == "ferris-tinloi")].iloc[0]
+    # Ferris & Tin-Loi (2001) publish "about 0.643"; the static LP gives 0.642859 (blockmpec.cases.ferris_tinloi)
+    assert ferris["passed"] and round(ferris["multiplier"], 3) == 0.643
+    assert ferris["reference_source"] == "kinematic LP (2) by kinematic-lp, verified"
+
+
 def test_the_guide_explains_every_check():
     page = (ROOT / "docs" / "guide" / "your-own-method.md").read_text()
     assert [check for check in CHECKS if f"`{check}`" not in page] == []

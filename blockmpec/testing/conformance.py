@@ -36,8 +36,9 @@ from blockmpec.errors import OptionError
 from blockmpec.geometry import Structure, make_structure
 from blockmpec.method import SolverBase
 from blockmpec.options import CommonOptions
-from blockmpec.registry import PROBLEMS, get_solver, not_a_method
+from blockmpec.registry import PROBLEMS, bad_name, get_solver
 from blockmpec.result import Result, Status
+from blockmpec.result import is_finite_number as _finite
 from blockmpec.solver import option_fields, run_solver
 from blockmpec.testing import transforms
 from blockmpec.testing.references import ASSOCIATIVE, ReferenceCase, reference_cases
@@ -87,6 +88,8 @@ EXPIRED_TIME_LIMIT_S = 1e-9
 _NO_SOLUTION = (Status.INFEASIBLE, Status.UNBOUNDED, Status.INFEASIBLE_OR_UNBOUNDED)
 #: the case of the invariance checks: the paper's two blocks, whose solutions of (3) are not unique
 _INVARIANCE_CASE = "two-blocks[eta=3,mu=0.65]"
+#: the case of the time-limit check: the largest quick case but one (the stone wall's LPs are about as large)
+_TIME_LIMIT_CASE = "wall[courses=4,blocks_per_course=2,bond=stack]"
 _TRANSFORMS = {
     "invariance.translation": lambda s: transforms.translated(s, 2.0**20, -(2.0**18)),
     "invariance.mirror": transforms.mirrored,
@@ -118,7 +121,8 @@ def check_solver(solver: type[SolverBase] | str, *, quick: bool = True, options:
         may take minutes (a certificate of ``milp`` each, at most
         :data:`~blockmpec.testing.references.REFERENCE_TIME_LIMIT_S`).
     options : dict, optional
-        The method's options for every run (each run's ``time_limit`` is ``time_limit`` unless given here).
+        The method's options for every run (each run's ``time_limit`` is ``time_limit`` unless given here); a bad
+        one raises :class:`~blockmpec.errors.OptionError` before anything runs.
     verify_tol : float
         The largest residual of (3) of a verified point, and the relative tolerance of the references (see the
         module docstring).
@@ -151,11 +155,13 @@ def check_solver(solver: type[SolverBase] | str, *, quick: bool = True, options:
         raise TypeError(f"check_solver needs a SolverBase subclass, a method name or 'module:Class'; got {solver!r}")
     suite = _Suite(cls, dict(options or {}), float(verify_tol), float(time_limit))
     if suite.check_contract():
+        cls(**{"time_limit": time_limit, **suite.options})  # bad options for the runs: an OptionError, now
         suite.check_options()
         results = suite.check_cases(reference_cases(quick))
         suite.check_impossible_case()
-        suite.check_time_limit(reference_cases(True)["wall[courses=4,blocks_per_course=2,bond=stack]"])
-        suite.check_invariance(reference_cases(True)[_INVARIANCE_CASE], results.get(_INVARIANCE_CASE))
+        quick_cases = reference_cases(True)
+        suite.check_time_limit(quick_cases[_TIME_LIMIT_CASE])
+        suite.check_invariance(quick_cases[_INVARIANCE_CASE], results.get(_INVARIANCE_CASE))
     table = suite.table()
     failed = table[~table["passed"]]
     if raise_on_failure and len(failed):
@@ -221,18 +227,18 @@ class _Suite:
         if not issubclass(cls, SolverBase):
             self.add("contract.name", "", False, f"{cls!r} is not a subclass of blockmpec.SolverBase")
             return False
-        reason = not_a_method(cls)
-        name_ok = reason is None or "problem" in reason
+        reason = bad_name(getattr(cls, "name", None))
         summary = getattr(cls, "summary", "")
-        if name_ok and not (isinstance(summary, str) and summary.strip()):
-            name_ok, reason = False, "summary: a one-line description is needed (blockmpec methods lists it)"
+        if reason is None and not (isinstance(summary, str) and summary.strip()):
+            reason = "summary: a one-line description is needed (blockmpec methods lists it)"
+        name_ok = reason is None
         self.add("contract.name", "", name_ok, f"name {cls.name!r}" if name_ok else reason)
         problem_ok = getattr(cls, "problem", None) in PROBLEMS
         self.add("contract.problem", "", problem_ok, f"problem must be one of {', '.join(PROBLEMS)}; got "
                  f"{getattr(cls, 'problem', None)!r}" if not problem_ok else f"problem {cls.problem!r}")
         options_ok = self._check_options_class()
-        self._check_methods()
-        reason = cls.unavailable_reason() if options_ok else None
+        methods_ok = self._check_methods()
+        reason = cls.unavailable_reason() if methods_ok else "requires is malformed"
         self.add("available", "", True, reason or "available", skipped=reason is not None)
         return name_ok and problem_ok and options_ok and reason is None
 
@@ -258,7 +264,7 @@ class _Suite:
         self.add("contract.options", "", problem is None, problem or "Options extends CommonOptions, with defaults")
         return problem is None
 
-    def _check_methods(self) -> None:
+    def _check_methods(self) -> bool:
         cls, problems = self.cls, []
         if cls.run is SolverBase.run:
             problems.append("run(deadline) is not defined")
@@ -276,6 +282,7 @@ class _Suite:
             except Exception:  # noqa: BLE001
                 problems.append(f"Settings must be None or a dataclass that builds with its defaults; got {settings!r}")
         self.add("contract.methods", "", not problems, "; ".join(problems) or "run, requires, flags and Settings")
+        return not problems
 
     # ------------------------------------------------------------------ options
 
@@ -480,13 +487,6 @@ class _Suite:
 
 
 # ---------------------------------------------------------------------- helpers
-
-
-def _finite(v: Any) -> bool:
-    try:
-        return v is not None and not isinstance(v, bool) and math.isfinite(float(v))
-    except (TypeError, ValueError):
-        return False
 
 
 def _float(v: Any) -> float:
