@@ -668,8 +668,11 @@ def _command_context():
 
     from blockmpec.errors import PluginWarning
 
-    cwd = os.getcwd()
-    added = not any(os.path.abspath(p or ".") == cwd for p in sys.path)
+    try:
+        cwd = os.getcwd()
+    except OSError:  # the current folder was deleted: nothing to find there
+        cwd = None
+    added = cwd is not None and not any(os.path.abspath(p or ".") == cwd for p in sys.path)
     if added:
         sys.path.append(cwd)
     with warnings.catch_warnings():
