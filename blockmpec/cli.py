@@ -36,7 +36,7 @@ from blockmpec.bench.suite import BENCHMARK_SUITE
 from blockmpec.cases import CASES, load_case
 from blockmpec.drawings import DrawingWarning
 from blockmpec.errors import BlockmpecError, OptionError
-from blockmpec.registry import get_solver, list_solvers
+from blockmpec.registry import get_solver, list_solvers, solver_source
 from blockmpec.result import Result
 from blockmpec.solver import option_fields, solve
 from blockmpec.structure_file import save_structure
@@ -286,7 +286,8 @@ def method_listing() -> list[dict[str, Any]]:
     """What ``blockmpec methods --json`` prints: one object per method, with its user-facing options.
 
     Keys: ``name``, ``problem``, ``summary``, ``available`` (bool), ``unavailable_reason`` (None when
-    available), ``certifies_minimum`` (bool) and ``options``: a list of ``{name, type, default, help}``
+    available), ``certifies_minimum`` (bool), ``source`` (``"built-in"``, or where a plug-in came from:
+    :func:`blockmpec.registry.solver_source`) and ``options``: a list of ``{name, type, default, help}``
     (``type`` the Python type's name, ``default`` as JSON, non-finite numbers as "inf"/"-inf"/"nan").
     """
     out = []
@@ -297,7 +298,7 @@ def method_listing() -> list[dict[str, Any]]:
                     "help": help_text} for key, typ, default, help_text in option_fields(cls)]
         out.append({"name": name, "problem": cls.problem, "summary": cls.summary, "available": reason is None,
                     "unavailable_reason": reason, "certifies_minimum": bool(getattr(cls, "certifies_minimum", False)),
-                    "options": options})
+                    "source": solver_source(name), "options": options})
     return out
 
 
@@ -313,7 +314,8 @@ def cmd_methods(args: argparse.Namespace) -> int:
         cls = get_solver(name)
         reason = cls.unavailable_reason()
         state = "available" if reason is None else f"unavailable: {reason}"
-        print(f"{name} [{cls.problem}] {cls.summary} ({state})")
+        source = solver_source(name)
+        print(f"{name} [{cls.problem}] {cls.summary} ({state})" + ("" if source == "built-in" else f"; {source}"))
         for key, typ, default, help_text in option_fields(cls):
             typ_name = getattr(typ, "__name__", str(typ))
             print(f"    {key}: {typ_name} = {default!r}" + (f"  -- {help_text}" if help_text else ""))
@@ -598,7 +600,8 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = sub.add_parser("solve", help="solve one case with one method")
     p.add_argument("case", help="built-in case name, structure file (.json) or drawing (.dxf, .svg, an image)")
-    p.add_argument("--method", "-m", required=True, help="method name (see `blockmpec methods`)")
+    p.add_argument("--method", "-m", required=True, help="method name (see `blockmpec methods`), or MODULE:CLASS "
+                   "for a SolverBase subclass not installed as a plug-in (the current folder is searched too)")
     p.add_argument("-p", "--param", action="append", metavar="KEY=VALUE", help="case parameter")
     p.add_argument("-O", "--option", action="append", metavar="KEY=VALUE", help="method option")
     p.add_argument("--json", action="store_true", help="print one JSON object")
@@ -633,10 +636,21 @@ def build_parser() -> argparse.ArgumentParser:
                    "and the options (name, type, default, help) of every method")
     p.set_defaults(func=cmd_methods)
 
+    _add_compare_parser(sub)
+
+    from blockmpec.pushover_cli import add_parser as add_pushover_parser
+
+    add_pushover_parser(sub, cmd_pushover)
+    return parser
+
+
+def _add_compare_parser(sub) -> None:
+    """The ``compare`` subcommand's arguments."""
     p = sub.add_parser("compare", help="run methods over cases and print tables and figures (the main job)")
     p.add_argument("--cases", default="", help="comma-separated suite labels "
                    f"({', '.join(BENCHMARK_SUITE)}), built-in case names or structure files (default: the suite)")
-    p.add_argument("--methods", default="", help="comma-separated method names (default: all)")
+    p.add_argument("--methods", default="", help="comma-separated method names, plug-ins included, or "
+                   "MODULE:CLASS (default: all registered methods)")
     p.add_argument("--config", metavar="STUDY.toml", help="a study file: cases with parameters, methods with "
                    "options, repeats, wall-clock limits (see studies/example_study.toml)")
     p.add_argument("--repeat", type=int, default=None, help="repetitions per case and method (default 1)")
@@ -663,11 +677,6 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=cmd_compare)
 
-    from blockmpec.pushover_cli import add_parser as add_pushover_parser
-
-    add_pushover_parser(sub, cmd_pushover)
-    return parser
-
 
 def _detach_stdout() -> None:
     """Point stdout at /dev/null, so that the interpreter's last flush at exit does not fail once more."""
@@ -687,11 +696,47 @@ def _one_line_warnings(default):
             default(message, category, filename, lineno, file, line)
 
     return show
+@contextlib.contextmanager
+def _command_context():
+    """What every command runs in: the current folder on ``sys.path`` (last, so it shadows no installed package),
+    where ``--method module:Class`` finds a module that is not installed, as under ``python -m``; and a plug-in that
+    failed to load (:class:`~blockmpec.errors.PluginWarning`) shown as one line ``blockmpec: warning: ...``."""
+    import warnings
+
+    from blockmpec.errors import PluginWarning
+
+    try:
+        cwd = os.getcwd()
+    except OSError:  # the current folder was deleted: nothing to find there
+        cwd = None
+    added = cwd is not None and not any(os.path.abspath(p or ".") == cwd for p in sys.path)
+    if added:
+        sys.path.append(cwd)
+    with warnings.catch_warnings():
+        shown = warnings.showwarning
+
+        def show(message, category, filename, lineno, file=None, line=None):
+            if issubclass(category, PluginWarning):
+                print(f"blockmpec: warning: {message}", file=sys.stderr)
+            else:
+                shown(message, category, filename, lineno, file, line)
+
+        warnings.showwarning = show
+        try:
+            yield
+        finally:
+            if added and cwd in sys.path:
+                sys.path.remove(cwd)
 
 
 def main(argv: list[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
+    with _command_context():
+        return _dispatch(args)
+
+
+def _dispatch(args: argparse.Namespace) -> int:
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("always", DrawingWarning)

@@ -128,7 +128,8 @@ def test_methods_json_lists_every_method_and_its_user_facing_options(cli):
     for m in listing:
         cls = bm.get_solver(m["name"])
         assert set(m) == {"name", "problem", "summary", "available", "unavailable_reason", "certifies_minimum",
-                          "options"}
+                          "source", "options"}
+        assert m["source"] == bm.registry.solver_source(m["name"])  # "built-in", or where a plug-in came from
         assert m["problem"] == cls.problem and m["summary"] == cls.summary and m["summary"]
         assert m["available"] is (cls.unavailable_reason() is None)
         fields = {f.name: f for f in dataclasses.fields(cls.Options)}

@@ -13,7 +13,8 @@ Layers, from the bottom up (a module may import its own layer and the layers bel
 6. the methods: ``blockmpec.solvers.<method>``;
 7. ``blockmpec.solver`` (``solve``, ``run_solver``), ``blockmpec.pushover`` (with its configuration and contact
    updates), ``blockmpec.plot`` and the package ``blockmpec`` itself;
-8. ``blockmpec.bench`` -- the comparator harness, which nothing else in the library imports;
+8. ``blockmpec.bench`` -- the comparator harness, which nothing else in the library imports -- and
+   ``blockmpec.testing``, the conformance suite and reference cases for methods' tests;
 9. ``blockmpec.cli`` and ``blockmpec.__main__``.
 
 Also: no import cycle among the library's modules; only ``blockmpec.solvers.engines.highs`` imports highspy; no
@@ -47,7 +48,7 @@ LAYERS = [
     ("blockmpec.solvers",),
     ("blockmpec.solver", "blockmpec.pushover", "blockmpec.pushover_motion", "blockmpec.pushover_contacts",
      "blockmpec.pushover_plot", "blockmpec.plot", "blockmpec"),
-    ("blockmpec.bench",),
+    ("blockmpec.bench", "blockmpec.testing"),
     ("blockmpec.cli", "blockmpec.pushover_cli", "blockmpec.__main__"),
 ]
 
