@@ -109,9 +109,8 @@ aimed forces with LP duals), but arclength continuation of the central path from
 aimed run, plain run, 155 continuation steps), where the simplex engine does not finish one
 step in 600 s.  On the 10,050-block wall the path through the stalled point turns back and
 the run still fails (the
-engine module's docstring, ``studies/lab/fixed_point_polish.py``,
-``studies/lab/fixed_point_continuation.py``).  A run that still fails falls back as above.
-Replacing the engine at 10,000 blocks was measured too (``studies/lab/fixed_point_routes.py``): this
+engine module's docstring and the changelog, 2026-11-27/28).  A run that still fails falls back as above.
+Replacing the engine at 10,000 blocks was measured too (the changelog, 2026-11-23): this
 sequence of LPs with each LP by the block IPM warm-started (5-7 iterations per warm LP, but the
 interior answers converge on ``n`` only linearly: 260 iterations at 1,010 blocks, still 3e-5), path
 following on (3) in a wide neighbourhood, a homotopy on the dilatancy gap (cold Newton on (3)

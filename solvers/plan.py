@@ -17,6 +17,17 @@ from dataclasses import dataclass
 
 from blockmpec.solvers.linalg.block_ipm import AutoRules
 
+#: the documented API: the thresholds, the engine choices and the plans
+__all__ = ["LP_BLOCK_IPM_ROWS", "LP_BLOCK_IPM_LOAD_SPREAD", "FIXED_POINT_INTERIOR_BLOCKS",
+           "FIXED_POINT_SIMPLEX_FALLBACK_BLOCKS", "FIXED_POINT_STALL_STEPS", "NLP_PIECE_ROUTE_BLOCKS",
+           "PIECE_LP_BLOCK_IPM_PAIRS", "PIECE_LP_IPM_PAIRS", "MILP_BNB_MAX_PAIRS", "BLOCK_IPM_RULES",
+           "INTERIOR_FIXED_POINT_RULES", "HIGHS_ALGORITHMS", "LP_ALGORITHMS", "BASIS_ALGORITHMS",
+           "FIXED_POINT_ENGINES", "NLP_ROUTES", "MILP_ENGINES", "lp_algorithm", "fixed_point_engine",
+           "fixed_point_interior_fallback", "fixed_point_fallback", "nlp_route", "milp_engine",
+           "piece_lp_static_engine", "piece_lp_whole_engine", "describe_block_ipm", "static_lp_plan",
+           "kinematic_lp_plan", "slp_plan", "nlp_plan", "fixed_point_plan", "mcp_newton_plan", "milp_plan", "Stage",
+           "Plan"]
+
 # ---------------------------------------------------------------------------------------------- LP engines
 #: a cold LP with more rows than this, or whose block loads differ by more than ``LP_BLOCK_IPM_LOAD_SPREAD``,
 #: runs on the block IPM (HiGHS's IPM with crossover when a basis is needed); below, HiGHS's dual simplex.

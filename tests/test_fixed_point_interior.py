@@ -221,7 +221,7 @@ def test_warm_start_from_a_solution_of_3_is_a_fixed_point_of_the_step_lp():
 def test_kept_aim_forces_paired_with_their_step_lp_duals_solve_3():
     """``keep_aim``: the run solves the aimed problem, whose duals are no mechanism of (3); where the aimed
     forces are optimal for their own LP (5), that LP's duals complete them to a solution of (3)
-    (any optimal primal and dual of one LP are complementary; ``studies/lab/fixed_point_continuation.py``)."""
+    (any optimal primal and dual of one LP are complementary; the changelog, 2026-11-28)."""
     from blockmpec.result import Solution
     from blockmpec.solvers.engines.highs import static_lp_solution
     from blockmpec.verify import residuals

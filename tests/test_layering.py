@@ -433,10 +433,7 @@ STUDIES_NOT_YET_MOVED = {
     "studies/lab/plain_bigm.py": _CERTIFICATE_STUDY,
     "studies/lab/root_lp_engines.py": _CERTIFICATE_STUDY,
     "studies/lab/root_rows.py": _CERTIFICATE_STUDY,
-    "studies/lab/fixed_point_continuation.py": _FIXED_POINT_STUDY,
     "studies/lab/fixed_point_irregular.py": _FIXED_POINT_STUDY,
-    "studies/lab/fixed_point_polish.py": _FIXED_POINT_STUDY,
-    "studies/lab/fixed_point_routes.py": _FIXED_POINT_STUDY,
 }
 
 
