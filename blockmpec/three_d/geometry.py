@@ -1,0 +1,514 @@
+"""3D rigid-block structures: blocks as closed polyhedra, their contacts, material and loads.
+
+Conventions (stated once, used everywhere in :mod:`blockmpec.three_d`)
+--------------------------------------------------------------------
+* A block is a closed polyhedron given by its vertices ``(k, 3)`` and its faces, each a list of
+  vertex indices in counter-clockwise order seen from outside (outward normal by the right-hand
+  rule).  Faces may be any planar simple polygons, so a convex block is a few polygons and a
+  non-convex one a closed triangle mesh.  Volume and centroid are the divergence-theorem sums over
+  a fan triangulation of each face, exact for any closed polyhedron (computed relative to the
+  block's first vertex, in units of its size, so that nothing cancels or overflows).
+* ``z`` is up.  Dead load: the weight ``density * volume`` along ``-z`` at the centroid.  Live
+  load: ``live_factor * weight`` along ``live_direction`` (a 3-vector, default ``+x``), at the
+  centroid.  Blocks marked ``fixed`` are supports.
+* A contact (interface) joins a *minus* and a *plus* block over a planar polygon where a face of
+  one and a face of the other are coplanar with opposite outward normals; its unit normal ``nu``
+  is the minus block's outward normal (from minus into plus).  Its *contact points* are the
+  polygon's vertices; each carries a normal force ``n <= 0`` (compression) and two shear forces
+  ``t1, t2`` along the interface's tangents, what the plus block exerts on the minus block
+  (:mod:`blockmpec.three_d.operators`).  Torsion and bending of the interface follow from the
+  points.
+* Friction ``mu = tan(phi)`` and dilatancy ``tan(psi)``, ``0 <= tan(psi) <= tan(phi)``; the Coulomb
+  cone is linearised by an inscribed pyramid of ``pyramid_sides`` sides
+  (:mod:`blockmpec.three_d.operators`).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field, replace
+from functools import cached_property
+
+import numpy as np
+
+from blockmpec.errors import GeometryError, OptionError, StructureError
+
+#: Default relative tolerance for geometric tests (scaled by block size), as in 2D.
+DEFAULT_GEOMETRY_TOL = 1e-6
+
+
+@dataclass(frozen=True, eq=False)
+class Contacts:
+    """Contact polygons between blocks.
+
+    Attributes
+    ----------
+    minus, plus : ndarray of int, shape (c,)
+        Block indices; ``normal`` points from ``minus`` into ``plus``.
+    normal : ndarray, shape (c, 3)
+        Unit normals.
+    point_start : ndarray of int, shape (c + 1,)
+        Contact ``k`` has the points ``points[point_start[k]:point_start[k + 1]]``.
+    points : ndarray, shape (p, 3)
+        The contact points: the vertices of each contact polygon, in order around it.
+    area : ndarray, shape (c,)
+        Contact polygon areas.
+    """
+
+    minus: np.ndarray
+    plus: np.ndarray
+    normal: np.ndarray
+    point_start: np.ndarray
+    points: np.ndarray
+    area: np.ndarray
+
+    def __len__(self) -> int:
+        return int(self.minus.shape[0])
+
+    @property
+    def point_interface(self) -> np.ndarray:
+        """Interface of each contact point, shape (p,)."""
+        return np.repeat(np.arange(len(self)), np.diff(self.point_start))
+
+    def polygon(self, k: int) -> np.ndarray:
+        """The contact points of interface ``k``, shape (q, 3)."""
+        return self.points[self.point_start[k]: self.point_start[k + 1]]
+
+
+@dataclass(frozen=True, eq=False)
+class Structure3D:
+    """A validated 3D rigid-block structure; build it with :func:`make_structure_3d`.
+
+    Attributes
+    ----------
+    vertices : tuple of ndarray, each shape (k_i, 3)
+    faces : tuple of tuple of ndarray
+        ``faces[i]`` are block ``i``'s faces (vertex indices, counter-clockwise from outside).
+    fixed : ndarray of bool, shape (n_blocks,)
+    density : ndarray, shape (n_blocks,)
+    contacts : Contacts
+    friction, dilatancy : float
+        ``tan(phi)`` and ``tan(psi)``.
+    live_direction : ndarray, shape (3,)
+        Unit direction of the live body force.
+    live_factor : float
+        Live body force as a fraction of the weight.
+    pyramid_sides : int
+        Sides of the inscribed friction pyramid (4 or more).
+    block_ids : tuple of str
+        The user's name of each block (an OBJ object name, a file's id; ``str(i)`` by default).
+    """
+
+    vertices: tuple
+    faces: tuple
+    fixed: np.ndarray
+    density: np.ndarray
+    contacts: Contacts
+    friction: float
+    dilatancy: float = 0.0
+    live_direction: np.ndarray = field(default_factory=lambda: np.array([1.0, 0.0, 0.0]))
+    live_factor: float = 1.0
+    pyramid_sides: int = 4
+    block_ids: tuple = ()
+    name: str = "structure"
+    metadata: dict = field(default_factory=dict)
+
+    dim = 3
+
+    @property
+    def n_blocks(self) -> int:
+        """Number of blocks, fixed ones included."""
+        return len(self.vertices)
+
+    @property
+    def n_free(self) -> int:
+        """Number of free blocks."""
+        return int((~self.fixed).sum())
+
+    @cached_property
+    def _mass(self) -> tuple[np.ndarray, np.ndarray]:
+        vol, cen = zip(*(polyhedron_mass(v, f) for v, f in zip(self.vertices, self.faces)))
+        return np.array(vol), np.array(cen)
+
+    @property
+    def volume(self) -> np.ndarray:
+        """Block volumes, shape (n_blocks,)."""
+        return self._mass[0]
+
+    @property
+    def centroid(self) -> np.ndarray:
+        """Block centroids, shape (n_blocks, 3)."""
+        return self._mass[1]
+
+    @property
+    def weight(self) -> np.ndarray:
+        """Block weights ``density * volume``, shape (n_blocks,)."""
+        return self.density * self.volume
+
+    def with_material(self, friction: float | None = None, dilatancy: float | None = None) -> Structure3D:
+        """A copy with other material coefficients, validated."""
+        s = replace(self, friction=self.friction if friction is None else float(friction),
+                    dilatancy=self.dilatancy if dilatancy is None else float(dilatancy))
+        _check_material(s.friction, s.dilatancy)
+        return s
+
+    def with_loads(self, live_direction=None, live_factor: float | None = None,
+                   pyramid_sides: int | None = None) -> Structure3D:
+        """A copy with another live load or friction pyramid, validated."""
+        direction = self.live_direction if live_direction is None else _unit_direction(live_direction)
+        factor = self.live_factor if live_factor is None else _live_factor(live_factor)
+        sides = self.pyramid_sides if pyramid_sides is None else _pyramid_sides(pyramid_sides)
+        return replace(self, live_direction=direction, live_factor=factor, pyramid_sides=sides)
+
+
+# --------------------------------------------------------------------------- polyhedra
+
+
+def polyhedron_mass(vertices: np.ndarray, faces) -> tuple[float, np.ndarray]:
+    """Volume and centroid of a closed polyhedron with outward (counter-clockwise) faces.
+
+    Each face is fanned from its first vertex into triangles ``(a, b, c)``; with the vertices taken
+    relative to the polyhedron's first vertex ``o`` and in units of its size ``s``, the signed
+    volume is ``sum a.(b x c) / 6`` and the centroid ``o + s sum V_t (a + b + c) / 4 / V``: exact
+    for any closed polyhedron (a fan of a planar simple polygon is a chain equal to it).
+    """
+    v = np.asarray(vertices, float)
+    o = v[0]
+    s = float(np.max(v.max(axis=0) - v.min(axis=0)))
+    s = s if s > 0 else 1.0
+    p = (v - o) / s
+    a, b, c = _fan(p, faces)
+    vol_t = np.einsum("ij,ij->i", a, np.cross(b, c)) / 6.0
+    vol = float(vol_t.sum())
+    with np.errstate(invalid="ignore", divide="ignore"):
+        cen = (vol_t[:, None] * (a + b + c)).sum(axis=0) / (4.0 * vol)
+    return vol * s**3, o + cen * s
+
+
+def _fan(p: np.ndarray, faces) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The fan triangles ``(a, b, c)`` of every face, each shape (t, 3)."""
+    idx = [(f[0], f[j], f[j + 1]) for f in faces for j in range(1, len(f) - 1)]
+    t = np.asarray(idx, int).reshape(-1, 3)
+    return p[t[:, 0]], p[t[:, 1]], p[t[:, 2]]
+
+
+def face_normals(vertices: np.ndarray, faces) -> np.ndarray:
+    """Unit outward normals of the faces (Newell's method), shape (f, 3)."""
+    v = np.asarray(vertices, float)
+    out = np.empty((len(faces), 3))
+    for i, f in enumerate(faces):
+        q = v[np.asarray(f)]
+        q = q - q.mean(axis=0)
+        n = np.cross(q, np.roll(q, -1, axis=0)).sum(axis=0)
+        out[i] = n / max(np.linalg.norm(n), 1e-300)
+    return out
+
+
+def box(lo, hi) -> tuple[np.ndarray, list[list[int]]]:
+    """An axis-aligned box from corner ``lo`` to ``hi``: vertices and outward faces."""
+    (x0, y0, z0), (x1, y1, z1) = lo, hi
+    v = np.array([[x0, y0, z0], [x1, y0, z0], [x1, y1, z0], [x0, y1, z0],
+                  [x0, y0, z1], [x1, y0, z1], [x1, y1, z1], [x0, y1, z1]], float)
+    f = [[0, 3, 2, 1], [4, 5, 6, 7], [0, 1, 5, 4], [2, 3, 7, 6], [1, 2, 6, 5], [3, 0, 4, 7]]
+    return v, f
+
+
+def prism(bottom: np.ndarray, top: np.ndarray) -> tuple[np.ndarray, list[list[int]]]:
+    """A block between two polygons with corresponding vertices ``bottom`` and ``top`` (k, 3);
+    ``bottom`` counter-clockwise seen from the ``top`` side (so its face turns away from ``top``).
+
+    The side faces are quadrilaterals ``bottom[j], bottom[j+1], top[j+1], top[j]``; each must be
+    planar (a frustum, an extrusion)."""
+    b, t = np.asarray(bottom, float), np.asarray(top, float)
+    k = b.shape[0]
+    v = np.vstack([b, t])
+    faces = [list(range(k - 1, -1, -1)), list(range(k, 2 * k))]
+    faces += [[j, (j + 1) % k, k + (j + 1) % k, k + j] for j in range(k)]
+    return v, faces
+
+
+def convex_block(points: np.ndarray) -> tuple[np.ndarray, list[list[int]]]:
+    """The convex hull of ``points`` as a block (scipy's Qhull; coplanar triangles merged into faces)."""
+    from scipy.spatial import ConvexHull
+
+    pts = np.asarray(points, float)
+    hull = ConvexHull(pts)
+    used = np.unique(hull.simplices)
+    remap = -np.ones(pts.shape[0], int)
+    remap[used] = np.arange(used.size)
+    v = pts[used]
+    eq = hull.equations
+    faces = []
+    seen = np.zeros(len(eq), bool)
+    for i in range(len(eq)):
+        if seen[i]:
+            continue
+        same = np.flatnonzero(np.all(np.abs(eq - eq[i]) < 1e-10, axis=1))
+        seen[same] = True
+        corner = np.unique(hull.simplices[same])
+        n = eq[i, :3]
+        q = pts[corner]
+        c = q.mean(axis=0)
+        e1 = q[0] - c
+        e1 /= np.linalg.norm(e1)
+        e2 = np.cross(n, e1)
+        ang = np.arctan2((q - c) @ e2, (q - c) @ e1)
+        faces.append(remap[corner[np.argsort(ang)]].tolist())
+    return v, faces
+
+
+# --------------------------------------------------------------------------- input checks
+
+
+def _unit_direction(value) -> np.ndarray:
+    try:
+        d = np.asarray(value, float).reshape(3)
+    except (TypeError, ValueError):
+        raise OptionError(f"live_direction: must be a 3-vector such as [1, 0, 0]; got {value!r}") from None
+    norm = float(np.linalg.norm(d))
+    if not np.all(np.isfinite(d)) or norm == 0:
+        raise OptionError(f"live_direction: must be a finite non-zero 3-vector; got {value!r}")
+    return d / norm
+
+
+def _live_factor(value) -> float:
+    try:
+        v = float(value)
+    except (TypeError, ValueError):
+        raise OptionError(f"live_factor: must be a number > 0; got {value!r}") from None
+    if not np.isfinite(v) or v <= 0:
+        raise OptionError(f"live_factor: must be a finite number > 0; got {value!r}")
+    return v
+
+
+def _pyramid_sides(value) -> int:
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 3:
+        raise OptionError(f"pyramid_sides: must be an integer >= 3 (the sides of the friction pyramid); got {value!r}")
+    return int(value)
+
+
+def _check_material(friction: float, dilatancy: float) -> None:
+    for name, value in (("friction", friction), ("dilatancy", dilatancy)):
+        if not np.isfinite(value) or value < 0:
+            raise StructureError(f"{name}: must be a finite number >= 0; got {value}")
+    if dilatancy > friction:
+        raise StructureError(f"dilatancy: tan(psi) = {dilatancy} exceeds the friction coefficient tan(phi) = "
+                             f"{friction}; the dilatancy angle must not exceed the friction angle")
+
+
+def _block_arrays(blocks, names) -> tuple[tuple, tuple]:
+    """Each block as (vertices (k, 3) float, faces tuple of int arrays), checked for shape and range."""
+    verts, faces = [], []
+    for i, blk in enumerate(blocks):
+        where = f"block {names[i]}"
+        try:
+            v, f = blk
+        except (TypeError, ValueError):
+            raise GeometryError(f"{where}: expected (vertices, faces); got {type(blk).__name__}") from None
+        try:
+            v = np.asarray(v, float)
+        except (TypeError, ValueError):
+            raise GeometryError(f"{where}: vertices must be a list of [x, y, z] numbers") from None
+        if v.ndim != 2 or v.shape[1] != 3 or v.shape[0] < 4:
+            raise GeometryError(f"{where}: vertices must have shape (k, 3) with k >= 4; got shape {v.shape}")
+        if not np.all(np.isfinite(v)):
+            raise GeometryError(f"{where}: vertices contain NaN or infinite coordinates")
+        fs = []
+        for j, face in enumerate(f):
+            try:
+                a = np.asarray(face)
+            except (TypeError, ValueError):
+                raise GeometryError(f"{where}, face {j}: must be a list of vertex indices") from None
+            if a.ndim != 1 or a.size < 3 or not np.issubdtype(a.dtype, np.integer):
+                raise GeometryError(f"{where}, face {j}: must list at least 3 integer vertex indices; got {face!r}")
+            if a.min() < 0 or a.max() >= v.shape[0]:
+                raise GeometryError(f"{where}, face {j}: vertex index {int(a.max() if a.max() >= v.shape[0] else a.min())} "
+                                    f"does not exist (the block has {v.shape[0]} vertices)")
+            if np.unique(a).size != a.size:
+                raise GeometryError(f"{where}, face {j}: repeats a vertex ({a.tolist()})")
+            fs.append(a.astype(int))
+        if len(fs) < 4:
+            raise GeometryError(f"{where}: a closed polyhedron needs at least 4 faces; got {len(fs)}")
+        verts.append(v)
+        faces.append(tuple(fs))
+    if not verts:
+        raise StructureError("a structure needs at least one block; got none")
+    return tuple(verts), tuple(faces)
+
+
+def _check_closed(faces, where: str) -> None:
+    """Every directed edge once, and its reverse once: a closed, consistently oriented surface."""
+    edges = np.concatenate([np.column_stack([f, np.roll(f, -1)]) for f in faces])
+    key, counts = np.unique(edges, axis=0, return_counts=True)
+    if np.any(counts > 1):
+        a, b = key[np.argmax(counts > 1)]
+        raise GeometryError(f"{where}: faces are not consistently oriented (edge {a}->{b} is used twice in the same "
+                            "direction; every face must run counter-clockwise seen from outside)")
+    rev = {tuple(e) for e in key.tolist()}
+    for a, b in key.tolist():
+        if (b, a) not in rev:
+            raise GeometryError(f"{where}: its surface is not closed (the edge between vertices {a} and {b} belongs "
+                                "to one face only); a block must be a closed polyhedron")
+
+
+def _check_block(v: np.ndarray, faces, where: str, tol: float) -> bool:
+    """Shape checks of one block in its own units; returns whether it is convex."""
+    size = float(np.max(v.max(axis=0) - v.min(axis=0)))
+    if not size > 0:
+        raise GeometryError(f"{where}: all its vertices coincide")
+    p = (v - v[0]) / size
+    _check_closed(faces, where)
+    normals = face_normals(p, faces)
+    for j, f in enumerate(faces):
+        q = p[f]
+        area2 = np.linalg.norm(np.cross(q - q.mean(axis=0), np.roll(q, -1, axis=0) - q.mean(axis=0)).sum(axis=0))
+        if area2 <= tol:
+            raise GeometryError(f"{where}, face {j}: degenerate (zero area)")
+        off = np.abs((q - q.mean(axis=0)) @ normals[j])
+        if off.max() > 10 * tol:
+            raise GeometryError(f"{where}, face {j}: not planar (a vertex lies {off.max() * size:.3g} off its plane)")
+    vol, _ = polyhedron_mass(p, faces)
+    if abs(vol) <= tol:
+        raise GeometryError(f"{where}: degenerate polyhedron (volume {vol * size**3:.3g})")
+    if vol < 0:
+        raise GeometryError(f"{where}: its faces are oriented inward (clockwise seen from outside); reverse each face")
+    offsets = np.array([normals[j] @ p[f[0]] for j, f in enumerate(faces)])
+    convex = bool(np.all(p @ normals.T - offsets <= 10 * tol))
+    if not convex:
+        _check_self_intersection(p, faces, where, size)
+    return convex
+
+
+def _check_self_intersection(p: np.ndarray, faces, where: str, size: float) -> None:
+    """Raise when an edge of the surface crosses the inside of a face it does not touch.
+
+    For each face (vectorised over the edges): the point where an edge crosses the face's plane strictly
+    between its ends, tested inside the face polygon in the plane (shapely)."""
+    import shapely
+
+    normals = face_normals(p, faces)
+    edges = np.unique(np.sort(np.concatenate([np.column_stack([f, np.roll(f, -1)]) for f in faces]), axis=1), axis=0)
+    p0, p1 = p[edges[:, 0]], p[edges[:, 1]]
+    for j, f in enumerate(faces):
+        n = normals[j]
+        d0, d1 = (p0 - p[f[0]]) @ n, (p1 - p[f[0]]) @ n
+        cross = ((d0 > 1e-9) & (d1 < -1e-9)) | ((d0 < -1e-9) & (d1 > 1e-9))
+        cross &= ~np.isin(edges, f).any(axis=1)
+        if not cross.any():
+            continue
+        t = d0[cross] / (d0[cross] - d1[cross])
+        hit = p0[cross] + t[:, None] * (p1[cross] - p0[cross])
+        e1 = p[f[1]] - p[f[0]]
+        e1 /= np.linalg.norm(e1)
+        e2 = np.cross(n, e1)
+        poly = shapely.Polygon(np.column_stack([(p[f] - p[f[0]]) @ e1, (p[f] - p[f[0]]) @ e2]))
+        rel = hit - p[f[0]]
+        inside = shapely.contains_xy(poly, rel @ e1, rel @ e2)
+        if inside.any():
+            k = int(np.flatnonzero(cross)[np.argmax(inside)])
+            raise GeometryError(f"{where}: its surface intersects itself (edge {edges[k, 0]}-{edges[k, 1]} crosses "
+                                f"face {j}); a block must be a simple closed polyhedron")
+
+
+# --------------------------------------------------------------------------- the structure
+
+
+def make_structure_3d(
+    blocks,
+    fixed,
+    *,
+    friction: float,
+    dilatancy: float = 0.0,
+    density=1.0,
+    live_direction=(1.0, 0.0, 0.0),
+    live_factor: float = 1.0,
+    pyramid_sides: int = 4,
+    block_ids=None,
+    name: str = "structure",
+    metadata: dict | None = None,
+    tol: float = DEFAULT_GEOMETRY_TOL,
+) -> Structure3D:
+    """Build and validate a 3D structure; its contacts are detected (:func:`detect_contacts`).
+
+    Parameters
+    ----------
+    blocks : list of (vertices, faces)
+        Each block's vertices (k, 3) and faces (lists of vertex indices, counter-clockwise from
+        outside): closed polyhedra, convex or not (non-convex ones as closed triangle meshes).
+    fixed : array_like of bool, shape (n_blocks,)
+        Support blocks.
+    friction, dilatancy : float
+        ``tan(phi)`` and ``tan(psi)``.
+    density : float or array_like
+        Weight per unit volume, per block or for all.
+    live_direction : 3-vector
+        Direction of the live body force (normalised), default ``+x``.
+    live_factor : float
+        Live body force as a fraction of the weight.
+    pyramid_sides : int
+        Sides of the inscribed friction pyramid (default 4; see :mod:`blockmpec.three_d.operators`).
+    block_ids : list of str, optional
+        The user's name of each block (used in messages and results).
+    tol : float
+        Relative geometric tolerance (of each block's size).
+
+    Raises
+    ------
+    GeometryError, StructureError
+        One line naming the block (by its id), face or field: an open or inconsistently oriented
+        surface, a self-intersecting block, overlapping blocks, a free block touching nothing, a
+        structure without supports.
+    """
+    from blockmpec.three_d.contacts import check_overlaps, detect_contacts
+
+    blocks = list(blocks)
+    names = tuple(str(b) for b in (range(len(blocks)) if block_ids is None else block_ids))
+    if len(names) != len(blocks):
+        raise StructureError(f"block_ids: expected {len(blocks)} names (one per block); got {len(names)}")
+    vertices, faces = _block_arrays(blocks, names)
+    n = len(vertices)
+    fixed_arr = np.asarray(fixed, dtype=bool).reshape(-1)
+    if fixed_arr.shape[0] != n:
+        raise StructureError(f"fixed: expected {n} flags (one per block); got {fixed_arr.shape[0]}")
+    dens = np.broadcast_to(np.asarray(density, dtype=float), (n,)).copy()
+    bad = np.flatnonzero(~np.isfinite(dens) | (dens <= 0))
+    if bad.size:
+        raise StructureError(f"block {names[bad[0]]}: density must be a finite number > 0; got {dens[bad[0]]}")
+    _check_material(float(friction), float(dilatancy))
+    convex = np.array([_check_block(v, f, f"block {names[i]}", tol) for i, (v, f) in enumerate(zip(vertices, faces))])
+    check_overlaps(vertices, faces, convex, tol, names)
+    contacts = detect_contacts(vertices, faces, tol)
+    s = Structure3D(vertices=vertices, faces=faces, fixed=fixed_arr, density=dens, contacts=contacts,
+                    friction=float(friction), dilatancy=float(dilatancy),
+                    live_direction=_unit_direction(live_direction), live_factor=_live_factor(live_factor),
+                    pyramid_sides=_pyramid_sides(pyramid_sides), block_ids=names, name=name,
+                    metadata=dict(metadata or {}))
+    _check_connectivity(s)
+    return s
+
+
+def _check_connectivity(s: Structure3D) -> None:
+    from scipy.sparse import coo_array
+    from scipy.sparse.csgraph import connected_components
+
+    names = s.block_ids
+    if not s.fixed.any():
+        raise StructureError("no block is fixed: mark at least one block (a base or springing) as fixed")
+    if s.fixed.all():
+        raise StructureError("every block is fixed: there is nothing that can collapse")
+    c = s.contacts
+    touched = np.zeros(s.n_blocks, bool)
+    touched[c.minus] = True
+    touched[c.plus] = True
+    lonely = np.flatnonzero(~touched & ~s.fixed)
+    if lonely.size:
+        raise StructureError(f"block {names[lonely[0]]} touches no other block (no face of it lies on a face of "
+                             f"another block; free blocks without contacts: {[names[i] for i in lonely[:10]]}); "
+                             "move it into contact or remove it")
+    graph = coo_array((np.ones(len(c)), (c.minus, c.plus)), shape=(s.n_blocks, s.n_blocks))
+    _, label = connected_components(graph, directed=False)
+    supported = np.zeros(label.max() + 1, bool)
+    supported[label[s.fixed]] = True
+    floating = np.flatnonzero(~supported[label])
+    if floating.size:
+        raise StructureError(f"blocks {[names[i] for i in floating[:10]]} are not connected to any fixed block "
+                             "through contacts")
