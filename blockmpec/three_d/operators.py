@@ -186,6 +186,11 @@ class Operators3D:
         return np.arange(2, 3 * self.n_contacts, 3)
 
     @property
+    def shear_index(self) -> np.ndarray:
+        """Positions of the shear forces ``(t1, t2)`` in ``x``, shape (p, 2)."""
+        return np.arange(3 * self.n_contacts).reshape(-1, 3)[:, :2]
+
+    @property
     def unilateral_contact(self) -> np.ndarray:
         """Contact point of each no-tension row (column of ``N_u``), shape (p,)."""
         return np.arange(self.n_contacts)

@@ -81,9 +81,10 @@ FOLD_STALL_STEPS = 8
 CLOSENESS_WEIGHT = 1e-3
 
 
-def _normal(x: np.ndarray) -> np.ndarray:
-    """The normal forces ``n_k`` of interface forces ``x = (t_k, n_k, m_k)``."""
-    return x[1::3]
+def _normal(x: np.ndarray, lps: StepLPs) -> np.ndarray:
+    """The normal forces ``n_k`` of contact forces ``x`` (at ``lps.normal_index``: ``x = (t_k, n_k, m_k)`` per
+    interface in 2D, ``(t1, t2, n)`` per contact point in 3D)."""
+    return x[lps.normal_index]
 
 
 def tie_break_delta(lam: float) -> float:
@@ -169,7 +170,7 @@ class LPSequence:
             if not (a[col] == -1.0 and np.count_nonzero(a) == 1 and np.isfinite(self.tie_lp.row_upper[row])):
                 raise RuntimeError("tie-break LP: the floor row did not compile to -lam <= -lam_floor")
             self.tie_highs = HighsLP(self.tie_lp, algorithm, **_scales(self.tie_lp, units, ("d",)))
-            self._normal_columns = self.tie_lp.columns["x"][1::3]
+            self._normal_columns = self.tie_lp.columns["x"][lps.normal_index]
             self._d_columns = self.tie_lp.columns["d"]
 
         self.assoc_lp = lps.associative
@@ -278,8 +279,8 @@ class LPSequence:
             if highs is None:
                 continue
             rows = lp.rows["friction"]
-            cols = np.repeat(lp.columns["x"][1::3], 2)
-            values = highs.row_scale[rows] * np.repeat(slope, 2) * highs.column_scale[cols]
+            cols = lp.columns["x"][lps.normal_index][lps.friction_contact]
+            values = highs.row_scale[rows] * slope[lps.friction_contact] * highs.column_scale[cols]
             for r, col, v in zip(rows.tolist(), cols.tolist(), values.tolist()):
                 highs.highs.changeCoeff(r, col, v)
         self.alpha = float(alpha)
@@ -295,14 +296,14 @@ class LPSequence:
         c = self.n_interfaces
         weight = self.cohesion_factor * np.ones(c)
         if rule == "min-lambda":
-            zeta = np.zeros(c) if z_f is None else np.maximum(z_f[0::2], 0.0) + np.maximum(z_f[1::2], 0.0)
+            zeta = np.zeros(c) if z_f is None else np.bincount(self.lps.friction_contact, np.maximum(z_f, 0.0), c)
             weight = weight * zeta
         top = float(np.max(weight, initial=0.0))
         return weight / top if top > 0 else np.zeros(c)
 
     def _fold_costs(self, weights: np.ndarray | None) -> None:
         """Step LP objective ``min -lam - fold_weight sum_k w_k n_k`` (``weights=None``: plain ``-lam``)."""
-        cols = self.step_lp.columns["x"][1::3].astype(np.int32)
+        cols = self.step_lp.columns["x"][self.lps.normal_index].astype(np.int32)
         cost = np.zeros(cols.size) if weights is None else -self.fold_weight * weights
         self.step_highs.highs.changeColsCost(cols.size, cols, cost * self.step_highs.column_scale[cols])
         self._step_folded = weights is not None
@@ -332,7 +333,7 @@ class LPSequence:
         """
         rule = self.tie_break if rule is None else rule
         cohesion = -self.cohesion_factor * n_star
-        rhs = np.repeat(cohesion, 2)  # rows 2k, 2k+1 of interface k
+        rhs = cohesion[self.lps.friction_contact]  # every friction row of contact k
         lp = self.step_lp
         folded = self.fold_weight > 0 and rule in ("least-compressed", "min-lambda")
         if folded:
@@ -364,7 +365,7 @@ class LPSequence:
         self.tie_highs.set_row_upper(tie.rows["floor"], np.array([-(lam - tie_break_delta(lam))]))
         if deadline.expired():
             return Step(Status.TIME_LIMIT, "", "time limit reached before a tie-break LP", sol, iterations)
-        first_algorithm = self._start_tie_break_from_step_basis(_normal(sol.x), n_star) if self._tie_cold else None
+        first_algorithm = self._start_tie_break_from_step_basis(_normal(sol.x, self.lps), n_star) if self._tie_cold else None
         self._tie_cold = False
         tout = self._timed("tie_break", self.tie_highs.solve, first_algorithm, deadline=deadline)
         iterations += tout.iterations
@@ -510,7 +511,7 @@ def run_sequence(
             return output(first.status, None, first.message, first.raw_status)
         facts["lam_start"] = first.solution.multiplier
         seq.set_sensitivity(first.solution.z_f)
-        n_star = np.minimum(_normal(first.solution.x), 0.0)
+        n_star = np.minimum(_normal(first.solution.x, seq.lps), 0.0)
         if start == "random":
             n_star = n_star * np.random.default_rng(seed).uniform(0.0, 1.0, n_star.size)
     elif start == "dead-load":
@@ -525,7 +526,7 @@ def run_sequence(
                 seq.set_sensitivity(first.solution.z_f)
         if first.status is not Status.OPTIMAL:
             return output(first.status, None, first.message, first.raw_status)
-        n_star = np.minimum(_normal(first.solution.x), 0.0)
+        n_star = np.minimum(_normal(first.solution.x, seq.lps), 0.0)
     else:
         n_star = np.zeros(seq.n_interfaces)
 
@@ -562,7 +563,7 @@ def run_sequence(
         if step.tie_break_used is False:
             facts["tie_break_failures"] += 1
         sol = step.solution
-        n = _normal(sol.x)
+        n = _normal(sol.x, seq.lps)
         n_norm = float(np.linalg.norm(n))
         n_change = float(np.linalg.norm(n - n_star)) / n_norm if n_norm > 0 else float(np.linalg.norm(n - n_star))
         lam = float(sol.multiplier)
