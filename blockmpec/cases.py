@@ -637,6 +637,10 @@ def load_case(case: str, params: dict[str, Any]) -> Structure:
         except (TypeError, ValueError, ArithmeticError, IndexError, KeyError) as exc:
             raise OptionError(f"case {case!r} with {params}: {type(exc).__name__}: {exc}") from None
     path = Path(case)
+    from blockmpec.three_d.meshes import is_3d_file, read_3d_file
+
+    if is_3d_file(path):  # a mesh (.obj, .stl, .ply) or a 3D structure file: -p sets its material and loads
+        return read_3d_file(path, params)
     from blockmpec.drawings import is_drawing, read_structure
 
     if is_drawing(path):  # DXF, SVG or image: -p sets the reader's options (blockmpec import --help)
@@ -651,4 +655,4 @@ def load_case(case: str, params: dict[str, Any]) -> Structure:
         check_case_params(case, params, {"mu": None, "dilatancy": None})
         return structure.with_material(params.get("mu"), params.get("dilatancy"))
     raise OptionError(f"unknown case {case!r}: not a built-in case ({', '.join(CASES)}) nor a structure file "
-                      "(.json) nor a drawing (.dxf, .svg, an image)")
+                      "(.json) nor a drawing (.dxf, .svg, an image) nor a 3D mesh (.obj, .stl, .ply)")

@@ -9,8 +9,10 @@ layout contract shared with 2D), the built-in 3D cases (:mod:`~blockmpec.three_d
 """
 
 from blockmpec.three_d.cases import arch_3d, barrel_vault, block_3d, corner_wall, dome, extrude, extruded
-from blockmpec.three_d.geometry import Contacts, Structure3D, box, convex_block, make_structure_3d, prism
+from blockmpec.three_d.contacts import Contacts
+from blockmpec.three_d.geometry import Structure3D, make_structure_3d
 from blockmpec.three_d.operators import Operators3D, assemble_3d
+from blockmpec.three_d.polyhedra import box, convex_block, prism
 
 __all__ = [
     "Contacts", "Operators3D", "Structure3D", "arch_3d", "assemble_3d", "barrel_vault", "block_3d", "box",

@@ -21,9 +21,10 @@ import math
 
 import numpy as np
 
-from blockmpec.cases import CaseSpec, _count, _positive
+from blockmpec.cases import CASES, CaseSpec, _count, _positive
 from blockmpec.errors import OptionError, UnknownNameError
-from blockmpec.three_d.geometry import Structure3D, box, make_structure_3d, prism
+from blockmpec.three_d.geometry import Structure3D, make_structure_3d
+from blockmpec.three_d.polyhedra import box, prism
 
 
 def _angle(name: str, value: float, upper: float) -> float:
@@ -87,7 +88,7 @@ def extrude(structure, thickness: float = 1.0, pyramid_sides: int = 4) -> Struct
 def extruded(case: str = "two-blocks", thickness: float = 1.0, mu: float = 0.65, dilatancy: float = 0.0,
              pyramid_sides: int = 4) -> Structure3D:
     """A built-in 2D case (with its default parameters, ``mu`` and ``dilatancy``) extruded to ``thickness``."""
-    from blockmpec.cases import CASES, build_case
+    from blockmpec.cases import build_case
 
     if case not in CASES or CASES[case].generator.__module__.startswith("blockmpec.three_d"):
         names = [k for k, v in CASES.items() if not v.generator.__module__.startswith("blockmpec.three_d")]
@@ -230,7 +231,8 @@ def dome(radius: float = 5.0, thickness: float = 0.5, rings: int = 6, segments: 
                              pyramid_sides=pyramid_sides, block_ids=ids, name="dome")
 
 
-#: The 3D built-in cases (registered with the 2D ones in :data:`blockmpec.cases.CASES`).
+#: The 3D built-in cases, registered with the 2D ones in :data:`blockmpec.cases.CASES` when this module is imported
+#: (``import blockmpec`` does).
 CASES_3D: dict[str, CaseSpec] = {
     spec.name: spec
     for spec in (
@@ -243,6 +245,9 @@ CASES_3D: dict[str, CaseSpec] = {
         CaseSpec("arch-3d", arch_3d, "3D: a round arch with depth under an out-of-plane load"),
     )
 }
+
+
+CASES.update(CASES_3D)
 
 
 def closed_form(name: str, problem: str, **params) -> float | None:

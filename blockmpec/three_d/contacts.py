@@ -13,11 +13,53 @@ so that tolerances mean the same at any magnitude and offset.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
 from blockmpec.errors import GeometryError
 from blockmpec.geometry import candidate_pairs
-from blockmpec.three_d.geometry import Contacts, face_normals
+from blockmpec.three_d.polyhedra import _fan, face_normals
+
+
+@dataclass(frozen=True, eq=False)
+class Contacts:
+    """Contact polygons between blocks.
+
+    Attributes
+    ----------
+    minus, plus : ndarray of int, shape (c,)
+        Block indices; ``normal`` points from ``minus`` into ``plus``.
+    normal : ndarray, shape (c, 3)
+        Unit normals.
+    point_start : ndarray of int, shape (c + 1,)
+        Contact ``k`` has the points ``points[point_start[k]:point_start[k + 1]]``.
+    points : ndarray, shape (p, 3)
+        The contact points: the vertices of each contact polygon, in order around it.
+    area : ndarray, shape (c,)
+        Contact polygon areas.
+    """
+
+    minus: np.ndarray
+    plus: np.ndarray
+    normal: np.ndarray
+    point_start: np.ndarray
+    points: np.ndarray
+    area: np.ndarray
+
+    def __len__(self) -> int:
+        return int(self.minus.shape[0])
+
+    @property
+    def point_interface(self) -> np.ndarray:
+        """Interface of each contact point, shape (p,)."""
+        return np.repeat(np.arange(len(self)), np.diff(self.point_start))
+
+    def polygon(self, k: int) -> np.ndarray:
+        """The contact points of interface ``k``, shape (q, 3)."""
+        return self.points[self.point_start[k]: self.point_start[k + 1]]
+
+
 
 #: Budget of one chunk's face-pair arrays (pairs x faces x faces entries).
 _FACE_PAIR_BUDGET = 4_000_000
@@ -257,8 +299,6 @@ def _overlaps_convex(local, faces, a, b, size, tol, names, unit) -> None:
 
 def winding_number(points: np.ndarray, vertices: np.ndarray, faces) -> np.ndarray:
     """Generalised winding number of ``points`` (m, 3) in a closed outward polyhedron: 1 inside, 0 outside."""
-    from blockmpec.three_d.geometry import _fan
-
     a, b, c = _fan(vertices, faces)
     ra, rb, rc = (x[None, :, :] - points[:, None, :] for x in (a, b, c))
     la, lb, lc = (np.linalg.norm(x, axis=-1) for x in (ra, rb, rc))

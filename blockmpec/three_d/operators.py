@@ -61,12 +61,13 @@ import numpy as np
 import scipy.sparse as sp
 
 from blockmpec.errors import StructureError
-from blockmpec.operators import POSITION_GRID
 from blockmpec.three_d.geometry import Structure3D, polyhedron_mass
 from blockmpec.units import SNAP_BITS, Units, power_of_two, snap
 
 #: dofs per free block: centroid velocity and angular velocity
 BLOCK_DOFS = 6
+#: positions closer than this (in length units) count as equal in the canonical order (as in 2D)
+POSITION_GRID = 1e-7
 
 
 @dataclass(frozen=True, eq=False)
