@@ -227,12 +227,7 @@ def cmd_export(args: argparse.Namespace) -> int:
     structure = load_case(args.case, parse_pairs(args.param, "-p"))
     three_d = getattr(structure, "dim", 2) == 3
     try:
-        if three_d:
-            from blockmpec.three_d.meshes import save_structure_3d
-
-            save_structure_3d(structure, args.output)
-        else:
-            save_structure(structure, args.output)
+        save_structure(structure, args.output)
     except OSError as exc:
         raise OptionError(f"-o {args.output}: cannot write ({exc.strerror or exc})") from None
     print(f"wrote {args.output} ({structure.n_blocks} blocks, "

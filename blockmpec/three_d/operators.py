@@ -38,13 +38,17 @@ Canonical frame and units
 -------------------------
 As in 2D (:mod:`blockmpec.units`) the solvers see a nondimensional problem in a canonical frame: origin at the
 volume-weighted centroid of the free blocks, lengths over ``length_scale`` (the median cube root of the free
-blocks' volumes), ``z`` up and ``x`` along the live load's horizontal part (``y = z x x``), coordinates snapped to
-a dyadic grid of ``2**-40`` of the smallest block; forces over ``force_scale`` (the mean live force of the free
+blocks' volumes), ``z`` up and ``x`` along the live load's horizontal part (``y = z x x``), coordinates and normals
+snapped to a dyadic grid of ``2**-40`` of the smallest block (by the cube root of its volume); each block's volume
+and centroid summed in an order fixed by its snapped vertices; forces over ``force_scale`` (the mean live force of the free
 blocks), loads snapped alike.  Free blocks are ordered by centroid height, then canonical ``x`` and ``y``; fixed
 blocks before them; interfaces from the earlier block (minus) to the later, by minus, plus, then position; the
 points of an interface by position.  A translation, a rotation about the vertical with the live load turned
-alike, a reordering of the blocks or of their vertices, or a change of units gives the same problem (the same
-bits when the snapped coordinates agree).  Results come back in the structure's ids, frame and units through
+alike, a reordering of the blocks or of their vertices, or a change of units gives the same problem: the same bits
+where the snapped coordinates agree (always for a reordering, a quarter turn or a dyadic shift; for other motions
+unless a coordinate falls within round-off of a midpoint of the grid, which a large offset makes likely: 1e3
+lengths from the origin carry round-off of 1e-13, near the grid).  ``lam`` of the LPs is the same either way to
+round-off; a non-unique solution of (3) can then differ.  Results come back in the structure's ids, frame and units through
 :mod:`blockmpec.three_d.report`.
 
 The layout contract shared with 2D (``block_dofs``, ``n_contacts``, ``normal_index``, ``unilateral_contact``,
@@ -275,9 +279,24 @@ def canonical_frame(s: Structure3D) -> tuple[np.ndarray, float, np.ndarray, floa
     x = h / np.linalg.norm(h) if np.linalg.norm(h) > 1e-12 else np.array([1.0, 0.0, 0.0])
     z = np.array([0.0, 0.0, 1.0])
     rotation = np.vstack([x, np.cross(z, x), z])
-    smallest = min(float(np.min(v.max(axis=0) - v.min(axis=0))) for v in s.vertices) / ell
+    smallest = float(np.min(np.cbrt(vol))) / ell  # a size that turns with the structure (a box's sides do not)
     grid = float(np.ldexp(power_of_two(smallest) if smallest > 0 else 1.0, -SNAP_BITS))
     return origin, ell, rotation, grid
+
+
+def _canonical_polyhedron(q: np.ndarray, faces) -> tuple[np.ndarray, list]:
+    """A polyhedron's vertices sorted by position (height, ``x``, ``y``) and its faces each started at its first vertex
+    in that order, the faces sorted: the fan sums of :func:`polyhedron_mass` then do not depend on the order in which
+    the input lists its vertices and faces (the same bits for the same snapped vertices)."""
+    order = np.lexsort((q[:, 1], q[:, 0], q[:, 2]))
+    rank = np.empty(order.size, int)
+    rank[order] = np.arange(order.size)
+    out = []
+    for f in faces:
+        r = rank[np.asarray(f)]
+        out.append(np.roll(r, -int(np.argmin(r))).tolist())
+    out.sort()
+    return q[order], out
 
 
 def _ranks(points: np.ndarray) -> np.ndarray:
@@ -305,7 +324,7 @@ def assemble_3d(structure: Structure3D) -> Operators3D:
     def to_canonical(p):
         return snap((np.asarray(p, float) - origin) @ R.T / ell, grid)
 
-    mass = [polyhedron_mass(to_canonical(v), f) for v, f in zip(s.vertices, s.faces)]
+    mass = [polyhedron_mass(*_canonical_polyhedron(to_canonical(v), f)) for v, f in zip(s.vertices, s.faces)]
     volume = np.array([m[0] for m in mass])
     centroid = np.array([m[1] for m in mass])
     free = np.flatnonzero(~s.fixed)
@@ -326,7 +345,8 @@ def assemble_3d(structure: Structure3D) -> Operators3D:
     flipped = rank[c.minus[keep]] > rank[c.plus[keep]]
     minus = np.where(flipped, c.plus[keep], c.minus[keep])
     plus = np.where(flipped, c.minus[keep], c.plus[keep])
-    normal = (c.normal[keep] @ R.T) * np.where(flipped, -1.0, 1.0)[:, None]
+    # normals snapped like the coordinates (a turned or reordered input gives them to round-off only)
+    normal = snap((c.normal[keep] @ R.T) * np.where(flipped, -1.0, 1.0)[:, None], 2.0**-SNAP_BITS)
     normal /= np.linalg.norm(normal, axis=1, keepdims=True)
     points = to_canonical(c.points)
     point_itf = c.point_interface
