@@ -19,7 +19,7 @@ import numpy as np
 
 from blockmpec.errors import GeometryError
 from blockmpec.geometry import candidate_pairs
-from blockmpec.three_d.polyhedra import _fan, face_normals
+from blockmpec.three_d.polyhedra import FaceTable, _fan, face_normals
 
 
 @dataclass(frozen=True, eq=False)
@@ -65,44 +65,38 @@ class Contacts:
 _FACE_PAIR_BUDGET = 4_000_000
 
 
-def _frame(vertices) -> tuple[np.ndarray, float]:
-    allv = np.vstack(vertices)
-    centre = 0.5 * (allv.min(axis=0) + allv.max(axis=0))
-    size = np.array([np.linalg.norm(v.max(axis=0) - v.min(axis=0)) for v in vertices])
-    return centre, float(np.median(size))
+def _frame(table: FaceTable) -> tuple[np.ndarray, float, np.ndarray]:
+    """Centre of the structure's bounding box, the median block size (bounding-box diagonal) and each block's size
+    in units of it."""
+    p = table.points
+    centre = 0.5 * (p.min(axis=0) + p.max(axis=0))
+    lo = np.minimum.reduceat(p, table.vertex_start[:-1], axis=0)
+    hi = np.maximum.reduceat(p, table.vertex_start[:-1], axis=0)
+    size = np.linalg.norm(hi - lo, axis=1)
+    unit = float(np.median(size))
+    return centre, unit, size / unit
 
 
-def _padded_vertices(vertices) -> np.ndarray:
-    k = max(v.shape[0] for v in vertices)
-    out = np.empty((len(vertices), k, 3))
-    for i, v in enumerate(vertices):
-        out[i, : v.shape[0]] = v
-        out[i, v.shape[0]:] = v[-1]
-    return out
+def _padded_vertices(table: FaceTable, points: np.ndarray) -> np.ndarray:
+    """Every block's vertices ``(n, k, 3)``, padded by repeating its last."""
+    nv = np.diff(table.vertex_start)
+    j = np.arange(int(nv.max()))[None, :]
+    return points[table.vertex_start[:-1, None] + np.minimum(j, nv[:, None] - 1)]
 
 
 class _FaceTable:
-    """Every face of every block as flat arrays (in the local frame)."""
+    """Every face of every block in the local frame: block, vertex count, padded coordinates, unit normal,
+    centre, and the faces of each block (``of_block``, padded with -1)."""
 
-    def __init__(self, vertices, faces):
-        self.block = np.concatenate([np.full(len(f), i) for i, f in enumerate(faces)])
-        counts = np.array([len(face) for f in faces for face in f])
-        self.count = counts
-        k = int(counts.max())
-        self.coords = np.empty((counts.size, k, 3))
-        normals, row = [], 0
-        for v, fs in zip(vertices, faces):
-            normals.append(face_normals(v, fs))
-            for face in fs:
-                q = v[face]
-                self.coords[row, : len(face)] = q
-                self.coords[row, len(face):] = q[-1]
-                row += 1
-        self.normal = np.vstack(normals)
-        self.centre = np.array([self.coords[i, : counts[i]].mean(axis=0) for i in range(counts.size)])
-        n_blocks = len(faces)
-        per = np.bincount(self.block, minlength=n_blocks)
-        self.of_block = -np.ones((n_blocks, int(per.max())), int)
+    def __init__(self, table: FaceTable, centre: np.ndarray, unit: float):
+        points = (table.points - centre) / unit
+        self.block = table.face_block
+        self.count = table.count
+        self.coords = points[table.index]
+        self.normal = table.normals(points)
+        self.centre = table.centres(points)
+        per = np.bincount(self.block, minlength=table.n_blocks)
+        self.of_block = -np.ones((table.n_blocks, int(per.max())), int)
         start = np.concatenate([[0], np.cumsum(per)[:-1]])
         j = np.arange(self.block.size) - start[self.block]
         self.of_block[self.block, j] = np.arange(self.block.size)
@@ -151,7 +145,7 @@ def _polygons_2d(table: _FaceTable, faces: np.ndarray, origin, e1, e2):
     return shapely.make_valid(shapely.polygons(rings))
 
 
-def detect_contacts(vertices, faces, tol: float = 1e-6) -> Contacts:
+def detect_contacts(vertices, faces, tol: float = 1e-6, table: FaceTable | None = None) -> Contacts:
     """Contact polygons of blocks given by their vertices and faces (see the module docstring).
 
     The minus block of a contact is the lower block index; its normal is that block's outward face
@@ -162,11 +156,12 @@ def detect_contacts(vertices, faces, tol: float = 1e-6) -> Contacts:
     from scipy.sparse import coo_array
     from scipy.sparse.csgraph import connected_components
 
-    centre, unit = _frame(vertices)
-    local = [(v - centre) / unit for v in vertices]
-    table = _FaceTable(local, faces)
-    size = np.array([np.linalg.norm(v.max(axis=0) - v.min(axis=0)) for v in local])
-    a, b = candidate_pairs(_padded_vertices(local), tol)
+    table = FaceTable(vertices, faces) if table is None else table
+    centre, unit, size = _frame(table)
+    local = (table.points - centre) / unit
+    faces_local = _FaceTable(table, centre, unit)
+    a, b = candidate_pairs(_padded_vertices(table, local), tol)
+    table = faces_local
     fa, fb = _matching_faces(table, a, b, size, tol) if a.size else (np.zeros(0, int), np.zeros(0, int))
     if fa.size == 0:
         return _empty()
@@ -189,46 +184,36 @@ def detect_contacts(vertices, faces, tol: float = 1e-6) -> Contacts:
     order = np.argsort(g_of_match, kind="stable")
     bounds = np.searchsorted(g_of_match[order], np.arange(group.size + 1))
     scale = np.minimum(size[table.block[fa[first]]], size[table.block[fb[first]]])
-    minus, plus, normals, starts, points, areas = [], [], [], [0], [], []
-    for g in range(group.size):
-        sel = order[bounds[g]: bounds[g + 1]]
-        poly = pieces[sel[0]] if sel.size == 1 else shapely.union_all(pieces[sel])
-        area = shapely.area(poly)
-        if not area > tol * scale[g] ** 2:
-            continue
-        poly = shapely.simplify(poly, 1e-9 * scale[g])
-        uv = _outline_points(poly)
-        if uv.shape[0] < 3:
-            continue
-        p3 = g_origin[g] + uv[:, :1] * e1[g] + uv[:, 1:] * e2[g]
-        minus.append(table.block[fa[first[g]]])
-        plus.append(table.block[fb[first[g]]])
-        normals.append(g_normal[g])
-        points.append(p3 * unit + centre)
-        starts.append(starts[-1] + p3.shape[0])
-        areas.append(area * unit**2)
-    if not minus:
-        return _empty()
-    minus, plus = np.array(minus), np.array(plus)
-    order = np.lexsort((plus, minus))
-    pts = [points[i] for i in order]
-    counts = np.array([p.shape[0] for p in pts])
-    return Contacts(minus=minus[order], plus=plus[order], normal=np.array(normals)[order],
-                    point_start=np.concatenate([[0], np.cumsum(counts)]), points=np.vstack(pts),
-                    area=np.array(areas)[order])
-
-
-def _outline_points(poly) -> np.ndarray:
-    """The vertices of a contact polygon's outline (every part of a multi-polygon), shape (q, 2)."""
-    import shapely
-
-    parts = shapely.get_parts(poly)
-    out = []
-    for part in parts:
-        if part.geom_type != "Polygon" or part.is_empty:
-            continue
-        out.append(np.asarray(part.exterior.coords)[:-1])
-    return np.vstack(out) if out else np.zeros((0, 2))
+    # one polygon per group: a single piece as it is, several merged (shapely, group by group)
+    counts = np.diff(bounds)
+    poly = pieces[order[bounds[:-1]]].copy()
+    for g in np.flatnonzero(counts > 1):
+        poly[g] = shapely.union_all(pieces[order[bounds[g]: bounds[g + 1]]])
+    area = shapely.area(poly)
+    keep = np.flatnonzero(area > tol * scale**2)
+    poly = shapely.simplify(poly[keep], 1e-9 * scale[keep])
+    parts, part_of = shapely.get_parts(poly, return_index=True)
+    polygons = shapely.get_type_id(parts) == 3  # a contact of two faces is polygons; lines and points are no area
+    rings = shapely.get_exterior_ring(parts[polygons])
+    uv, ring_of = shapely.get_coordinates(rings, return_index=True)
+    last = np.r_[ring_of[1:] != ring_of[:-1], True]  # each ring repeats its first point at its end
+    uv, ring_of = uv[~last], ring_of[~last]
+    g_of_point = keep[part_of[polygons][ring_of]]
+    n_points = np.bincount(g_of_point, minlength=group.size)
+    good = np.flatnonzero(n_points >= 3)
+    sel = np.isin(g_of_point, good)
+    uv, g_of_point = uv[sel], g_of_point[sel]
+    p3 = g_origin[g_of_point] + uv[:, :1] * e1[g_of_point] + uv[:, 1:] * e2[g_of_point]
+    minus, plus = table.block[fa[first[good]]], table.block[fb[first[good]]]
+    rank = np.lexsort((plus, minus))
+    groups = good[rank]
+    new_id = np.empty(group.size, int)
+    new_id[groups] = np.arange(groups.size)
+    point_order = np.argsort(new_id[g_of_point], kind="stable")
+    counts = n_points[groups]
+    return Contacts(minus=minus[rank], plus=plus[rank], normal=g_normal[groups],
+                    point_start=np.concatenate([[0], np.cumsum(counts)]),
+                    points=p3[point_order] * unit + centre, area=area[groups] * unit**2)
 
 
 def _empty() -> Contacts:
@@ -239,46 +224,52 @@ def _empty() -> Contacts:
 # --------------------------------------------------------------------------- overlaps
 
 
-def _edge_directions(v: np.ndarray, faces) -> np.ndarray:
-    e = np.concatenate([v[np.roll(f, -1)] - v[f] for f in faces])
+def _per_block(rows: np.ndarray, block: np.ndarray, n: int) -> np.ndarray:
+    """Rows ``(m, 3)`` grouped by ``block`` (sorted) into ``(n, k, 3)``, each group padded by repeating its first."""
+    order = np.argsort(block, kind="stable")
+    rows, block = rows[order], block[order]
+    per = np.bincount(block, minlength=n)
+    start = np.concatenate([[0], np.cumsum(per)[:-1]])
+    j = np.arange(int(per.max()))[None, :]
+    return rows[start[:, None] + np.where(j < per[:, None], j, 0)]
+
+
+def _edge_directions(table: FaceTable, points: np.ndarray) -> np.ndarray:
+    """Each block's distinct edge directions (sign-canonical unit vectors), padded: ``(n, k, 3)``."""
+    a, b = table.directed_edges()
+    e = points[b] - points[a]
     e /= np.linalg.norm(e, axis=1, keepdims=True)
     e = np.where((e[:, [0]] < 0) | ((e[:, [0]] == 0) & (e[:, [1]] < 0)), -e, e)
-    return np.unique(np.round(e, 9), axis=0)
+    key = np.column_stack([table.vertex_block[a], np.round(e, 9)])
+    key = np.unique(key, axis=0)
+    return _per_block(key[:, 1:], key[:, 0].astype(int), table.n_blocks)
 
 
-def _padded(rows: list[np.ndarray]) -> np.ndarray:
-    k = max(r.shape[0] for r in rows)
-    out = np.empty((len(rows), k, 3))
-    for i, r in enumerate(rows):
-        out[i, : r.shape[0]] = r
-        out[i, r.shape[0]:] = r[0]
-    return out
-
-
-def check_overlaps(vertices, faces, convex: np.ndarray, tol: float, names) -> None:
+def check_overlaps(vertices, faces, convex: np.ndarray, tol: float, names, table: FaceTable | None = None) -> None:
     """Raise a GeometryError naming two blocks that overlap by more than ``10 tol`` times the smaller's size.
 
     Two convex blocks by the separating axis test (face normals of both and the cross products of their
     edge directions: the penetration depth); a pair with a non-convex block by the winding number of each
     face's centre, moved inside its block by ``100 tol`` of its size, in the other block (a vertex-free
     overlap of two non-convex blocks can escape this test)."""
-    centre, unit = _frame(vertices)
-    local = [(v - centre) / unit for v in vertices]
-    a, b = candidate_pairs(_padded_vertices(local), tol)
+    table = FaceTable(vertices, faces) if table is None else table
+    centre, unit, size = _frame(table)
+    points = (table.points - centre) / unit
+    a, b = candidate_pairs(_padded_vertices(table, points), tol)
     if a.size == 0:
         return
-    size = np.array([np.linalg.norm(v.max(axis=0) - v.min(axis=0)) for v in local])
     both = convex[a] & convex[b]
-    _overlaps_convex(local, faces, a[both], b[both], size, tol, names, unit)
+    _overlaps_convex(table, points, a[both], b[both], size, tol, names, unit)
+    local = [points[table.vertex_start[i]: table.vertex_start[i + 1]] for i in range(table.n_blocks)]
     _overlaps_nonconvex(local, faces, a[~both], b[~both], size, tol, names)
 
 
-def _overlaps_convex(local, faces, a, b, size, tol, names, unit) -> None:
+def _overlaps_convex(table: FaceTable, points, a, b, size, tol, names, unit) -> None:
     if a.size == 0:
         return
-    verts = _padded(local)
-    normals = _padded([face_normals(v, f) for v, f in zip(local, faces)])
-    edges = _padded([_edge_directions(v, f) for v, f in zip(local, faces)])
+    verts = _padded_vertices(table, points)
+    normals = _per_block(table.normals(points), table.face_block, table.n_blocks)
+    edges = _edge_directions(table, points)
     chunk = max(1, 2_000_000 // (edges.shape[1] ** 2 * verts.shape[1] + 1))
     for s in range(0, a.size, chunk):
         sa, sb = a[s: s + chunk], b[s: s + chunk]

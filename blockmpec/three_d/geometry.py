@@ -32,7 +32,7 @@ import numpy as np
 
 from blockmpec.errors import GeometryError, OptionError, StructureError
 from blockmpec.three_d.contacts import Contacts, check_overlaps, detect_contacts
-from blockmpec.three_d.polyhedra import face_normals, polyhedron_mass
+from blockmpec.three_d.polyhedra import FaceTable, face_normals
 
 #: Default relative tolerance for geometric tests (scaled by block size), as in 2D.
 DEFAULT_GEOMETRY_TOL = 1e-6
@@ -90,8 +90,7 @@ class Structure3D:
 
     @cached_property
     def _mass(self) -> tuple[np.ndarray, np.ndarray]:
-        vol, cen = zip(*(polyhedron_mass(v, f) for v, f in zip(self.vertices, self.faces)))
-        return np.array(vol), np.array(cen)
+        return FaceTable(self.vertices, self.faces).mass()
 
     @property
     def volume(self) -> np.ndarray:
@@ -203,46 +202,73 @@ def _block_arrays(blocks, names) -> tuple[tuple, tuple]:
     return tuple(verts), tuple(faces)
 
 
-def _check_closed(faces, where: str) -> None:
-    """Every directed edge once, and its reverse once: a closed, consistently oriented surface."""
-    edges = np.concatenate([np.column_stack([f, np.roll(f, -1)]) for f in faces])
-    key, counts = np.unique(edges, axis=0, return_counts=True)
-    if np.any(counts > 1):
-        a, b = key[np.argmax(counts > 1)]
-        raise GeometryError(f"{where}: faces are not consistently oriented (edge {a}->{b} is used twice in the same "
-                            "direction; every face must run counter-clockwise seen from outside)")
-    rev = {tuple(e) for e in key.tolist()}
-    for a, b in key.tolist():
-        if (b, a) not in rev:
-            raise GeometryError(f"{where}: its surface is not closed (the edge between vertices {a} and {b} belongs "
-                                "to one face only); a block must be a closed polyhedron")
+def _check_closed(table: FaceTable, names) -> None:
+    """Every directed edge once and its reverse once, in every block: closed, consistently oriented surfaces."""
+    a, b = table.directed_edges()
+    big = table.points.shape[0]
+    key = a.astype(np.int64) * big + b
+    unique, counts = np.unique(key, return_counts=True)
+    twice = unique[counts > 1]
+    if twice.size:
+        i, j = divmod(int(twice[np.argmin(table.vertex_block[twice // big])]), big)
+        blk = table.vertex_block[i]
+        start = table.vertex_start[blk]
+        raise GeometryError(f"block {names[blk]}: faces are not consistently oriented (edge {i - start}->{j - start} is "
+                            "used twice in the same direction; every face must run counter-clockwise seen from outside)")
+    lonely = ~np.isin(b.astype(np.int64) * big + a, unique)
+    if lonely.any():
+        k = np.flatnonzero(lonely)[np.argmin(table.vertex_block[a[lonely]])]
+        blk = table.vertex_block[a[k]]
+        start = table.vertex_start[blk]
+        raise GeometryError(f"block {names[blk]}: its surface is not closed (the edge between vertices {a[k] - start} "
+                            f"and {b[k] - start} belongs to one face only); a block must be a closed polyhedron")
 
 
-def _check_block(v: np.ndarray, faces, where: str, tol: float) -> bool:
-    """Shape checks of one block in its own units; returns whether it is convex."""
-    size = float(np.max(v.max(axis=0) - v.min(axis=0)))
-    if not size > 0:
-        raise GeometryError(f"{where}: all its vertices coincide")
-    p = (v - v[0]) / size
-    _check_closed(faces, where)
-    normals = face_normals(p, faces)
-    for j, f in enumerate(faces):
-        q = p[f]
-        area2 = np.linalg.norm(np.cross(q - q.mean(axis=0), np.roll(q, -1, axis=0) - q.mean(axis=0)).sum(axis=0))
-        if area2 <= tol:
-            raise GeometryError(f"{where}, face {j}: degenerate (zero area)")
-        off = np.abs((q - q.mean(axis=0)) @ normals[j])
-        if off.max() > 10 * tol:
-            raise GeometryError(f"{where}, face {j}: not planar (a vertex lies {off.max() * size:.3g} off its plane)")
-    vol, _ = polyhedron_mass(p, faces)
-    if abs(vol) <= tol:
-        raise GeometryError(f"{where}: degenerate polyhedron (volume {vol * size**3:.3g})")
-    if vol < 0:
-        raise GeometryError(f"{where}: its faces are oriented inward (clockwise seen from outside); reverse each face")
-    offsets = np.array([normals[j] @ p[f[0]] for j, f in enumerate(faces)])
-    convex = bool(np.all(p @ normals.T - offsets <= 10 * tol))
-    if not convex:
-        _check_self_intersection(p, faces, where, size)
+def _first(bad: np.ndarray, block: np.ndarray) -> int:
+    """The entry of ``bad`` (indices) of the lowest block."""
+    return int(bad[np.argmin(block[bad])])
+
+
+def _check_blocks(table: FaceTable, names, tol: float) -> np.ndarray:
+    """Shape checks of every block, each in its own units (vectorised); returns which blocks are convex."""
+    _, size = table.block_frames()
+    p = table.local()
+    _check_closed(table, names)
+    area = table.newell(p)
+    area2 = np.linalg.norm(area, axis=1)
+    face_start = np.concatenate([[0], np.cumsum(np.bincount(table.face_block, minlength=table.n_blocks))])
+    bad = np.flatnonzero(area2 <= tol)
+    if bad.size:
+        f = _first(bad, table.face_block)
+        raise GeometryError(f"block {names[table.face_block[f]]}, face {f - face_start[table.face_block[f]]}: "
+                            "degenerate (zero area)")
+    normal = area / area2[:, None]
+    centre = table.centres(p)
+    off = np.abs(np.einsum("fkd,fd->fk", p[table.index] - centre[:, None, :], normal)).max(axis=1)
+    bad = np.flatnonzero(off > 10 * tol)
+    if bad.size:
+        f = _first(bad, table.face_block)
+        blk = table.face_block[f]
+        raise GeometryError(f"block {names[blk]}, face {f - face_start[blk]}: not planar (a vertex lies "
+                            f"{off[f] * size[blk]:.3g} off its plane)")
+    vol, _ = table.mass(p)
+    bad = np.flatnonzero(np.abs(vol) <= tol)
+    if bad.size:
+        raise GeometryError(f"block {names[bad[0]]}: degenerate polyhedron (volume {vol[bad[0]] * size[bad[0]]**3:.3g})")
+    bad = np.flatnonzero(vol < 0)
+    if bad.size:
+        raise GeometryError(f"block {names[bad[0]]}: its faces are oriented inward (clockwise seen from outside); "
+                            "reverse each face")
+    # convex: no vertex of a block in front of a face plane of the same block
+    offset = np.einsum("fd,fd->f", normal, p[table.index[:, 0]])
+    beyond = np.zeros(table.n_blocks)
+    nv = np.diff(table.vertex_start)
+    for j in range(int(nv.max())):  # vertex j of every block against every face of its block
+        has = nv[table.face_block] > j
+        v = table.vertex_start[table.face_block[has]] + j
+        d = np.einsum("fd,fd->f", normal[has], p[v]) - offset[has]
+        np.maximum.at(beyond, table.face_block[has], d)
+    convex = beyond <= 10 * tol
     return convex
 
 
@@ -340,9 +366,14 @@ def make_structure_3d(
     if bad.size:
         raise StructureError(f"block {names[bad[0]]}: density must be a finite number > 0; got {dens[bad[0]]}")
     _check_material(float(friction), float(dilatancy))
-    convex = np.array([_check_block(v, f, f"block {names[i]}", tol) for i, (v, f) in enumerate(zip(vertices, faces))])
-    check_overlaps(vertices, faces, convex, tol, names)
-    contacts = detect_contacts(vertices, faces, tol)
+    table = FaceTable(vertices, faces)
+    convex = _check_blocks(table, names, tol)
+    for i in np.flatnonzero(~convex):  # a non-convex block: its surface must not cross itself
+        v = vertices[i]
+        size = float(np.max(v.max(axis=0) - v.min(axis=0)))
+        _check_self_intersection((v - v[0]) / size, faces[i], f"block {names[i]}", size)
+    check_overlaps(vertices, faces, convex, tol, names, table)
+    contacts = detect_contacts(vertices, faces, tol, table)
     s = Structure3D(vertices=vertices, faces=faces, fixed=fixed_arr, density=dens, contacts=contacts,
                     friction=float(friction), dilatancy=float(dilatancy),
                     live_direction=_unit_direction(live_direction), live_factor=_live_factor(live_factor),

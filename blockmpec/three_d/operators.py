@@ -65,7 +65,8 @@ import numpy as np
 import scipy.sparse as sp
 
 from blockmpec.errors import StructureError
-from blockmpec.three_d.geometry import Structure3D, polyhedron_mass
+from blockmpec.three_d.geometry import Structure3D
+from blockmpec.three_d.polyhedra import FaceTable
 from blockmpec.units import SNAP_BITS, Units, power_of_two, snap
 
 #: dofs per free block: centroid velocity and angular velocity
@@ -284,21 +285,6 @@ def canonical_frame(s: Structure3D) -> tuple[np.ndarray, float, np.ndarray, floa
     return origin, ell, rotation, grid
 
 
-def _canonical_polyhedron(q: np.ndarray, faces) -> tuple[np.ndarray, list]:
-    """A polyhedron's vertices sorted by position (height, ``x``, ``y``) and its faces each started at its first vertex
-    in that order, the faces sorted: the fan sums of :func:`polyhedron_mass` then do not depend on the order in which
-    the input lists its vertices and faces (the same bits for the same snapped vertices)."""
-    order = np.lexsort((q[:, 1], q[:, 0], q[:, 2]))
-    rank = np.empty(order.size, int)
-    rank[order] = np.arange(order.size)
-    out = []
-    for f in faces:
-        r = rank[np.asarray(f)]
-        out.append(np.roll(r, -int(np.argmin(r))).tolist())
-    out.sort()
-    return q[order], out
-
-
 def _ranks(points: np.ndarray) -> np.ndarray:
     """Rank of each point in the order height, then ``x``, then ``y`` (on a grid of ``POSITION_GRID``), ties by index."""
     key = np.round(points / POSITION_GRID)
@@ -324,9 +310,8 @@ def assemble_3d(structure: Structure3D) -> Operators3D:
     def to_canonical(p):
         return snap((np.asarray(p, float) - origin) @ R.T / ell, grid)
 
-    mass = [polyhedron_mass(*_canonical_polyhedron(to_canonical(v), f)) for v, f in zip(s.vertices, s.faces)]
-    volume = np.array([m[0] for m in mass])
-    centroid = np.array([m[1] for m in mass])
+    table = FaceTable(s.vertices, s.faces)
+    volume, centroid = table.canonical(to_canonical(table.points)).mass()
     free = np.flatnonzero(~s.fixed)
     fixed = np.flatnonzero(s.fixed)
     rank = np.empty(s.n_blocks, int)

@@ -100,3 +100,115 @@ def convex_block(points: np.ndarray) -> tuple[np.ndarray, list[list[int]]]:
         ang = np.arctan2((q - c) @ e2, (q - c) @ e1)
         faces.append(remap[corner[np.argsort(ang)]].tolist())
     return v, faces
+
+
+class FaceTable:
+    """Every face of every block as flat, padded arrays, for vectorised checks and sums over a whole structure.
+
+    Attributes
+    ----------
+    points : ndarray, shape (v, 3)
+        All vertices, block after block; ``vertex_start[i]:vertex_start[i + 1]`` are block ``i``'s.
+    vertex_block : ndarray of int, shape (v,)
+    face_block, count : ndarray of int, shape (f,)
+        Block and number of vertices of each face.
+    index : ndarray of int, shape (f, k)
+        Each face's vertices (rows of ``points``), padded by repeating its last vertex.
+    """
+
+    def __init__(self, vertices, faces):
+        n = len(vertices)
+        nv = np.array([len(v) for v in vertices])
+        self.vertex_start = np.concatenate([[0], np.cumsum(nv)])
+        self.points = np.vstack([np.asarray(v, float) for v in vertices])
+        self.vertex_block = np.repeat(np.arange(n), nv)
+        self.face_block = np.repeat(np.arange(n), [len(f) for f in faces])
+        flat = [np.asarray(face, int) for fs in faces for face in fs]
+        self.count = np.array([f.size for f in flat])
+        idx = np.concatenate(flat) + np.repeat(self.vertex_start[self.face_block], self.count)
+        starts = np.concatenate([[0], np.cumsum(self.count)[:-1]])
+        j = np.arange(int(self.count.max()))[None, :]
+        self.index = idx[starts[:, None] + np.minimum(j, self.count[:, None] - 1)]
+        self.n_blocks = n
+
+    @property
+    def valid(self) -> np.ndarray:
+        """``(f, k)``: the real (not padded) vertex positions of each face."""
+        return np.arange(self.index.shape[1])[None, :] < self.count[:, None]
+
+    def block_frames(self, points: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+        """Each block's first vertex ``(n, 3)`` and size ``(n,)`` (largest side of its bounding box)."""
+        p = self.points if points is None else points
+        lo = np.minimum.reduceat(p, self.vertex_start[:-1], axis=0)
+        hi = np.maximum.reduceat(p, self.vertex_start[:-1], axis=0)
+        size = (hi - lo).max(axis=1)
+        return p[self.vertex_start[:-1]], np.where(size > 0, size, 1.0)
+
+    def local(self, points: np.ndarray | None = None) -> np.ndarray:
+        """Every vertex relative to its block's first vertex, in units of the block's size."""
+        p = self.points if points is None else points
+        origin, size = self.block_frames(p)
+        return (p - origin[self.vertex_block]) / size[self.vertex_block, None]
+
+    def newell(self, points: np.ndarray) -> np.ndarray:
+        """Newell's area vector of each face (twice its vector area), shape (f, 3)."""
+        q = points[self.index]
+        q = q - q[:, :1, :]
+        return np.cross(q, np.roll(q, -1, axis=1)).sum(axis=1)
+
+    def centres(self, points: np.ndarray) -> np.ndarray:
+        """Mean of each face's vertices, shape (f, 3)."""
+        return (points[self.index] * self.valid[..., None]).sum(axis=1) / self.count[:, None]
+
+    def normals(self, points: np.ndarray | None = None) -> np.ndarray:
+        """Unit outward normals of the faces, shape (f, 3)."""
+        a = self.newell(self.points if points is None else points)
+        return a / np.maximum(np.linalg.norm(a, axis=1, keepdims=True), 1e-300)
+
+    def directed_edges(self) -> tuple[np.ndarray, np.ndarray]:
+        """Every face's edges ``(a, b)`` as rows of ``points``, each shape (e,)."""
+        nxt = np.where(np.arange(self.index.shape[1])[None, :] + 1 < self.count[:, None],
+                       np.roll(self.index, -1, axis=1), self.index[:, :1])
+        valid = self.valid
+        return self.index[valid], nxt[valid]
+
+    def mass(self, points: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+        """Volume ``(n,)`` and centroid ``(n, 3)`` of every block (the fan sums of :func:`polyhedron_mass`)."""
+        p = self.points if points is None else points
+        origin, size = self.block_frames(p)
+        q = self.local(p)[self.index]
+        a = q[:, :1, :]
+        b, c = q[:, 1:-1, :], q[:, 2:, :]
+        if b.shape[1] == 0:
+            raise ValueError("faces need at least three vertices")
+        vol_t = np.einsum("ftk,ftk->ft", np.broadcast_to(a, b.shape), np.cross(b, c)) / 6.0
+        vol_t = np.where(np.arange(b.shape[1])[None, :] + 2 < self.count[:, None], vol_t, 0.0)
+        weighted = (vol_t[..., None] * (a + b + c)).sum(axis=1) / 4.0
+        vol = np.bincount(self.face_block, vol_t.sum(axis=1), self.n_blocks)
+        cen = np.column_stack([np.bincount(self.face_block, weighted[:, k], self.n_blocks) for k in range(3)])
+        with np.errstate(invalid="ignore", divide="ignore"):
+            cen = cen / vol[:, None]
+        return vol * size**3, origin + cen * size[:, None]
+
+    def canonical(self, points: np.ndarray) -> FaceTable:
+        """This table over ``points`` (one row per vertex) with every block's vertices sorted by position (height,
+        ``x``, ``y``), each face started at its first vertex in that order and the faces of a block sorted: the fan
+        sums of :meth:`mass` then do not depend on the order in which the input lists vertices and faces (the same
+        bits for the same points)."""
+        order = np.lexsort((points[:, 1], points[:, 0], points[:, 2], self.vertex_block))
+        new = np.empty(order.size, int)
+        new[order] = np.arange(order.size)
+        idx = new[self.index]
+        k = idx.shape[1]
+        valid = self.valid
+        first = np.argmin(np.where(valid, idx, np.iinfo(idx.dtype).max), axis=1)
+        j = np.arange(k)[None, :]
+        pos = np.where(valid, (first[:, None] + j) % self.count[:, None], 0)
+        idx = np.take_along_axis(idx, pos, axis=1)
+        idx = np.where(valid, idx, np.take_along_axis(idx, (self.count - 1)[:, None], axis=1))
+        face_order = np.lexsort(tuple(idx[:, c] for c in range(k - 1, -1, -1)) + (self.face_block,))
+        out = object.__new__(FaceTable)
+        out.vertex_start, out.vertex_block, out.n_blocks = self.vertex_start, self.vertex_block, self.n_blocks
+        out.points = points[order]
+        out.face_block, out.count, out.index = self.face_block[face_order], self.count[face_order], idx[face_order]
+        return out
