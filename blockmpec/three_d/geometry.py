@@ -190,8 +190,6 @@ def _block_arrays(blocks, names) -> tuple[tuple, tuple]:
             if a.min() < 0 or a.max() >= v.shape[0]:
                 raise GeometryError(f"{where}, face {j}: vertex index {int(a.max() if a.max() >= v.shape[0] else a.min())} "
                                     f"does not exist (the block has {v.shape[0]} vertices)")
-            if np.unique(a).size != a.size:
-                raise GeometryError(f"{where}, face {j}: repeats a vertex ({a.tolist()})")
             fs.append(a.astype(int))
         if len(fs) < 4:
             raise GeometryError(f"{where}: a closed polyhedron needs at least 4 faces; got {len(fs)}")
@@ -233,10 +231,17 @@ def _check_blocks(table: FaceTable, names, tol: float) -> np.ndarray:
     """Shape checks of every block, each in its own units (vectorised); returns which blocks are convex."""
     _, size = table.block_frames()
     p = table.local()
+    face_start = np.concatenate([[0], np.cumsum(np.bincount(table.face_block, minlength=table.n_blocks))])
+    ordered = np.sort(np.where(table.valid, table.index, -1 - np.arange(table.index.shape[1])[None, :]), axis=1)
+    bad = np.flatnonzero((ordered[:, 1:] == ordered[:, :-1]).any(axis=1))
+    if bad.size:
+        f = _first(bad, table.face_block)
+        blk = table.face_block[f]
+        raise GeometryError(f"block {names[blk]}, face {f - face_start[blk]}: repeats a vertex "
+                            f"({(table.index[f, : table.count[f]] - table.vertex_start[blk]).tolist()})")
     _check_closed(table, names)
     area = table.newell(p)
     area2 = np.linalg.norm(area, axis=1)
-    face_start = np.concatenate([[0], np.cumsum(np.bincount(table.face_block, minlength=table.n_blocks))])
     bad = np.flatnonzero(area2 <= tol)
     if bad.size:
         f = _first(bad, table.face_block)
