@@ -31,6 +31,7 @@ from functools import cached_property
 import numpy as np
 
 from blockmpec.errors import GeometryError, OptionError, StructureError
+from blockmpec.geometry import check_supported
 from blockmpec.three_d.contacts import Contacts, check_overlaps, detect_contacts
 from blockmpec.three_d.polyhedra import FaceTable, face_normals
 
@@ -389,28 +390,5 @@ def make_structure_3d(
 
 
 def _check_connectivity(s: Structure3D) -> None:
-    from scipy.sparse import coo_array
-    from scipy.sparse.csgraph import connected_components
-
-    names = s.block_ids
-    if not s.fixed.any():
-        raise StructureError("no block is fixed: mark at least one block (a base or springing) as fixed")
-    if s.fixed.all():
-        raise StructureError("every block is fixed: there is nothing that can collapse")
     c = s.contacts
-    touched = np.zeros(s.n_blocks, bool)
-    touched[c.minus] = True
-    touched[c.plus] = True
-    lonely = np.flatnonzero(~touched & ~s.fixed)
-    if lonely.size:
-        raise StructureError(f"block {names[lonely[0]]} touches no other block (no face of it lies on a face of "
-                             f"another block; free blocks without contacts: {[names[i] for i in lonely[:10]]}); "
-                             "move it into contact or remove it")
-    graph = coo_array((np.ones(len(c)), (c.minus, c.plus)), shape=(s.n_blocks, s.n_blocks))
-    _, label = connected_components(graph, directed=False)
-    supported = np.zeros(label.max() + 1, bool)
-    supported[label[s.fixed]] = True
-    floating = np.flatnonzero(~supported[label])
-    if floating.size:
-        raise StructureError(f"blocks {[names[i] for i in floating[:10]]} are not connected to any fixed block "
-                             "through contacts")
+    check_supported(s.fixed, c.minus, c.plus, list(s.block_ids), "contacts")
