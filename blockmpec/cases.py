@@ -18,7 +18,7 @@ from typing import Any, Callable
 import numpy as np
 
 from blockmpec.errors import BlockmpecError, OptionError, UnknownNameError
-from blockmpec.geometry import Structure, make_structure
+from blockmpec.geometry import DEFAULT_FRICTION, Structure, make_structure
 
 
 def _positive(name: str, value: float) -> float:
@@ -41,7 +41,7 @@ def _rect(x0: float, y0: float, x1: float, y1: float) -> np.ndarray:
     return np.array([[x0, y0], [x1, y0], [x1, y1], [x0, y1]])
 
 
-def single_block(width: float = 1.0, height: float = 2.0, mu: float = 0.65, dilatancy: float = 0.0) -> Structure:
+def single_block(width: float = 1.0, height: float = 2.0, mu: float = DEFAULT_FRICTION, dilatancy: float = 0.0) -> Structure:
     """One ``width x height`` block on a fixed base.
 
     Closed form (associative and non-associative alike): ``lam = min(mu, width/height)``.
@@ -55,7 +55,7 @@ def single_block(width: float = 1.0, height: float = 2.0, mu: float = 0.65, dila
     )
 
 
-def two_blocks(eta: float = 3.0, mu: float = 0.65, width: float = 1.0, dilatancy: float = 0.0) -> Structure:
+def two_blocks(eta: float = 3.0, mu: float = DEFAULT_FRICTION, width: float = 1.0, dilatancy: float = 0.0) -> Structure:
     """The paper's two-block problem: two ``b x h`` blocks side by side on a fixed base.
 
     ``eta = h / b`` is the slenderness.  Each block carries its weight ``W`` as
@@ -90,7 +90,7 @@ def _voussoirs(n: int, radius: float, thickness: float, x_centre: float = 0.0, y
 
 
 def round_arch(
-    n_voussoirs: int = 10, radius: float = 1.0, thickness: float = 0.15, mu: float = 0.65, dilatancy: float = 0.0
+    n_voussoirs: int = 10, radius: float = 1.0, thickness: float = 0.15, mu: float = DEFAULT_FRICTION, dilatancy: float = 0.0
 ) -> Structure:
     """Semicircular arch of straight-sided voussoirs on two fixed springings.
 
@@ -117,7 +117,7 @@ def arch_on_buttresses(
     thickness: float = 0.15,
     buttress_width: float = 0.5,
     buttress_courses: int = 8,
-    mu: float = 0.65,
+    mu: float = DEFAULT_FRICTION,
     dilatancy: float = 0.0,
 ) -> Structure:
     """A round arch springing from two buttresses on a fixed base.
@@ -160,7 +160,7 @@ def wall(
     block_length: float = 1.0,
     block_height: float | None = None,
     openings: list | tuple = (),
-    mu: float = 0.65,
+    mu: float = DEFAULT_FRICTION,
     dilatancy: float = 0.0,
 ) -> Structure:
     """A masonry wall on a fixed base.
@@ -211,7 +211,7 @@ def wall(
     )
 
 
-def ferris_tinloi(mu: float = 0.65, dilatancy: float = 0.0) -> Structure:
+def ferris_tinloi(mu: float = DEFAULT_FRICTION, dilatancy: float = 0.0) -> Structure:
     """Wall 1 of Ferris & Tin-Loi (2001): six courses of 0.40 x 0.175 blocks in running bond on a fixed base.
 
     The odd courses (counting the bottom one as the first) hold four full blocks between two half blocks, the even
@@ -252,7 +252,7 @@ def stone_wall(
     stone_size: float = 0.3,
     irregularity: float = 0.5,
     seed: int = 0,
-    mu: float = 0.65,
+    mu: float = DEFAULT_FRICTION,
     dilatancy: float = 0.0,
 ) -> Structure:
     """An irregular stone wall on a fixed base: stones that tile ``width x height`` with shared edges.
@@ -497,11 +497,13 @@ def _merge_pairs(points: np.ndarray, cells: list[np.ndarray], fraction: float,
 
 @dataclass(frozen=True)
 class CaseSpec:
-    """A built-in case: CLI name, generator and its keyword parameters with defaults."""
+    """A built-in case: CLI name, generator and its keyword parameters with defaults; ``closed_form(problem,
+    **params)``, when given, is the case's known multiplier or None (:func:`closed_form`)."""
 
     name: str
     generator: Callable[..., Structure]
     summary: str
+    closed_form: Callable[..., float | None] | None = None
 
     @property
     def parameters(self) -> dict[str, Any]:
@@ -557,6 +559,8 @@ def closed_form(name: str, problem: str, **params: Any) -> float | None:
         ``mu > 1`` with ``eta < 1``; see tests/test_extreme.py).
     """
     spec = get_case(name)
+    if spec.closed_form is not None:  # a case registered with its own closed form (the 3D cases)
+        return spec.closed_form(problem, **params)
     p = {**spec.parameters, **params}
     if problem not in ("associative", "non-associative"):
         raise OptionError(f"problem: must be 'associative' or 'non-associative'; got {problem!r}")

@@ -37,6 +37,10 @@ from blockmpec.units import Frame, block_extent, power_of_two
 #: Default relative tolerance for geometric tests (scaled by block size).
 DEFAULT_GEOMETRY_TOL = 1e-6
 
+#: the friction coefficient ``tan(phi)`` of the built-in cases and of the drawing readers unless given (their
+#: parameter ``mu``)
+DEFAULT_FRICTION = 0.65
+
 
 @dataclass(frozen=True)
 class PointLoad:
@@ -852,7 +856,7 @@ def check_supported(fixed: np.ndarray, minus: np.ndarray, plus: np.ndarray, name
     if lonely.size:
         raise StructureError(
             f"block {names[lonely[0]]} touches no other block (free blocks without {contacts}: "
-            f"{[names[i] for i in lonely[:10]]}); move it into contact or remove it"
+            f"{[names[i] for i in lonely[:10]]}{_more(lonely.size, 10)}); move it into contact or remove it"
         )
     graph = coo_array((np.ones(len(minus)), (minus, plus)), shape=(n, n))
     from scipy.sparse.csgraph import connected_components  # imported here, as cKDTree above
@@ -863,8 +867,14 @@ def check_supported(fixed: np.ndarray, minus: np.ndarray, plus: np.ndarray, name
     floating = np.flatnonzero(~supported[label])
     if floating.size:
         raise StructureError(
-            f"blocks {[names[i] for i in floating[:10]]} are not connected to any fixed block through {contacts}"
+            f"blocks {[names[i] for i in floating[:10]]}{_more(floating.size, 10)} are not connected to any fixed "
+            f"block through {contacts}"
         )
+
+
+def _more(total: int, shown: int) -> str:
+    """What a message listing the first ``shown`` of ``total`` items adds: `` and 5 more (15 in all)``."""
+    return f" and {total - shown} more ({total} in all)" if total > shown else ""
 
 
 def _normalised(s: Structure) -> tuple[Structure, Frame]:

@@ -129,6 +129,10 @@ def _complementarity(z: np.ndarray, s: np.ndarray, scale: float | None) -> float
     return _ratio(work, np.linalg.norm(z) * np.linalg.norm(s) if scale is None else scale)
 
 
+#: the largest residual of a verified success unless the caller says otherwise (``solve``, ``compare``, the CLI)
+VERIFY_TOL = 1e-6
+
+
 def residuals(ops: Operators, sol: Solution, associative: bool) -> dict[str, float]:
     """All residuals of (3) at ``sol`` (only those whose fields are present).
 

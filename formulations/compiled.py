@@ -218,11 +218,6 @@ class CompiledMCP:
         """Dead load (``E x + lam f_l = -f_d``)."""
         return -self.rhs[self.equilibrium]
 
-    @property
-    def friction_gap(self) -> np.ndarray:
-        """``tan(phi) - tan(psi)`` per interface (the cohesion factor of the fixed point)."""
-        return self.friction - self.dilatancy
-
     def block(self, rows: slice, cols: slice) -> sp.csr_array:
         """A sub-block of ``A``, e.g. ``block(form.compatibility, form.z)`` = the flow matrix ``F``."""
         return sp.csr_array(self.A[rows, cols])

@@ -94,6 +94,18 @@ def static_lp(ops: Operators, friction: np.ndarray | None = None, cohesion: np.n
     )
 
 
+def surface_slope(friction: np.ndarray, dilatancy: np.ndarray, alpha: float) -> np.ndarray:
+    """The slope ``s = tan(psi) + alpha (tan(phi) - tan(psi))`` of the friction rows of a modified LP (5) tilted by
+    ``alpha`` (``alpha = 0``: eq. (5), ``s = tan(psi)``; ``alpha = 1``: Coulomb's ``tan(phi)``)."""
+    return dilatancy + alpha * (friction - dilatancy)
+
+
+def cohesion_factor(friction: np.ndarray, slope: np.ndarray) -> np.ndarray:
+    """``tan(phi) - s``: the factor of ``-n*`` in the friction rows' right-hand side of a modified LP (5) of slope
+    ``s`` (:func:`modified_lp`)."""
+    return friction - slope
+
+
 def modified_lp(ops: Operators, n_star: np.ndarray, slope: np.ndarray | None = None,
                 name: str = "modified-lp") -> PyomoProblem:
     """The modified associative LP (5) at normal forces ``n_star`` (shape (c,)).
@@ -104,5 +116,5 @@ def modified_lp(ops: Operators, n_star: np.ndarray, slope: np.ndarray | None = N
     ``n = n*``.  The cohesion is the mutable ``Param`` ``model.cohesion``.
     """
     s = ops.dilatancy if slope is None else np.asarray(slope, float)
-    cohesion = -np.asarray(n_star, float) * (ops.friction - s)
+    cohesion = -np.asarray(n_star, float) * cohesion_factor(ops.friction, s)
     return static_lp(ops, friction=s, cohesion=cohesion, name=name)

@@ -79,7 +79,7 @@ its dual bound is an upper bound on the maximum; the associative-pattern incumbe
 attains ``lam_upper`` itself.  The certificate flips: the polished multiplier must
 not *exceed* the bound, and the gap is ``bound - lam >= 0``.
 
-Units: stages 1-5 run on (3) in per-block units (:func:`per_block_units`: each block's
+Units: stages 1-5 run on (3) in per-block units (:meth:`MCPScaling.apply <blockmpec.solvers.engines.scaling.MCPScaling.apply>`: each block's
 equilibrium rows divided by its load ``l_i``, interface forces in ``l_k``, multipliers in the
 reciprocal units, ``lam`` in the power of two :attr:`~blockmpec.solvers.engines.scaling.LoadUnits.lam_unit`),
 the system the LP methods solve (:mod:`blockmpec.solvers.engines.scaling`), so that the engines'
@@ -260,8 +260,6 @@ BOUND_LP_TOL = 1e-10
 CERTIFICATE_TOL = 1e-7
 #: a slack within this (times the largest bound) of its M is "at its bound"
 ACTIVE_TOL = 1e-7
-#: the heuristic's point is an incumbent when every residual of (3) is at most this (the verifier's default)
-HEURISTIC_VERIFY_TOL = 1e-6
 
 
 def _widen(lower: np.ndarray, upper: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -270,44 +268,6 @@ def _widen(lower: np.ndarray, upper: np.ndarray) -> tuple[np.ndarray, np.ndarray
     width = np.where(np.isfinite(width), width, 0.0)
     return (lower - LP_MARGIN * np.maximum(1.0, np.abs(lower)) - BOUND_MARGIN_REL * width,
             upper + LP_MARGIN * np.maximum(1.0, np.abs(upper)) + BOUND_MARGIN_REL * width)
-
-
-def per_block_units(form, units):
-    """Problem (3) of ``form`` in per-block units (a :class:`~blockmpec.solvers.engines.scaling.LoadUnits`), and
-    the units of its vector.
-
-    With ``r`` the equilibrium row scale (``1/l_i``), ``C`` the force column scale (interface
-    units of ``(t, n, m)``), ``S`` the multiplier column scale (``z_u``, ``z_f``) and ``s`` the
-    multiplier unit (:attr:`~blockmpec.solvers.engines.scaling.LoadUnits.lam_unit`, a power of two),
-    the scaled system is (3) of the structure with ``E^ = r E C``, ``f_l^ = s r f_l``,
-    ``f_d^ = r f_d``, ``F^ = C F S``, pair rows ``S G C``: rows equilibrium ``* r``, compatibility
-    ``* C``, normalisation ``* s`` (right-hand side still 1), pairs ``* S``; columns
-    ``lam = s lam^``, ``x = C x^``, ``u = r u^``, ``z = S z^``.  Its solutions are those of (3)
-    with ``f_l^T u = 1/s``, so ``w = unit * w^`` with ``unit`` = ``(s, C, s r, s S)`` maps a solution
-    of the scaled (3) to one of (3) (with ``f_l^T u = 1``), pair by pair with the same active set;
-    ``lam`` bounds map by the exact factor ``s``.  Every block's rows and every interface's
-    forces are then O(1), so the engines' absolute tolerances hold block by block (a 1e-5 block on
-    a unit block, dead point loads 1e10 times the weights).
-
-    Returns
-    -------
-    CompiledMCP, ndarray, float
-        The scaled system, ``unit`` (shape (n,)), and ``s``.
-    """
-    import dataclasses
-
-    column, row = units.mcp(form)
-    s = float(column[form.lam])
-    r = column[form.u]
-    A = sp.csr_array(sp.diags_array(row) @ form.A @ sp.diags_array(column))
-    G = sp.csr_array(sp.diags_array(column[form.pair_column]) @ form.G @ sp.diags_array(column))
-    rhs = form.rhs.copy()
-    rhs[form.equilibrium] = form.rhs[form.equilibrium] * r
-    scaled = dataclasses.replace(form, A=A, G=G, rhs=rhs, _dilatancy_rows=None)
-    unit = column.copy()
-    unit[form.u] *= s
-    unit[form.z] *= s
-    return scaled, unit, s
 
 
 class BoundFailure(Exception):
@@ -377,60 +337,39 @@ class MILPSolver(SolverBase):
 
     def setup(self, ops):
         from blockmpec.formulations import compile_mcp
-        from blockmpec.formulations.pyomo_compile import LinearProgram
-        from blockmpec.solvers.engines.highs import HighsLP, set_feasibility_tolerances
+        from blockmpec.solvers.engines.highs import HighsLP
+        from blockmpec.solvers.engines.piece_lp import kinematic_program, static_program
 
         self.ops = ops
         # the MILP, its bounds and its polish all work on (3) in per-block units (ops.units)
         from blockmpec.solvers.engines.scaling import LoadUnits
 
-        form, self._w_unit, lam_unit = per_block_units(compile_mcp(ops), LoadUnits.of(ops))
+        original = compile_mcp(ops)
+        #: (3) in per-block units and the inverse that travels with it (:meth:`MCPScaling.apply`)
+        self.units = LoadUnits.of(ops).mcp(original).apply(original)
+        form = self.units.form
+        self._w_unit = self.units.unit
         #: the multiplier unit ``s`` of the MILP's per-block units (a power of two): ``lam = s lam^``
-        self.lam_unit = lam_unit
+        self.lam_unit = self.units.lam_unit
         self.form = form
         self.engine = self._resolve_engine(form)
+        self.plan = plan.milp_plan(self.engine, self.settings.incumbent)
         self.lifting = self.settings.lifting or BNB_DEFAULT_LIFTING
         self.root_lp = self.settings.root_lp or BNB_DEFAULT_ROOT_LP
-        eq, cp, nm = form.equilibrium, form.compatibility, form.normalisation
-        # static LP over (lam, x): A[equilibrium] (lam, x) = rhs, G x <= 0
-        sc = np.r_[form.lam, np.arange(form.x.start, form.x.stop)]
-        import scipy.sparse as sp
-
-        As = sp.vstack([form.A[eq][:, sc], form.G[:, sc]], format="csr")
-        ns, npair = sc.size, form.n_pairs
-        n_eq = eq.stop - eq.start
-        self.static = LinearProgram(
-            c=np.zeros(ns), A=sp.csr_array(As),
-            row_lower=np.r_[form.rhs[eq], np.full(npair, -np.inf)], row_upper=np.r_[form.rhs[eq], np.zeros(npair)],
-            col_lower=np.full(ns, -np.inf), col_upper=np.full(ns, np.inf),
-            columns={"lam": np.array([0]), "x": np.arange(1, ns)},
-            rows={"equilibrium": np.arange(n_eq), "pairs": np.arange(n_eq, n_eq + npair)}, objective_sign=1.0)
-        # kinematic LP over (u, z): A[compatibility] (u, z) = 0, row "live" f_l^T u, row "total" 1^T z
-        kc = np.r_[np.arange(form.u.start, form.u.stop), np.arange(form.z.start, form.z.stop)]
-        nk, nu = kc.size, form.u.stop - form.u.start
-        total = sp.csr_array(np.r_[np.zeros(nu), np.ones(npair)].reshape(1, -1))
-        Ak = sp.vstack([form.A[cp][:, kc], form.A[nm][:, kc], total], format="csr")
-        n_cp = cp.stop - cp.start
-        self.kinematic = LinearProgram(
-            c=np.zeros(nk), A=sp.csr_array(Ak), row_lower=np.r_[np.zeros(n_cp), 1.0, -np.inf],
-            row_upper=np.r_[np.zeros(n_cp), 1.0, np.inf],
-            col_lower=np.r_[np.full(nu, -np.inf), np.zeros(npair)], col_upper=np.full(nk, np.inf),
-            columns={"u": np.arange(nu), "z": np.arange(nu, nk)},
-            rows={"compatibility": np.arange(n_cp), "live": np.array([n_cp]), "total": np.array([n_cp + 1])},
-            objective_sign=1.0)
+        # the static LP over (lam, x) and the kinematic LP over (u, z) that (3) splits into (piece_lp's)
+        self.static = static_program(form)
+        self.kinematic = kinematic_program(form)
         self.bound_lp = HighsLP(self.static, "dual-simplex")
         self.polish_static = HighsLP(self.static, "dual-simplex")
         self.polish_kinematic = HighsLP(self.kinematic, "dual-simplex")
         self.kinematic_bound = HighsLP(self.kinematic, "dual-simplex")
-        set_feasibility_tolerances(self.kinematic_bound.highs, BOUND_LP_TOL)
+        self.kinematic_bound.set_feasibility_tolerances(BOUND_LP_TOL)
 
     # ------------------------------------------------------------------ 1. bounds
     def _solve_cost(self, hl, cost: np.ndarray, deadline: Deadline):
-        h = hl.highs
-        n = cost.size
-        h.changeColsCost(n, np.arange(n, dtype=np.int32), cost)
+        hl.set_costs(np.arange(cost.size), cost)
         if not self.settings.warm_bounds:
-            h.clearSolver()
+            hl.clear_basis()
         self._n_lps += 1
         return hl.solve(deadline=deadline)
 
@@ -457,7 +396,7 @@ class MILPSolver(SolverBase):
         -------
         MPECBounds
             The bounds on ``lam`` and the model's bounds ``slack_max``, ``z_max``, ``tau_max``, in the MILP's
-            per-block units (:func:`per_block_units`; ``lam`` in units of :attr:`lam_unit`).
+            per-block units (:meth:`MCPScaling.apply <blockmpec.solvers.engines.scaling.MCPScaling.apply>`; ``lam`` in units of :attr:`lam_unit`).
 
         Raises
         ------
@@ -504,7 +443,6 @@ class MILPSolver(SolverBase):
         t0 = time.perf_counter()
         self._n_lps = 0
         form, lp, hl = self.form, self.static, self.bound_lp
-        h = hl.highs
         cost = np.zeros(lp.c.size)
         cost[0] = -1.0
         up = self._solve_cost(hl, cost, deadline)
@@ -519,7 +457,7 @@ class MILPSolver(SolverBase):
         x_assoc = lp.values("x", up.v)
         lam_upper = lam_assoc + LP_MARGIN * max(1.0, abs(lam_assoc))
         lam_lower = lam_min - LP_MARGIN * max(1.0, abs(lam_min))
-        h.changeColBounds(0, lam_lower, lam_upper)
+        hl.set_column_bounds([0], [lam_lower], [lam_upper])
         nx = form.pair_matrix.shape[1]
         x_lower, x_upper = np.full(nx, -np.inf), np.full(nx, np.inf)
         need_products = self.settings.envelope or self.settings.dissipation_bound
@@ -545,7 +483,7 @@ class MILPSolver(SolverBase):
             product_upper = np.where(nonpositive[Bw.row], np.minimum(product_upper, 0.0), product_upper)
             if self.settings.dissipation_bound:
                 diss = self._dissipation_minimum(Bw, np.minimum(x_upper[Bw.row], product_upper), deadline)
-        h.changeColBounds(0, -np.inf, np.inf)
+        hl.set_column_bounds([0], [-np.inf], [np.inf])
         kin = self._kinematic_minimum(deadline)
         lower = max([lam_lower] + [v for v in (kin, diss) if v is not None])
         return MPECBounds(lam_associative=lam_assoc, lam_static_min=lam_min, lam_kinematic=kin,
@@ -558,7 +496,7 @@ class MILPSolver(SolverBase):
     def _product_bounds(self, Bw, x_lower: np.ndarray, x_upper: np.ndarray, deadline: Deadline) -> None:
         """Bounds of the ``x_r`` of the work identity over ``S`` (in place) and over ``S ∩ {s_i = 0}``
         for each product ``x_r z_i`` (conditional OBBT; kept in ``self._products``)."""
-        lp, h = self.static, self.bound_lp.highs
+        lp, hl = self.static, self.bound_lp
         for j in np.unique(Bw.row):
             if self.settings.envelope:
                 x_lower[j] = self._x_bound(j, 1.0, deadline)
@@ -568,7 +506,7 @@ class MILPSolver(SolverBase):
         product_lower, product_upper = np.full(Bw.nnz, -np.inf), np.full(Bw.nnz, np.inf)
         for e in range(Bw.nnz):
             i = int(Bw.col[e])
-            h.changeRowBounds(int(rows[i]), 0.0, 0.0)
+            hl.set_row_bounds(rows[i:i + 1], [0.0], [0.0])
             try:
                 if self.settings.envelope:
                     product_lower[e] = self._x_bound(int(Bw.row[e]), 1.0, deadline)
@@ -580,7 +518,7 @@ class MILPSolver(SolverBase):
                 # claimed, the product keeps the unconditional bounds (always valid)
                 product_lower[e], product_upper[e] = -np.inf, np.inf
             finally:
-                h.changeRowBounds(int(rows[i]), -np.inf, 0.0)
+                hl.set_row_bounds(rows[i:i + 1], [-np.inf], [0.0])
         self._products = (product_lower, product_upper)
 
     def model_bounds(self, bd, deadline: Deadline):
@@ -612,9 +550,8 @@ class MILPSolver(SolverBase):
         t0 = time.perf_counter()
         n0 = self._n_lps
         lp, hl = self.static, self.bound_lp
-        h = hl.highs
         # the slacks are bounded over S ∩ {lam_static_min <= lam <= lam_associative} (widened)
-        h.changeColBounds(0, bd.lam_static_min - LP_MARGIN * max(1.0, abs(bd.lam_static_min)), bd.lam_upper)
+        hl.set_column_bounds([0], [bd.lam_static_min - LP_MARGIN * max(1.0, abs(bd.lam_static_min))], [bd.lam_upper])
         Gx = self.form.pair_matrix.tocsr()
         npair = Gx.shape[0]
         x_lower = bd.x_lower.copy()
@@ -632,7 +569,7 @@ class MILPSolver(SolverBase):
             else:
                 smax = self._slack_bounds_by_normal(lambda j, d: self._x_bound(j, d, deadline), x_lower)
         finally:
-            h.changeColBounds(0, -np.inf, np.inf)
+            hl.set_column_bounds([0], [-np.inf], [np.inf])
         scale = float(max(smax.max(initial=0.0), 1e-300))
         slack_max = np.where(smax <= 1e-12 * scale, 0.0,
                              smax * (1.0 + BOUND_MARGIN_REL) + BOUND_MARGIN_ABS * scale)
@@ -677,9 +614,8 @@ class MILPSolver(SolverBase):
             return None
         cz = np.zeros(form.n_pairs)
         np.add.at(cz, Bw.col, Bw.data * upper)
-        g = hk.highs
-        g.changeRowBounds(int(kp.rows["live"][0]), 1.0, 1.0)
-        g.changeRowBounds(int(kp.rows["total"][0]), -np.inf, np.inf)
+        hk.set_row_bounds(kp.rows["live"], [1.0], [1.0])
+        hk.set_row_bounds(kp.rows["total"], [-np.inf], [np.inf])
         cost = np.r_[-form.f_d, cz]
         r = self._solve_cost(hk, cost, deadline)
         if r.status is not Status.OPTIMAL:
@@ -712,10 +648,8 @@ class MILPSolver(SolverBase):
     def _multiplier_bounds(self, deadline: Deadline) -> tuple[np.ndarray, float]:
         """``max z_i`` and ``max f_l^T u`` over ``K = {compatibility, 1^T z = 1, z >= 0}``."""
         kp, hk = self.kinematic, self.kinematic_bound
-        g = hk.highs
-        live, total = int(kp.rows["live"][0]), int(kp.rows["total"][0])
-        g.changeRowBounds(live, -np.inf, np.inf)
-        g.changeRowBounds(total, 1.0, 1.0)
+        hk.set_row_bounds(kp.rows["live"], [-np.inf], [np.inf])
+        hk.set_row_bounds(kp.rows["total"], [1.0], [1.0])
         nu = kp.columns["u"].size
         npair = kp.columns["z"].size
         cost = np.zeros(kp.c.size)
@@ -736,9 +670,8 @@ class MILPSolver(SolverBase):
     def _kinematic_minimum(self, deadline: Deadline) -> float | None:
         """``min -f_d^T u`` over compatibility, ``f_l^T u = 1``, ``z >= 0`` (None when not optimal)."""
         kp, hk = self.kinematic, self.kinematic_bound
-        g = hk.highs
-        g.changeRowBounds(int(kp.rows["live"][0]), 1.0, 1.0)
-        g.changeRowBounds(int(kp.rows["total"][0]), -np.inf, np.inf)
+        hk.set_row_bounds(kp.rows["live"], [1.0], [1.0])
+        hk.set_row_bounds(kp.rows["total"], [-np.inf], [np.inf])
         cost = np.zeros(kp.c.size)
         cost[: kp.columns["u"].size] = -self.form.f_d
         r = self._solve_cost(hk, cost, deadline)
@@ -959,15 +892,13 @@ class MILPSolver(SolverBase):
         for name in heuristic_names(self.settings.heuristic):
             if deadline.expired():
                 break
-            from blockmpec.verify import residuals
-
             # the registered method's own adapter, within a quarter of the time left (at most 30 s); its point is
-            # an incumbent only when the shared verifier accepts it
+            # an incumbent only when the shared verifier accepts it at the run's verify_tol
             heuristic = get_solver(name)()
+            heuristic.verify_tol = self.verify_tol
             heuristic.setup(self.ops)
             out = heuristic.run(deadline.within(max(min(0.25 * deadline.remaining(), 30.0), 1e-3)))
-            checked = residuals(self.ops, out.solution, associative=heuristic.problem == "associative")
-            if out.status.is_success and checked and max(checked.values()) <= HEURISTIC_VERIFY_TOL:
+            if out.status.is_success and heuristic.verified(out.solution):
                 res = out
                 w = self.form.pack(self.scaled(res.solution))
                 s, z = self.form.slack(w), self.form.multipliers(w)
@@ -1007,8 +938,6 @@ class MILPSolver(SolverBase):
         """Stages 1-5 on the scaled (3), then the point, the bounds and the gaps back in the problem's units."""
         out = self._run_scaled(deadline)
         out.extra.setdefault(facts.BOUND, None)  # every stop reports its bound (None: none proven yet)
-        out.extra["plan"] = [f"LP bounds ({out.extra.get(facts.LP_SOLVES, 0)} LPs)",
-                             f"engine: {out.extra.get(facts.ENGINE, self.engine)}", "polish: piece LPs"]
         unit = self.lam_unit
         if out.solution is not None and out.solution.multiplier is not None:
             out.solution = self.unscaled(out.solution)
@@ -1048,19 +977,20 @@ class MILPSolver(SolverBase):
                        f"(tolerance {tol:.2e}): certificate void. {out.message}")
 
     def scaled(self, sol: Solution) -> Solution:
-        """A point of (3) in the problem's units -> the same point in the MILP's units (:func:`per_block_units`)."""
-        return self.form.unpack(self.form.pack(sol) / self._w_unit)
+        """A point of (3) in the problem's units -> the same point in the MILP's units (:meth:`MCPScaling.apply <blockmpec.solvers.engines.scaling.MCPScaling.apply>`)."""
+        return self.form.unpack(self.units.to_units(self.form.pack(sol)))
 
     def unscaled(self, sol: Solution) -> Solution:
         """A point of (3) in the MILP's units -> the same point in the problem's units: ``w = unit * w^``
-        (:func:`per_block_units`), the inverse of :meth:`scaled`."""
-        return self.form.unpack(self.form.pack(sol) * self._w_unit)
+        (:meth:`MCPScaling.apply <blockmpec.solvers.engines.scaling.MCPScaling.apply>`), the inverse of :meth:`scaled`."""
+        return self.form.unpack(self.units.from_units(self.form.pack(sol)))
 
     def _run_scaled(self, deadline: Deadline) -> RunOutput:
         opt = self.options
         maximise = opt.sense == "max"
         bound_word = "upper" if maximise else "lower"
         t_start = self._t_start = time.perf_counter()
+        self.plan.start("bounds")
         try:
             bd = self.root_bounds(deadline)
         except BoundFailure as fail:
@@ -1069,6 +999,8 @@ class MILPSolver(SolverBase):
                                     facts.LP_SOLVES: self._n_lps})
         trace = [{"iteration": 0, "stage": "bounds", "time_s": bd.time_s,
                   "bound": bd.lam_lower if not maximise else bd.lam_upper, "incumbent": None, "gap_abs": None}]
+        if self.settings.incumbent:
+            self.plan.start("incumbent")
         incumbent = self._incumbent(bd, deadline) if self.settings.incumbent else None
         if incumbent is not None:
             trace.append({"iteration": len(trace), "stage": "incumbent", "time_s": time.perf_counter() - t_start,
@@ -1089,6 +1021,7 @@ class MILPSolver(SolverBase):
                                  f"best lam {incumbent.multiplier:.10g}, bound {extra[facts.BOUND]:.10g}",
                                  "bounds", extra)
             return RunOutput(fail.run_status, message=str(fail), extra=extra)
+        self.plan.start("engine")
         if self.engine == "bnb":  # its own lifted LP: the big-M model is not built
             return self._run_bnb(bd, incumbent, deadline, trace)
         t0 = time.perf_counter()
@@ -1147,6 +1080,7 @@ class MILPSolver(SolverBase):
         extra["engine_multiplier"] = float(v[self.form.lam])
         extra["tau"] = float(v[mip.columns["tau"][0]])
         extra["n_active_pairs"] = int(active.sum())
+        self.plan.start("polish")
         sol, pmsg = self.polish(active)
         if sol is None:
             return RunOutput(Status.NUMERICAL, Solution(), run.nodes, trace,

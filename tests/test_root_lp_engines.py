@@ -17,8 +17,6 @@ from blockmpec.solvers.engines.complementarity_bnb import INTERIOR_SOLVER, NULL_
 from blockmpec.solvers.engines.highs import highs_lp, new_highs, set_feasibility_tolerances, use_interior_point
 from helpers import CERTIFIED_TOL, margin
 
-pytest.importorskip("highspy")
-
 
 @pytest.fixture(scope="module")
 def minimum():

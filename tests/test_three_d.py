@@ -14,6 +14,7 @@ import pytest
 
 import blockmpec as bm
 from blockmpec.errors import GeometryError, StructureError
+from blockmpec.solvers import plan
 from blockmpec.three_d import box, make_structure_3d
 from blockmpec.three_d import cases as c3
 from blockmpec.three_d.meshes import read_mesh, save_obj, save_structure_3d
@@ -51,6 +52,9 @@ def test_single_block_closed_forms(mu, direction, expected):
 def test_block_on_an_inclined_base(slope, mu):
     expected = math.tan(math.radians(slope) + min(math.atan(mu), math.atan(0.5)))
     assert c3.closed_form("block-3d", "associative", slope=slope, mu=mu) == pytest.approx(expected, rel=1e-15)
+    # the registry's closed form (what blockmpec.testing's reference cases read) is the 3D one
+    assert bm.cases.closed_form("block-3d", "non-associative", slope=slope, mu=mu) == \
+        c3.closed_form("block-3d", "associative", slope=slope, mu=mu)
     s = c3.block_3d(slope=slope, mu=mu)
     assert lam(s) == pytest.approx(expected, abs=LP_TOL)  # measured 1.0e-13
     assert lam(s, "fixed-point") == pytest.approx(expected, abs=LP_TOL)
@@ -80,6 +84,18 @@ def test_extruded_fixed_point_reaches_the_2d_value(case):
     three = c3.extrude(two, thickness=1.0)  # (at 0.7 the wall's fixed point stops at another solution, 0.60011)
     # measured |3D - 2D|: below 5e-11 (the fixed point stops at ||n - n*|| <= 1e-9 ||n||)
     assert lam(three, "fixed-point") == pytest.approx(lam(two, "fixed-point"), abs=1e-8)
+
+
+def test_the_relaxed_steps_are_a_stage_of_the_3d_fixed_points_plan():
+    # three LP steps do not converge on the corner wall (23 do), so the relaxed "closest" sequence follows, and the
+    # run's plan records both stages; a 2D run never plans it
+    res = bm.solve(c3.corner_wall(), "fixed-point", max_iterations=3)
+    assert res.status is bm.Status.ITERATION_LIMIT and len(res.extra["plan"]) == 2, (res.status, res.extra["plan"])
+    assert res.extra["plan"][1] == f"fixed point: HiGHS LP steps relaxed by {plan.FIXED_POINT_3D_RELAXATION} " \
+                                   "(tie-break closest)"
+    solver = bm.get_solver("fixed-point")()
+    solver.setup(bm.assemble(bm.cases.two_blocks()))
+    assert "relaxed" not in solver.plan
 
 
 def test_extruded_non_convex_stones():

@@ -237,7 +237,8 @@ CASES_3D: dict[str, CaseSpec] = {
     spec.name: spec
     for spec in (
         CaseSpec("block-3d", block_3d, "3D: one block on a fixed base, level or inclined; "
-                 "lam = tan(slope + min(phi, atan(b/h)))"),
+                 "lam = tan(slope + min(phi, atan(b/h)))",
+                 closed_form=lambda problem, **params: closed_form("block-3d", problem, **params)),
         CaseSpec("extruded", extruded, "3D: a built-in 2D case extruded to a thickness (lam equals the 2D one)"),
         CaseSpec("corner-wall", corner_wall, "3D: a wall with a return wall (L-shaped corner), out-of-plane load"),
         CaseSpec("barrel-vault", barrel_vault, "3D: a semicircular barrel vault of staggered voussoir rings"),
@@ -252,7 +253,8 @@ CASES.update(CASES_3D)
 
 def closed_form(name: str, problem: str, **params) -> float | None:
     """Closed-form collapse multiplier of a 3D case where one is known (``block-3d`` along ``+x`` or ``+y``), else None;
-    the same for both problems (``problem`` is checked only)."""
+    the same for both problems (for ``"non-associative"`` the minimum over solutions of (3), given as in 2D only for
+    a dilatancy of 0 or ``mu``: :func:`blockmpec.cases.closed_form`)."""
     if problem not in ("associative", "non-associative"):
         raise OptionError(f"problem: must be 'associative' or 'non-associative'; got {problem!r}")
     if name not in CASES_3D:
@@ -260,6 +262,8 @@ def closed_form(name: str, problem: str, **params) -> float | None:
     if name != "block-3d":
         return None
     p = {**CASES_3D[name].parameters, **params}
+    if problem == "non-associative" and float(p["dilatancy"]) not in (0.0, float(p["mu"])):
+        return None
     d = np.asarray(p["live_direction"], float)
     d = d / np.linalg.norm(d)
     mu, a = float(p["mu"]), math.radians(float(p["slope"]))

@@ -66,8 +66,9 @@ import numpy as np
 from blockmpec import facts as fact_names
 from blockmpec.deadline import NEVER, Deadline
 from blockmpec.formulations.sequence import StepLPs
+from blockmpec.formulations.static_lp import cohesion_factor, surface_slope
 from blockmpec.result import RunOutput, Solution, Status
-from blockmpec.solvers.engines.highs import FEASIBILITY_TOL, static_lp_solution
+from blockmpec.solvers.engines.highs import AT_LOWER, AT_UPPER, BASIC, FEASIBILITY_TOL, static_lp_solution
 from blockmpec.verify import positive_part_ratio
 
 TIE_BREAKS = ("closest", "least-compressed", "min-lambda", "on-oscillation", "none")
@@ -136,7 +137,7 @@ class LPSequence:
 
     def __init__(self, lps: StepLPs, units, alpha: float = 0.0, tie_break: str = "closest",
                  algorithm: str = "auto", feasibility_tol: float = FEASIBILITY_TOL, fold_weight: float = 0.0) -> None:
-        from blockmpec.solvers.engines.highs import HighsLP, set_feasibility_tolerances
+        from blockmpec.solvers.engines.highs import HighsLP
 
         if tie_break != "none" and lps.tie_break is None:
             raise ValueError(f"LP sequence: tie-break rule {tie_break!r} needs the tie-break LP (step_lps(tie_break=True))")
@@ -158,7 +159,7 @@ class LPSequence:
         self._step_folded = False  # the step LP's objective now carries folded costs
 
         self.step_lp = lps.step
-        self.step_highs = HighsLP(self.step_lp, algorithm, **_scales(self.step_lp, units))
+        self.step_highs = HighsLP(self.step_lp, algorithm, scaling=units.static(self.step_lp))
 
         self.tie_lp = None
         self.tie_highs = None
@@ -169,17 +170,17 @@ class LPSequence:
             a = self.tie_lp.A[[row], :].toarray().ravel()
             if not (a[col] == -1.0 and np.count_nonzero(a) == 1 and np.isfinite(self.tie_lp.row_upper[row])):
                 raise RuntimeError("tie-break LP: the floor row did not compile to -lam <= -lam_floor")
-            self.tie_highs = HighsLP(self.tie_lp, algorithm, **_scales(self.tie_lp, units, ("d",)))
+            self.tie_highs = HighsLP(self.tie_lp, algorithm, scaling=units.static(self.tie_lp, ("d",)))
             self._normal_columns = self.tie_lp.columns["x"][lps.normal_index]
             self._d_columns = self.tie_lp.columns["d"]
 
         self.assoc_lp = lps.associative
         self.assoc_highs = None
         if self.assoc_lp is not None:
-            self.assoc_highs = HighsLP(self.assoc_lp, algorithm, **_scales(self.assoc_lp, units))
+            self.assoc_highs = HighsLP(self.assoc_lp, algorithm, scaling=units.static(self.assoc_lp))
         for highs in (self.step_highs, self.tie_highs, self.assoc_highs):
             if highs is not None:
-                set_feasibility_tolerances(highs.highs, feasibility_tol)
+                highs.set_feasibility_tolerances(feasibility_tol)
 
     # ------------------------------------------------------------------ warm starts
     def _start_from_associative_basis(self) -> str | None:
@@ -252,13 +253,12 @@ class LPSequence:
             raise RuntimeError("the associative LP was not compiled")
         if deadline.expired():
             return Step(Status.TIME_LIMIT, "", "time limit reached before the dead-load LP")
-        h = self.assoc_highs.highs
-        col = int(self.assoc_lp.columns["lam"][0])
-        h.changeColBounds(col, 0.0, 0.0)
+        col = self.assoc_lp.columns["lam"][:1]
+        self.assoc_highs.set_column_bounds(col, [0.0], [0.0])
         try:
             out = self._timed("associative", self.assoc_highs.solve, deadline=deadline)
         finally:
-            h.changeColBounds(col, -np.inf, np.inf)
+            self.assoc_highs.set_column_bounds(col, [-np.inf], [np.inf])
         if out.status is not Status.OPTIMAL:
             return Step(out.status, out.raw_status, f"dead-load start LP: {out.message}",
                         lp_iterations=out.iterations)
@@ -273,19 +273,15 @@ class LPSequence:
         if alpha == self.alpha:
             return
         lps = self.lps
-        slope = lps.dilatancy + alpha * (lps.friction - lps.dilatancy)
-        slope = np.broadcast_to(slope, (self.n_interfaces,))
+        slope = np.broadcast_to(surface_slope(lps.friction, lps.dilatancy, alpha), (self.n_interfaces,))
         for lp, highs in ((self.step_lp, self.step_highs), (self.tie_lp, self.tie_highs)):
             if highs is None:
                 continue
-            rows = lp.rows["friction"]
-            cols = lp.columns["x"][lps.normal_index][lps.friction_contact]
-            values = highs.row_scale[rows] * slope[lps.friction_contact] * highs.column_scale[cols]
-            for r, col, v in zip(rows.tolist(), cols.tolist(), values.tolist()):
-                highs.highs.changeCoeff(r, col, v)
+            contact = lps.friction_contact  # the contact of each friction row (2D: two rows per interface)
+            highs.set_coefficients(lp.rows["friction"], lp.columns["x"][lps.normal_index][contact], slope[contact])
         self.alpha = float(alpha)
         self.slope = slope
-        self.cohesion_factor = lps.friction - slope
+        self.cohesion_factor = cohesion_factor(lps.friction, slope)
 
     def set_sensitivity(self, z_f: np.ndarray | None) -> None:
         """Friction multipliers for the first folded ``"min-lambda"`` step (e.g. the associative LP's)."""
@@ -305,7 +301,7 @@ class LPSequence:
         """Step LP objective ``min -lam - fold_weight sum_k w_k n_k`` (``weights=None``: plain ``-lam``)."""
         cols = self.step_lp.columns["x"][self.lps.normal_index].astype(np.int32)
         cost = np.zeros(cols.size) if weights is None else -self.fold_weight * weights
-        self.step_highs.highs.changeColsCost(cols.size, cols, cost * self.step_highs.column_scale[cols])
+        self.step_highs.set_costs(cols, cost)
         self._step_folded = weights is not None
 
     def _set_tie_costs(self, rule: str, z_f: np.ndarray | None) -> None:
@@ -318,8 +314,7 @@ class LPSequence:
         else:
             n_cost, d_cost = -self._rule_weights(rule, z_f), np.full(c, CLOSENESS_WEIGHT)
         cols = np.concatenate([self._normal_columns, self._d_columns]).astype(np.int32)
-        cost = np.concatenate([n_cost, d_cost]) * self.tie_highs.column_scale[cols]
-        self.tie_highs.highs.changeColsCost(cols.size, cols, cost)
+        self.tie_highs.set_costs(cols, np.concatenate([n_cost, d_cost]))
         self._tie_rule = rule
 
     def step(self, n_star: np.ndarray, deadline: Deadline = NEVER, rule: str | None = None,
@@ -377,15 +372,6 @@ class LPSequence:
         return Step(Status.OPTIMAL, out.raw_status, out.message, sol, iterations, True)
 
 
-def _scales(lp, units, normal_like=()) -> dict:
-    """HiGHS works in load units (:class:`~blockmpec.solvers.engines.scaling.LoadUnits`): each block's tolerances
-    its own."""
-    row_scale, column_scale = units.static(lp, normal_like)
-    return {"row_scale": row_scale, "column_scale": column_scale}
-
-
-#: highspy.HighsBasisStatus values
-AT_LOWER, BASIC, AT_UPPER = 0, 1, 2
 
 
 def _map_basis(src, dst, col_status, row_status, column_groups, row_groups):
