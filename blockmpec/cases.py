@@ -497,11 +497,13 @@ def _merge_pairs(points: np.ndarray, cells: list[np.ndarray], fraction: float,
 
 @dataclass(frozen=True)
 class CaseSpec:
-    """A built-in case: CLI name, generator and its keyword parameters with defaults."""
+    """A built-in case: CLI name, generator and its keyword parameters with defaults; ``closed_form(problem,
+    **params)``, when given, is the case's known multiplier or None (:func:`closed_form`)."""
 
     name: str
     generator: Callable[..., Structure]
     summary: str
+    closed_form: Callable[..., float | None] | None = None
 
     @property
     def parameters(self) -> dict[str, Any]:
@@ -557,6 +559,8 @@ def closed_form(name: str, problem: str, **params: Any) -> float | None:
         ``mu > 1`` with ``eta < 1``; see tests/test_extreme.py).
     """
     spec = get_case(name)
+    if spec.closed_form is not None:  # a case registered with its own closed form (the 3D cases)
+        return spec.closed_form(problem, **params)
     p = {**spec.parameters, **params}
     if problem not in ("associative", "non-associative"):
         raise OptionError(f"problem: must be 'associative' or 'non-associative'; got {problem!r}")
@@ -637,6 +641,10 @@ def load_case(case: str, params: dict[str, Any]) -> Structure:
         except (TypeError, ValueError, ArithmeticError, IndexError, KeyError) as exc:
             raise OptionError(f"case {case!r} with {params}: {type(exc).__name__}: {exc}") from None
     path = Path(case)
+    from blockmpec.three_d.meshes import is_3d_file, read_3d_file
+
+    if is_3d_file(path):  # a mesh (.obj, .stl, .ply) or a 3D structure file: -p sets its material and loads
+        return read_3d_file(path, params)
     from blockmpec.drawings import is_drawing, read_structure
 
     if is_drawing(path):  # DXF, SVG or image: -p sets the reader's options (blockmpec import --help)
@@ -651,4 +659,4 @@ def load_case(case: str, params: dict[str, Any]) -> Structure:
         check_case_params(case, params, {"mu": None, "dilatancy": None})
         return structure.with_material(params.get("mu"), params.get("dilatancy"))
     raise OptionError(f"unknown case {case!r}: not a built-in case ({', '.join(CASES)}) nor a structure file "
-                      "(.json) nor a drawing (.dxf, .svg, an image)")
+                      "(.json) nor a drawing (.dxf, .svg, an image) nor a 3D mesh (.obj, .stl, .ply)")

@@ -133,7 +133,9 @@ def cmd_solve(args: argparse.Namespace) -> int:
     plot_path = _output_file(args.plot, "--plot", "mechanism.png")
     if plot_path is not None:
         _check_figure_format(plot_path)
+    mesh_path = _output_file(args.export_mesh, "--export-mesh", "mechanism.obj")
     structure = _load(args.case, params, sys.stderr if args.json else sys.stdout)
+    _check_dimension(structure, args, mesh_path)
     with _stdout_to_stderr() if args.json else contextlib.nullcontext():
         result = solve(structure, args.method, verify_tol=verify_tol, **options)
     if args.json:
@@ -163,7 +165,24 @@ def cmd_solve(args: argparse.Namespace) -> int:
     if plot_path is not None:
         _plot_mechanism(structure, result, plot_path)
         print(f"wrote {plot_path}", file=sys.stderr if args.json else sys.stdout)
+    if mesh_path is not None:
+        from blockmpec.three_d.plot import export_mechanism
+
+        export_mechanism(result, structure, mesh_path)
+        print(f"wrote {mesh_path}", file=sys.stderr if args.json else sys.stdout)
     return 0 if result.success else 1
+
+
+def _check_dimension(structure: Any, args: argparse.Namespace, mesh_path: Path | None) -> None:
+    """The 2D-only and 3D-only outputs of ``solve``: one line naming the option that does not fit the structure."""
+    three_d = getattr(structure, "dim", 2) == 3
+    if three_d and args.export_drawing:
+        raise OptionError("--export-drawing: a 3D structure has no drawing; write the mechanism as a mesh with "
+                          "--export-mesh FILE.obj")
+    if not three_d and mesh_path is not None:
+        raise OptionError("--export-mesh: only for a 3D structure; for a 2D one use --export-drawing or --plot")
+    if three_d and mesh_path is not None and mesh_path.suffix.lower() not in (".obj", ".stl", ".ply"):
+        raise OptionError(f"--export-mesh {mesh_path}: give a .obj, .stl or .ply file")
 
 
 def _check_figure_format(path: Path) -> None:
@@ -183,6 +202,14 @@ def _plot_mechanism(structure: Any, result: Any, path: Path) -> None:
 
     from blockmpec import plot
 
+    if getattr(structure, "dim", 2) == 3:
+        fig = Figure(figsize=(8, 7), layout="constrained")
+        plot.mechanism(result, structure, ax=fig.add_subplot(projection="3d"))
+        try:
+            fig.savefig(path, dpi=150)
+        except OSError as exc:
+            raise OptionError(f"--plot {path}: cannot write ({exc.strerror or exc})") from None
+        return
     x, y = structure.vertices[..., 0], structure.vertices[..., 1]
     aspect = float(y.max() - y.min()) / max(float(x.max() - x.min()), 1e-300)
     fig = Figure(figsize=(9, max(2.5, min(9.0, 6.5 * aspect + 0.8))), layout="constrained")
@@ -200,11 +227,13 @@ def cmd_export(args: argparse.Namespace) -> int:
     if not out.parent.is_dir():
         raise OptionError(f"-o {args.output}: folder {out.parent} does not exist")
     structure = _load(args.case, parse_pairs(args.param, "-p"), sys.stdout)
+    three_d = getattr(structure, "dim", 2) == 3
     try:
         save_structure(structure, args.output)
     except OSError as exc:
         raise OptionError(f"-o {args.output}: cannot write ({exc.strerror or exc})") from None
-    print(f"wrote {args.output} ({structure.n_blocks} blocks, {len(structure.interfaces)} interfaces)")
+    print(f"wrote {args.output} ({structure.n_blocks} blocks, "
+          f"{len(structure.contacts if three_d else structure.interfaces)} interfaces)")
     return 0
 
 
@@ -599,7 +628,8 @@ def build_parser() -> argparse.ArgumentParser:
     sub = parser.add_subparsers(dest="command", required=True)
 
     p = sub.add_parser("solve", help="solve one case with one method")
-    p.add_argument("case", help="built-in case name, structure file (.json) or drawing (.dxf, .svg, an image)")
+    p.add_argument("case", help="built-in case name, structure file (.json), drawing (.dxf, .svg, an image) or 3D "
+                   "mesh (.obj, .stl, .ply)")
     p.add_argument("--method", "-m", required=True, help="method name (see `blockmpec methods`), or MODULE:CLASS "
                    "for a SolverBase subclass not installed as a plug-in (the current folder is searched too)")
     p.add_argument("-p", "--param", action="append", metavar="KEY=VALUE", help="case parameter")
@@ -614,6 +644,8 @@ def build_parser() -> argparse.ArgumentParser:
                    "forces into a DXF or SVG file (a copy of the drawing solved, if it is one)")
     p.add_argument("--plot", metavar="FILE.png", help="draw the collapse mechanism (hinges and sliding joints "
                    "marked) into a figure file; its suffix chooses the format (.png, .pdf, .svg, ...)")
+    p.add_argument("--export-mesh", metavar="FILE.obj", help="3D: write the blocks moved along the mechanism as a "
+                   "mesh (.obj, one object per block; .stl or .ply)")
     p.set_defaults(func=cmd_solve)
 
     p = sub.add_parser("import", help="read a drawing (DXF, SVG) or an image of stones into a structure file",

@@ -159,6 +159,51 @@ class Operators:
         """Number of interfaces ``c``."""
         return int(self.length.shape[0])
 
+    # ------------------------------------------------------------------ the layout contract shared with 3D
+    # (:class:`blockmpec.three_d.operators.Operators3D` honours the same): the formulations, the verifier and
+    # the engines read the layout of ``x``, ``u`` and the yield rows from these, never from strides.
+
+    #: space dimension
+    dim = 2
+    #: generalised velocities (and equilibrium rows) per free block: ``(u_x, u_y, theta)``
+    block_dofs = 3
+
+    @property
+    def n_contacts(self) -> int:
+        """Number of contacts, each carrying three entries of ``x`` and one normal force: the interfaces."""
+        return self.n_interfaces
+
+    @property
+    def normal_index(self) -> np.ndarray:
+        """Positions of the normal forces ``n_k`` in ``x``, shape (c,)."""
+        return np.arange(1, 3 * self.n_interfaces, 3)
+
+    @property
+    def shear_index(self) -> np.ndarray:
+        """Positions of the shear forces in ``x``, one column per shear component, shape (c, 1)."""
+        return np.arange(0, 3 * self.n_interfaces, 3)[:, None]
+
+    @property
+    def unilateral_contact(self) -> np.ndarray:
+        """Contact of each no-tension row (column of ``N_u``), shape (2c,)."""
+        return np.repeat(np.arange(self.n_interfaces), 2)
+
+    @property
+    def friction_contact(self) -> np.ndarray:
+        """Contact of each friction row (column of ``N_f``), shape (2c,); each row's ``n`` coefficient is
+        exactly ``mu`` of its contact (so the fixed point's cohesion is ``-n* (tan phi - tan psi)`` per row)."""
+        return np.repeat(np.arange(self.n_interfaces), 2)
+
+    @property
+    def unilateral_arm(self) -> np.ndarray:
+        """Length turning each no-tension row ``+-m + n L/2`` into a force: ``L/2``, shape (2c,)."""
+        return np.repeat(self.length / 2, 2)
+
+    @property
+    def force_arm(self) -> np.ndarray:
+        """Length turning each entry of ``x`` into a force: 1 for ``t, n``, ``L/2`` for ``m``, shape (3c,)."""
+        return np.column_stack([np.ones(self.n_interfaces), np.ones(self.n_interfaces), self.length / 2]).ravel()
+
     @property
     def n_free_blocks(self) -> int:
         """Number of free blocks ``b``."""
@@ -249,7 +294,17 @@ def _snap_loads(dead: np.ndarray, live: np.ndarray) -> tuple[np.ndarray, np.ndar
     return snap(dead, grid), snap(live, grid)
 
 
-def assemble(structure: Structure) -> Operators:
+def assemble(structure: Structure):
+    """Assemble the operators of a structure: :func:`assemble_2d` for a :class:`~blockmpec.geometry.Structure`,
+    :func:`blockmpec.three_d.operators.assemble_3d` for a :class:`~blockmpec.three_d.geometry.Structure3D`."""
+    if getattr(structure, "dim", 2) == 3:
+        from blockmpec.three_d.operators import assemble_3d
+
+        return assemble_3d(structure)
+    return assemble_2d(structure)
+
+
+def assemble_2d(structure: Structure) -> Operators:
     """Assemble ``E, N_u, N_f, V_f, f_d, f_l`` for a structure (vectorised), in canonical order.
 
     Geometry is taken in the structure's :class:`~blockmpec.units.CanonicalFrame` (origin at the

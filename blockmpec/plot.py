@@ -322,7 +322,14 @@ def mechanism(result: Any, structure, *, ax=None, amplitude: float = 0.12, show_
     >>> wall = bm.cases.wall(courses=4, blocks_per_course=3)          # doctest: +SKIP
     >>> ax = bm.plot.mechanism(bm.solve(wall, "fixed-point"), wall)   # doctest: +SKIP
     >>> ax.figure.savefig("mechanism.png")                            # doctest: +SKIP
+
+    A 3D structure (:class:`~blockmpec.three_d.Structure3D`) is drawn by :func:`blockmpec.three_d.plot.mechanism`
+    (``ax`` then a 3D axes).
     """
+    if getattr(structure, "dim", 2) == 3:
+        from blockmpec.three_d.plot import mechanism as mechanism_3d
+
+        return mechanism_3d(result, structure, ax=ax, amplitude=amplitude, title=title)
     from matplotlib.patches import Patch
 
     ax = _axes(ax)

@@ -81,7 +81,7 @@ def run_solver(solver: SolverBase, case: Structure | Operators, *, verify_tol: f
     if reason:
         return Result(status=Status.SKIPPED, message=reason, **base)
     t0 = time.perf_counter()
-    ops = assemble(case) if isinstance(case, Structure) else case
+    ops = case if hasattr(case, "E") else assemble(case)  # a Structure or Structure3D, or assembled operators
     t_assembly = time.perf_counter() - t0
     reason = solver.skip_reason(ops)
     if reason:

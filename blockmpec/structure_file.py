@@ -223,7 +223,9 @@ def structure_to_dict(s: Structure) -> dict[str, Any]:
 
 
 def load_structure(path: str | Path) -> Structure:
-    """Read a structure file; errors name the file and the offending field."""
+    """Read a structure file; errors name the file and the offending field.  A 3D structure file
+    (``"format": "blockmpec-3d"``) gives a :class:`~blockmpec.three_d.Structure3D`
+    (:func:`blockmpec.three_d.meshes.load_structure_3d`)."""
     p = Path(path)
     try:
         text = p.read_text()
@@ -233,6 +235,10 @@ def load_structure(path: str | Path) -> Structure:
         data = json.loads(text)
     except json.JSONDecodeError as exc:
         raise StructureFileError(f"{p}: not valid JSON (line {exc.lineno}, column {exc.colno}: {exc.msg})") from None
+    if isinstance(data, dict) and data.get("format") == "blockmpec-3d":
+        from blockmpec.three_d.meshes import structure_3d_from_dict
+
+        return structure_3d_from_dict(data, source=str(p))
     try:
         return structure_from_dict(data, source=str(p))
     except StructureFileError:
@@ -242,5 +248,10 @@ def load_structure(path: str | Path) -> Structure:
 
 
 def save_structure(s: Structure, path: str | Path) -> None:
-    """Write a structure file."""
+    """Write a structure file (a 3D structure file for a :class:`~blockmpec.three_d.Structure3D`)."""
+    if getattr(s, "dim", 2) == 3:
+        from blockmpec.three_d.meshes import save_structure_3d
+
+        save_structure_3d(s, path)
+        return
     Path(path).write_text(json.dumps(structure_to_dict(s), indent=1) + "\n")

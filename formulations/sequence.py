@@ -34,6 +34,11 @@ class StepLPs:
         ``tan(phi)``, ``tan(psi)`` and the step LP's slope ``s`` per interface.
     coulomb : csr_array, shape (2c, 3c)
         ``N_f^T``: the Coulomb rows' values ``N_f^T x`` (friction admissibility ``<= 0``).
+    normal_index : ndarray of int, shape (c,)
+        Positions of the normal forces in ``x`` (``ops.normal_index``).
+    friction_contact : ndarray of int, shape (friction rows,)
+        Contact of each friction row (``ops.friction_contact``): the rows' right-hand side is
+        ``-cohesion_factor[friction_contact] * n*[friction_contact]``.
     """
 
     step: LinearProgram
@@ -43,6 +48,8 @@ class StepLPs:
     dilatancy: np.ndarray
     slope: np.ndarray
     coulomb: sp.csr_array
+    normal_index: np.ndarray
+    friction_contact: np.ndarray
 
     @property
     def cohesion_factor(self) -> np.ndarray:
@@ -53,7 +60,7 @@ class StepLPs:
 def step_lps(ops: Operators, alpha: float = 0.0, tie_break: bool = True, associative: bool = True) -> StepLPs:
     """Compile the LPs of a sequence of modified LPs with slope ``s = tan(psi) + alpha (tan(phi) - tan(psi))``
     (``alpha = 0``: eq. (5)), through the compiled-formulation cache."""
-    c = ops.n_interfaces
+    c = ops.n_contacts
     slope = np.broadcast_to(surface_slope(ops.friction, ops.dilatancy, alpha), (c,)).astype(float)
     return StepLPs(
         step=compiled_linear(modified_lp, ops, np.zeros(c), slope=slope),
@@ -63,4 +70,6 @@ def step_lps(ops: Operators, alpha: float = 0.0, tie_break: bool = True, associa
         dilatancy=np.broadcast_to(np.asarray(ops.dilatancy, float), (c,)).copy(),
         slope=slope,
         coulomb=sp.csr_array(ops.N_f.T),
+        normal_index=ops.normal_index,
+        friction_contact=ops.friction_contact,
     )

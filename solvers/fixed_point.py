@@ -230,16 +230,23 @@ class FixedPoint(SolverBase):
     Options = FixedPointOptions
     Settings = FixedPointSettings
 
+    def skip_reason(self, ops) -> str | None:
+        if ops.dim == 3 and self.options.engine in plan.ENGINES_2D_ONLY:
+            return (f"engine={self.options.engine!r} is 2D only (its kernels are written for interfaces (t, n, m)); "
+                    "a 3D structure runs on engine='simplex' (what 'auto' chooses)")
+        return None
+
     def setup(self, ops):
         from blockmpec.solvers.engines.scaling import LoadUnits
 
         self.ops = ops
         self.units = LoadUnits.of(ops)
-        self.engine = plan.fixed_point_engine(self.options.engine, ops.n_free_blocks)
+        self.engine = plan.fixed_point_engine(self.options.engine, ops.n_free_blocks, ops.dim)
         self.fallback = plan.fixed_point_fallback(self.options.engine, ops.n_free_blocks)
         other = (self.fallback if self.engine == "interior"
-                 else plan.fixed_point_interior_fallback(self.options.engine, ops.n_free_blocks))
-        self.plan = plan.fixed_point_plan(self.engine, other, self.options.start, self.options.tie_break)
+                 else plan.fixed_point_interior_fallback(self.options.engine, ops.n_free_blocks, ops.dim))
+        self.plan = plan.fixed_point_plan(self.engine, other, self.options.start, self.options.tie_break,
+                                          relaxed=plan.fixed_point_relaxed_fallback(self.options.engine, ops.dim))
         self.sequence = None
         if self.engine == "interior":
             from blockmpec.formulations import step_lps
@@ -306,12 +313,38 @@ class FixedPoint(SolverBase):
         simplex.message = f"{simplex.message} (after an interior run that ended {out.status.value}: {out.message})"
         return simplex
 
+    def _run_relaxed(self, out: RunOutput, deadline) -> RunOutput:
+        """After unverified LP steps in 3D: the relaxed "closest" sequence of the plan, in the time left."""
+        from blockmpec.formulations import step_lps
+        from blockmpec.solvers.engines.lp_sequence import LPSequence, run_sequence
+
+        self.plan.start("relaxed")
+        o, st = self.options, self.settings
+        omega = min(o.relaxation, plan.FIXED_POINT_3D_RELAXATION)
+        lps = step_lps(self.ops, alpha=0.0, tie_break=True, associative=o.start != "zero")
+        sequence = LPSequence(lps, self.units, alpha=0.0, tie_break="closest", algorithm=st.algorithm)
+        relaxed, facts = run_sequence(sequence, start=o.start, relaxation=omega, stop_on="normal", tol=o.tol,
+                                      max_iterations=o.max_iterations, deadline=deadline, seed=o.seed)
+        relaxed.extra = {**sequence.facts(), fact_names.ENGINE: "simplex, then relaxed simplex",
+                         "first_status": out.status.value, "start": facts["start_used"]}
+        relaxed.trace = out.trace + [{**rec, "iteration": rec["iteration"] + out.iterations} for rec in relaxed.trace]
+        relaxed.iterations += out.iterations
+        if relaxed.status is Status.CONVERGED:
+            relaxed.message = (f"normal forces converged in {relaxed.iterations} LP steps, the last "
+                               f"{relaxed.iterations - out.iterations} relaxed by {omega} with the closest tie-break "
+                               f"(the first {out.iterations} ended: {out.message})")
+        return relaxed
+
     def run(self, deadline) -> RunOutput:
         self.plan.start(self.engine)
         if self.engine == "interior":
             return self._run_interior(deadline)
         out = self._run_simplex(deadline)
-        if (not plan.fixed_point_interior_fallback(self.options.engine, self.ops.n_free_blocks) or self._verified(out)
+        if (plan.fixed_point_relaxed_fallback(self.options.engine, self.ops.dim) and not self._verified(out)
+                and out.status is not Status.INFEASIBLE and not deadline.expired()):
+            return self._run_relaxed(out, deadline)
+        if (not plan.fixed_point_interior_fallback(self.options.engine, self.ops.n_free_blocks, self.ops.dim)
+                or self._verified(out)
                 or out.status is Status.INFEASIBLE or deadline.expired()):
             return out  # infeasible: proven by the associative LP (1), which no engine can change
         # the LP steps did not reach a solution of (3) (they wander on irregular stone walls): the interior engine,

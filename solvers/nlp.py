@@ -319,7 +319,7 @@ class RelaxedMPEC:
         lb[self.i_s] = 0.0
         # friction tan(phi_k) = 0: the pair rows +-t_k <= 0 force t_k = 0; fixed (Ipopt drops the
         # column), so that t_k is an exact zero rather than round-off of either sign
-        frictionless = self.form.x.start + self.form.t[self.form.friction == 0]
+        frictionless = self.form.x.start + self.form.shear_of(self.form.friction == 0)
         lb[frictionless] = ub[frictionless] = 0.0
         cl = np.concatenate([self.rhs, np.full(self.n_pairs, -_INF)])
         cu = np.concatenate([self.rhs, np.full(self.n_pairs, float(eps))])
@@ -389,11 +389,13 @@ def without_free_sliding(form, solution: Solution) -> Solution:
     complementarity work of 1.6e-5 that the verifier rejected.  ``c = max(0, min(z_f+, z_f-))``
     only shrinks the products ``z_f s_f``.
     """
-    free = np.repeat(form.dilatancy == 0, 2)
+    contact = form.pair_interface[form.friction_pairs]
+    free = form.dilatancy[contact] == 0
     if solution.z_f is None or not free.any():
         return solution
-    z_f = solution.z_f.reshape(-1, 2)  # (z_f+, z_f-) per interface, as form.pair_interface orders them
-    common = np.where(free[::2], np.maximum(np.minimum(z_f[:, 0], z_f[:, 1]), 0.0), 0.0)
+    k = contact.size // max(form.n_interfaces, 1)  # friction rows per contact: 2 in 2D, the pyramid's sides in 3D
+    z_f = solution.z_f.reshape(-1, k)  # the rows of each contact, as form.pair_interface orders them
+    common = np.where(free[::k], np.maximum(z_f.min(axis=1), 0.0), 0.0)
     solution.z_f = (z_f - common[:, None]).ravel()
     return solution
 
@@ -662,7 +664,7 @@ class RelaxedNLP(SolverBase):
         # the interior-point LPs leave the free common part of zero-dilatancy sliding multipliers large
         # (two blocks: z_f+- = 7519), which without_free_sliding removes
         new = without_free_sliding(self.form, self.form.unpack(out.w))
-        new.x[self.form.t[self.form.friction == 0]] = 0.0  # tan(phi_k) = 0 forces t_k = 0 (exact zero)
+        new.x[self.form.shear_of(self.form.friction == 0)] = 0.0  # tan(phi_k) = 0 forces t_k = 0 (exact zero)
         # not certified: a limit, or an LP failure on a later piece (never a statement that (3) is infeasible)
         status = (Status.LOCALLY_OPTIMAL if out.certified else
                   out.status if out.status in (Status.TIME_LIMIT, Status.ITERATION_LIMIT) else Status.NUMERICAL)
@@ -692,7 +694,7 @@ class RelaxedNLP(SolverBase):
                    newton_iterations=out.iterations, newton_status=out.status.value, accepted=ok, stage_time_s=dt)
         if ok:
             # tan(phi_k) = 0 forces t_k = 0 (pair rows +-t_k <= 0): Newton's round-off there is set to the exact zero
-            out.solution.x[self.form.t[self.form.friction == 0]] = 0.0
+            out.solution.x[self.form.shear_of(self.form.friction == 0)] = 0.0
             note = f"polished by {out.iterations} Newton steps (lam {lam:.10g} -> {lam_new:.10g})"
             return out.solution, note
         return solution, f"polish rejected ({out.status.value}, lam {lam:.10g} -> {lam_new:.10g}); raw NLP point kept"

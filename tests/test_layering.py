@@ -4,7 +4,7 @@ Layers, from the bottom up (a module may import its own layer and the layers bel
 
 0. ``blockmpec.errors``, ``facts``, ``units``, ``deadline``, ``progress``, ``options`` -- plain values and rules;
 1. the problem: ``geometry``, ``operators``, ``cases``, ``structure_file``, ``result``, ``verify``, ``report``,
-   ``drawings``, ``contacts``;
+   ``drawings``, ``contacts``, ``three_d`` (3D blocks; its figures and exact cone are layer 7);
 2. ``blockmpec.formulations`` -- the Pyomo statements;
 3. ``blockmpec.solvers.linalg`` -- the block IPM and its Cholesky (numpy, scipy, numba, pymetis and threadpoolctl
    only: no other blockmpec module);
@@ -12,7 +12,7 @@ Layers, from the bottom up (a module may import its own layer and the layers bel
 5. the plug-in contract: ``blockmpec.method`` (``SolverBase``) and ``blockmpec.registry``;
 6. the methods: ``blockmpec.solvers.<method>``;
 7. ``blockmpec.solver`` (``solve``, ``run_solver``), ``blockmpec.pushover`` (with its configuration and contact
-   updates), ``blockmpec.plot`` and the package ``blockmpec`` itself;
+   updates), ``blockmpec.plot`` (and ``three_d.plot``, ``three_d.cone``) and the package ``blockmpec`` itself;
 8. ``blockmpec.bench`` -- the comparator harness, which nothing else in the library imports -- and
    ``blockmpec.testing``, the conformance suite and reference cases for methods' tests;
 9. ``blockmpec.cli`` and ``blockmpec.__main__``.
@@ -40,14 +40,14 @@ LAYERS = [
     ("blockmpec.errors", "blockmpec.facts", "blockmpec.units", "blockmpec.deadline", "blockmpec.progress",
      "blockmpec.options"),
     ("blockmpec.geometry", "blockmpec.operators", "blockmpec.cases", "blockmpec.structure_file", "blockmpec.result",
-     "blockmpec.verify", "blockmpec.report", "blockmpec.drawings", "blockmpec.contacts"),
+     "blockmpec.verify", "blockmpec.report", "blockmpec.drawings", "blockmpec.contacts", "blockmpec.three_d"),
     ("blockmpec.formulations",),
     ("blockmpec.solvers.linalg",),
     ("blockmpec.solvers.engines", "blockmpec.solvers.plan"),
     ("blockmpec.method", "blockmpec.registry"),
     ("blockmpec.solvers",),
     ("blockmpec.solver", "blockmpec.pushover", "blockmpec.pushover_motion", "blockmpec.pushover_contacts",
-     "blockmpec.pushover_plot", "blockmpec.plot", "blockmpec"),
+     "blockmpec.pushover_plot", "blockmpec.plot", "blockmpec", "blockmpec.three_d.plot", "blockmpec.three_d.cone"),
     ("blockmpec.bench", "blockmpec.testing"),
     ("blockmpec.cli", "blockmpec.pushover_cli", "blockmpec.__main__"),
 ]

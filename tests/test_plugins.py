@@ -309,7 +309,7 @@ def test_methods_that_should_agree_agree_and_the_others_are_named(monkeypatch):
 
 def test_the_pytest_fixture_runs_a_test_once_per_reference_case(blockmpec_case):
     assert isinstance(blockmpec_case, ReferenceCase) and blockmpec_case.label in all_reference_cases()
-    assert isinstance(blockmpec_case.structure, bm.Structure)
+    assert isinstance(blockmpec_case.structure, (bm.Structure, bm.three_d.Structure3D))
     lower, upper = blockmpec_case.bounds("non-associative")
     assert isinstance(lower, Reference) and lower.source and upper.source
     # every quick case has a certified or closed-form minimum, never above the associative multiplier

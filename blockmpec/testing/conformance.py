@@ -116,8 +116,8 @@ def check_solver(solver: type[SolverBase] | str, *, quick: bool = True, options:
     solver : SolverBase subclass or str
         The class (registered or not), a registered method name, or ``"module:Class"``.
     quick : bool
-        The quick set of cases (every built-in case but ``ferris-tinloi``, at small sizes; seconds for the built-in
-        methods); ``False`` adds the larger cases (``ferris-tinloi``, the cases' default sizes), whose references
+        The quick set of cases (every 2D built-in case but ``ferris-tinloi``, and the 3D block, at small sizes;
+        seconds for the built-in methods); ``False`` adds the larger cases (``ferris-tinloi``, the cases' default sizes), whose references
         may take minutes (a certificate of ``milp`` each, at most
         :data:`~blockmpec.testing.references.REFERENCE_TIME_LIMIT_S`).
     options : dict, optional

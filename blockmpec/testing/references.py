@@ -4,7 +4,7 @@ A :class:`ReferenceCase` is a built-in case at fixed parameters.  Its references
 
 * ``associative``: the associative collapse multiplier, the optimum of the static LP (1).  Its source, by rank: the
   closed form (:func:`blockmpec.cases.closed_form`: the paper's Sect. 3 for the two blocks, ``min(mu, b/h)`` for
-  one block), else the static LP solved by ``static-lp`` (HiGHS, verified; ``kinematic-lp``, the dual LP (2), when
+  one block, ``tan(slope + min(phi, atan(b/h)))`` for the 3D block), else the static LP solved by ``static-lp`` (HiGHS, verified; ``kinematic-lp``, the dual LP (2), when
   the method under test is ``static-lp`` itself);
 * ``minimum``: the least multiplier over the solutions of the non-associative problem (3), the optimum of the MPEC
   (4).  By rank: the closed form (Sect. 3: ``mu`` if ``mu <= 1/eta``, else ``1/eta``), else the certificate of
@@ -154,6 +154,8 @@ def _key(params: Mapping[str, Any]) -> str:
 def _closed_form_source(case: str, problem: str) -> str:
     if case == "two-blocks":
         return "paper Sect. 3, " + ("mechanisms A1-A3" if problem == ASSOCIATIVE else "mechanisms NA1-NA2, minimum")
+    if case == "block-3d":
+        return "one 3D block on a fixed base: lam = tan(slope + min(phi, atan(b/h))), min(mu, d/h) out of plane"
     return "one block on a fixed base, statically determinate: lam = min(mu, b/h)"
 
 
@@ -212,6 +214,10 @@ def _cases() -> list[ReferenceCase]:
     ] + [
         ReferenceCase("single-block[rocking]", "single-block", {"width": 1.0, "height": 2.0, "mu": 0.65}),
         ReferenceCase("single-block[sliding]", "single-block", {"width": 1.0, "height": 1.0, "mu": 0.3}),
+        # 3D: one block overturning out of plane (about its long bottom edge: depth/height = 0.25) and sliding up a
+        # base inclined by 10 degrees (tan(10 deg + atan(0.3)) = 0.50293...)
+        ReferenceCase("block-3d[out-of-plane]", "block-3d", {"live_direction": [0.0, 1.0, 0.0]}),
+        ReferenceCase("block-3d[inclined]", "block-3d", {"slope": 10.0, "mu": 0.3, "height": 1.0}),
         ReferenceCase("round-arch", "round-arch", {},
                       {ASSOCIATIVE: (0.16034, 5, _TABLE_1), NON_ASSOCIATIVE: (0.16034, 5, _TABLE_1)}),
     ] + [
@@ -237,6 +243,6 @@ _CASES = _cases()
 
 
 def reference_cases(quick: bool = True) -> dict[str, ReferenceCase]:
-    """The reference cases by label: the quick set (every built-in case but ``ferris-tinloi``, small), or with
-    ``quick=False`` also the larger ones (``ferris-tinloi``, the default sizes)."""
+    """The reference cases by label: the quick set (every 2D built-in case but ``ferris-tinloi``, and the 3D block;
+    small), or with ``quick=False`` also the larger ones (``ferris-tinloi``, the default sizes)."""
     return {c.label: c for c in _CASES if c.quick or not quick}

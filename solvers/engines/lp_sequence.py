@@ -82,9 +82,10 @@ FOLD_STALL_STEPS = 8
 CLOSENESS_WEIGHT = 1e-3
 
 
-def _normal(x: np.ndarray) -> np.ndarray:
-    """The normal forces ``n_k`` of interface forces ``x = (t_k, n_k, m_k)``."""
-    return x[1::3]
+def _normal(x: np.ndarray, lps: StepLPs) -> np.ndarray:
+    """The normal forces ``n_k`` of contact forces ``x`` (at ``lps.normal_index``: ``x = (t_k, n_k, m_k)`` per
+    interface in 2D, ``(t1, t2, n)`` per contact point in 3D)."""
+    return x[lps.normal_index]
 
 
 def tie_break_delta(lam: float) -> float:
@@ -170,7 +171,7 @@ class LPSequence:
             if not (a[col] == -1.0 and np.count_nonzero(a) == 1 and np.isfinite(self.tie_lp.row_upper[row])):
                 raise RuntimeError("tie-break LP: the floor row did not compile to -lam <= -lam_floor")
             self.tie_highs = HighsLP(self.tie_lp, algorithm, scaling=units.static(self.tie_lp, ("d",)))
-            self._normal_columns = self.tie_lp.columns["x"][1::3]
+            self._normal_columns = self.tie_lp.columns["x"][lps.normal_index]
             self._d_columns = self.tie_lp.columns["d"]
 
         self.assoc_lp = lps.associative
@@ -276,7 +277,8 @@ class LPSequence:
         for lp, highs in ((self.step_lp, self.step_highs), (self.tie_lp, self.tie_highs)):
             if highs is None:
                 continue
-            highs.set_coefficients(lp.rows["friction"], np.repeat(lp.columns["x"][1::3], 2), np.repeat(slope, 2))
+            contact = lps.friction_contact  # the contact of each friction row (2D: two rows per interface)
+            highs.set_coefficients(lp.rows["friction"], lp.columns["x"][lps.normal_index][contact], slope[contact])
         self.alpha = float(alpha)
         self.slope = slope
         self.cohesion_factor = cohesion_factor(lps.friction, slope)
@@ -290,14 +292,14 @@ class LPSequence:
         c = self.n_interfaces
         weight = self.cohesion_factor * np.ones(c)
         if rule == "min-lambda":
-            zeta = np.zeros(c) if z_f is None else np.maximum(z_f[0::2], 0.0) + np.maximum(z_f[1::2], 0.0)
+            zeta = np.zeros(c) if z_f is None else np.bincount(self.lps.friction_contact, np.maximum(z_f, 0.0), c)
             weight = weight * zeta
         top = float(np.max(weight, initial=0.0))
         return weight / top if top > 0 else np.zeros(c)
 
     def _fold_costs(self, weights: np.ndarray | None) -> None:
         """Step LP objective ``min -lam - fold_weight sum_k w_k n_k`` (``weights=None``: plain ``-lam``)."""
-        cols = self.step_lp.columns["x"][1::3].astype(np.int32)
+        cols = self.step_lp.columns["x"][self.lps.normal_index].astype(np.int32)
         cost = np.zeros(cols.size) if weights is None else -self.fold_weight * weights
         self.step_highs.set_costs(cols, cost)
         self._step_folded = weights is not None
@@ -326,7 +328,7 @@ class LPSequence:
         """
         rule = self.tie_break if rule is None else rule
         cohesion = -self.cohesion_factor * n_star
-        rhs = np.repeat(cohesion, 2)  # rows 2k, 2k+1 of interface k
+        rhs = cohesion[self.lps.friction_contact]  # every friction row of contact k
         lp = self.step_lp
         folded = self.fold_weight > 0 and rule in ("least-compressed", "min-lambda")
         if folded:
@@ -358,7 +360,7 @@ class LPSequence:
         self.tie_highs.set_row_upper(tie.rows["floor"], np.array([-(lam - tie_break_delta(lam))]))
         if deadline.expired():
             return Step(Status.TIME_LIMIT, "", "time limit reached before a tie-break LP", sol, iterations)
-        first_algorithm = self._start_tie_break_from_step_basis(_normal(sol.x), n_star) if self._tie_cold else None
+        first_algorithm = self._start_tie_break_from_step_basis(_normal(sol.x, self.lps), n_star) if self._tie_cold else None
         self._tie_cold = False
         tout = self._timed("tie_break", self.tie_highs.solve, first_algorithm, deadline=deadline)
         iterations += tout.iterations
@@ -495,7 +497,7 @@ def run_sequence(
             return output(first.status, None, first.message, first.raw_status)
         facts["lam_start"] = first.solution.multiplier
         seq.set_sensitivity(first.solution.z_f)
-        n_star = np.minimum(_normal(first.solution.x), 0.0)
+        n_star = np.minimum(_normal(first.solution.x, seq.lps), 0.0)
         if start == "random":
             n_star = n_star * np.random.default_rng(seed).uniform(0.0, 1.0, n_star.size)
     elif start == "dead-load":
@@ -510,7 +512,7 @@ def run_sequence(
                 seq.set_sensitivity(first.solution.z_f)
         if first.status is not Status.OPTIMAL:
             return output(first.status, None, first.message, first.raw_status)
-        n_star = np.minimum(_normal(first.solution.x), 0.0)
+        n_star = np.minimum(_normal(first.solution.x, seq.lps), 0.0)
     else:
         n_star = np.zeros(seq.n_interfaces)
 
@@ -547,7 +549,7 @@ def run_sequence(
         if step.tie_break_used is False:
             facts["tie_break_failures"] += 1
         sol = step.solution
-        n = _normal(sol.x)
+        n = _normal(sol.x, seq.lps)
         n_norm = float(np.linalg.norm(n))
         n_change = float(np.linalg.norm(n - n_star)) / n_norm if n_norm > 0 else float(np.linalg.norm(n - n_star))
         lam = float(sol.multiplier)

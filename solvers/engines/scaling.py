@@ -260,7 +260,7 @@ class LoadUnits:
             lam_unit = 1.0
         else:
             lam_unit = float(2.0 ** np.round(np.log2(1.0 / live)))
-        return cls(units, np.broadcast_to(np.asarray(ops.friction, float), (ops.n_interfaces,)), lam_unit)
+        return cls(units, np.broadcast_to(np.asarray(ops.friction, float), (ops.n_contacts,)), lam_unit)
 
     @property
     def load_spread(self) -> float:

@@ -60,17 +60,17 @@ class FixedPointOptions(LinprogOptions):
 def solve_lp(ops: bm.Operators, flow: sp.sparray, rhs: np.ndarray, method: str, deadline) -> tuple[bm.Status, object]:
     """``max lam`` s.t. ``E x + f_d + lam f_l = 0``, ``N_u^T x <= 0``, ``flow^T x <= rhs``, by ``linprog`` within
     ``deadline``: the status and linprog's result."""
-    c2 = ops.N_u.shape[1]
+    n_u, n_f = ops.N_u.shape[1], flow.shape[1]  # no-tension and friction rows (2D: two of each per interface)
     n_x = ops.E.shape[1]
     objective = np.zeros(n_x + 1)
     objective[-1] = -1.0
     a_eq = sp.hstack([ops.E, sp.csr_array(ops.f_l.reshape(-1, 1))], format="csr")
-    a_ub = sp.vstack([sp.hstack([ops.N_u.T, sp.csr_array((c2, 1))]), sp.hstack([flow.T, sp.csr_array((c2, 1))])],
+    a_ub = sp.vstack([sp.hstack([ops.N_u.T, sp.csr_array((n_u, 1))]), sp.hstack([flow.T, sp.csr_array((n_f, 1))])],
                      format="csr")
     options = {"primal_feasibility_tolerance": 1e-10, "dual_feasibility_tolerance": 1e-10}
     if deadline.finite:
         options["time_limit"] = deadline.remaining()
-    res = linprog(objective, A_ub=a_ub, b_ub=np.concatenate([np.zeros(c2), rhs]), A_eq=a_eq, b_eq=-ops.f_d,
+    res = linprog(objective, A_ub=a_ub, b_ub=np.concatenate([np.zeros(n_u), rhs]), A_eq=a_eq, b_eq=-ops.f_d,
                   bounds=(None, None), method=method, options=options)
     if res.status == 1 and "time" in res.message.lower():
         return bm.Status.TIME_LIMIT, res
@@ -80,9 +80,9 @@ def solve_lp(ops: bm.Operators, flow: sp.sparray, rhs: np.ndarray, method: str, 
 
 def point(ops: bm.Operators, res) -> bm.Solution:
     """The LP's optimum as a point of (3): forces and multiplier from the primal, mechanism from the duals."""
-    c2 = ops.N_u.shape[1]
+    n_u = ops.N_u.shape[1]
     w = -res.ineqlin.marginals
-    return bm.Solution(multiplier=float(res.x[-1]), x=res.x[:-1], u=-res.eqlin.marginals, z_u=w[:c2], z_f=w[c2:])
+    return bm.Solution(multiplier=float(res.x[-1]), x=res.x[:-1], u=-res.eqlin.marginals, z_u=w[:n_u], z_f=w[n_u:])
 
 
 class StaticLinprog(bm.SolverBase):
@@ -125,7 +125,7 @@ class FixedPointLinprog(StaticLinprog):
             if status is not bm.Status.OPTIMAL:
                 return bm.RunOutput(status, iterations=k, trace=trace, message=f"LP {k}: {res.message}")
             x = res.x[:-1]
-            n = x[1::3]
+            n = x[ops.normal_index]  # the normal forces (2D: x = (t, n, m) per interface; 3D: (t1, t2, n) per point)
             if n_star is not None:
                 step = np.linalg.norm(n - n_star) / max(np.linalg.norm(n), 1e-300)
             trace.append({"iteration": k, "time_s": deadline.elapsed(), "multiplier": float(res.x[-1]),
