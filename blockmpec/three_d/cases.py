@@ -23,6 +23,7 @@ import numpy as np
 
 from blockmpec.cases import CASES, CaseSpec, _count, _positive
 from blockmpec.errors import OptionError, UnknownNameError
+from blockmpec.geometry import DEFAULT_FRICTION
 from blockmpec.three_d.geometry import Structure3D, make_structure_3d
 from blockmpec.three_d.polyhedra import box, prism
 
@@ -37,7 +38,7 @@ def _angle(name: str, value: float, upper: float) -> float:
     return v
 
 
-def block_3d(width: float = 1.0, depth: float = 0.5, height: float = 2.0, mu: float = 0.65,
+def block_3d(width: float = 1.0, depth: float = 0.5, height: float = 2.0, mu: float = DEFAULT_FRICTION,
              dilatancy: float = 0.0, slope: float = 0.0, live_direction: list = (1.0, 0.0, 0.0),
              pyramid_sides: int = 4) -> Structure3D:
     """One ``width x depth x height`` block (along ``x``, ``y``, ``z``) on a fixed base inclined by ``slope`` degrees
@@ -85,7 +86,7 @@ def extrude(structure, thickness: float = 1.0, pyramid_sides: int = 4) -> Struct
                                                                        "thickness": t})
 
 
-def extruded(case: str = "two-blocks", thickness: float = 1.0, mu: float = 0.65, dilatancy: float = 0.0,
+def extruded(case: str = "two-blocks", thickness: float = 1.0, mu: float = DEFAULT_FRICTION, dilatancy: float = 0.0,
              pyramid_sides: int = 4) -> Structure3D:
     """A built-in 2D case (with its default parameters, ``mu`` and ``dilatancy``) extruded to ``thickness``."""
     from blockmpec.cases import build_case
@@ -100,7 +101,7 @@ def extruded(case: str = "two-blocks", thickness: float = 1.0, mu: float = 0.65,
 
 
 def corner_wall(length: float = 2.4, return_length: float = 1.6, height: float = 1.6, thickness: float = 0.3,
-                courses: int = 4, blocks_per_course: int = 3, mu: float = 0.65, dilatancy: float = 0.0,
+                courses: int = 4, blocks_per_course: int = 3, mu: float = DEFAULT_FRICTION, dilatancy: float = 0.0,
                 live_direction: list = (0.0, -1.0, 0.0), pyramid_sides: int = 4) -> Structure3D:
     """An L-shaped corner: a wall along ``x`` (thickness along ``y`` from 0) and a return wall along ``+y`` at
     ``x = 0``, on a fixed base, the corner interlocked (even courses: the main wall's end block covers the corner,
@@ -146,7 +147,7 @@ def _ring_voussoirs(angles: np.ndarray, r_in: float, r_out: float, y0: float, y1
 
 
 def barrel_vault(span: float = 4.0, thickness: float = 0.4, length: float = 2.0, voussoirs: int = 7,
-                 rings: int = 3, mu: float = 0.65, dilatancy: float = 0.0, live_direction: list = (1.0, 0.0, 0.0),
+                 rings: int = 3, mu: float = DEFAULT_FRICTION, dilatancy: float = 0.0, live_direction: list = (1.0, 0.0, 0.0),
                  pyramid_sides: int = 4) -> Structure3D:
     """A semicircular barrel vault (axis along ``y``) of ``rings`` voussoir rings side by side, every other ring
     staggered by half a voussoir, on two fixed springers; live load along its span by default."""
@@ -177,7 +178,7 @@ def barrel_vault(span: float = 4.0, thickness: float = 0.4, length: float = 2.0,
                              pyramid_sides=pyramid_sides, block_ids=ids, name="barrel-vault")
 
 
-def arch_3d(voussoirs: int = 9, radius: float = 2.0, thickness: float = 0.3, depth: float = 0.6, mu: float = 0.65,
+def arch_3d(voussoirs: int = 9, radius: float = 2.0, thickness: float = 0.3, depth: float = 0.6, mu: float = DEFAULT_FRICTION,
             dilatancy: float = 0.0, live_direction: list = (0.0, 1.0, 0.0), pyramid_sides: int = 4) -> Structure3D:
     """A round arch of ``voussoirs`` voussoirs with depth ``depth`` (along ``y``) on two fixed springers, loaded out of
     its plane by default (``+y``)."""
@@ -194,7 +195,7 @@ def arch_3d(voussoirs: int = 9, radius: float = 2.0, thickness: float = 0.3, dep
 
 
 def dome(radius: float = 5.0, thickness: float = 0.5, rings: int = 6, segments: int = 12, oculus: float = 20.0,
-         mu: float = 0.65, dilatancy: float = 0.0, live_direction: list = (1.0, 0.0, 0.0),
+         mu: float = DEFAULT_FRICTION, dilatancy: float = 0.0, live_direction: list = (1.0, 0.0, 0.0),
          pyramid_sides: int = 4) -> Structure3D:
     """A hemispherical dome of ``rings x segments`` voussoirs (mid-surface radius ``radius``) with an oculus of
     ``oculus`` degrees half-angle, on a fixed ground block.

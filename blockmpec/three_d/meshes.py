@@ -28,6 +28,7 @@ from pathlib import Path
 import numpy as np
 
 from blockmpec.errors import OptionError, StructureFileError
+from blockmpec.geometry import DEFAULT_FRICTION
 from blockmpec.three_d.geometry import Structure3D, make_structure_3d
 
 FORMAT_3D = "blockmpec-3d"
@@ -187,7 +188,7 @@ def _merged_components(vertices: np.ndarray, faces: np.ndarray) -> list[tuple[np
     return [(np.asarray(p.vertices, float), np.asarray(p.faces, int).tolist()) for p in parts]
 
 
-def read_mesh(path: str | Path, *, mu: float = 0.65, dilatancy: float = 0.0, density: float = 1.0,
+def read_mesh(path: str | Path, *, mu: float = DEFAULT_FRICTION, dilatancy: float = 0.0, density: float = 1.0,
               live_direction=(1.0, 0.0, 0.0), live_factor: float = 1.0, pyramid_sides: int = 4,
               fixed_names=("fixed",), scale: float = 1.0) -> Structure3D:
     """A 3D structure from an OBJ, STL or PLY mesh (see the module docstring).
