@@ -30,6 +30,7 @@ del _Path, _here
 from blockmpec import (
     cases,  # noqa: E402
     plot,  # noqa: E402 - drawings (matplotlib is imported when one is drawn)
+    three_d,  # noqa: E402 - 3D blocks (registers the 3D cases)
 )
 from blockmpec.cases import build_case
 from blockmpec.errors import (
@@ -59,7 +60,7 @@ __all__ = [
     "StructureFileError", "StructureMap", "UnknownNameError", "Units", "assemble", "build_case", "cases",
     "forces_frame", "get_solver", "list_solvers", "load_structure", "make_structure", "mechanism_frame", "plot",
     "pushover", "register_solver", "residuals", "run_solver", "save_structure", "solve", "structure_from_dict",
-    "structure_to_dict",
+    "structure_to_dict", "three_d",
 ]
 
 try:  # the installed distribution's version (pyproject.toml), so that one number is kept in one place

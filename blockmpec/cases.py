@@ -18,7 +18,7 @@ from typing import Any, Callable
 import numpy as np
 
 from blockmpec.errors import BlockmpecError, OptionError, UnknownNameError
-from blockmpec.geometry import Structure, make_structure
+from blockmpec.geometry import DEFAULT_FRICTION, Structure, make_structure
 
 
 def _positive(name: str, value: float) -> float:
@@ -41,7 +41,7 @@ def _rect(x0: float, y0: float, x1: float, y1: float) -> np.ndarray:
     return np.array([[x0, y0], [x1, y0], [x1, y1], [x0, y1]])
 
 
-def single_block(width: float = 1.0, height: float = 2.0, mu: float = 0.65, dilatancy: float = 0.0) -> Structure:
+def single_block(width: float = 1.0, height: float = 2.0, mu: float = DEFAULT_FRICTION, dilatancy: float = 0.0) -> Structure:
     """One ``width x height`` block on a fixed base.
 
     Closed form (associative and non-associative alike): ``lam = min(mu, width/height)``.
@@ -55,7 +55,7 @@ def single_block(width: float = 1.0, height: float = 2.0, mu: float = 0.65, dila
     )
 
 
-def two_blocks(eta: float = 3.0, mu: float = 0.65, width: float = 1.0, dilatancy: float = 0.0) -> Structure:
+def two_blocks(eta: float = 3.0, mu: float = DEFAULT_FRICTION, width: float = 1.0, dilatancy: float = 0.0) -> Structure:
     """The paper's two-block problem: two ``b x h`` blocks side by side on a fixed base.
 
     ``eta = h / b`` is the slenderness.  Each block carries its weight ``W`` as
@@ -90,7 +90,7 @@ def _voussoirs(n: int, radius: float, thickness: float, x_centre: float = 0.0, y
 
 
 def round_arch(
-    n_voussoirs: int = 10, radius: float = 1.0, thickness: float = 0.15, mu: float = 0.65, dilatancy: float = 0.0
+    n_voussoirs: int = 10, radius: float = 1.0, thickness: float = 0.15, mu: float = DEFAULT_FRICTION, dilatancy: float = 0.0
 ) -> Structure:
     """Semicircular arch of straight-sided voussoirs on two fixed springings.
 
@@ -117,7 +117,7 @@ def arch_on_buttresses(
     thickness: float = 0.15,
     buttress_width: float = 0.5,
     buttress_courses: int = 8,
-    mu: float = 0.65,
+    mu: float = DEFAULT_FRICTION,
     dilatancy: float = 0.0,
 ) -> Structure:
     """A round arch springing from two buttresses on a fixed base.
@@ -160,7 +160,7 @@ def wall(
     block_length: float = 1.0,
     block_height: float | None = None,
     openings: list | tuple = (),
-    mu: float = 0.65,
+    mu: float = DEFAULT_FRICTION,
     dilatancy: float = 0.0,
 ) -> Structure:
     """A masonry wall on a fixed base.
@@ -224,7 +224,7 @@ FERRIS_TINLOI_WALLS = {
 }
 
 
-def ferris_tinloi(wall: int = 1, mu: float = 0.65, dilatancy: float = 0.0) -> Structure:
+def ferris_tinloi(wall: int = 1, mu: float = DEFAULT_FRICTION, dilatancy: float = 0.0) -> Structure:
     """Wall ``wall`` (1-6) of Ferris & Tin-Loi, as published in the MPEC test collection MPECLib.
 
     M. C. Ferris, F. Tin-Loi, Limit analysis of frictional block assemblies as a mathematical program with
@@ -237,7 +237,7 @@ def ferris_tinloi(wall: int = 1, mu: float = 0.65, dilatancy: float = 0.0) -> St
     ====  ==========  ==========  ==========  ===================================================
     wall  free blocks  interfaces  courses     layout
     ====  ==========  ==========  ==========  ===================================================
-    1     33          83          6           5 full blocks wide (the default; issue 41's wall)
+    1     33          83          6           5 full blocks wide (the default)
     2     55          141         10          as wall 1, taller
     3     46          102         11          4 wide, one opening in courses 4-8
     4     55          116         11          5 wide, two openings in courses 4-8 (the seed paper's "2x1 wall")
@@ -292,7 +292,7 @@ def stone_wall(
     stone_size: float = 0.3,
     irregularity: float = 0.5,
     seed: int = 0,
-    mu: float = 0.65,
+    mu: float = DEFAULT_FRICTION,
     dilatancy: float = 0.0,
 ) -> Structure:
     """An irregular stone wall on a fixed base: stones that tile ``width x height`` with shared edges.
@@ -537,11 +537,13 @@ def _merge_pairs(points: np.ndarray, cells: list[np.ndarray], fraction: float,
 
 @dataclass(frozen=True)
 class CaseSpec:
-    """A built-in case: CLI name, generator and its keyword parameters with defaults."""
+    """A built-in case: CLI name, generator and its keyword parameters with defaults; ``closed_form(problem,
+    **params)``, when given, is the case's known multiplier or None (:func:`closed_form`)."""
 
     name: str
     generator: Callable[..., Structure]
     summary: str
+    closed_form: Callable[..., float | None] | None = None
 
     @property
     def parameters(self) -> dict[str, Any]:
@@ -597,6 +599,8 @@ def closed_form(name: str, problem: str, **params: Any) -> float | None:
         ``mu > 1`` with ``eta < 1``; see tests/test_extreme.py).
     """
     spec = get_case(name)
+    if spec.closed_form is not None:  # a case registered with its own closed form (the 3D cases)
+        return spec.closed_form(problem, **params)
     p = {**spec.parameters, **params}
     if problem not in ("associative", "non-associative"):
         raise OptionError(f"problem: must be 'associative' or 'non-associative'; got {problem!r}")
@@ -677,6 +681,10 @@ def load_case(case: str, params: dict[str, Any]) -> Structure:
         except (TypeError, ValueError, ArithmeticError, IndexError, KeyError) as exc:
             raise OptionError(f"case {case!r} with {params}: {type(exc).__name__}: {exc}") from None
     path = Path(case)
+    from blockmpec.three_d.meshes import is_3d_file, read_3d_file
+
+    if is_3d_file(path):  # a mesh (.obj, .stl, .ply) or a 3D structure file: -p sets its material and loads
+        return read_3d_file(path, params)
     from blockmpec.drawings import is_drawing, read_structure
 
     if is_drawing(path):  # DXF, SVG or image: -p sets the reader's options (blockmpec import --help)
@@ -691,4 +699,4 @@ def load_case(case: str, params: dict[str, Any]) -> Structure:
         check_case_params(case, params, {"mu": None, "dilatancy": None})
         return structure.with_material(params.get("mu"), params.get("dilatancy"))
     raise OptionError(f"unknown case {case!r}: not a built-in case ({', '.join(CASES)}) nor a structure file "
-                      "(.json) nor a drawing (.dxf, .svg, an image)")
+                      "(.json) nor a drawing (.dxf, .svg, an image) nor a 3D mesh (.obj, .stl, .ply)")

@@ -28,13 +28,15 @@ import math
 import os
 import sys
 import time
+import warnings
 from pathlib import Path
 from typing import Any
 
 from blockmpec.bench.suite import BENCHMARK_SUITE
 from blockmpec.cases import CASES, load_case
+from blockmpec.drawings import DrawingWarning
 from blockmpec.errors import BlockmpecError, OptionError
-from blockmpec.registry import get_solver, list_solvers
+from blockmpec.registry import get_solver, list_solvers, solver_source
 from blockmpec.result import Result
 from blockmpec.solver import option_fields, solve
 from blockmpec.structure_file import save_structure
@@ -131,7 +133,9 @@ def cmd_solve(args: argparse.Namespace) -> int:
     plot_path = _output_file(args.plot, "--plot", "mechanism.png")
     if plot_path is not None:
         _check_figure_format(plot_path)
-    structure = load_case(args.case, params)
+    mesh_path = _output_file(args.export_mesh, "--export-mesh", "mechanism.obj")
+    structure = _load(args.case, params, sys.stderr if args.json else sys.stdout)
+    _check_dimension(structure, args, mesh_path)
     with _stdout_to_stderr() if args.json else contextlib.nullcontext():
         result = solve(structure, args.method, verify_tol=verify_tol, **options)
     if args.json:
@@ -161,7 +165,24 @@ def cmd_solve(args: argparse.Namespace) -> int:
     if plot_path is not None:
         _plot_mechanism(structure, result, plot_path)
         print(f"wrote {plot_path}", file=sys.stderr if args.json else sys.stdout)
+    if mesh_path is not None:
+        from blockmpec.three_d.plot import export_mechanism
+
+        export_mechanism(result, structure, mesh_path)
+        print(f"wrote {mesh_path}", file=sys.stderr if args.json else sys.stdout)
     return 0 if result.success else 1
+
+
+def _check_dimension(structure: Any, args: argparse.Namespace, mesh_path: Path | None) -> None:
+    """The 2D-only and 3D-only outputs of ``solve``: one line naming the option that does not fit the structure."""
+    three_d = getattr(structure, "dim", 2) == 3
+    if three_d and args.export_drawing:
+        raise OptionError("--export-drawing: a 3D structure has no drawing; write the mechanism as a mesh with "
+                          "--export-mesh FILE.obj")
+    if not three_d and mesh_path is not None:
+        raise OptionError("--export-mesh: only for a 3D structure; for a 2D one use --export-drawing or --plot")
+    if three_d and mesh_path is not None and mesh_path.suffix.lower() not in (".obj", ".stl", ".ply"):
+        raise OptionError(f"--export-mesh {mesh_path}: give a .obj, .stl or .ply file")
 
 
 def _check_figure_format(path: Path) -> None:
@@ -181,6 +202,14 @@ def _plot_mechanism(structure: Any, result: Any, path: Path) -> None:
 
     from blockmpec import plot
 
+    if getattr(structure, "dim", 2) == 3:
+        fig = Figure(figsize=(8, 7), layout="constrained")
+        plot.mechanism(result, structure, ax=fig.add_subplot(projection="3d"))
+        try:
+            fig.savefig(path, dpi=150)
+        except OSError as exc:
+            raise OptionError(f"--plot {path}: cannot write ({exc.strerror or exc})") from None
+        return
     x, y = structure.vertices[..., 0], structure.vertices[..., 1]
     aspect = float(y.max() - y.min()) / max(float(x.max() - x.min()), 1e-300)
     fig = Figure(figsize=(9, max(2.5, min(9.0, 6.5 * aspect + 0.8))), layout="constrained")
@@ -197,12 +226,14 @@ def cmd_export(args: argparse.Namespace) -> int:
         raise OptionError(f"-o {args.output}: is a folder; give a file name such as {out / 'structure.json'}")
     if not out.parent.is_dir():
         raise OptionError(f"-o {args.output}: folder {out.parent} does not exist")
-    structure = load_case(args.case, parse_pairs(args.param, "-p"))
+    structure = _load(args.case, parse_pairs(args.param, "-p"), sys.stdout)
+    three_d = getattr(structure, "dim", 2) == 3
     try:
         save_structure(structure, args.output)
     except OSError as exc:
         raise OptionError(f"-o {args.output}: cannot write ({exc.strerror or exc})") from None
-    print(f"wrote {args.output} ({structure.n_blocks} blocks, {len(structure.interfaces)} interfaces)")
+    print(f"wrote {args.output} ({structure.n_blocks} blocks, "
+          f"{len(structure.contacts if three_d else structure.interfaces)} interfaces)")
     return 0
 
 
@@ -212,12 +243,22 @@ def cmd_pushover(args: argparse.Namespace) -> int:
 
     verify_tol = check_tolerance(args.verify_tol)
     pairs = parse_pairs(args.option, "-O")
-    return run_command(args, lambda: load_case(args.case, parse_pairs(args.param, "-p")), pairs, verify_tol)
+    return run_command(args, lambda: _load(args.case, parse_pairs(args.param, "-p"), sys.stdout), pairs, verify_tol)
+
+
+def _load(case: str, params: dict[str, Any], stream) -> Any:
+    """``load_case``; for a drawing, its reader's summary line (what it read and skipped) goes to ``stream``."""
+    structure = load_case(case, params)
+    from blockmpec.drawings import is_drawing
+
+    if is_drawing(case):
+        print(f"{case}: {structure.metadata['drawing']['summary']}", file=stream)
+    return structure
 
 
 def cmd_import(args: argparse.Namespace) -> int:
     """``blockmpec import DRAWING -o FILE.json``: a drawing or image as a structure file."""
-    from blockmpec.drawings import is_drawing, read_structure
+    from blockmpec.drawings import is_drawing
 
     if not is_drawing(args.drawing):
         from blockmpec.drawings import SUFFIXES
@@ -226,7 +267,7 @@ def cmd_import(args: argparse.Namespace) -> int:
     out = Path(args.output)
     if out.is_dir() or not out.parent.is_dir():
         raise OptionError(f"-o {args.output}: " + ("is a folder" if out.is_dir() else f"folder {out.parent} does not exist"))
-    structure = read_structure(args.drawing, **parse_pairs(args.param, "-p"))
+    structure = _load(args.drawing, parse_pairs(args.param, "-p"), sys.stdout)
     try:
         save_structure(structure, args.output)
     except OSError as exc:
@@ -274,7 +315,8 @@ def method_listing() -> list[dict[str, Any]]:
     """What ``blockmpec methods --json`` prints: one object per method, with its user-facing options.
 
     Keys: ``name``, ``problem``, ``summary``, ``available`` (bool), ``unavailable_reason`` (None when
-    available), ``certifies_minimum`` (bool) and ``options``: a list of ``{name, type, default, help}``
+    available), ``certifies_minimum`` (bool), ``source`` (``"built-in"``, or where a plug-in came from:
+    :func:`blockmpec.registry.solver_source`) and ``options``: a list of ``{name, type, default, help}``
     (``type`` the Python type's name, ``default`` as JSON, non-finite numbers as "inf"/"-inf"/"nan").
     """
     out = []
@@ -285,7 +327,7 @@ def method_listing() -> list[dict[str, Any]]:
                     "help": help_text} for key, typ, default, help_text in option_fields(cls)]
         out.append({"name": name, "problem": cls.problem, "summary": cls.summary, "available": reason is None,
                     "unavailable_reason": reason, "certifies_minimum": bool(getattr(cls, "certifies_minimum", False)),
-                    "options": options})
+                    "source": solver_source(name), "options": options})
     return out
 
 
@@ -301,7 +343,8 @@ def cmd_methods(args: argparse.Namespace) -> int:
         cls = get_solver(name)
         reason = cls.unavailable_reason()
         state = "available" if reason is None else f"unavailable: {reason}"
-        print(f"{name} [{cls.problem}] {cls.summary} ({state})")
+        source = solver_source(name)
+        print(f"{name} [{cls.problem}] {cls.summary} ({state})" + ("" if source == "built-in" else f"; {source}"))
         for key, typ, default, help_text in option_fields(cls):
             typ_name = getattr(typ, "__name__", str(typ))
             print(f"    {key}: {typ_name} = {default!r}" + (f"  -- {help_text}" if help_text else ""))
@@ -323,7 +366,7 @@ def compare_cases(items: list[str]) -> list[Any]:
         elif item in CASES:
             run = CaseRun(item, item, {})
         elif item.lower().endswith(".json") or Path(item).exists():
-            run = CaseRun(Path(item).stem, None, {}, load_case(item, {}))
+            run = CaseRun(Path(item).stem, None, {}, _load(item, {}, sys.stderr))
         else:
             raise OptionError(f"--cases: {item!r} is not a suite case ({', '.join(BENCHMARK_SUITE)}), a built-in "
                               f"case ({', '.join(CASES)}) nor a structure file")
@@ -565,17 +608,30 @@ def _table(df, key: str, fmt: str, title: str, reference: bool = False, median: 
     return text_table(df, key, fmt, title, reference=reference, note=note, median=median)
 
 
+class OneLineParser(argparse.ArgumentParser):
+    """argparse's parser whose usage errors are one line, ``blockmpec: error: ...`` (exit 2), not the whole
+    usage; ``--help`` prints the usage in full as before."""
+
+    def error(self, message: str):
+        command = self.prog.partition(" ")[2]
+        where = f"{command}: " if command else ""
+        self.exit(2, f"blockmpec: error: {where}{message} (blockmpec {command + ' ' if command else ''}--help for "
+                     "the usage)\n")
+
+
 def build_parser() -> argparse.ArgumentParser:
     from blockmpec import __version__
 
-    parser = argparse.ArgumentParser(prog="blockmpec", description=__doc__.splitlines()[0])
+    parser = OneLineParser(prog="blockmpec", description=__doc__.splitlines()[0])
     parser.add_argument("--version", action="version", version=f"blockmpec {__version__}")
     parser.add_argument("--debug", action="store_true", help="show tracebacks of internal errors")
     sub = parser.add_subparsers(dest="command", required=True)
 
     p = sub.add_parser("solve", help="solve one case with one method")
-    p.add_argument("case", help="built-in case name, structure file (.json) or drawing (.dxf, .svg, an image)")
-    p.add_argument("--method", "-m", required=True, help="method name (see `blockmpec methods`)")
+    p.add_argument("case", help="built-in case name, structure file (.json), drawing (.dxf, .svg, an image) or 3D "
+                   "mesh (.obj, .stl, .ply)")
+    p.add_argument("--method", "-m", required=True, help="method name (see `blockmpec methods`), or MODULE:CLASS "
+                   "for a SolverBase subclass not installed as a plug-in (the current folder is searched too)")
     p.add_argument("-p", "--param", action="append", metavar="KEY=VALUE", help="case parameter")
     p.add_argument("-O", "--option", action="append", metavar="KEY=VALUE", help="method option")
     p.add_argument("--json", action="store_true", help="print one JSON object")
@@ -588,6 +644,8 @@ def build_parser() -> argparse.ArgumentParser:
                    "forces into a DXF or SVG file (a copy of the drawing solved, if it is one)")
     p.add_argument("--plot", metavar="FILE.png", help="draw the collapse mechanism (hinges and sliding joints "
                    "marked) into a figure file; its suffix chooses the format (.png, .pdf, .svg, ...)")
+    p.add_argument("--export-mesh", metavar="FILE.obj", help="3D: write the blocks moved along the mechanism as a "
+                   "mesh (.obj, one object per block; .stl or .ply)")
     p.set_defaults(func=cmd_solve)
 
     p = sub.add_parser("import", help="read a drawing (DXF, SVG) or an image of stones into a structure file",
@@ -610,10 +668,21 @@ def build_parser() -> argparse.ArgumentParser:
                    "and the options (name, type, default, help) of every method")
     p.set_defaults(func=cmd_methods)
 
+    _add_compare_parser(sub)
+
+    from blockmpec.pushover_cli import add_parser as add_pushover_parser
+
+    add_pushover_parser(sub, cmd_pushover)
+    return parser
+
+
+def _add_compare_parser(sub) -> None:
+    """The ``compare`` subcommand's arguments."""
     p = sub.add_parser("compare", help="run methods over cases and print tables and figures (the main job)")
     p.add_argument("--cases", default="", help="comma-separated suite labels "
                    f"({', '.join(BENCHMARK_SUITE)}), built-in case names or structure files (default: the suite)")
-    p.add_argument("--methods", default="", help="comma-separated method names (default: all)")
+    p.add_argument("--methods", default="", help="comma-separated method names, plug-ins included, or "
+                   "MODULE:CLASS (default: all registered methods)")
     p.add_argument("--config", metavar="STUDY.toml", help="a study file: cases with parameters, methods with "
                    "options, repeats, wall-clock limits (see studies/example_study.toml)")
     p.add_argument("--repeat", type=int, default=None, help="repetitions per case and method (default 1)")
@@ -640,11 +709,6 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=cmd_compare)
 
-    from blockmpec.pushover_cli import add_parser as add_pushover_parser
-
-    add_pushover_parser(sub, cmd_pushover)
-    return parser
-
 
 def _detach_stdout() -> None:
     """Point stdout at /dev/null, so that the interpreter's last flush at exit does not fail once more."""
@@ -655,11 +719,61 @@ def _detach_stdout() -> None:
         pass
 
 
+def _one_line_warnings(default):
+    """``warnings.showwarning`` that prints a drawing's warnings as ``blockmpec: warning: ...``, one line each."""
+    def show(message, category, filename, lineno, file=None, line=None):
+        if issubclass(category, DrawingWarning):
+            print(f"blockmpec: warning: {message}", file=sys.stderr)
+        else:
+            default(message, category, filename, lineno, file, line)
+
+    return show
+@contextlib.contextmanager
+def _command_context():
+    """What every command runs in: the current folder on ``sys.path`` (last, so it shadows no installed package),
+    where ``--method module:Class`` finds a module that is not installed, as under ``python -m``; and a plug-in that
+    failed to load (:class:`~blockmpec.errors.PluginWarning`) shown as one line ``blockmpec: warning: ...``."""
+    import warnings
+
+    from blockmpec.errors import PluginWarning
+
+    try:
+        cwd = os.getcwd()
+    except OSError:  # the current folder was deleted: nothing to find there
+        cwd = None
+    added = cwd is not None and not any(os.path.abspath(p or ".") == cwd for p in sys.path)
+    if added:
+        sys.path.append(cwd)
+    with warnings.catch_warnings():
+        shown = warnings.showwarning
+
+        def show(message, category, filename, lineno, file=None, line=None):
+            if issubclass(category, PluginWarning):
+                print(f"blockmpec: warning: {message}", file=sys.stderr)
+            else:
+                shown(message, category, filename, lineno, file, line)
+
+        warnings.showwarning = show
+        try:
+            yield
+        finally:
+            if added and cwd in sys.path:
+                sys.path.remove(cwd)
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
+    with _command_context():
+        return _dispatch(args)
+
+
+def _dispatch(args: argparse.Namespace) -> int:
     try:
-        code = int(args.func(args))
+        with warnings.catch_warnings():
+            warnings.simplefilter("always", DrawingWarning)
+            warnings.showwarning = _one_line_warnings(warnings.showwarning)
+            code = int(args.func(args))
         sys.stdout.flush()  # here, so that a reader gone by now is the BrokenPipeError below, not one at exit
         return code
     except BlockmpecError as exc:

@@ -42,3 +42,9 @@ class PrecisionWarning(UserWarning):
     """Input whose floating-point resolution is coarse against its own size (e.g. a unit block
     1e15 from the origin, whose coordinates are resolved only to 0.125): digits the author meant
     may already be lost in the input, which no computation can recover."""
+
+
+class PluginWarning(UserWarning):
+    """A method plug-in (an entry point of the group ``blockmpec.methods``) that could not be loaded: its module
+    failed to import, it is not a :class:`~blockmpec.method.SolverBase` subclass, or its name is taken.  The message
+    is one line naming the entry point, its distribution and the reason; every other method still works."""

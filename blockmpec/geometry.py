@@ -37,6 +37,10 @@ from blockmpec.units import Frame, block_extent, power_of_two
 #: Default relative tolerance for geometric tests (scaled by block size).
 DEFAULT_GEOMETRY_TOL = 1e-6
 
+#: the friction coefficient ``tan(phi)`` of the built-in cases and of the drawing readers unless given (their
+#: parameter ``mu``)
+DEFAULT_FRICTION = 0.65
+
 
 @dataclass(frozen=True)
 class PointLoad:
@@ -833,31 +837,44 @@ def _check_interfaces(s: Structure, tol: float, frame: Frame | None = None, conv
 
 
 def _check_connectivity(s: Structure) -> None:
-    if not s.fixed.any():
+    check_supported(s.fixed, s.interfaces.minus, s.interfaces.plus, list(range(s.n_blocks)), "interfaces")
+
+
+def check_supported(fixed: np.ndarray, minus: np.ndarray, plus: np.ndarray, names: list, contacts: str) -> None:
+    """Raise a StructureError unless some block is fixed and some free, every free block touches another and every
+    block is connected to a fixed one through the contacts ``(minus, plus)`` (2D interfaces, 3D contact polygons);
+    blocks are named by ``names``, the contacts by the word ``contacts``."""
+    n = fixed.shape[0]
+    if not fixed.any():
         raise StructureError("no block is fixed: mark at least one block (a base or springing) as fixed")
-    if s.fixed.all():
+    if fixed.all():
         raise StructureError("every block is fixed: there is nothing that can collapse")
-    itf = s.interfaces
-    touched = np.zeros(s.n_blocks, bool)
-    touched[itf.minus] = True
-    touched[itf.plus] = True
-    lonely = np.flatnonzero(~touched & ~s.fixed)
+    touched = np.zeros(n, bool)
+    touched[minus] = True
+    touched[plus] = True
+    lonely = np.flatnonzero(~touched & ~fixed)
     if lonely.size:
         raise StructureError(
-            f"block {lonely[0]} touches no other block (free blocks without interfaces: {lonely[:10].tolist()}); "
-            "move it into contact or remove it"
+            f"block {names[lonely[0]]} touches no other block (free blocks without {contacts}: "
+            f"{[names[i] for i in lonely[:10]]}{_more(lonely.size, 10)}); move it into contact or remove it"
         )
-    graph = coo_array((np.ones(len(itf)), (itf.minus, itf.plus)), shape=(s.n_blocks, s.n_blocks))
+    graph = coo_array((np.ones(len(minus)), (minus, plus)), shape=(n, n))
     from scipy.sparse.csgraph import connected_components  # imported here, as cKDTree above
 
     _, label = connected_components(graph, directed=False)
     supported = np.zeros(label.max() + 1, bool)
-    supported[label[s.fixed]] = True
+    supported[label[fixed]] = True
     floating = np.flatnonzero(~supported[label])
     if floating.size:
         raise StructureError(
-            f"blocks {floating[:10].tolist()} are not connected to any fixed block through interfaces"
+            f"blocks {[names[i] for i in floating[:10]]}{_more(floating.size, 10)} are not connected to any fixed "
+            f"block through {contacts}"
         )
+
+
+def _more(total: int, shown: int) -> str:
+    """What a message listing the first ``shown`` of ``total`` items adds: `` and 5 more (15 in all)``."""
+    return f" and {total - shown} more ({total} in all)" if total > shown else ""
 
 
 def _normalised(s: Structure) -> tuple[Structure, Frame]:

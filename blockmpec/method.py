@@ -10,9 +10,13 @@ A solver adapter declares:
 * ``Settings`` (optional): a dataclass of its engine settings, the measured defaults of the
   knobs that experiments vary (``studies/lab``); not options: :func:`blockmpec.solve` does not take them,
   a configured instance does (``get_solver(name)(settings=...)``, run by :func:`blockmpec.run_solver`);
-* ``setup(ops)``: untimed preparation (build the Pyomo model, compile, load);
+* ``setup(ops)``: untimed preparation (build the Pyomo model, compile, load) and, optionally, the ``plan``: the
+  stages the run may take (a :class:`blockmpec.solvers.plan.Plan`), whose stages ``run`` starts one by one and
+  whose stages that ran :func:`blockmpec.run_solver` records as ``Result.extra["plan"]``;
 * ``run(deadline)``: the timed solve, returning a :class:`~blockmpec.result.RunOutput` with the raw iterate;
-  every engine it runs keeps the one :class:`~blockmpec.deadline.Deadline`;
+  every engine it runs keeps the one :class:`~blockmpec.deadline.Deadline`; a method that judges its own
+  iterates (a multistart, a heuristic incumbent) asks :meth:`SolverBase.verified`, which verifies at the run's
+  ``verify_tol`` (handed down by :func:`blockmpec.run_solver` before set-up);
 * optionally ``skip_reason(ops)``: why the method does not fit a case;
 * ``exact_solution = False`` for a heuristic whose answers need not satisfy (3).
 
@@ -29,7 +33,8 @@ from blockmpec.deadline import Deadline
 from blockmpec.errors import OptionError
 from blockmpec.operators import Operators
 from blockmpec.options import CommonOptions
-from blockmpec.result import RunOutput
+from blockmpec.result import RunOutput, Solution
+from blockmpec.verify import VERIFY_TOL, residuals
 
 
 class SolverBase:
@@ -46,6 +51,11 @@ class SolverBase:
     #: residual of (3) (e.g. the SLP's tilted friction surface leaves dilatancy);
     #: their results are reported, and usually come out unverified.
     exact_solution: ClassVar[bool] = True
+    #: the largest residual of a verified success: the run's ``verify_tol``, set by :func:`blockmpec.run_solver`
+    #: before set-up
+    verify_tol: float = VERIFY_TOL
+    #: the stages set-up chose (a :class:`blockmpec.solvers.plan.Plan`; None: the method records none)
+    plan: Any = None
 
     def __init__(self, *, settings: Any = None, **options: Any) -> None:
         fields = {f.name for f in dataclasses.fields(self.Options)}
@@ -82,6 +92,14 @@ class SolverBase:
     def run(self, deadline: Deadline) -> RunOutput:  # pragma: no cover - abstract
         """The timed solve, within ``deadline``."""
         raise NotImplementedError
+
+    def verified(self, solution: Solution) -> bool:
+        """Whether ``solution`` has a multiplier and every residual of its problem at most :attr:`verify_tol` (the
+        shared verifier, as :func:`blockmpec.solve` judges the result)."""
+        if solution is None or solution.multiplier is None:
+            return False
+        found = residuals(self.ops, solution, associative=self.problem == "associative")
+        return bool(found) and all(v <= self.verify_tol for v in found.values())
 
 
 def option_fields(cls: type[SolverBase]) -> list[tuple[str, Any, Any, str]]:

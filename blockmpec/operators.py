@@ -159,6 +159,51 @@ class Operators:
         """Number of interfaces ``c``."""
         return int(self.length.shape[0])
 
+    # ------------------------------------------------------------------ the layout contract shared with 3D
+    # (:class:`blockmpec.three_d.operators.Operators3D` honours the same): the formulations, the verifier and
+    # the engines read the layout of ``x``, ``u`` and the yield rows from these, never from strides.
+
+    #: space dimension
+    dim = 2
+    #: generalised velocities (and equilibrium rows) per free block: ``(u_x, u_y, theta)``
+    block_dofs = 3
+
+    @property
+    def n_contacts(self) -> int:
+        """Number of contacts, each carrying three entries of ``x`` and one normal force: the interfaces."""
+        return self.n_interfaces
+
+    @property
+    def normal_index(self) -> np.ndarray:
+        """Positions of the normal forces ``n_k`` in ``x``, shape (c,)."""
+        return np.arange(1, 3 * self.n_interfaces, 3)
+
+    @property
+    def shear_index(self) -> np.ndarray:
+        """Positions of the shear forces in ``x``, one column per shear component, shape (c, 1)."""
+        return np.arange(0, 3 * self.n_interfaces, 3)[:, None]
+
+    @property
+    def unilateral_contact(self) -> np.ndarray:
+        """Contact of each no-tension row (column of ``N_u``), shape (2c,)."""
+        return np.repeat(np.arange(self.n_interfaces), 2)
+
+    @property
+    def friction_contact(self) -> np.ndarray:
+        """Contact of each friction row (column of ``N_f``), shape (2c,); each row's ``n`` coefficient is
+        exactly ``mu`` of its contact (so the fixed point's cohesion is ``-n* (tan phi - tan psi)`` per row)."""
+        return np.repeat(np.arange(self.n_interfaces), 2)
+
+    @property
+    def unilateral_arm(self) -> np.ndarray:
+        """Length turning each no-tension row ``+-m + n L/2`` into a force: ``L/2``, shape (2c,)."""
+        return np.repeat(self.length / 2, 2)
+
+    @property
+    def force_arm(self) -> np.ndarray:
+        """Length turning each entry of ``x`` into a force: 1 for ``t, n``, ``L/2`` for ``m``, shape (3c,)."""
+        return np.column_stack([np.ones(self.n_interfaces), np.ones(self.n_interfaces), self.length / 2]).ravel()
+
     @property
     def n_free_blocks(self) -> int:
         """Number of free blocks ``b``."""
@@ -249,7 +294,17 @@ def _snap_loads(dead: np.ndarray, live: np.ndarray) -> tuple[np.ndarray, np.ndar
     return snap(dead, grid), snap(live, grid)
 
 
-def assemble(structure: Structure) -> Operators:
+def assemble(structure: Structure):
+    """Assemble the operators of a structure: :func:`assemble_2d` for a :class:`~blockmpec.geometry.Structure`,
+    :func:`blockmpec.three_d.operators.assemble_3d` for a :class:`~blockmpec.three_d.geometry.Structure3D`."""
+    if getattr(structure, "dim", 2) == 3:
+        from blockmpec.three_d.operators import assemble_3d
+
+        return assemble_3d(structure)
+    return assemble_2d(structure)
+
+
+def assemble_2d(structure: Structure) -> Operators:
     """Assemble ``E, N_u, N_f, V_f, f_d, f_l`` for a structure (vectorised), in canonical order.
 
     Geometry is taken in the structure's :class:`~blockmpec.units.CanonicalFrame` (origin at the
@@ -286,15 +341,50 @@ def assemble(structure: Structure) -> Operators:
         times an area beyond the floating-point range.
     """
     s = structure
-    itf = s.interfaces
     free = np.flatnonzero(~s.fixed)
+    b = free.size
+    frame, ell, density_unit, live_sign, mirror = _canonical_frame(s, free)
+    area, centroid, dead, live, force_scale = _canonical_loads(s, frame, free, ell, density_unit, live_sign, mirror)
+    rank, free_blocks, dof, order = _block_order(s, centroid, free)
+    dead, live = dead[order], live[order]
+    ids, flipped, minus, plus, mid, tau, nu, length = _interface_geometry(s, frame, rank, mirror)
+    E = _equilibrium_matrix(minus, plus, dof, mid, centroid, tau, nu, b)
+    _check_finite_operator(E, length, free_blocks, minus, ids)
+    friction = s.interface_friction()[ids]
+    dilatancy = s.interface_dilatancy()[ids]
+    return Operators(
+        E=E,
+        N_u=_unilateral_matrix(length),
+        N_f=_friction_matrix(friction),
+        V_f=_friction_matrix(dilatancy),
+        f_d=dead.ravel(),
+        f_l=live.ravel(),
+        free_blocks=free_blocks,
+        interface_ids=ids,
+        length=length,
+        friction=friction,
+        dilatancy=dilatancy,
+        length_scale=ell,
+        force_scale=force_scale,
+        minus_dof=dof[minus],
+        plus_dof=dof[plus],
+        origin=frame.origin,
+        interface_flipped=flipped,
+        block_area=area[free_blocks],
+        mirror=mirror,
+        structure=structure,
+    )
+
+
+def _canonical_frame(s: Structure, free: np.ndarray):
+    """``(frame, ell, density_unit, live_sign, mirror)``: the canonical frame, its length scale, the density unit
+    (a power of two near the median density) and the live load's sign; the frame's ``x`` axis points along the total
+    horizontal live load (weights and live point loads): ``mirror = -1`` when that is ``-x`` in the structure."""
     b = free.size
     frame = CanonicalFrame.of(s.vertices, free)
     ell = frame.length_scale
     density_unit = power_of_two(float(np.median(s.density[free]))) if b else 1.0
     live_sign = s.live_direction * s.live_factor
-
-    # the canonical x axis points along the total horizontal live load (weights and live point loads)
     q = frame(s.vertices)
     with np.errstate(over="ignore", under="ignore", invalid="ignore"):
         scale, area, _ = polygon_shape(q)
@@ -304,17 +394,20 @@ def assemble(structure: Structure) -> Operators:
                                  if pl.kind == "live" and not s.fixed[pl.block]]
         total, size = float(np.sum(live_x)), float(np.sum(np.abs(live_x)))
     mirror = -1.0 if total < -1e-12 * size else 1.0
-    frame = frame.mirrored(mirror)
+    return frame.mirrored(mirror), ell, density_unit, live_sign, mirror
 
-    # each polygon in the canonical frame, from its lowest vertex: its shape data are the same bits
+
+def _canonical_loads(s: Structure, frame, free: np.ndarray, ell: float, density_unit: float, live_sign: float,
+                     mirror: float):
+    """``(area, centroid, dead, live, force_scale)``: every block's area and centroid in the canonical frame (each
+    polygon from its lowest vertex: its shape data are the same bits), and the free blocks' dead and live loads
+    ``(F_x, F_y, M)``, nondimensional (weights in units of ``rho ell^2``, point loads likewise, then all over the
+    force unit) and snapped; ``force_scale`` the force unit in the structure's units."""
     q = _canonical_polygons(frame(s.vertices), s.n_vertices, reverse=mirror < 0)
     scale, area, local_centroid = polygon_shape(q)
     with np.errstate(over="ignore", under="ignore", invalid="ignore"):
         area = area * scale * scale
         centroid = q[:, 0, :] + local_centroid * scale[:, None]
-
-        # loads, nondimensional: weights in units of rho ell^2 (rho a power of two near the median
-        # density), point loads likewise, then all over the force unit
         weight = (s.density / density_unit) * area
         dead = np.zeros((s.n_blocks, 3))
         live = np.zeros((s.n_blocks, 3))
@@ -332,18 +425,28 @@ def assemble(structure: Structure) -> Operators:
     dead, live = _snap_loads(dead / unit, live / unit)
     with np.errstate(over="ignore", under="ignore"):
         force_scale = float(density_unit * ell * ell * unit)
+    return area, centroid, dead, live, force_scale
 
-    # canonical order of blocks and interfaces
+
+def _block_order(s: Structure, centroid: np.ndarray, free: np.ndarray):
+    """``(rank, free_blocks, dof, order)``: the canonical rank of every block (fixed blocks first, then by centroid
+    height and canonical ``x``), the free blocks in that order, each block's equilibrium row block (-1: fixed) and
+    the order of the free blocks' loads."""
     fixed = np.flatnonzero(s.fixed)
     rank = np.empty(s.n_blocks, int)
     rank[free] = _canonical_ranks(_position_key(centroid[free]))
     rank[fixed] = _canonical_ranks(_position_key(centroid[fixed])) - fixed.size  # fixed blocks first
     free_blocks = free[np.argsort(rank[free])]
     dof = np.full(s.n_blocks, -1)
-    dof[free_blocks] = np.arange(b)
-    order = np.argsort(rank[free])
-    dead, live = dead[order], live[order]
+    dof[free_blocks] = np.arange(free.size)
+    return rank, free_blocks, dof, np.argsort(rank[free])
 
+
+def _interface_geometry(s: Structure, frame, rank: np.ndarray, mirror: float):
+    """The interfaces in canonical order, oriented from the earlier block to the later: ``(ids, flipped, minus, plus,
+    mid, tau, nu, length)``, with their midpoints, unit tangents and normals (normal from minus into plus) and
+    lengths; each segment measured in units of a power of two near its size."""
+    itf = s.interfaces
     keep = np.flatnonzero(~(s.fixed[itf.minus] & s.fixed[itf.plus]))
     flipped = rank[itf.minus[keep]] > rank[itf.plus[keep]]
     minus = np.where(flipped, itf.plus[keep], itf.minus[keep])
@@ -357,17 +460,19 @@ def assemble(structure: Structure) -> Operators:
     ids, flipped, minus, plus = keep[itf_order], flipped[itf_order], minus[itf_order], plus[itf_order]
     start, end, mid = start[itf_order], end[itf_order], mid[itf_order]
     c = ids.size
-
-    # segment lengths and directions, each segment in units of a power of two near its size
     seg = end - start
     seg_unit = np.atleast_1d(power_of_two(np.abs(seg).max(axis=1) if c else np.zeros(0)))
     seg = seg / seg_unit[:, None]
     seg_length = np.sqrt((seg * seg).sum(axis=1))
     tau = seg / seg_length[:, None]
     nu = np.column_stack([-tau[:, 1], tau[:, 0]])
-    length = seg_length * seg_unit
+    return ids, flipped, minus, plus, mid, tau, nu, seg_length * seg_unit
 
-    # E: generalised force (Fx, Fy, M about centroid) of x_k on the minus block; minus that on plus.
+
+def _equilibrium_matrix(minus, plus, dof, mid, centroid, tau, nu, b: int) -> sp.csr_array:
+    """``E``: the generalised force (``F_x, F_y``, ``M`` about the centroid) of ``x_k = (t_k, n_k, m_k)`` on interface
+    ``k``'s minus block, and minus that on its plus block (rows of free blocks only)."""
+    c = minus.size
     rows, cols, vals = [], [], []
     k = np.arange(c)
     for side, blocks in ((1.0, minus), (-1.0, plus)):
@@ -392,40 +497,17 @@ def assemble(structure: Structure) -> Operators:
     )
     E.sum_duplicates()
     E.eliminate_zeros()
-    _check_finite_operator(E, length, free_blocks, minus, ids)
+    return E
 
+
+def _unilateral_matrix(length: np.ndarray) -> sp.csr_array:
+    """``N_u``: the no-tension rows ``n_k L_k / 2 +- m_k <= 0`` of every interface (``N_u^T x <= 0``)."""
+    c = length.size
+    k = np.arange(c)
     rows_u = np.concatenate([3 * k + 1, 3 * k + 1, 3 * k + 2, 3 * k + 2])
     cols_u = np.concatenate([2 * k, 2 * k + 1, 2 * k, 2 * k + 1])
     vals_u = np.concatenate([length / 2, length / 2, np.ones(c), -np.ones(c)])
-    N_u = sp.csr_array((vals_u, (rows_u, cols_u)), shape=(3 * c, 2 * c))
-
-    friction = s.interface_friction()[ids]
-    dilatancy = s.interface_dilatancy()[ids]
-    N_f = _friction_matrix(friction)
-    V_f = _friction_matrix(dilatancy)
-
-    return Operators(
-        E=E,
-        N_u=N_u,
-        N_f=N_f,
-        V_f=V_f,
-        f_d=dead.ravel(),
-        f_l=live.ravel(),
-        free_blocks=free_blocks,
-        interface_ids=ids,
-        length=length,
-        friction=friction,
-        dilatancy=dilatancy,
-        length_scale=ell,
-        force_scale=force_scale,
-        minus_dof=dof[minus],
-        plus_dof=dof[plus],
-        origin=frame.origin,
-        interface_flipped=flipped,
-        block_area=area[free_blocks],
-        mirror=mirror,
-        structure=structure,
-    )
+    return sp.csr_array((vals_u, (rows_u, cols_u)), shape=(3 * c, 2 * c))
 
 
 def _check_finite_loads(s: Structure, dead: np.ndarray, live: np.ndarray, free: np.ndarray) -> None:

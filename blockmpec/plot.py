@@ -322,68 +322,27 @@ def mechanism(result: Any, structure, *, ax=None, amplitude: float = 0.12, show_
     >>> wall = bm.cases.wall(courses=4, blocks_per_course=3)          # doctest: +SKIP
     >>> ax = bm.plot.mechanism(bm.solve(wall, "fixed-point"), wall)   # doctest: +SKIP
     >>> ax.figure.savefig("mechanism.png")                            # doctest: +SKIP
+
+    A 3D structure (:class:`~blockmpec.three_d.Structure3D`) is drawn by :func:`blockmpec.three_d.plot.mechanism`
+    (``ax`` then a 3D axes).
     """
-    from matplotlib.lines import Line2D
-    from matplotlib.patches import FancyArrowPatch, Patch, Polygon
+    if getattr(structure, "dim", 2) == 3:
+        from blockmpec.three_d.plot import mechanism as mechanism_3d
+
+        return mechanism_3d(result, structure, ax=ax, amplitude=amplitude, title=title)
+    from matplotlib.patches import Patch
 
     ax = _axes(ax)
     frame = _mechanism_frame(result)
     handles = [Patch(facecolor="none", edgecolor="0.5", ls="--", label="undeformed")]
-    if any(structure.fixed):
-        handles.append(Patch(facecolor="0.75", edgecolor="0.35", hatch="///", label="fixed (support)"))
-    for i in range(structure.n_blocks):
-        if structure.fixed[i]:
-            ax.add_patch(Polygon(structure.polygon(i), closed=True, facecolor="0.75", edgecolor="0.35", lw=0.6,
-                                 hatch="///"))
-        else:
-            ax.add_patch(Polygon(structure.polygon(i), closed=True, fill=False, edgecolor="0.65", lw=0.6, ls="--"))
-    free = [i for i in range(structure.n_blocks) if not structure.fixed[i]] or list(range(structure.n_blocks))
-    xy = np.vstack([structure.polygon(i) for i in free])
-    lo, hi = xy.min(axis=0), xy.max(axis=0)
-    size = float(max(hi - lo))
+    lo, hi, size = _draw_at_rest(ax, structure, handles)
     legend_title = None
     if frame is not None:
         moved, s = displaced_polygons(structure, frame, amplitude)
-        u, have = _motions(structure, frame)
-        centroid = structure.centroid
-        v_ref = _reference_speed(structure, u, have)
-        kinds = set()
-        for j, poly in moved.items():
-            arm = np.linalg.norm(structure.polygon(j) - centroid[j], axis=1).max()
-            moving = np.hypot(u[j, 0], u[j, 1]) + abs(u[j, 2]) * arm > tol * v_ref
-            kinds.add(moving)
-            ax.add_patch(Polygon(poly, closed=True, facecolor=MOVING if moving else STILL, edgecolor="0.1", lw=0.7,
-                                 alpha=0.9))
-        if True in kinds:
-            handles.append(Patch(facecolor=MOVING, edgecolor="0.1", label="moving block (displaced)"))
-        if False in kinds:
-            handles.append(Patch(facecolor=STILL, edgecolor="0.1", label="block at rest"))
+        u, _ = _motions(structure, frame)
+        _draw_displaced(ax, structure, frame, moved, tol, handles)
         if show_joints:
-            state = joints(frame, structure, tol=tol)
-            itf = structure.interfaces
-            n_hinge = n_slide = 0
-            for k in np.flatnonzero(state["sliding"].to_numpy()):
-                m = int(itf.minus[k])
-                a = _moved_point(np.asarray(itf.start[k], float), m, u, centroid, s, bool(structure.fixed[m]))
-                b = _moved_point(np.asarray(itf.end[k], float), m, u, centroid, s, bool(structure.fixed[m]))
-                ax.plot([a[0], b[0]], [a[1], b[1]], color=SLIDING, lw=2.6, solid_capstyle="butt", zorder=4)
-                t = (b - a) / max(np.hypot(*(b - a)), 1e-300) * math.copysign(1.0, state["slip"].iloc[k])
-                mid, half = 0.5 * (a + b), 0.22 * np.hypot(*(b - a))
-                ax.add_patch(FancyArrowPatch(tuple(mid - half * t), tuple(mid + half * t), arrowstyle="-|>",
-                                             mutation_scale=8, color=SLIDING, lw=1.0, zorder=5))
-                n_slide += 1
-            for k in np.flatnonzero((state["hinge"] != "").to_numpy()):
-                m = int(itf.minus[k])
-                p = np.array([state["hinge_x"].iloc[k], state["hinge_y"].iloc[k]])
-                q = _moved_point(p, m, u, centroid, s, bool(structure.fixed[m]))
-                ax.plot(q[0], q[1], "o", ms=5.5, mfc=HINGE, mec="white", mew=0.8, zorder=6)
-                n_hinge += 1
-            if n_hinge:
-                handles.append(Line2D([], [], ls="", marker="o", ms=5.5, mfc=HINGE, mec="white",
-                                      label="hinge: relative rotation centre"))
-            if n_slide:
-                handles.append(Line2D([], [], color=SLIDING, lw=2.6, marker=">", ms=4,
-                                      label="sliding joint: relative tangential motion"))
+            _draw_joints(ax, structure, frame, u, s, tol, handles)
         legend_title = (f"largest displacement drawn = {amplitude:.0%} of the structure's size\n"
                         "(a mechanism is defined up to a positive factor)")
         lo = np.minimum(lo, np.vstack(list(moved.values())).min(axis=0)) if moved else lo
@@ -391,16 +350,7 @@ def mechanism(result: Any, structure, *, ax=None, amplitude: float = 0.12, show_
     else:
         ax.text(0.5, 0.5, "no mechanism", transform=ax.transAxes, ha="center")
     if load_arrow:
-        sign = float(getattr(structure, "live_direction", 1)) * float(getattr(structure, "live_factor", 1.0))
-        y = lo[1] + 0.8 * (hi[1] - lo[1])
-        if sign >= 0:  # the arrow stands on the side the load pushes from
-            x0, x1 = lo[0] - 0.30 * size, lo[0] - 0.08 * size
-        else:
-            x0, x1 = hi[0] + 0.30 * size, hi[0] + 0.08 * size
-        ax.add_patch(FancyArrowPatch((x0, y), (x1, y), arrowstyle="-|>", mutation_scale=14, color=LOAD, lw=1.6))
-        ax.text(0.5 * (x0 + x1), y + 0.03 * size, r"$\lambda f_l$", color=LOAD, ha="center", va="bottom",
-                fontsize=9)
-        handles.append(Line2D([], [], color=LOAD, marker=">", lw=1.6, label=r"live load $\lambda f_l$ (direction)"))
+        _draw_load_arrow(ax, structure, lo, hi, size, handles)
     if title is None and frame is not None and getattr(result, "method", None):
         lam = getattr(result, "multiplier", None)
         title = f"{result.method}" + (f": $\\lambda$ = {lam:.6g}" if _finite(lam) else "")
@@ -416,6 +366,95 @@ def mechanism(result: Any, structure, *, ax=None, amplitude: float = 0.12, show_
         ax.legend(handles=handles, loc="upper left", bbox_to_anchor=(1.0, 1.0), frameon=False, fontsize=7,
                   title=legend_title, title_fontsize=7, alignment="left")
     return ax
+
+
+def _draw_at_rest(ax, structure, handles: list) -> tuple[np.ndarray, np.ndarray, float]:
+    """The blocks at rest (fixed ones hatched grey, free ones dashed outlines); ``(lo, hi, size)`` of the free
+    blocks' bounding box."""
+    from matplotlib.patches import Patch, Polygon
+
+    if any(structure.fixed):
+        handles.append(Patch(facecolor="0.75", edgecolor="0.35", hatch="///", label="fixed (support)"))
+    for i in range(structure.n_blocks):
+        if structure.fixed[i]:
+            ax.add_patch(Polygon(structure.polygon(i), closed=True, facecolor="0.75", edgecolor="0.35", lw=0.6,
+                                 hatch="///"))
+        else:
+            ax.add_patch(Polygon(structure.polygon(i), closed=True, fill=False, edgecolor="0.65", lw=0.6, ls="--"))
+    free = [i for i in range(structure.n_blocks) if not structure.fixed[i]] or list(range(structure.n_blocks))
+    xy = np.vstack([structure.polygon(i) for i in free])
+    lo, hi = xy.min(axis=0), xy.max(axis=0)
+    return lo, hi, float(max(hi - lo))
+
+
+def _draw_displaced(ax, structure, frame, moved: dict, tol: float, handles: list) -> None:
+    """The displaced blocks, orange when they move and pale when they stay at rest."""
+    from matplotlib.patches import Patch, Polygon
+
+    u, have = _motions(structure, frame)
+    centroid = structure.centroid
+    v_ref = _reference_speed(structure, u, have)
+    kinds = set()
+    for j, poly in moved.items():
+        arm = np.linalg.norm(structure.polygon(j) - centroid[j], axis=1).max()
+        moving = np.hypot(u[j, 0], u[j, 1]) + abs(u[j, 2]) * arm > tol * v_ref
+        kinds.add(moving)
+        ax.add_patch(Polygon(poly, closed=True, facecolor=MOVING if moving else STILL, edgecolor="0.1", lw=0.7,
+                             alpha=0.9))
+    if True in kinds:
+        handles.append(Patch(facecolor=MOVING, edgecolor="0.1", label="moving block (displaced)"))
+    if False in kinds:
+        handles.append(Patch(facecolor=STILL, edgecolor="0.1", label="block at rest"))
+
+
+def _draw_joints(ax, structure, frame, u: np.ndarray, s: float, tol: float, handles: list) -> None:
+    """Sliding joints (red lines with the plus block's relative motion) and hinges (black dots), displaced."""
+    from matplotlib.lines import Line2D
+    from matplotlib.patches import FancyArrowPatch
+
+    centroid = structure.centroid
+    state = joints(frame, structure, tol=tol)
+    itf = structure.interfaces
+    n_hinge = n_slide = 0
+    for k in np.flatnonzero(state["sliding"].to_numpy()):
+        m = int(itf.minus[k])
+        a = _moved_point(np.asarray(itf.start[k], float), m, u, centroid, s, bool(structure.fixed[m]))
+        b = _moved_point(np.asarray(itf.end[k], float), m, u, centroid, s, bool(structure.fixed[m]))
+        ax.plot([a[0], b[0]], [a[1], b[1]], color=SLIDING, lw=2.6, solid_capstyle="butt", zorder=4)
+        t = (b - a) / max(np.hypot(*(b - a)), 1e-300) * math.copysign(1.0, state["slip"].iloc[k])
+        mid, half = 0.5 * (a + b), 0.22 * np.hypot(*(b - a))
+        ax.add_patch(FancyArrowPatch(tuple(mid - half * t), tuple(mid + half * t), arrowstyle="-|>",
+                                     mutation_scale=8, color=SLIDING, lw=1.0, zorder=5))
+        n_slide += 1
+    for k in np.flatnonzero((state["hinge"] != "").to_numpy()):
+        m = int(itf.minus[k])
+        p = np.array([state["hinge_x"].iloc[k], state["hinge_y"].iloc[k]])
+        q = _moved_point(p, m, u, centroid, s, bool(structure.fixed[m]))
+        ax.plot(q[0], q[1], "o", ms=5.5, mfc=HINGE, mec="white", mew=0.8, zorder=6)
+        n_hinge += 1
+    if n_hinge:
+        handles.append(Line2D([], [], ls="", marker="o", ms=5.5, mfc=HINGE, mec="white",
+                              label="hinge: relative rotation centre"))
+    if n_slide:
+        handles.append(Line2D([], [], color=SLIDING, lw=2.6, marker=">", ms=4,
+                              label="sliding joint: relative tangential motion"))
+
+
+def _draw_load_arrow(ax, structure, lo: np.ndarray, hi: np.ndarray, size: float, handles: list) -> None:
+    """An arrow on the side the live load pushes from."""
+    from matplotlib.lines import Line2D
+    from matplotlib.patches import FancyArrowPatch
+
+    sign = float(getattr(structure, "live_direction", 1)) * float(getattr(structure, "live_factor", 1.0))
+    y = lo[1] + 0.8 * (hi[1] - lo[1])
+    if sign >= 0:  # the arrow stands on the side the load pushes from
+        x0, x1 = lo[0] - 0.30 * size, lo[0] - 0.08 * size
+    else:
+        x0, x1 = hi[0] + 0.30 * size, hi[0] + 0.08 * size
+    ax.add_patch(FancyArrowPatch((x0, y), (x1, y), arrowstyle="-|>", mutation_scale=14, color=LOAD, lw=1.6))
+    ax.text(0.5 * (x0 + x1), y + 0.03 * size, r"$\lambda f_l$", color=LOAD, ha="center", va="bottom",
+            fontsize=9)
+    handles.append(Line2D([], [], color=LOAD, marker=">", lw=1.6, label=r"live load $\lambda f_l$ (direction)"))
 
 
 # --------------------------------------------------------------------------- convergence
@@ -480,8 +519,6 @@ def convergence(results: Mapping[str, Any] | Sequence[Any], *, y: str = "multipl
     relaxations, more than half the answer's size below it) is left out rather than flatten the panel;
     the y-range always holds every point drawn.
     """
-    from matplotlib.lines import Line2D
-
     if y not in CONVERGENCE_MEASURES:
         raise ValueError(f"y must be one of {', '.join(CONVERGENCE_MEASURES)}; got {y!r}")
     if x not in CONVERGENCE_AXES:
@@ -495,56 +532,82 @@ def convergence(results: Mapping[str, Any] | Sequence[Any], *, y: str = "multipl
     handles = []
     bound_lines = []
     for label, value in results.items():
-        tr = _trace_of(value)
-        colour, marker = method_style(label, methods.get(label) or getattr(value, "method", None))
-        kw = dict(marker=marker, ms=3.5, lw=1.0, color=colour)
-        if x == "lp_step" and not any("lp_iterations" in r for r in tr):
-            missing.append((label, "its iterations are not LP steps" if tr else "no trace"))
-            continue
-        if y == "n_change" and not any("n_change" in r for r in tr):
-            missing.append((label, "does not measure n_change" if tr else "no trace"))
-            continue
-        xs = np.array([_num(r.get("time_s")) if x == "time" else _num(r.get("iteration")) for r in tr])
-        if y == "multiplier":
-            ys = np.array([_num(r.get("incumbent", r.get("multiplier"))) for r in tr])
-        else:
-            ys = np.array([max(_num(r.get("n_change")), FLOOR) if _finite(r.get("n_change")) else math.nan
-                           for r in tr])
-        ok = np.isfinite(xs) & np.isfinite(ys)
-        if x == "time":
-            xs = np.maximum(xs, 1e-4)
-        if ok.any():
-            ax.plot(xs[ok], ys[ok], **kw)
-            drawn_y += list(ys[ok])
-            handles.append(Line2D([], [], label=label, **kw))
-        elif y == "multiplier" and x == "time" and _finite(getattr(value, "multiplier", None)) \
-                and _finite(getattr(value, "solve_time_s", None)):
-            t, lam = max(float(value.solve_time_s), 1e-4), float(value.multiplier)
-            ax.plot([t], [lam], ls="", marker=marker, ms=6, color=colour)
-            drawn_y.append(lam)
-            handles.append(Line2D([], [], ls="", marker=marker, ms=6, color=colour, label=f"{label} (no trace: answer)"))
-        else:
-            missing.append((label, "no trace"))
-            continue
-        if y == "multiplier" and bounds:
-            pts = [(_num(r.get("time_s")) if x == "time" else _num(r.get("iteration")),
-                    _num(r.get("bound", r.get("dual_bound")))) for r in tr]
-            pts = [(a, b) for a, b in pts if math.isfinite(a) and math.isfinite(b)]
-            if pts:
-                bound_lines.append((label, colour, np.array(pts)))
+        bound = _draw_trace(ax, label, value, x, y, methods, missing, drawn_y, handles)
+        if bound is not None and y == "multiplier" and bounds:
+            bound_lines.append(bound)
     if bound_lines and drawn_y:
-        lam_min = min(drawn_y)
-        floor = lam_min - 0.5 * max(abs(lam_min), 1e-12)
-        for label, colour, pts in bound_lines:
-            keep = pts[:, 1] >= floor
-            if not keep.any():
-                missing.append((f"{label}'s lower bound", f"stayed below {floor:.4g}, far below the answers"))
-                continue
-            bx = np.maximum(pts[keep, 0], 1e-4) if x == "time" else pts[keep, 0]
-            bkw = dict(ls="--", lw=1.0, color=colour, marker="o", ms=4, mfc="white", mec=colour)
-            ax.plot(bx, pts[keep, 1], drawstyle="steps-post", zorder=3, **bkw)  # markers: seen on the incumbent too
-            drawn_y += list(pts[keep, 1])
-            handles.append(Line2D([], [], label=f"{label}: lower bound", **bkw))
+        _draw_bounds(ax, bound_lines, x, missing, drawn_y, handles)
+    _convergence_axes(ax, x, y, drawn_y)
+    if legend and handles:
+        ax.legend(handles=handles, loc="best", frameon=False, fontsize=7)
+    ax.convergence_missing = missing
+    ax.convergence_handles = handles
+    return ax
+
+
+def _draw_trace(ax, label: str, value: Any, x: str, y: str, methods: dict, missing: list, drawn_y: list,
+                handles: list):
+    """One method's trace (or its answer alone, without one); ``(label, colour, bound points)`` when the trace
+    records a bound, else None (nothing drawn: ``missing`` says why)."""
+    from matplotlib.lines import Line2D
+
+    tr = _trace_of(value)
+    colour, marker = method_style(label, methods.get(label) or getattr(value, "method", None))
+    kw = dict(marker=marker, ms=3.5, lw=1.0, color=colour)
+    if x == "lp_step" and not any("lp_iterations" in r for r in tr):
+        missing.append((label, "its iterations are not LP steps" if tr else "no trace"))
+        return None
+    if y == "n_change" and not any("n_change" in r for r in tr):
+        missing.append((label, "does not measure n_change" if tr else "no trace"))
+        return None
+    xs = np.array([_num(r.get("time_s")) if x == "time" else _num(r.get("iteration")) for r in tr])
+    if y == "multiplier":
+        ys = np.array([_num(r.get("incumbent", r.get("multiplier"))) for r in tr])
+    else:
+        ys = np.array([max(_num(r.get("n_change")), FLOOR) if _finite(r.get("n_change")) else math.nan
+                       for r in tr])
+    ok = np.isfinite(xs) & np.isfinite(ys)
+    if x == "time":
+        xs = np.maximum(xs, 1e-4)
+    if ok.any():
+        ax.plot(xs[ok], ys[ok], **kw)
+        drawn_y += list(ys[ok])
+        handles.append(Line2D([], [], label=label, **kw))
+    elif y == "multiplier" and x == "time" and _finite(getattr(value, "multiplier", None)) \
+            and _finite(getattr(value, "solve_time_s", None)):
+        t, lam = max(float(value.solve_time_s), 1e-4), float(value.multiplier)
+        ax.plot([t], [lam], ls="", marker=marker, ms=6, color=colour)
+        drawn_y.append(lam)
+        handles.append(Line2D([], [], ls="", marker=marker, ms=6, color=colour, label=f"{label} (no trace: answer)"))
+    else:
+        missing.append((label, "no trace"))
+        return None
+    pts = [(_num(r.get("time_s")) if x == "time" else _num(r.get("iteration")),
+            _num(r.get("bound", r.get("dual_bound")))) for r in tr]
+    pts = [(a, b) for a, b in pts if math.isfinite(a) and math.isfinite(b)]
+    return (label, colour, np.array(pts)) if pts else None
+
+
+def _draw_bounds(ax, bound_lines: list, x: str, missing: list, drawn_y: list, handles: list) -> None:
+    """The lower bounds of the traces that record one, as dashed steps (those far below every answer left out)."""
+    from matplotlib.lines import Line2D
+
+    lam_min = min(drawn_y)
+    floor = lam_min - 0.5 * max(abs(lam_min), 1e-12)
+    for label, colour, pts in bound_lines:
+        keep = pts[:, 1] >= floor
+        if not keep.any():
+            missing.append((f"{label}'s lower bound", f"stayed below {floor:.4g}, far below the answers"))
+            continue
+        bx = np.maximum(pts[keep, 0], 1e-4) if x == "time" else pts[keep, 0]
+        bkw = dict(ls="--", lw=1.0, color=colour, marker="o", ms=4, mfc="white", mec=colour)
+        ax.plot(bx, pts[keep, 1], drawstyle="steps-post", zorder=3, **bkw)  # markers: seen on the incumbent too
+        drawn_y += list(pts[keep, 1])
+        handles.append(Line2D([], [], label=f"{label}: lower bound", **bkw))
+
+
+def _convergence_axes(ax, x: str, y: str, drawn_y: list) -> None:
+    """Scales, limits, ticks, labels and grid of a convergence plot."""
     label_y, log_y = CONVERGENCE_MEASURES[y]
     if x == "time":
         ax.set_xscale("log")
@@ -569,11 +632,6 @@ def convergence(results: Mapping[str, Any] | Sequence[Any], *, y: str = "multipl
     ax.set_xlabel(CONVERGENCE_AXES[x])
     ax.set_ylabel(label_y)
     ax.grid(True, alpha=0.3)
-    if legend and handles:
-        ax.legend(handles=handles, loc="best", frameon=False, fontsize=7)
-    ax.convergence_missing = missing
-    ax.convergence_handles = handles
-    return ax
 
 
 def _log_ticks(axis, values) -> None:

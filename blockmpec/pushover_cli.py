@@ -17,7 +17,7 @@ def add_parser(sub, command) -> None:
     """Add ``blockmpec pushover`` to the CLI's subparsers (:mod:`blockmpec.cli`), run by ``command(args)``."""
     p = sub.add_parser("pushover", help="capacity curve: the load multiplier as the structure moves along its "
                        "mechanism (incremental limit analysis)")
-    p.add_argument("case", help="built-in case name or structure file (.json)")
+    p.add_argument("case", help="built-in case name, structure file (.json) or drawing (.dxf, .svg, an image)")
     p.add_argument("--method", "-m", default="static-lp",
                    help="method, or comma-separated methods for one figure (default static-lp; fixed-point for "
                         "the non-associative problem)")
@@ -158,6 +158,6 @@ def _print_curve(case: str, method: str, curve) -> None:
     print(f"{case}: method={method} rows={len(curve)} control=block {a['control_block']} "
           f"step={a['step_size']:.4g} stop: {a['stop_reason']}")
     shown = curve[["step", "displacement", "rotation", "multiplier", "status", "event"]]
-    print(shown.to_string(index=False, float_format=lambda v: f"{v:.6g}"))
+    print(shown.to_string(index=False, float_format=lambda v: f"{v + 0.0:.6g}"))  # + 0.0: no -0
     if a.get("ultimate_displacement") is not None:
         print(f"  lambda reaches 0 at displacement {a['ultimate_displacement']:.6g}")

@@ -103,8 +103,12 @@ class StructureMap:
         StructureError
             When the operators were not assembled from a structure (``ops.structure`` is None).
         """
-        if isinstance(ops, StructureMap):
+        if isinstance(ops, StructureMap) or getattr(ops, "dim", 2) == 3 and not hasattr(ops, "E"):
             return ops
+        if getattr(ops, "dim", 2) == 3:  # a 3D problem: its map (blockmpec.three_d.report)
+            from blockmpec.three_d.report import ContactMap
+
+            return ContactMap.of(ops)
         structure = getattr(ops, "structure", None)
         if structure is None:
             raise StructureError(
@@ -153,6 +157,10 @@ def forces_frame(ops: Any, solution: Any):
     """
     import pandas as pd
 
+    if getattr(ops, "dim", 2) == 3:  # per contact point (blockmpec.three_d.report)
+        from blockmpec.three_d.report import contact_forces
+
+        return contact_forces(ops, solution)
     x = _array(solution, "x")
     if x is None:
         return _empty(FORCE_COLUMNS, ("interface", "minus", "plus"))
@@ -208,6 +216,10 @@ def mechanism_frame(ops: Any, solution: Any):
     """
     import pandas as pd
 
+    if getattr(ops, "dim", 2) == 3:  # six velocities per block (blockmpec.three_d.report)
+        from blockmpec.three_d.report import mechanism_frame_3d
+
+        return mechanism_frame_3d(ops, solution)
     u = _array(solution, "u")
     if u is None:
         return _empty(MECHANISM_COLUMNS, ("block",))

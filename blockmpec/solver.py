@@ -23,7 +23,7 @@ from blockmpec.progress import verbose
 from blockmpec.registry import get_solver
 from blockmpec.report import StructureMap
 from blockmpec.result import Result, Status
-from blockmpec.verify import residuals
+from blockmpec.verify import VERIFY_TOL, residuals
 
 log = logging.getLogger(__name__)
 
@@ -32,7 +32,7 @@ def solve(
     case: Structure | Operators,
     method: str,
     *,
-    verify_tol: float = 1e-6,
+    verify_tol: float = VERIFY_TOL,
     **options: Any,
 ) -> Result:
     """Solve a case with a registered method and verify the answer.
@@ -63,13 +63,15 @@ def solve(
     return run_solver(get_solver(method)(**options), case, verify_tol=verify_tol)
 
 
-def run_solver(solver: SolverBase, case: Structure | Operators, *, verify_tol: float = 1e-6) -> Result:
+def run_solver(solver: SolverBase, case: Structure | Operators, *, verify_tol: float = VERIFY_TOL) -> Result:
     """Run a configured solver instance on a case: what :func:`solve` does after making the instance.
 
     For experiments that vary a method's engine settings (``studies/lab``):
     ``run_solver(get_solver("milp")(time_limit=60, settings=MILPSettings(lifting="rlt")), wall)``.
     Set-up (assembly, model building) is timed apart from the solve; the solve runs within one
-    :class:`~blockmpec.deadline.Deadline` of ``time_limit`` seconds; the shared verifier checks the point.
+    :class:`~blockmpec.deadline.Deadline` of ``time_limit`` seconds; the shared verifier checks the point at
+    ``verify_tol``, which the solver is handed before set-up (:attr:`SolverBase.verify_tol`); the stages of the
+    solver's plan that ran are ``Result.extra["plan"]``.
     """
     cls = type(solver)
     method = cls.name
@@ -79,11 +81,12 @@ def run_solver(solver: SolverBase, case: Structure | Operators, *, verify_tol: f
     if reason:
         return Result(status=Status.SKIPPED, message=reason, **base)
     t0 = time.perf_counter()
-    ops = assemble(case) if isinstance(case, Structure) else case
+    ops = case if hasattr(case, "E") else assemble(case)  # a Structure or Structure3D, or assembled operators
     t_assembly = time.perf_counter() - t0
     reason = solver.skip_reason(ops)
     if reason:
         return Result(status=Status.SKIPPED, message=reason, **base)
+    solver.verify_tol = verify_tol
     with verbose(solver.options.verbose):
         t0 = time.perf_counter()
         try:
@@ -94,6 +97,8 @@ def run_solver(solver: SolverBase, case: Structure | Operators, *, verify_tol: f
             log.debug("setup of %s failed:\n%s", method, traceback.format_exc())
             return Result(status=Status.ERROR, message=f"set-up failed: {type(exc).__name__}: {exc}",
                           build_time_s=time.perf_counter() - t0, **base)
+        if solver.plan is not None:
+            solver.plan.begin()
         t1 = time.perf_counter()
         try:
             out = solver.run(Deadline(solver.options.time_limit))
@@ -116,6 +121,8 @@ def run_solver(solver: SolverBase, case: Structure | Operators, *, verify_tol: f
         message = (f"lam = {out.solution.multiplier:.6g} < 0: the structure is not in equilibrium under the dead "
                    f"load alone; only the live load reversed and scaled by |lam| holds it. {message}").strip()
     extra = dict(out.extra)
+    if solver.plan is not None:
+        extra["plan"] = solver.plan.ran()
     extra[facts.ASSEMBLY_TIME_S] = t_assembly
     # after the timed part: references only, the frames are built when read (Result.forces, .mechanism)
     structure_map = StructureMap.of(ops) if getattr(ops, "structure", None) is not None else None

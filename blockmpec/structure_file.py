@@ -97,7 +97,27 @@ def structure_from_dict(data: dict[str, Any], source: str = "structure") -> Stru
     version = data.get("version", VERSION)
     if version != VERSION:
         raise StructureFileError(f"{source}: unsupported version {version!r}; this blockmpec reads version {VERSION}")
-    blocks = data["blocks"]
+    polygons, fixed, density = _blocks_of(data["blocks"], source)
+    live = data.get("live_load", {})
+    _check_keys(live, _LIVE, set(), f"{source}: live_load")
+    interfaces = _interfaces_of(data["interfaces"], source) if "interfaces" in data else None
+    loads = _point_loads_of(data.get("point_loads", []), source)
+    direction, factor = _live_load_of(live, source)
+    metadata = data.get("metadata", {})
+    if not isinstance(metadata, dict):
+        raise StructureFileError(f"{source}: field 'metadata' must be an object")
+    return make_structure(
+        polygons, fixed,
+        friction=_number(data["friction"], f"{source}: friction"),
+        dilatancy=_number(data.get("dilatancy", 0.0), f"{source}: dilatancy"),
+        density=density, interfaces=interfaces, live_direction=direction,
+        live_factor=factor,
+        point_loads=loads, name=str(data.get("name", "structure")), metadata=metadata,
+    )
+
+
+def _blocks_of(blocks: Any, source: str) -> tuple[list, list, list]:
+    """``(polygons, fixed, density)`` of the field ``blocks``."""
     if not isinstance(blocks, list) or not blocks:
         raise StructureFileError(f"{source}: field 'blocks' must be a non-empty list")
     polygons, fixed, density = [], [], []
@@ -113,34 +133,37 @@ def structure_from_dict(data: dict[str, Any], source: str = "structure") -> Stru
             raise StructureFileError(f"{where}.fixed: expected true or false; got {f!r}")
         fixed.append(f)
         density.append(_number(blk.get("density", 1.0), f"{where}.density"))
-    live = data.get("live_load", {})
-    _check_keys(live, _LIVE, set(), f"{source}: live_load")
-    interfaces = None
-    if "interfaces" in data:
-        items = data["interfaces"]
-        if not isinstance(items, list):
-            raise StructureFileError(f"{source}: field 'interfaces' must be a list")
-        cols: dict[str, list] = {k: [] for k in _INTERFACE}
-        for k, it in enumerate(items):
-            where = f"{source}: interfaces[{k}]"
-            _check_keys(it, _INTERFACE, {"minus", "plus", "start", "end"}, where)
-            for side in ("minus", "plus"):
-                if isinstance(it[side], bool) or not isinstance(it[side], int):
-                    raise StructureFileError(f"{where}.{side}: expected a block index; got {it[side]!r}")
-                cols[side].append(it[side])
-            cols["start"].append(_point(it["start"], f"{where}.start"))
-            cols["end"].append(_point(it["end"], f"{where}.end"))
-            cols["friction"].append(_number(it.get("friction"), f"{where}.friction", allow_null=True))
-            cols["dilatancy"].append(_number(it.get("dilatancy"), f"{where}.dilatancy", allow_null=True))
-        interfaces = Interfaces(
-            np.array(cols["minus"], dtype=int), np.array(cols["plus"], dtype=int),
-            np.array(cols["start"], dtype=float).reshape(-1, 2), np.array(cols["end"], dtype=float).reshape(-1, 2),
-            np.array(cols["friction"], dtype=float), np.array(cols["dilatancy"], dtype=float),
-        )
-    loads = []
-    point_loads = data.get("point_loads", [])
+    return polygons, fixed, density
+
+
+def _interfaces_of(items: Any, source: str) -> Interfaces:
+    """The :class:`Interfaces` of the field ``interfaces``."""
+    if not isinstance(items, list):
+        raise StructureFileError(f"{source}: field 'interfaces' must be a list")
+    cols: dict[str, list] = {k: [] for k in _INTERFACE}
+    for k, it in enumerate(items):
+        where = f"{source}: interfaces[{k}]"
+        _check_keys(it, _INTERFACE, {"minus", "plus", "start", "end"}, where)
+        for side in ("minus", "plus"):
+            if isinstance(it[side], bool) or not isinstance(it[side], int):
+                raise StructureFileError(f"{where}.{side}: expected a block index; got {it[side]!r}")
+            cols[side].append(it[side])
+        cols["start"].append(_point(it["start"], f"{where}.start"))
+        cols["end"].append(_point(it["end"], f"{where}.end"))
+        cols["friction"].append(_number(it.get("friction"), f"{where}.friction", allow_null=True))
+        cols["dilatancy"].append(_number(it.get("dilatancy"), f"{where}.dilatancy", allow_null=True))
+    return Interfaces(
+        np.array(cols["minus"], dtype=int), np.array(cols["plus"], dtype=int),
+        np.array(cols["start"], dtype=float).reshape(-1, 2), np.array(cols["end"], dtype=float).reshape(-1, 2),
+        np.array(cols["friction"], dtype=float), np.array(cols["dilatancy"], dtype=float),
+    )
+
+
+def _point_loads_of(point_loads: Any, source: str) -> list[PointLoad]:
+    """The :class:`PointLoad` s of the field ``point_loads``."""
     if not isinstance(point_loads, list):
         raise StructureFileError(f"{source}: field 'point_loads' must be a list")
+    loads = []
     for k, pl in enumerate(point_loads):
         where = f"{source}: point_loads[{k}]"
         _check_keys(pl, _POINT_LOAD, {"block", "point", "force"}, where)
@@ -151,6 +174,11 @@ def structure_from_dict(data: dict[str, Any], source: str = "structure") -> Stru
             raise StructureFileError(f"{where}.kind: expected \"dead\" or \"live\"; got {kind!r}")
         loads.append(PointLoad(pl["block"], _point(pl["point"], f"{where}.point"),
                                _point(pl["force"], f"{where}.force"), kind))
+    return loads
+
+
+def _live_load_of(live: dict, source: str) -> tuple[int, float]:
+    """``(direction, factor)`` of the field ``live_load``."""
     direction = live.get("direction", 1)
     if direction not in (1, -1) or isinstance(direction, bool):
         raise StructureFileError(f"{source}: live_load.direction must be 1 or -1; got {direction!r}")
@@ -160,17 +188,7 @@ def structure_from_dict(data: dict[str, Any], source: str = "structure") -> Stru
             f"{source}: live_load.factor must be a finite number >= 0; got {factor!r} "
             "(the sign of the live load is live_load.direction, 1 or -1)"
         )
-    metadata = data.get("metadata", {})
-    if not isinstance(metadata, dict):
-        raise StructureFileError(f"{source}: field 'metadata' must be an object")
-    return make_structure(
-        polygons, fixed,
-        friction=_number(data["friction"], f"{source}: friction"),
-        dilatancy=_number(data.get("dilatancy", 0.0), f"{source}: dilatancy"),
-        density=density, interfaces=interfaces, live_direction=direction,
-        live_factor=factor,
-        point_loads=loads, name=str(data.get("name", "structure")), metadata=metadata,
-    )
+    return direction, factor
 
 
 def _opt(v: float) -> float | None:
@@ -205,7 +223,9 @@ def structure_to_dict(s: Structure) -> dict[str, Any]:
 
 
 def load_structure(path: str | Path) -> Structure:
-    """Read a structure file; errors name the file and the offending field."""
+    """Read a structure file; errors name the file and the offending field.  A 3D structure file
+    (``"format": "blockmpec-3d"``) gives a :class:`~blockmpec.three_d.Structure3D`
+    (:func:`blockmpec.three_d.meshes.load_structure_3d`)."""
     p = Path(path)
     try:
         text = p.read_text()
@@ -215,6 +235,10 @@ def load_structure(path: str | Path) -> Structure:
         data = json.loads(text)
     except json.JSONDecodeError as exc:
         raise StructureFileError(f"{p}: not valid JSON (line {exc.lineno}, column {exc.colno}: {exc.msg})") from None
+    if isinstance(data, dict) and data.get("format") == "blockmpec-3d":
+        from blockmpec.three_d.meshes import structure_3d_from_dict
+
+        return structure_3d_from_dict(data, source=str(p))
     try:
         return structure_from_dict(data, source=str(p))
     except StructureFileError:
@@ -224,5 +248,10 @@ def load_structure(path: str | Path) -> Structure:
 
 
 def save_structure(s: Structure, path: str | Path) -> None:
-    """Write a structure file."""
+    """Write a structure file (a 3D structure file for a :class:`~blockmpec.three_d.Structure3D`)."""
+    if getattr(s, "dim", 2) == 3:
+        from blockmpec.three_d.meshes import save_structure_3d
+
+        save_structure_3d(s, path)
+        return
     Path(path).write_text(json.dumps(structure_to_dict(s), indent=1) + "\n")

@@ -84,29 +84,38 @@ def _ratio(num: float, den: float) -> float:
     return float(num / den)
 
 
-def _worst_triplet(residual: np.ndarray, terms: list[np.ndarray]) -> float:
-    """``max_i ||residual_i|| / sum_t ||term_t,i||`` over consecutive triplets ``i``."""
+def _worst_triplet(residual: np.ndarray, terms: list[np.ndarray], dofs: int = 3) -> float:
+    """``max_i ||residual_i|| / sum_t ||term_t,i||`` over consecutive groups ``i`` of ``dofs`` entries (a block's)."""
     if residual.size == 0:
         return 0.0
-    num = np.linalg.norm(residual.reshape(-1, 3), axis=1)
-    den = sum(np.linalg.norm(t.reshape(-1, 3), axis=1) for t in terms)
+    num = np.linalg.norm(residual.reshape(-1, dofs), axis=1)
+    den = sum(np.linalg.norm(t.reshape(-1, dofs), axis=1) for t in terms)
     with np.errstate(divide="ignore", invalid="ignore"):
         ratio = np.where(den > 0, num / np.where(den > 0, den, 1.0), np.where(num > 0, np.inf, 0.0))
     return float(ratio.max())
 
 
 def _local_admissibility(ops: Operators, x: np.ndarray, s_u: np.ndarray, s_f: np.ndarray, lam: float) -> float:
-    c = ops.n_interfaces
+    """Per contact (three entries of ``x``): its worst yield row in force units over its forces plus the floor.
+
+    The layout comes from the operators: the contact of each row (``unilateral_contact``, ``friction_contact``)
+    and the arm turning a row or an entry of ``x`` into a force (``unilateral_arm``, ``force_arm``: 1 for forces,
+    ``L/2`` for a 2D moment and its rows)."""
+    c = ops.n_contacts
     if c == 0:
         return 0.0
-    t, n, m = x[0::3], x[1::3], x[2::3]
-    half = ops.length / 2
-    v_u = np.maximum(s_u.reshape(c, 2) / half[:, None], 0.0).max(axis=1)
-    v_f = np.maximum(s_f.reshape(c, 2), 0.0).max(axis=1) / (1 + ops.friction)
-    load = np.linalg.norm(ops.f_d.reshape(-1, 3), axis=1) + abs(lam) * np.linalg.norm(ops.f_l.reshape(-1, 3), axis=1)
+    v_u = np.zeros(c)
+    np.maximum.at(v_u, ops.unilateral_contact, np.maximum(s_u / ops.unilateral_arm, 0.0))
+    v_f = np.zeros(c)
+    np.maximum.at(v_f, ops.friction_contact, np.maximum(s_f, 0.0))
+    v_f = v_f / (1 + ops.friction)
+    dofs = ops.block_dofs
+    load = (np.linalg.norm(ops.f_d.reshape(-1, dofs), axis=1)
+            + abs(lam) * np.linalg.norm(ops.f_l.reshape(-1, dofs), axis=1))
     load = np.append(load, np.inf)  # index -1 (a fixed block) -> no floor from that side
     floor = np.minimum(load[ops.minus_dof], load[ops.plus_dof])
-    den = np.abs(t) + np.abs(n) + np.abs(m) / half + floor
+    size = np.abs(x) / ops.force_arm
+    den = size[0::3] + size[1::3] + size[2::3] + floor
     return float((np.maximum(v_u, v_f) / den).max())
 
 
@@ -118,6 +127,10 @@ def positive_part_ratio(v: np.ndarray) -> float:
 def _complementarity(z: np.ndarray, s: np.ndarray, scale: float | None) -> float:
     work = float(np.abs(z) @ np.abs(s))
     return _ratio(work, np.linalg.norm(z) * np.linalg.norm(s) if scale is None else scale)
+
+
+#: the largest residual of a verified success unless the caller says otherwise (``solve``, ``compare``, the CLI)
+VERIFY_TOL = 1e-6
 
 
 def residuals(ops: Operators, sol: Solution, associative: bool) -> dict[str, float]:
@@ -140,7 +153,7 @@ def residuals(ops: Operators, sol: Solution, associative: bool) -> dict[str, flo
     if lam is not None and x is not None:
         r = ops.E @ x + ops.f_d + lam * ops.f_l
         terms = [abs(ops.E) @ np.abs(x), ops.f_d, abs(lam) * ops.f_l]
-        out["equilibrium"] = _worst_triplet(r, terms)
+        out["equilibrium"] = _worst_triplet(r, terms, getattr(ops, "block_dofs", 3))
     if u is not None and z_u is not None and z_f is not None:
         flow = ops.N_f if associative else ops.V_f
         a, b, c = ops.E.T @ u, ops.N_u @ z_u, flow @ z_f

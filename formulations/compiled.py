@@ -67,9 +67,14 @@ class CompiledMCP:
     pair_kind : ndarray of int, shape (4c,)
         :data:`UNILATERAL` or :data:`FRICTION`.
     pair_interface : ndarray of int, shape (4c,)
-        Interface of each pair (two pairs of each kind per interface).
+        Contact of each pair (two pairs of each kind per interface).
     friction, dilatancy : ndarray, shape (c,)
-        ``tan(phi)`` and ``tan(psi)`` per interface (data of the flow rows).
+        ``tan(phi)`` and ``tan(psi)`` per contact (data of the flow rows).
+
+    The shapes are those of 2D (``c`` interfaces, three dofs per block).  In 3D (:mod:`blockmpec.three_d`) the
+    contacts are the contact points and the sizes come from the operators' layout: ``block_dofs`` (6) rows per
+    block, one no-tension pair per point, one friction pair per side of its pyramid; ``n_interfaces`` counts the
+    contacts.
     """
 
     A: sp.csr_array
@@ -84,12 +89,36 @@ class CompiledMCP:
     dilatancy: np.ndarray
     _ops: Operators = field(repr=False)
     _dilatancy_rows: tuple[sp.csr_array, sp.csr_array] | None = field(default=None, repr=False)
+    #: the layout of ``x``, ``u`` and the pairs, from the operators (2D defaults: 3 dofs per block, two pairs of
+    #: each kind per interface, ``x = (t, n, m)`` per interface)
+    block_dofs: int = 3
+    normal_index: np.ndarray | None = field(default=None, repr=False)
+    shear_index: np.ndarray | None = field(default=None, repr=False)
+    n_unilateral: int | None = None
+    n_friction: int | None = None
 
     # ------------------------------------------------------------------ layout
+    # ``n_interfaces`` counts the contacts (interfaces in 2D, contact points in 3D), each with three entries of ``x``
+    @property
+    def _n_x(self) -> int:
+        return 3 * self.n_interfaces
+
+    @property
+    def _n_u(self) -> int:
+        return self.block_dofs * self.n_blocks
+
+    @property
+    def _n_zu(self) -> int:
+        return 2 * self.n_interfaces if self.n_unilateral is None else self.n_unilateral
+
+    @property
+    def _n_zf(self) -> int:
+        return 2 * self.n_interfaces if self.n_friction is None else self.n_friction
+
     @property
     def n_columns(self) -> int:
-        """Length of ``w``: ``1 + 3c + 3b + 4c``."""
-        return 1 + 7 * self.n_interfaces + 3 * self.n_blocks
+        """Length of ``w``: ``1 + len(x) + len(u) + len(z)``."""
+        return 1 + self._n_x + self._n_u + self._n_zu + self._n_zf
 
     @property
     def lam(self) -> int:
@@ -98,72 +127,85 @@ class CompiledMCP:
 
     @property
     def x(self) -> slice:
-        return slice(1, 1 + 3 * self.n_interfaces)
+        return slice(1, 1 + self._n_x)
 
     @property
     def u(self) -> slice:
-        a = 1 + 3 * self.n_interfaces
-        return slice(a, a + 3 * self.n_blocks)
+        a = 1 + self._n_x
+        return slice(a, a + self._n_u)
 
     @property
     def z(self) -> slice:
-        a = 1 + 3 * self.n_interfaces + 3 * self.n_blocks
-        return slice(a, a + 4 * self.n_interfaces)
+        a = 1 + self._n_x + self._n_u
+        return slice(a, a + self._n_zu + self._n_zf)
 
     @property
     def z_u(self) -> slice:
         a = self.z.start
-        return slice(a, a + 2 * self.n_interfaces)
+        return slice(a, a + self._n_zu)
 
     @property
     def z_f(self) -> slice:
-        a = self.z.start + 2 * self.n_interfaces
-        return slice(a, a + 2 * self.n_interfaces)
+        a = self.z.start + self._n_zu
+        return slice(a, a + self._n_zf)
 
     @property
     def t(self) -> np.ndarray:
-        """Positions of the shears ``t_k`` in ``x``."""
-        return np.arange(0, 3 * self.n_interfaces, 3)
+        """Positions of the shear forces in ``x`` (2D: ``t_k`` per interface; 3D: ``t1, t2`` of each point, flat)."""
+        if self.shear_index is None:
+            return np.arange(0, 3 * self.n_interfaces, 3)
+        return np.asarray(self.shear_index).ravel()
+
+    def shear_of(self, contacts: np.ndarray) -> np.ndarray:
+        """Positions in ``x`` of the shear forces of the contacts selected by the boolean mask ``contacts`` (c,)."""
+        if self.shear_index is None:
+            return np.arange(0, 3 * self.n_interfaces, 3)[contacts]
+        return np.asarray(self.shear_index)[contacts].ravel()
 
     @property
     def n(self) -> np.ndarray:
         """Positions of the normal forces ``n_k`` in ``x``."""
-        return np.arange(1, 3 * self.n_interfaces, 3)
+        if self.normal_index is None:
+            return np.arange(1, 3 * self.n_interfaces, 3)
+        return np.asarray(self.normal_index)
 
     @property
     def m(self) -> np.ndarray:
-        """Positions of the moments ``m_k`` in ``x``."""
-        return np.arange(2, 3 * self.n_interfaces, 3)
+        """Positions of the moments ``m_k`` in ``x`` (none in 3D: the points carry forces only)."""
+        taken = np.zeros(self._n_x, bool)
+        taken[self.t] = True
+        taken[self.n] = True
+        return np.flatnonzero(~taken)
 
     @property
     def equilibrium(self) -> slice:
-        """Rows of ``A``: equilibrium (3 per free block)."""
-        return slice(0, 3 * self.n_blocks)
+        """Rows of ``A``: equilibrium (``block_dofs`` per free block)."""
+        return slice(0, self._n_u)
 
     @property
     def compatibility(self) -> slice:
-        """Rows of ``A``: compatibility (3 per interface)."""
-        return slice(3 * self.n_blocks, 3 * self.n_blocks + 3 * self.n_interfaces)
+        """Rows of ``A``: compatibility (3 per contact)."""
+        return slice(self._n_u, self._n_u + self._n_x)
 
     @property
     def normalisation(self) -> slice:
         """Row of ``A``: normalisation ``f_l^T u = 1``."""
-        a = 3 * self.n_blocks + 3 * self.n_interfaces
+        a = self._n_u + self._n_x
         return slice(a, a + 1)
 
     @property
     def unilateral(self) -> slice:
-        """Pairs (rows of ``G``) of the no-tension conditions (2 per interface)."""
-        return slice(0, 2 * self.n_interfaces)
+        """Pairs (rows of ``G``) of the no-tension conditions (2 per interface in 2D, 1 per point in 3D)."""
+        return slice(0, self._n_zu)
 
     @property
     def friction_pairs(self) -> slice:
-        """Pairs (rows of ``G``) of the Coulomb conditions (2 per interface)."""
-        return slice(2 * self.n_interfaces, 4 * self.n_interfaces)
+        """Pairs (rows of ``G``) of the Coulomb conditions (2 per interface in 2D, one per pyramid side in 3D)."""
+        return slice(self._n_zu, self._n_zu + self._n_zf)
 
     @property
     def n_pairs(self) -> int:
-        return 4 * self.n_interfaces
+        return self._n_zu + self._n_zf
 
     # ------------------------------------------------------------------ data views
     @property
@@ -175,11 +217,6 @@ class CompiledMCP:
     def f_d(self) -> np.ndarray:
         """Dead load (``E x + lam f_l = -f_d``)."""
         return -self.rhs[self.equilibrium]
-
-    @property
-    def friction_gap(self) -> np.ndarray:
-        """``tan(phi) - tan(psi)`` per interface (the cohesion factor of the fixed point)."""
-        return self.friction - self.dilatancy
 
     def block(self, rows: slice, cols: slice) -> sp.csr_array:
         """A sub-block of ``A``, e.g. ``block(form.compatibility, form.z)`` = the flow matrix ``F``."""
@@ -227,7 +264,7 @@ class CompiledMCP:
         d = np.broadcast_to(np.asarray(dilatancy, float), self.dilatancy.shape).copy()
         base, S = self._dilatancy_basis()
         col = np.zeros(self.n_columns)
-        col[self.z_f] = np.repeat(d, 2)
+        col[self.z_f] = d[self.pair_interface[self.friction_pairs]]
         A = sp.csr_array(base + S @ sp.diags_array(col))
         A.eliminate_zeros()
         A.sort_indices()
@@ -269,7 +306,7 @@ def _compile(ops: Operators, dilatancy: np.ndarray) -> CompiledMCP:
     finally:
         for comp in pairs:
             comp.activate()
-    c, b = ops.n_interfaces, ops.n_free_blocks
+    c, b = ops.n_contacts, ops.n_free_blocks
     order = np.concatenate([lp.columns[g] for g in ("lam", "x", "u", "z_u", "z_f")])
     n = order.size
     present = order >= 0
@@ -287,16 +324,22 @@ def _compile(ops: Operators, dilatancy: np.ndarray) -> CompiledMCP:
     A.sort_indices()
     G = sp.csr_array(A_all[pair_rows])
     G.sort_indices()
-    z0 = 1 + 3 * c + 3 * b
+    n_u, n_f = ops.N_u.shape[1], ops.N_f.shape[1]
+    z0 = 1 + ops.E.shape[1] + ops.E.shape[0]
     return CompiledMCP(
         A=A,
         rhs=lp.row_upper[eq_rows].copy(),
         G=G,
-        pair_column=np.arange(z0, z0 + 4 * c),
-        pair_kind=np.repeat([UNILATERAL, FRICTION], 2 * c),
-        pair_interface=np.tile(np.repeat(np.arange(c), 2), 2),
+        pair_column=np.arange(z0, z0 + n_u + n_f),
+        pair_kind=np.repeat([UNILATERAL, FRICTION], [n_u, n_f]),
+        pair_interface=np.concatenate([ops.unilateral_contact, ops.friction_contact]),
         n_blocks=b,
         n_interfaces=c,
+        block_dofs=ops.block_dofs,
+        normal_index=ops.normal_index,
+        shear_index=ops.shear_index,
+        n_unilateral=n_u,
+        n_friction=n_f,
         friction=np.asarray(ops.friction, float).copy(),
         dilatancy=np.broadcast_to(np.asarray(dilatancy, float), (c,)).copy(),
         _ops=ops,

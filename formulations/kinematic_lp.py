@@ -19,15 +19,15 @@ from blockmpec.operators import Operators
 
 def kinematic_lp(ops: Operators) -> PyomoProblem:
     """Build (2) from the operators."""
-    c = ops.n_interfaces
+    nx = ops.E.shape[1]
     b3 = ops.E.shape[0]
     m = pyo.ConcreteModel(name="kinematic-lp")
     m.u = pyo.Var(range(b3))
-    m.z_u = pyo.Var(range(2 * c), within=pyo.NonNegativeReals)
-    m.z_f = pyo.Var(range(2 * c), within=pyo.NonNegativeReals)
+    m.z_u = pyo.Var(range(ops.N_u.shape[1]), within=pyo.NonNegativeReals)
+    m.z_f = pyo.Var(range(ops.N_f.shape[1]), within=pyo.NonNegativeReals)
     us, zu, zf = list(m.u.values()), list(m.z_u.values()), list(m.z_f.values())
-    comp = sparse_rows([(ops.E.T, us), (ops.N_u, zu), (ops.N_f, zf)], 3 * c)
-    m.compatibility = pyo.Constraint(range(3 * c), rule=lambda _, i: comp(i) == 0.0)
+    comp = sparse_rows([(ops.E.T, us), (ops.N_u, zu), (ops.N_f, zf)], nx)
+    m.compatibility = pyo.Constraint(range(nx), rule=lambda _, i: comp(i) == 0.0)
     m.normalisation = pyo.Constraint(expr=linear_dot(ops.f_l, us) == 1.0)
     m.objective = pyo.Objective(expr=linear_dot(-ops.f_d, us), sense=pyo.minimize)
     return PyomoProblem(

@@ -52,35 +52,36 @@ def mcp(ops: Operators, name: str = "mcp", dilatancy: np.ndarray | None = None) 
         ``N_u^T x <= 0``, ``N_f^T x <= 0``) ``Constraint`` data, and ``"unilateral_pairs"``,
         ``"friction_pairs"`` (2c each) ``Complementarity`` data, in operator order.
     """
-    c = ops.n_interfaces
-    b3 = ops.E.shape[0]
+    c = ops.n_contacts
+    nx, b3 = ops.E.shape[1], ops.E.shape[0]
+    n_u, n_f = ops.N_u.shape[1], ops.N_f.shape[1]
     V_f = ops.V_f if dilatancy is None else ops.friction_operator(np.broadcast_to(dilatancy, (c,)))
     m = pyo.ConcreteModel(name=name)
     m.lam = pyo.Var()
-    m.x = pyo.Var(range(3 * c))
+    m.x = pyo.Var(range(nx))
     m.u = pyo.Var(range(b3))
-    m.z_u = pyo.Var(range(2 * c), within=pyo.NonNegativeReals)
-    m.z_f = pyo.Var(range(2 * c), within=pyo.NonNegativeReals)
+    m.z_u = pyo.Var(range(n_u), within=pyo.NonNegativeReals)
+    m.z_f = pyo.Var(range(n_f), within=pyo.NonNegativeReals)
     lam = [m.lam]
     xs, us = list(m.x.values()), list(m.u.values())
     zu, zf = list(m.z_u.values()), list(m.z_f.values())
 
     eq = sparse_rows([(ops.E, xs), (ops.f_l.reshape(-1, 1), lam)], b3)
     m.equilibrium = pyo.Constraint(range(b3), rule=lambda _, i: eq(i) == -float(ops.f_d[i]))
-    comp = sparse_rows([(ops.E.T, us), (ops.N_u, zu), (V_f, zf)], 3 * c)
-    m.compatibility = pyo.Constraint(range(3 * c), rule=lambda _, i: comp(i) == 0.0)
+    comp = sparse_rows([(ops.E.T, us), (ops.N_u, zu), (V_f, zf)], nx)
+    m.compatibility = pyo.Constraint(range(nx), rule=lambda _, i: comp(i) == 0.0)
     m.normalisation = pyo.Constraint(expr=linear_dot(ops.f_l, us) == 1.0)
 
     # the pair constraints are written once, as rows g(x) <= 0; each pair complements
     # the body of its row with its multiplier (compile_mcp compiles the rows)
-    uni = sparse_rows([(ops.N_u.T, xs)], 2 * c)
-    fr = sparse_rows([(ops.N_f.T, xs)], 2 * c)
-    m.unilateral = pyo.Constraint(range(2 * c), rule=lambda _, i: uni(i) <= 0.0)
-    m.friction = pyo.Constraint(range(2 * c), rule=lambda _, i: fr(i) <= 0.0)
+    uni = sparse_rows([(ops.N_u.T, xs)], n_u)
+    fr = sparse_rows([(ops.N_f.T, xs)], n_f)
+    m.unilateral = pyo.Constraint(range(n_u), rule=lambda _, i: uni(i) <= 0.0)
+    m.friction = pyo.Constraint(range(n_f), rule=lambda _, i: fr(i) <= 0.0)
     m.unilateral_pairs = Complementarity(
-        range(2 * c), rule=lambda mm, i: complements(mm.unilateral[i].body <= 0.0, mm.z_u[i] >= 0))
+        range(n_u), rule=lambda mm, i: complements(mm.unilateral[i].body <= 0.0, mm.z_u[i] >= 0))
     m.friction_pairs = Complementarity(
-        range(2 * c), rule=lambda mm, i: complements(mm.friction[i].body <= 0.0, mm.z_f[i] >= 0))
+        range(n_f), rule=lambda mm, i: complements(mm.friction[i].body <= 0.0, mm.z_f[i] >= 0))
     return PyomoProblem(
         name=name,
         model=m,
@@ -91,8 +92,8 @@ def mcp(ops: Operators, name: str = "mcp", dilatancy: np.ndarray | None = None) 
             "normalisation": [m.normalisation],
             "unilateral": list(m.unilateral.values()),
             "friction": list(m.friction.values()),
-            "unilateral_pairs": [m.unilateral_pairs[i] for i in range(2 * c)],
-            "friction_pairs": [m.friction_pairs[i] for i in range(2 * c)],
+            "unilateral_pairs": [m.unilateral_pairs[i] for i in range(n_u)],
+            "friction_pairs": [m.friction_pairs[i] for i in range(n_f)],
         },
     )
 

@@ -265,62 +265,101 @@ def compile_flat_rows(problem: PyomoProblem) -> LinearProgram | None:
     coefs: list = []
     variables: list = []
     try:
-        objectives = list(model.component_data_objects(pyo.Objective, active=True, sort=sorter))
-        if len(objectives) > 1:
-            return None
-        objective_offset, sign = 0.0, 1.0
-        if objectives:
-            objective_offset = _flat_terms(objectives[0].expr, coefs, variables)
-            if objectives[0].sense == pyo.maximize:
-                sign = -1.0
+        objective_offset, sign = _flat_objective(model, sorter, coefs, variables)
         n_objective_terms = len(coefs)
         constraints = list(model.component_data_objects(pyo.Constraint, active=True, sort=sorter))
-        bulk = _monomial_rows(constraints)
-        if bulk is not None:
-            row_coefs, row_variables, lengths, lower, upper, kept = bulk
-            coefs += row_coefs
-            variables += row_variables
-            if 0 in lengths:
-                return None  # a constant row: Pyomo's compiler checks or drops it
-            row_ptr = np.concatenate([[n_objective_terms], n_objective_terms + np.cumsum(lengths, dtype=np.int64)])
-            row_lower = [-np.inf if lo is None else lo for lo in lower]
-            row_upper = [np.inf if up is None else up for up in upper]
-            row_constraints = list(itertools.compress(constraints, kept))
-        else:
-            row_ptr = [n_objective_terms]
-            row_lower, row_upper, row_constraints = [], [], []
-            for con in constraints:
-                lb, body, ub = con.to_bounded_expression()
-                lb, ub = _bound_value(lb), _bound_value(ub)
-                start = len(coefs)
-                offset = _flat_terms(body, coefs, variables)
-                if lb is None and ub is None:
-                    del coefs[start:], variables[start:]
-                    continue
-                end = len(coefs)
-                if end == start:
-                    return None  # a constant row: Pyomo's compiler checks or drops it
-                if lb == ub:
-                    row_lower.append(lb - offset), row_upper.append(ub - offset), row_ptr.append(end)
-                    row_constraints.append(con)
-                    continue
-                if ub is not None:
-                    row_lower.append(-np.inf), row_upper.append(ub - offset), row_ptr.append(end)
-                    row_constraints.append(con)
-                if lb is not None:
-                    if ub is not None:  # the same terms once more, for the lower row
-                        coefs.extend(coefs[start:end]), variables.extend(variables[start:end])
-                    row_lower.append(lb - offset), row_upper.append(np.inf), row_ptr.append(len(coefs))
-                    row_constraints.append(con)
+        row_ptr, row_lower, row_upper, row_constraints = _flat_constraints(constraints, coefs, variables)
     except _NotFlat:
         return None
+    matrix = _flat_matrix(coefs, variables, sorter, n_objective_terms, row_ptr)
+    if matrix is None:
+        return None
+    A, c_full, used, kept_columns = matrix
+    col_of = {id(v): k for k, v in enumerate(kept_columns)}
+    row_of = {id(con): k for k, con in enumerate(row_constraints)}
+    return LinearProgram(
+        c=sign * c_full[used],
+        A=A,
+        row_lower=np.asarray(row_lower, dtype=float),
+        row_upper=np.asarray(row_upper, dtype=float),
+        col_lower=np.array([-np.inf if v.lb is None else v.lb for v in kept_columns], dtype=float),
+        col_upper=np.array([np.inf if v.ub is None else v.ub for v in kept_columns], dtype=float),
+        columns={g: np.array([col_of.get(id(v), -1) for v in vs], dtype=int) for g, vs in problem.variables.items()},
+        rows={g: np.array([row_of[id(c)] for c in cs], dtype=int) for g, cs in problem.constraints.items()},
+        objective_sign=sign,
+        objective_offset=sign * objective_offset,
+    )
+
+
+def _flat_objective(model, sorter, coefs: list, variables: list) -> tuple[float, float]:
+    """``(constant, sign)`` of the model's one objective (sign -1 when it maximises), its terms appended to
+    ``coefs``, ``variables``; :class:`_NotFlat` for several objectives."""
+    objectives = list(model.component_data_objects(pyo.Objective, active=True, sort=sorter))
+    if len(objectives) > 1:
+        raise _NotFlat("several objectives")
+    objective_offset, sign = 0.0, 1.0
+    if objectives:
+        objective_offset = _flat_terms(objectives[0].expr, coefs, variables)
+        if objectives[0].sense == pyo.maximize:
+            sign = -1.0
+    return objective_offset, sign
+
+
+def _flat_constraints(constraints: list, coefs: list, variables: list):
+    """``(row_ptr, row_lower, row_upper, row_constraints)`` of the constraints' rows, their terms appended to
+    ``coefs``, ``variables`` (``row_ptr`` into them, from the objective's end); an equality is one row, a ranged row
+    two (upper, then lower).  :class:`_NotFlat` for a constant row (Pyomo's compiler checks or drops it)."""
+    n_objective_terms = len(coefs)
+    bulk = _monomial_rows(constraints)
+    if bulk is not None:
+        row_coefs, row_variables, lengths, lower, upper, kept = bulk
+        coefs += row_coefs
+        variables += row_variables
+        if 0 in lengths:
+            raise _NotFlat("a constant row")
+        row_ptr = np.concatenate([[n_objective_terms], n_objective_terms + np.cumsum(lengths, dtype=np.int64)])
+        row_lower = [-np.inf if lo is None else lo for lo in lower]
+        row_upper = [np.inf if up is None else up for up in upper]
+        return row_ptr, row_lower, row_upper, list(itertools.compress(constraints, kept))
+    row_ptr = [n_objective_terms]
+    row_lower, row_upper, row_constraints = [], [], []
+    for con in constraints:
+        lb, body, ub = con.to_bounded_expression()
+        lb, ub = _bound_value(lb), _bound_value(ub)
+        start = len(coefs)
+        offset = _flat_terms(body, coefs, variables)
+        if lb is None and ub is None:
+            del coefs[start:], variables[start:]
+            continue
+        end = len(coefs)
+        if end == start:
+            raise _NotFlat("a constant row")
+        if lb == ub:
+            row_lower.append(lb - offset), row_upper.append(ub - offset), row_ptr.append(end)
+            row_constraints.append(con)
+            continue
+        if ub is not None:
+            row_lower.append(-np.inf), row_upper.append(ub - offset), row_ptr.append(end)
+            row_constraints.append(con)
+        if lb is not None:
+            if ub is not None:  # the same terms once more, for the lower row
+                coefs.extend(coefs[start:end]), variables.extend(variables[start:end])
+            row_lower.append(lb - offset), row_upper.append(np.inf), row_ptr.append(len(coefs))
+            row_constraints.append(con)
+    return row_ptr, row_lower, row_upper, row_constraints
+
+
+def _flat_matrix(coefs: list, variables: list, sorter, n_objective_terms: int, row_ptr):
+    """``(A, c, used, columns)``: the rows' matrix over the columns that appear (the variable components in order
+    of first appearance, all indices of each, less the unused), the full cost vector, which columns are used and
+    their variables; None for a symbolic, zero or repeated coefficient or a fixed variable (Pyomo's compiler's
+    case)."""
     if not set(map(type, coefs)) <= native_numeric_types:
         return None  # a symbolic coefficient (a mutable parameter)
     ids = list(map(id, variables))
     distinct = dict(zip(ids, variables))  # keyed by id: a Pyomo variable's == builds an expression
     if not all(v.is_variable_type() for v in distinct.values()):
         return None
-    # columns: variable components in order of first appearance, all indices of each
     column_of: dict[int, int] = {}
     column_vars: list = []
     for var_id, var in distinct.items():
@@ -347,21 +386,7 @@ def compile_flat_rows(problem: PyomoProblem) -> LinearProgram | None:
     used[indices] = True
     new_index = np.cumsum(used) - 1
     A = sp.csr_array((A.data, new_index[A.indices], A.indptr), shape=(A.shape[0], int(used.sum())))
-    kept_columns = [v for v, k in zip(column_vars, used) if k]
-    col_of = {id(v): k for k, v in enumerate(kept_columns)}
-    row_of = {id(con): k for k, con in enumerate(row_constraints)}
-    return LinearProgram(
-        c=sign * c_full[used],
-        A=A,
-        row_lower=np.asarray(row_lower, dtype=float),
-        row_upper=np.asarray(row_upper, dtype=float),
-        col_lower=np.array([-np.inf if v.lb is None else v.lb for v in kept_columns], dtype=float),
-        col_upper=np.array([np.inf if v.ub is None else v.ub for v in kept_columns], dtype=float),
-        columns={g: np.array([col_of.get(id(v), -1) for v in vs], dtype=int) for g, vs in problem.variables.items()},
-        rows={g: np.array([row_of[id(c)] for c in cs], dtype=int) for g, cs in problem.constraints.items()},
-        objective_sign=sign,
-        objective_offset=sign * objective_offset,
-    )
+    return A, c_full, used, [v for v, k in zip(column_vars, used) if k]
 
 
 @pause_gc

@@ -9,7 +9,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from blockmpec.formulations.pyomo_compile import LinearProgram, compiled_linear
-from blockmpec.formulations.static_lp import modified_lp, static_lp
+from blockmpec.formulations.static_lp import cohesion_factor, modified_lp, static_lp, surface_slope
 from blockmpec.formulations.tie_break import tie_break_lp
 from blockmpec.operators import Operators
 
@@ -34,6 +34,11 @@ class StepLPs:
         ``tan(phi)``, ``tan(psi)`` and the step LP's slope ``s`` per interface.
     coulomb : csr_array, shape (2c, 3c)
         ``N_f^T``: the Coulomb rows' values ``N_f^T x`` (friction admissibility ``<= 0``).
+    normal_index : ndarray of int, shape (c,)
+        Positions of the normal forces in ``x`` (``ops.normal_index``).
+    friction_contact : ndarray of int, shape (friction rows,)
+        Contact of each friction row (``ops.friction_contact``): the rows' right-hand side is
+        ``-cohesion_factor[friction_contact] * n*[friction_contact]``.
     """
 
     step: LinearProgram
@@ -43,18 +48,20 @@ class StepLPs:
     dilatancy: np.ndarray
     slope: np.ndarray
     coulomb: sp.csr_array
+    normal_index: np.ndarray
+    friction_contact: np.ndarray
 
     @property
     def cohesion_factor(self) -> np.ndarray:
         """``tan(phi) - s`` per interface: the friction rows' right-hand side is ``-cohesion_factor * n*``."""
-        return self.friction - self.slope
+        return cohesion_factor(self.friction, self.slope)
 
 
 def step_lps(ops: Operators, alpha: float = 0.0, tie_break: bool = True, associative: bool = True) -> StepLPs:
     """Compile the LPs of a sequence of modified LPs with slope ``s = tan(psi) + alpha (tan(phi) - tan(psi))``
     (``alpha = 0``: eq. (5)), through the compiled-formulation cache."""
-    c = ops.n_interfaces
-    slope = np.broadcast_to(ops.dilatancy + alpha * (ops.friction - ops.dilatancy), (c,)).astype(float)
+    c = ops.n_contacts
+    slope = np.broadcast_to(surface_slope(ops.friction, ops.dilatancy, alpha), (c,)).astype(float)
     return StepLPs(
         step=compiled_linear(modified_lp, ops, np.zeros(c), slope=slope),
         tie_break=compiled_linear(tie_break_lp, ops, np.zeros(c), slope=slope) if tie_break else None,
@@ -63,4 +70,6 @@ def step_lps(ops: Operators, alpha: float = 0.0, tie_break: bool = True, associa
         dilatancy=np.broadcast_to(np.asarray(ops.dilatancy, float), (c,)).copy(),
         slope=slope,
         coulomb=sp.csr_array(ops.N_f.T),
+        normal_index=ops.normal_index,
+        friction_contact=ops.friction_contact,
     )

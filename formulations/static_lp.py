@@ -42,39 +42,44 @@ def static_lp(ops: Operators, friction: np.ndarray | None = None, cohesion: np.n
     ----------
     ops : Operators
     friction : ndarray, shape (c,), optional
-        Friction coefficient per interface in the friction rows (default ``ops.friction``).
+        Friction coefficient per contact in the friction rows (default ``ops.friction``).
     cohesion : ndarray, shape (c,), optional
-        Right-hand side of both friction rows of each interface (default 0).
+        Right-hand side of every friction row of each contact (default 0).
+
+    Row counts and the contact of each friction row come from the operators' layout
+    (``ops.friction_contact``): the same statement in 2D (contacts = interfaces) and 3D (contact points).
     split_multiplier : bool
         One copy of ``lam`` per free block, chained by equalities (see the module docstring).
     """
-    c = ops.n_interfaces
+    c = ops.n_contacts
     b3 = ops.E.shape[0]
+    n_u, n_f = ops.N_u.shape[1], ops.N_f.shape[1]
+    friction_contact = ops.friction_contact.tolist()
     N_f = ops.N_f if friction is None else ops.friction_operator(friction)
     coh = np.zeros(c) if cohesion is None else np.asarray(cohesion, float)
     m = pyo.ConcreteModel(name=name)
     m.lam = pyo.Var()
-    m.x = pyo.Var(range(3 * c))
+    m.x = pyo.Var(range(ops.E.shape[1]))
     xs = list(m.x.values())
     lam = [m.lam]
     constraints = {}
-    if split_multiplier and b3 > 3:
-        b = b3 // 3
+    if split_multiplier and b3 > ops.block_dofs:
+        b = b3 // ops.block_dofs
         m.lam_copy = pyo.Var(range(1, b))
         copies = lam + list(m.lam_copy.values())
         rows = np.arange(b3)
-        F_l = sp.csr_array((ops.f_l, (rows, rows // 3)), shape=(b3, b))
+        F_l = sp.csr_array((ops.f_l, (rows, rows // ops.block_dofs)), shape=(b3, b))
         eq = sparse_rows([(ops.E, xs), (F_l, copies)], b3)
         m.multiplier_chain = pyo.Constraint(range(1, b), rule=lambda _, i: copies[i] - copies[i - 1] == 0.0)
         constraints["multiplier_chain"] = list(m.multiplier_chain.values())
     else:
         eq = sparse_rows([(ops.E, xs), (ops.f_l.reshape(-1, 1), lam)], b3)
     m.equilibrium = pyo.Constraint(range(b3), rule=lambda _, i: eq(i) == -float(ops.f_d[i]))
-    uni = sparse_rows([(ops.N_u.T, xs)], 2 * c)
-    m.unilateral = pyo.Constraint(range(2 * c), rule=lambda _, i: uni(i) <= 0.0)
+    uni = sparse_rows([(ops.N_u.T, xs)], n_u)
+    m.unilateral = pyo.Constraint(range(n_u), rule=lambda _, i: uni(i) <= 0.0)
     m.cohesion = pyo.Param(range(c), mutable=True, initialize=dict(enumerate(coh.tolist())))
-    fr = sparse_rows([(N_f.T, xs)], 2 * c)
-    m.friction = pyo.Constraint(range(2 * c), rule=lambda mm, i: fr(i) <= mm.cohesion[i // 2])
+    fr = sparse_rows([(N_f.T, xs)], n_f)
+    m.friction = pyo.Constraint(range(n_f), rule=lambda mm, i: fr(i) <= mm.cohesion[friction_contact[i]])
     m.objective = pyo.Objective(expr=m.lam, sense=pyo.maximize)
     return PyomoProblem(
         name=name,
@@ -89,6 +94,18 @@ def static_lp(ops: Operators, friction: np.ndarray | None = None, cohesion: np.n
     )
 
 
+def surface_slope(friction: np.ndarray, dilatancy: np.ndarray, alpha: float) -> np.ndarray:
+    """The slope ``s = tan(psi) + alpha (tan(phi) - tan(psi))`` of the friction rows of a modified LP (5) tilted by
+    ``alpha`` (``alpha = 0``: eq. (5), ``s = tan(psi)``; ``alpha = 1``: Coulomb's ``tan(phi)``)."""
+    return dilatancy + alpha * (friction - dilatancy)
+
+
+def cohesion_factor(friction: np.ndarray, slope: np.ndarray) -> np.ndarray:
+    """``tan(phi) - s``: the factor of ``-n*`` in the friction rows' right-hand side of a modified LP (5) of slope
+    ``s`` (:func:`modified_lp`)."""
+    return friction - slope
+
+
 def modified_lp(ops: Operators, n_star: np.ndarray, slope: np.ndarray | None = None,
                 name: str = "modified-lp") -> PyomoProblem:
     """The modified associative LP (5) at normal forces ``n_star`` (shape (c,)).
@@ -99,5 +116,5 @@ def modified_lp(ops: Operators, n_star: np.ndarray, slope: np.ndarray | None = N
     ``n = n*``.  The cohesion is the mutable ``Param`` ``model.cohesion``.
     """
     s = ops.dilatancy if slope is None else np.asarray(slope, float)
-    cohesion = -np.asarray(n_star, float) * (ops.friction - s)
+    cohesion = -np.asarray(n_star, float) * cohesion_factor(ops.friction, s)
     return static_lp(ops, friction=s, cohesion=cohesion, name=name)

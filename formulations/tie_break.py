@@ -49,7 +49,7 @@ def tie_break_lp(ops: Operators, n_star: np.ndarray | None = None, slope: np.nda
         Groups: variables ``lam``, ``x``, ``d``; constraints ``equilibrium``,
         ``unilateral``, ``friction``, ``deviation_up``, ``deviation_down``, ``floor``.
     """
-    c = ops.n_interfaces
+    c = ops.n_contacts
     n_star = np.zeros(c) if n_star is None else np.asarray(n_star, float)
     problem = modified_lp(ops, n_star, slope=slope, name=name)
     m = problem.model
@@ -57,7 +57,7 @@ def tie_break_lp(ops: Operators, n_star: np.ndarray | None = None, slope: np.nda
     m.n_star = pyo.Param(range(c), mutable=True, initialize=dict(enumerate(n_star.tolist())))
     m.lam_floor = pyo.Param(mutable=True, initialize=-1e30)
     m.d = pyo.Var(range(c), within=pyo.NonNegativeReals)
-    normal = [m.x[3 * k + 1] for k in range(c)]
+    normal = [m.x[int(j)] for j in ops.normal_index]
     m.deviation_up = pyo.Constraint(range(c), rule=lambda mm, k: normal[k] - mm.d[k] <= mm.n_star[k])
     m.deviation_down = pyo.Constraint(range(c), rule=lambda mm, k: -normal[k] - mm.d[k] <= -mm.n_star[k])
     m.floor = pyo.Constraint(expr=-m.lam <= -m.lam_floor)

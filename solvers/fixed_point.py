@@ -56,7 +56,7 @@ Update: ``relaxation`` ``omega`` as above, or Anderson mixing on ``n*`` (setting
 ``acceleration="anderson"``, depth ``memory``).  ``multistart > 1`` runs the
 configured start and then seeded random starts (seeds ``seed + 1, ...``) and
 returns the converged run with the lowest verified multiplier (residuals of (3)
-at most 1e-6); nothing unverified is preferred over a verified run.
+at most the run's ``verify_tol``); nothing unverified is preferred over a verified run.
 
 Defaults (``start="dead-load", tie_break="least-compressed", fold_weight=1e-4``), chosen by
 ``studies/lab/fixed_point_strategies.py`` (the changelog's strategy table): on the 56
@@ -93,7 +93,7 @@ the residuals of (3) are at most ``tol``; ``start``, ``tie_break``, ``fold_weigh
 default) takes the simplex engine below :data:`~blockmpec.solvers.plan.FIXED_POINT_INTERIOR_BLOCKS` free blocks (so the
 small structures' answers are those of the simplex engine), the interior one from there
 up, and falls back to the simplex engine in the time left when the interior run does not
-reach a solution of (3) (residuals above 1e-6), below :data:`~blockmpec.solvers.plan.FIXED_POINT_SIMPLEX_FALLBACK_BLOCKS` free
+reach a solution of (3) (residuals above the run's ``verify_tol``), below :data:`~blockmpec.solvers.plan.FIXED_POINT_SIMPLEX_FALLBACK_BLOCKS` free
 blocks (above, the simplex engine cannot finish in the default time limit, and the interior run's
 failure is returned at once).  On the 1,010-block wall the interior
 engine costs 1.4x one cold block-IPM LP (CPU) against the simplex engine's 46x, with
@@ -109,9 +109,8 @@ aimed forces with LP duals), but arclength continuation of the central path from
 aimed run, plain run, 155 continuation steps), where the simplex engine does not finish one
 step in 600 s.  On the 10,050-block wall the path through the stalled point turns back and
 the run still fails (the
-engine module's docstring, ``studies/lab/fixed_point_polish.py``,
-``studies/lab/fixed_point_continuation.py``).  A run that still fails falls back as above.
-Replacing the engine at 10,000 blocks was measured too (``studies/lab/fixed_point_routes.py``): this
+engine module's docstring and the changelog, 2026-11-27/28).  A run that still fails falls back as above.
+Replacing the engine at 10,000 blocks was measured too (the changelog, 2026-11-23): this
 sequence of LPs with each LP by the block IPM warm-started (5-7 iterations per warm LP, but the
 interior answers converge on ``n`` only linearly: 260 iterations at 1,010 blocks, still 3e-5), path
 following on (3) in a wide neighbourhood, a homotopy on the dilatancy gap (cold Newton on (3)
@@ -137,8 +136,6 @@ from blockmpec.registry import register_solver
 from blockmpec.result import RunOutput, Status
 from blockmpec.solvers import plan
 
-#: residual tolerance under which a multistart run counts as a solution of (3) (the verifier's default)
-MULTISTART_VERIFY_TOL = 1e-6
 #: default weight of the interior engine's aim term (studies/lab/fixed_point_strategies.py)
 INTERIOR_AIM_WEIGHT = 0.1
 #: the starts tried, in this order, after a run whose step LP failed (then one random start)
@@ -233,13 +230,23 @@ class FixedPoint(SolverBase):
     Options = FixedPointOptions
     Settings = FixedPointSettings
 
+    def skip_reason(self, ops) -> str | None:
+        if ops.dim == 3 and self.options.engine in plan.ENGINES_2D_ONLY:
+            return (f"engine={self.options.engine!r} is 2D only (its kernels are written for interfaces (t, n, m)); "
+                    "a 3D structure runs on engine='simplex' (what 'auto' chooses)")
+        return None
+
     def setup(self, ops):
         from blockmpec.solvers.engines.scaling import LoadUnits
 
         self.ops = ops
         self.units = LoadUnits.of(ops)
-        self.engine = plan.fixed_point_engine(self.options.engine, ops.n_free_blocks)
+        self.engine = plan.fixed_point_engine(self.options.engine, ops.n_free_blocks, ops.dim)
         self.fallback = plan.fixed_point_fallback(self.options.engine, ops.n_free_blocks)
+        other = (self.fallback if self.engine == "interior"
+                 else plan.fixed_point_interior_fallback(self.options.engine, ops.n_free_blocks, ops.dim))
+        self.plan = plan.fixed_point_plan(self.engine, other, self.options.start, self.options.tie_break,
+                                          relaxed=plan.fixed_point_relaxed_fallback(self.options.engine, ops.dim))
         self.sequence = None
         if self.engine == "interior":
             from blockmpec.formulations import step_lps
@@ -261,11 +268,8 @@ class FixedPoint(SolverBase):
                                    fold_weight=st.fold_weight)
 
     def _verified(self, out: RunOutput) -> bool:
-        """A success whose residuals of (3) are at most :data:`MULTISTART_VERIFY_TOL`."""
-        from blockmpec.verify import residuals
-
-        return (out.status.is_success and out.solution.multiplier is not None
-                and all(v <= MULTISTART_VERIFY_TOL for v in residuals(self.ops, out.solution, associative=False).values()))
+        """A success whose residuals of (3) are at most the run's ``verify_tol`` (:meth:`SolverBase.verified`)."""
+        return out.status.is_success and self.verified(out.solution)
 
     def _run_once(self, start: str, seed: int, deadline):
         from blockmpec.solvers.engines.lp_sequence import run_sequence
@@ -291,7 +295,6 @@ class FixedPoint(SolverBase):
                                   deadline=deadline, fold_weight=st.interior_weight,
                                   continuation=st.interior_continuation, sequence=st.interior_sequence)
         out.extra[fact_names.ENGINE] = "interior"
-        out.extra["plan"] = [f"interior fixed point on (3): {facts.pop('plan', 'block IPM')}"]
         if o.engine != "auto" or not fallback or self._verified(out) or deadline.expired():
             return out
         if not self.fallback:
@@ -299,26 +302,54 @@ class FixedPoint(SolverBase):
                            "blocks the simplex engine does not converge within the default time limit)")
             return out
         # the interior run did not reach a solution of (3): the simplex engine, in the time left
+        self.plan.start("simplex")
         self._build_sequence()
         simplex = self._run_simplex(deadline)
         simplex.extra[fact_names.LP_SOLVES] = simplex.extra.get(fact_names.LP_SOLVES, 0) + facts[fact_names.LP_SOLVES]
         simplex.extra[fact_names.LP_TIME_S] = {**simplex.extra.get(fact_names.LP_TIME_S, {}), **facts[fact_names.LP_TIME_S]}
         simplex.extra[fact_names.ENGINE] = "interior, then simplex"
         simplex.extra["interior_status"] = out.status.value
-        simplex.extra["plan"] = out.extra["plan"] + simplex.extra["plan"]
         simplex.trace = [{**rec, fact_names.ENGINE: "interior"} for rec in out.trace] + simplex.trace
         simplex.message = f"{simplex.message} (after an interior run that ended {out.status.value}: {out.message})"
         return simplex
 
+    def _run_relaxed(self, out: RunOutput, deadline) -> RunOutput:
+        """After unverified LP steps in 3D: the relaxed "closest" sequence of the plan, in the time left."""
+        from blockmpec.formulations import step_lps
+        from blockmpec.solvers.engines.lp_sequence import LPSequence, run_sequence
+
+        self.plan.start("relaxed")
+        o, st = self.options, self.settings
+        omega = min(o.relaxation, plan.FIXED_POINT_3D_RELAXATION)
+        lps = step_lps(self.ops, alpha=0.0, tie_break=True, associative=o.start != "zero")
+        sequence = LPSequence(lps, self.units, alpha=0.0, tie_break="closest", algorithm=st.algorithm)
+        relaxed, facts = run_sequence(sequence, start=o.start, relaxation=omega, stop_on="normal", tol=o.tol,
+                                      max_iterations=o.max_iterations, deadline=deadline, seed=o.seed)
+        relaxed.extra = {**sequence.facts(), fact_names.ENGINE: "simplex, then relaxed simplex",
+                         "first_status": out.status.value, "start": facts["start_used"]}
+        relaxed.trace = out.trace + [{**rec, "iteration": rec["iteration"] + out.iterations} for rec in relaxed.trace]
+        relaxed.iterations += out.iterations
+        if relaxed.status is Status.CONVERGED:
+            relaxed.message = (f"normal forces converged in {relaxed.iterations} LP steps, the last "
+                               f"{relaxed.iterations - out.iterations} relaxed by {omega} with the closest tie-break "
+                               f"(the first {out.iterations} ended: {out.message})")
+        return relaxed
+
     def run(self, deadline) -> RunOutput:
+        self.plan.start(self.engine)
         if self.engine == "interior":
             return self._run_interior(deadline)
         out = self._run_simplex(deadline)
-        if (not plan.fixed_point_interior_fallback(self.options.engine, self.ops.n_free_blocks) or self._verified(out)
+        if (plan.fixed_point_relaxed_fallback(self.options.engine, self.ops.dim) and not self._verified(out)
+                and out.status is not Status.INFEASIBLE and not deadline.expired()):
+            return self._run_relaxed(out, deadline)
+        if (not plan.fixed_point_interior_fallback(self.options.engine, self.ops.n_free_blocks, self.ops.dim)
+                or self._verified(out)
                 or out.status is Status.INFEASIBLE or deadline.expired()):
             return out  # infeasible: proven by the associative LP (1), which no engine can change
         # the LP steps did not reach a solution of (3) (they wander on irregular stone walls): the interior engine,
         # in the time left
+        self.plan.start("interior")
         interior = self._run_interior(deadline, fallback=False)
         if not self._verified(interior):
             out.message = f"{out.message} (the interior engine, tried next, ended {interior.status.value}: " \
@@ -327,7 +358,6 @@ class FixedPoint(SolverBase):
             return out
         interior.extra[fact_names.ENGINE] = "simplex, then interior"
         interior.extra["simplex_status"] = out.status.value
-        interior.extra["plan"] = out.extra["plan"] + interior.extra["plan"]
         for kind, seconds in out.extra.get(fact_names.LP_TIME_S, {}).items():
             interior.extra[fact_names.LP_TIME_S][kind] = seconds
         interior.extra[fact_names.LP_SOLVES] += out.extra.get(fact_names.LP_SOLVES, 0)
@@ -384,8 +414,6 @@ class FixedPoint(SolverBase):
             out.extra = self.sequence.facts()
             out.extra["multistart_runs"] = runs
         out.extra[fact_names.ENGINE] = "simplex"
-        out.extra["plan"] = [f"fixed point: {self.sequence.lp_solves} HiGHS LPs (start {facts['start_used']}, "
-                             f"tie-break {o.tie_break})"]
         out.extra["tie_break_failures"] = facts["tie_break_failures"]
         out.extra["start"] = facts["start_used"]
         if facts["lam_start"] is not None:

@@ -41,20 +41,23 @@ class KinematicLP(SolverBase):
 
     def setup(self, ops):
         from blockmpec.formulations import compile_linear, kinematic_lp
-        from blockmpec.solvers.engines.highs import MECHANISM_FEASIBILITY_TOL, HighsLP, set_feasibility_tolerances
+        from blockmpec.solvers.engines.highs import MECHANISM_FEASIBILITY_TOL, HighsLP
         from blockmpec.solvers.engines.scaling import LoadUnits
+        from blockmpec.solvers.plan import kinematic_lp_plan, lp_algorithm
 
         self.ops = ops
         self.units = LoadUnits.of(ops)
         self.lp = compile_linear(kinematic_lp(ops))
-        row_scale, column_scale = self.units.kinematic(self.lp)
-        self.highs = HighsLP(self.lp, self.options.algorithm, row_scale=row_scale, column_scale=column_scale)
+        algorithm = lp_algorithm(self.options.algorithm, self.lp.A.shape[0], need_basis=True)
+        self.engine = HighsLP(self.lp, algorithm, scaling=self.units.kinematic(self.lp))
+        self.plan = kinematic_lp_plan(algorithm)
         # z >= 0 are column bounds, held by HiGHS only to its primal feasibility tolerance (see FEASIBILITY_TOL and
         # MECHANISM_FEASIBILITY_TOL: at 1e-10 the kinematic LP agrees with the exact static LP to 1e-8 at 2,000 blocks)
-        set_feasibility_tolerances(self.highs.highs, MECHANISM_FEASIBILITY_TOL)
+        self.engine.set_feasibility_tolerances(MECHANISM_FEASIBILITY_TOL)
 
     def run(self, deadline) -> RunOutput:
-        out = self.highs.solve(deadline=deadline)
+        self.plan.start("kinematic")
+        out = self.engine.solve(deadline=deadline)
         lp = self.lp
         sol = Solution()
         message = out.message
@@ -71,8 +74,7 @@ class KinematicLP(SolverBase):
         elif out.status is Status.UNBOUNDED:
             message = "the kinematic LP is unbounded: no equilibrium exists (e.g. unstable under dead load)"
             out.status = Status.INFEASIBLE  # a dual with an unbounded objective proves the static LP infeasible
-        return RunOutput(out.status, sol, out.iterations, message=message, raw_status=out.raw_status,
-                         extra={"plan": [f"kinematic LP (2): HiGHS {self.highs.last_algorithm}"]})
+        return RunOutput(out.status, sol, out.iterations, message=message, raw_status=out.raw_status)
 
     def _no_mechanism(self, status: Status, deadline) -> tuple[Status, str]:
         """Status and message when the kinematic LP has no feasible mechanism.
@@ -88,6 +90,7 @@ class KinematicLP(SolverBase):
         from blockmpec.formulations import compile_linear, static_lp
         from blockmpec.solvers.engines.lp_engine import cold_lp_engine
 
+        self.plan.start("static")
         static = cold_lp_engine(compile_linear(static_lp(self.ops)), "dual-simplex", self.units).solve(
             deadline=deadline)
         if static.status is Status.UNBOUNDED:

@@ -84,6 +84,7 @@ from blockmpec.method import SolverBase
 from blockmpec.options import CommonOptions
 from blockmpec.registry import register_solver
 from blockmpec.result import RunOutput, Status
+from blockmpec.solvers import plan
 
 #: starting points of the Newton iteration (see the module docstring)
 STARTS = ("fixed-point", "dead-load", "random", "nlp", "associative")
@@ -183,6 +184,7 @@ class MCPNewton(SolverBase):
         self.start_lp = None
         if opt.start == "associative" or self.settings.fallback:
             self.start_lp = StaticLP()  # the associative start (within the run's deadline)
+            self.start_lp.verify_tol = self.verify_tol
             self.start_lp.setup(ops)
         self.start_solver = None
         if opt.start != "associative":
@@ -191,7 +193,9 @@ class MCPNewton(SolverBase):
             if opt.start == "random":
                 start_options["seed"] = opt.seed
             self.start_solver = get_solver(method)(**start_options)  # the registered method, not a copy
+            self.start_solver.verify_tol = self.verify_tol
             self.start_solver.setup(ops)
+        self.plan = plan.mcp_newton_plan(opt.start, fallback=opt.start != "associative" and self.settings.fallback)
 
     # ------------------------------------------------------------------ paths
 
@@ -292,18 +296,20 @@ class MCPNewton(SolverBase):
         counts = {"continuation_reached": 0.0, "continuation_steps": 0, "continuation_failures": 0}
         start_used = opt.start
         lam_assoc = None
+        self.plan.start("start")
+        self.plan.start("newton")
         if opt.start == "associative":
             status, solution, message, lam_assoc = self._associative_path(stop, counts)
         else:
             status, solution, message, lam_assoc = self._started_path(stop)
             if status is not Status.CONVERGED and self.settings.fallback and self._budget(stop) is None:
                 first = f"{opt.start} start: {message}"
+                self.plan.start("fallback")
                 status, solution, message, lam_assoc = self._associative_path(stop, counts)
                 start_used = "associative"
                 message = f"{message} (fallback after {first})"
         kinds = [r["direction"] for r in stop.trace]
-        extra = {"start": start_used, **counts, "plan": [f"start: {start_used}", "semismooth Newton on (3)"],
-                 "newton_steps": kinds.count("newton"),
+        extra = {"start": start_used, **counts, "newton_steps": kinds.count("newton"),
                  "levenberg_marquardt_steps": kinds.count("levenberg-marquardt"),
                  "gradient_steps": kinds.count("gradient")}
         if lam_assoc is not None:

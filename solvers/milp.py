@@ -38,13 +38,11 @@ at every stage and over the search.
 
 from __future__ import annotations
 
-import dataclasses
 import math
 import time
 from dataclasses import dataclass, field
 
 import numpy as np
-import scipy.sparse as sp
 
 from blockmpec import facts
 from blockmpec import options as check
@@ -200,36 +198,6 @@ def _check_engine_settings(options: MILPOptions, settings: MILPSettings) -> None
         raise ValueError("engine='bnb' bounds the minimum only; use engine='highs' for sense='max'")
 
 
-def per_block_units(form, units):
-    """Problem (3) of ``form`` in per-block units (a :class:`~blockmpec.solvers.engines.scaling.LoadUnits`), and
-    the units of its vector.
-
-    With ``r`` the equilibrium row scale (``1/l_i``), ``C`` the force column scale (interface units of
-    ``(t, n, m)``), ``S`` the multiplier column scale and ``s`` the multiplier unit (a power of two), the scaled
-    system is (3) of the structure with ``E^ = r E C``, ``f_l^ = s r f_l``, ``f_d^ = r f_d``, ``F^ = C F S``, pair
-    rows ``S G C``; columns ``lam = s lam^``, ``x = C x^``, ``u = r u^``, ``z = S z^``.  Its solutions are those
-    of (3) with ``f_l^T u = 1/s``, so ``w = unit * w^`` with ``unit = (s, C, s r, s S)`` maps a solution of the
-    scaled (3) to one of (3), pair by pair with the same active set; ``lam`` bounds map by the exact factor ``s``.
-
-    Returns
-    -------
-    CompiledMCP, ndarray, float
-        The scaled system, ``unit`` (shape (n,)), and ``s``.
-    """
-    column, row = units.mcp(form)[:2]
-    s = float(column[form.lam])
-    r = column[form.u]
-    A = sp.csr_array(sp.diags_array(row) @ form.A @ sp.diags_array(column))
-    G = sp.csr_array(sp.diags_array(column[form.pair_column]) @ form.G @ sp.diags_array(column))
-    rhs = form.rhs.copy()
-    rhs[form.equilibrium] = form.rhs[form.equilibrium] * r
-    scaled = dataclasses.replace(form, A=A, G=G, rhs=rhs, _dilatancy_rows=None)
-    unit = column.copy()
-    unit[form.u] *= s
-    unit[form.z] *= s
-    return scaled, unit, s
-
-
 class Stop:
     """What a run found and proved so far, in the MILP's units: the best exact point, the bound, the trace."""
 
@@ -319,9 +287,15 @@ class MILPSolver(SolverBase):
         from blockmpec.solvers.engines.scaling import LoadUnits
 
         self.ops = ops
-        form, self._w_unit, self.lam_unit = per_block_units(compile_mcp(ops), LoadUnits.of(ops))
-        self.form = form
+        original = compile_mcp(ops)
+        #: (3) in per-block units and the inverse that travels with it (:meth:`MCPScaling.apply`)
+        self.units = LoadUnits.of(ops).mcp(original).apply(original)
+        form = self.form = self.units.form
+        self._w_unit = self.units.unit
+        #: the multiplier unit ``s`` of the MILP's per-block units (a power of two): ``lam = s lam^``
+        self.lam_unit = self.units.lam_unit
         self.engine = self._resolve_engine(form)
+        self.plan = plan.milp_plan(self.engine, self.settings.incumbent)
         self.lifting = self.settings.lifting or BNB_DEFAULT_LIFTING
         self.root_lp = self.settings.root_lp or BNB_DEFAULT_ROOT_LP
         self.work = work_matrix(form)
@@ -426,13 +400,11 @@ class MILPSolver(SolverBase):
     def _heuristic_point(self, name: str, deadline: Deadline) -> Solution | None:
         """The registered method ``name``'s point within ``deadline``, if the shared verifier accepts it, finished
         on its pattern in the MILP's units (None otherwise)."""
-        from blockmpec.verify import residuals
-
         heuristic = get_solver(name)()
+        heuristic.verify_tol = self.verify_tol
         heuristic.setup(self.ops)
         out = heuristic.run(deadline)
-        checked = residuals(self.ops, out.solution, associative=heuristic.problem == "associative")
-        if not (out.status.is_success and checked and max(checked.values()) <= HEURISTIC_VERIFY_TOL):
+        if not (out.status.is_success and heuristic.verified(out.solution)):
             return None
         w = self.form.pack(self.scaled(out.solution))
         return self.polish(self.form.multipliers(w) > self.form.slack(w))[0]
@@ -444,8 +416,6 @@ class MILPSolver(SolverBase):
         self._n_lps_before = self.bound_lps.n_lps
         out = self._run_scaled(deadline, stop)
         out.extra.setdefault(facts.BOUND, None)
-        out.extra["plan"] = [f"LP bounds ({out.extra.get(facts.LP_SOLVES, 0)} LPs)",
-                             f"engine: {out.extra.get(facts.ENGINE, self.engine)}", "polish: piece LPs"]
         self._to_problem_units(out)
         if out.status is Status.OPTIMAL:
             self._recertify(out)
@@ -459,9 +429,11 @@ class MILPSolver(SolverBase):
         except BoundFailure as fail:
             return self._failed(stop, fail)
         if self.settings.incumbent:
+            self.plan.start("incumbent")
             self._incumbents(stop, associative[0], associative[2], deadline)
         stop.record("incumbent")
         bounds_deadline = BUDGET.bounds(deadline)
+        self.plan.start("bounds")
         try:
             bd = self.root_bounds(bounds_deadline, associative)
         except BoundFailure as fail:
@@ -477,6 +449,7 @@ class MILPSolver(SolverBase):
         bd = self.model_bounds(bd, bounds_deadline if self.engine == "bnb" else deadline)
         extra = self._extra(bd)
         stop.record("model bounds")
+        self.plan.start("engine")
         if self.engine == "bnb":
             from blockmpec.solvers.engines.milp_search import bnb_search
 
@@ -519,13 +492,13 @@ class MILPSolver(SolverBase):
 
     # ------------------------------------------------------------------ units
     def scaled(self, sol: Solution) -> Solution:
-        """A point of (3) in the problem's units -> the same point in the MILP's units (:func:`per_block_units`)."""
-        return self.form.unpack(self.form.pack(sol) / self._w_unit)
+        """A point of (3) in the problem's units -> the same point in the MILP's units (:meth:`MCPScaling.apply`)."""
+        return self.form.unpack(self.units.to_units(self.form.pack(sol)))
 
     def unscaled(self, sol: Solution) -> Solution:
         """A point of (3) in the MILP's units -> the same point in the problem's units (the inverse of
         :meth:`scaled`)."""
-        return self.form.unpack(self.form.pack(sol) * self._w_unit)
+        return self.form.unpack(self.units.from_units(self.form.pack(sol)))
 
     def _to_problem_units(self, out: RunOutput) -> None:
         """The point, the bounds, the gaps and the trace of ``out`` from the MILP's units to the problem's."""
@@ -563,6 +536,3 @@ class MILPSolver(SolverBase):
         out.message = (f"in the problem's units lam {lam:.10g} and the bound {bound:.10g} differ by {gap:.2e} "
                        f"(tolerance {tol:.2e}): certificate void. {out.message}")
 
-
-#: a heuristic's point is an incumbent when every residual of (3) is at most this (the verifier's default)
-HEURISTIC_VERIFY_TOL = 1e-6

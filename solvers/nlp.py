@@ -1,12 +1,9 @@
 r"""``nlp``: the MPEC (4) by a relaxed-complementarity NLP (Ferris & Tin-Loi 2001 style).
 
-Problem
--------
-The MPEC (4) is ``min lam`` over the solutions of the MCP (3).  (3) is read from
-its compiled formulation (:func:`blockmpec.formulations.compile_mcp`: ``A w = rhs``,
-pair rows ``G w <= 0``, multipliers ``z = w[pair_column]``), with the pair slacks
-``s = -G w`` as extra variables; the NLP's variables are ``v = (w, s)``,
-``w = (lam, x, u, z)``::
+Problem.  The MPEC (4) is ``min lam`` over the solutions of the MCP (3), read from its compiled formulation
+(:func:`blockmpec.formulations.compile_mcp`: ``A w = rhs``, pair rows ``G w <= 0``, multipliers
+``z = w[pair_column]``), with the pair slacks ``s = -G w`` as extra variables; the NLP's variables are
+``v = (w, s)``, ``w = (lam, x, u, z)``::
 
     min  lam
     s.t. A w = rhs                              (equilibrium, compatibility, normalisation)
@@ -14,107 +11,56 @@ pair rows ``G w <= 0``, multipliers ``z = w[pair_column]``), with the pair slack
          z_i s_i / P <= eps                     (relaxed complementarity, 4c rows)
          z >= 0, s >= 0
 
-(Scholtes relaxation).  ``P = max(z^0) * max(s^0)`` is the product of the typical
-magnitudes of ``z`` and ``s`` at the starting point, each in its pair's units, so
-``eps`` is scale-free.
+(Scholtes relaxation), ``P = max(z^0) * max(s^0)`` the product of the typical magnitudes of ``z`` and ``s`` at the
+start, each in its pair's units, so ``eps`` is scale-free.  ``eps`` runs from ``eps_initial`` down to
+``eps_final`` by the factor ``eps_factor``, each stage warm-started from the one before (primal point and, with the
+setting ``warm_start``, Ipopt's multipliers; a failed warm stage is tried once more without them).
 
-Units.  Ipopt solves the NLP in the units of :func:`nlp_scaling`, built from the one
-units object ``ops.units`` (:mod:`blockmpec.units`) as the LPs are
-(:mod:`blockmpec.solvers.engines.scaling`): block ``i``'s equilibrium rows over its load
-``l_i``, interface ``k``'s forces in ``(l_k, l_k, l_k L_k)``, the mechanism and multipliers
-in the reciprocal (kinematic) units, each slack in the reciprocal unit of its multiplier.
-So ``z^_i s^_i = z_i s_i`` (a work in ``lam`` units) and a 1e-5 block on a unit block, or
-dead point loads 1e10 times the weights, keep every block's rows and pairs O(1) for
-Ipopt's absolute tolerances.  Before (``P`` from the largest ``z`` and ``s`` of the whole
-structure) a tiny block's products were relaxed by its big neighbour's ``P`` (``lam < 0``,
-unverified, at size ratio 1e3).  An interface with ``tan(phi) = 0`` has ``t_k`` fixed at 0
-(its pair rows ``+-t_k <= 0`` force it), so ``mu = 0`` gives an exact ``t = 0`` and
-``lam = 0``.
-``eps`` is driven from ``eps_initial`` down to ``eps_final`` by the factor
-``eps_factor``; each stage is warm-started from the previous one (primal point and,
-with the setting ``warm_start``, Ipopt's multipliers); a
-:class:`~blockmpec.solvers.engines.stopping.StoppingCriterion` on ``eps`` keeps the time
-limit and writes the trace (one record per Ipopt solve: ``iteration, time_s, eps,
-stage, multiplier, ipopt_status, ipopt_iterations, warm_multipliers, stage_time_s,
-longest_iteration_s``).  Within a stage the time limit is kept by Ipopt's ``max_wall_time``
-(the time left) and by the iteration callback, which stops Ipopt once the time left is
-shorter than its longest iteration so far (Ipopt tests ``max_wall_time`` only after an
-iteration, and one iteration with inertia corrections is several factorisations).
-Every stage is solved by Ipopt through
-cyipopt, with exact sparse derivatives: the Jacobian is the constant matrix of the
-linear rows plus two nonzeros per product row (``s_i/P`` and ``z_i/P``), and the
-Hessian of the Lagrangian has one nonzero per pair,
-``d^2 L / dz_i ds_i = y_i / P`` (``y_i`` the multiplier of product row ``i``).
-Ipopt runs with ``mumps_pivtol = 1e-8`` (the default 1e-6 makes MUMPS reallocate
-endlessly on these degenerate systems), ``mu_strategy = adaptive`` (about half the
-iterations of the monotone strategy on walls) and ``bound_relax_factor =
-min(1e-8, eps/10)`` (Ipopt's own bound relaxation must not exceed ``eps``);
-``ipopt_options`` override any of these.
+Units.  Ipopt solves in the units of :meth:`LoadUnits.mcp <blockmpec.solvers.engines.scaling.LoadUnits.mcp>`:
+block ``i``'s equilibrium rows over its load ``l_i``, interface ``k``'s forces in ``(l_k, l_k, l_k L_k)``, the
+mechanism and multipliers in the reciprocal units, each slack in the reciprocal unit of its multiplier, so
+``z^_i s^_i = z_i s_i`` (a work in ``lam`` units) and Ipopt's absolute tolerances hold block by block.  An interface
+with ``tan(phi) = 0`` has ``t_k`` fixed at 0 (its pair rows ``+-t_k <= 0`` force it).
 
-The default start is the associative solution (static LP (1) with HiGHS, mechanism
-from its duals), which satisfies every row except the non-associative flow rule.  The
-associative multiplier is an upper bound of every solution of (3) (its ``x`` is
-statically admissible), and the NLP reaches a *local* minimum of (4), so
-``lam_NA_min <= lam_nlp <= lam_assoc``.  When ``tan(psi) = tan(phi)`` (associative case)
-the answer is the LP multiplier.
+Ipopt (through cyipopt) gets exact sparse derivatives: the Jacobian is the constant matrix of the linear rows plus
+``s_i/P`` and ``z_i/P`` per product row, the Hessian of the Lagrangian ``y_i / P`` on each ``(z_i, s_i)``.  It runs
+with ``mumps_pivtol = 1e-8``, ``mu_strategy = adaptive`` and ``bound_relax_factor = min(1e-8, eps/10)`` (its bound
+relaxation must not exceed ``eps``); ``ipopt_options`` override them.  Within a stage the time limit is Ipopt's
+``max_wall_time`` and the iteration callback, which stops Ipopt once the time left is shorter than its longest
+iteration so far.  A :class:`~blockmpec.solvers.engines.stopping.StoppingCriterion` writes one trace record per
+Ipopt solve.
 
-Penalty NLP (``complementarity="penalty"``).  The product rows are replaced by a term of
-the objective (the penalty formulation of Leyffer, López-Calva & Nocedal 2006)::
+Penalty NLP (``complementarity="penalty"``, Leyffer, López-Calva & Nocedal 2006): the product rows become the term
+``rho sum_i z^_i s^_i`` of the objective (``rho`` dimensionless), so every row is linear; ``rho`` runs from
+``penalty`` up by ``penalty_factor`` (at most ``penalty_stages`` stages) until every ``z^_i s^_i <= eps_final P``.
+Ipopt then runs with ``mu_strategy = monotone`` and ``mu_init = bound_push = bound_frac = 1e-6`` (the start
+already satisfies the linear rows).
 
-    min  lam + rho sum_i z^_i s^_i    s.t.  the linear rows above,  z >= 0, s >= 0,
+Starts (``start``): ``"associative"`` (the static LP's solution, which satisfies every row but the non-associative
+flow rule; its multiplier bounds every solution of (3) above, so ``lam_NA_min <= lam_nlp <= lam_assoc``),
+``"cold"`` (Ipopt's push from 0) or ``"fixed-point"`` (the registered method's solution of (3), its time counted
+in this run).  The NLP finds a *local* minimum of (4).
 
-(``z^_i s^_i = z_i s_i``, works in ``lam`` units, so ``rho`` is dimensionless).  Its rows are
-linear, so the degenerate product rows (no constraint qualification at ``z_i = s_i = 0``)
-are gone; the Hessian is the constant ``rho`` on each ``(z^_i, s^_i)``.  ``rho`` runs from
-``penalty`` up by ``penalty_factor`` (at most ``penalty_stages`` stages, each warm-started)
-until every ``z^_i s^_i <= eps_final P``; the polish then makes the products exact.  (The
-trace records the stage's ``rho`` as ``rho``, where the relaxed NLP records ``eps``, and ``max_work``,
-the largest ``z^_i s^_i / P``.)  Ipopt
-runs with ``mu_strategy = monotone`` and ``mu_init = bound_push = bound_frac = 1e-6``: the
-start already satisfies the linear rows and a barrier of Ipopt's default size (0.1, push
-1e-2) first drives the iterate far from it (10x10 wall from the fixed point: 86 Ipopt
-iterations against 315 with the defaults).
+Finishing.  With the setting ``polish`` a few semismooth Newton steps on (3) make the last stage's products
+``z_i s_i`` exact zeros (kept only if Newton converged and ``lam`` moved by at most ``1e-6 max(1, |lam|)``).  With
+the stages' point is then finished on its pattern (:func:`~blockmpec.solvers.engines.exact_point.exact_solution`:
+the piece LPs with every pair's zero side fixed as the point has it), so the reported ``lam`` is that of an exact
+solution of (3).  With the setting ``piece_lp`` (and always on the ``pieces`` route) the point goes to
+:func:`~blockmpec.solvers.engines.piece_lp.piece_descent`: with every pair's zero side fixed, (4) is an LP whose
+minimiser solves (3) exactly; its static half's duals certify a local minimum of (4) (checked, not assumed).  After
+the stages its point is kept only when certified and its ``lam`` is not higher.
 
-Starts (``start``).  ``"fixed-point"`` runs the registered ``fixed-point`` method (its
-defaults, the time left of this run; its seconds are part of this run's solve time and
-are reported as ``extra["start_time_s"]``) and starts the NLP from its solution of (3),
-which satisfies every row; the NLP then moves it to a nearby local minimum of (4) (its
-multiplier may end above the start's: the NLP is local, not a descent from it).
+Route (``route``): ``"ipopt"`` runs the stages above; ``"pieces"`` sends the fixed point's solution of (3) straight
+to the piece LPs, whatever ``start`` says; ``"auto"`` takes ``"pieces"`` from
+:data:`~blockmpec.solvers.plan.NLP_PIECE_ROUTE_BLOCKS` free blocks on (``docs/methods/nlp.md``
+gives the measurements).  The run's stages are its :func:`~blockmpec.solvers.plan.nlp_plan`.
 
-Piece LPs (setting ``piece_lp``, and the ``pieces`` route).  After the stages (and the polish), the point is finished by
-:func:`~blockmpec.solvers.engines.piece_lp.piece_descent`: with every pair's zero side fixed
-by the point, (4) is a linear program (a *piece*), whose minimiser solves (3) exactly.  The piece LP is
-two LPs that no row couples, a static one in ``(lam, x)`` and a mechanism in ``(u, z)``
-(setting ``piece_lps="split"``, the default; ``"whole"`` solves each piece as one HiGHS LP, the route before,
-kept for measurement).  The static LP on the support of a mechanism is the relaxed LP at its point, so
-its duals certify a local minimum of (4) (checked, not assumed); further mechanisms that free pairs whose
-equalities raise ``lam`` descend from there.  The certified point replaces Ipopt's when its ``lam`` is
-not higher.  On the ``pieces`` route there are no stages: the start (the fixed point's solution of (3)) goes
-straight to the piece LPs, and their outcome is the run's.
-
-Route (``route``).  ``"ipopt"`` runs the options above; ``"pieces"`` starts from the fixed point and goes
-straight to the piece LPs, whatever ``start`` says; ``"auto"`` (default) takes ``"pieces"`` from
-:data:`~blockmpec.solvers.plan.NLP_PIECE_ROUTE_BLOCKS` free blocks on.  Measured (``studies/lab/nlp_scaling.py``, one loaded run):
-the Ipopt stages reach at most ~69 blocks within 60 s, while the piece route solves the 2,032-block wall
-(certified local minimum 0.42179, below the fixed point's 0.42633) in ~19 s CPU: the fixed point ~5 s,
-the static halves by the block IPM, the mechanisms by HiGHS.  Below the threshold Ipopt is kept: its
-local minima are lower on small walls (10x5: 0.50530 against the pieces' 0.50582).
-
-A stage that fails after a warm start is tried once more from the same primal
-point without Ipopt's multipliers.  With the setting ``polish`` the last stage's point is
-finished by a few semismooth Newton steps on (3) (the products ``z_i s_i`` of order
-``eps`` become exact zeros) and round-off entries of ``u`` and ``z`` are zeroed; the
-polished point is kept only if Newton converged and ``lam`` moved by at most
-``1e-6 max(1, |lam|)``.
-
-Status: ``LOCALLY_OPTIMAL`` when Ipopt solved every stage (or the piece LPs certified their
-point), ``ACCEPTABLE`` when some stage ended at Ipopt's "solved to acceptable level", otherwise
-the stage's failure (``ITERATION_LIMIT``, ``TIME_LIMIT``, ``NUMERICAL`` or ``ERROR``) with the
-last iterate; on the ``pieces`` route, the piece LPs' limit, or ``CONVERGED`` with their best point when its
-certificate fails (an exact solution of (3), not proven a local minimum).
-Ipopt's "Infeasible_Problem_Detected" is local (a stationary point of the constraint
-violation), so it maps to ``NUMERICAL``, not ``INFEASIBLE``; only an infeasible
-associative start LP (no equilibrium at all) gives ``INFEASIBLE``.
+Status: ``LOCALLY_OPTIMAL`` when Ipopt solved every stage (or the piece LPs certified their point), ``ACCEPTABLE``
+when some stage ended at Ipopt's "solved to acceptable level", otherwise the stage's failure
+(``ITERATION_LIMIT``, ``TIME_LIMIT``, ``NUMERICAL`` or ``ERROR``) with the last iterate; on the ``pieces`` route,
+the piece LPs' limit, or ``CONVERGED`` with their best point when its certificate fails (an exact solution of (3),
+not proven a local minimum).  Ipopt's "Infeasible_Problem_Detected" is local, so it
+maps to ``NUMERICAL``; only an infeasible associative start LP gives ``INFEASIBLE``.
 """
 
 from __future__ import annotations
@@ -265,16 +211,16 @@ def eps_schedule(options: NLPOptions, settings: NLPSettings) -> list[float]:
 class RelaxedMPEC:
     """cyipopt callbacks of the relaxed NLP in units; variables ``v^ = (w^, s^)`` with ``w = D w^``, ``s = S s^``.
 
-    ``D`` (``column_scale``, one entry per column of ``w``) and ``S`` (``slack_scale``, one per
-    pair) come from :func:`nlp_scaling`; the equality rows are multiplied by ``row_scale``
+    ``D`` (``scaling.column``, one entry per column of ``w``) and ``S`` (``scaling.slack``, one per
+    pair) come from the :class:`~blockmpec.solvers.engines.scaling.MCPScaling` ``scaling``; the equality rows are
+    multiplied by ``scaling.row``
     and each slack row ``G_i w + s_i = 0`` by ``1 / S_i`` (its ``s^_i`` coefficient stays 1).
     The product rows are ``z^_i s^_i / P``: since ``S_i`` is the reciprocal of the unit of
     ``z_i``, ``z^_i s^_i = z_i s_i`` (a work in ``lam`` units), and ``P`` is measured on the
     scaled start.
     """
 
-    def __init__(self, form, scale: float, column_scale: np.ndarray, row_scale: np.ndarray,
-                 slack_scale: np.ndarray) -> None:
+    def __init__(self, form, scale: float, scaling) -> None:
         import scipy.sparse as sp
 
         self.form = form
@@ -284,10 +230,9 @@ class RelaxedMPEC:
         self.i_w = slice(0, n_w)
         self.i_s = slice(n_w, n_w + p)
         self.n = n_w + p
-        self.column_scale = np.concatenate([column_scale, slack_scale])
-        D = sp.diags_array(column_scale)
-        A_eq = sp.diags_array(row_scale) @ form.A @ D  # R A D w^ = R rhs
-        G = sp.diags_array(1.0 / slack_scale) @ form.G @ D  # G w + s = 0 divided by S
+        #: the units of ``(w, s)``: ``v = units * v^``
+        self.units = scaling.with_slacks()
+        A_eq, G, rhs = scaling.nlp_rows(form)  # R A D w^ = R rhs; (G w + s) / S = 0
         A = sp.bmat([[A_eq, None], [G, sp.eye_array(p)]], format="csr")
         self.m_lin = A.shape[0]
         self.m = self.m_lin + p
@@ -305,18 +250,18 @@ class RelaxedMPEC:
         # Lagrangian Hessian: d2(z_i s_i)/dz_i ds_i; lower triangle (s columns after z columns).
         self._hess_rows = s_cols.astype(np.int32)
         self._hess_cols = z_cols.astype(np.int32)
-        self.rhs = np.concatenate([row_scale * form.rhs, np.zeros(p)])
+        self.rhs = np.concatenate([rhs, np.zeros(p)])
         self.grad = np.zeros(self.n)
         self.grad[form.lam] = 1.0
         self.start_clock(math.inf)
 
     def to_units(self, v: np.ndarray) -> np.ndarray:
         """``(w, s)`` -> ``(w^, s^)``."""
-        return np.asarray(v, float) / self.column_scale
+        return np.asarray(v, float) / self.units
 
     def from_units(self, v: np.ndarray) -> np.ndarray:
         """``(w^, s^)`` -> ``(w, s)``."""
-        return np.asarray(v, float) * self.column_scale
+        return np.asarray(v, float) * self.units
 
     # ---- cyipopt interface
     def objective(self, v):
@@ -377,7 +322,7 @@ class RelaxedMPEC:
         lb[self.i_s] = 0.0
         # friction tan(phi_k) = 0: the pair rows +-t_k <= 0 force t_k = 0; fixed (Ipopt drops the
         # column), so that t_k is an exact zero rather than round-off of either sign
-        frictionless = self.form.x.start + self.form.t[self.form.friction == 0]
+        frictionless = self.form.x.start + self.form.shear_of(self.form.friction == 0)
         lb[frictionless] = ub[frictionless] = 0.0
         cl = np.concatenate([self.rhs, np.full(self.n_pairs, -_INF)])
         cu = np.concatenate([self.rhs, np.full(self.n_pairs, float(eps))])
@@ -447,29 +392,15 @@ def without_free_sliding(form, solution: Solution) -> Solution:
     complementarity work of 1.6e-5 that the verifier rejected.  ``c = max(0, min(z_f+, z_f-))``
     only shrinks the products ``z_f s_f``.
     """
-    free = np.repeat(form.dilatancy == 0, 2)
+    contact = form.pair_interface[form.friction_pairs]
+    free = form.dilatancy[contact] == 0
     if solution.z_f is None or not free.any():
         return solution
-    z_f = solution.z_f.reshape(-1, 2)  # (z_f+, z_f-) per interface, as form.pair_interface orders them
-    common = np.where(free[::2], np.maximum(np.minimum(z_f[:, 0], z_f[:, 1]), 0.0), 0.0)
+    k = contact.size // max(form.n_interfaces, 1)  # friction rows per contact: 2 in 2D, the pyramid's sides in 3D
+    z_f = solution.z_f.reshape(-1, k)  # the rows of each contact, as form.pair_interface orders them
+    common = np.where(free[::k], np.maximum(z_f.min(axis=1), 0.0), 0.0)
     solution.z_f = (z_f - common[:, None]).ravel()
     return solution
-
-
-def nlp_scaling(form, units) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Column, equality-row and slack scales of the relaxed NLP: the per-block units of
-    :meth:`LoadUnits.mcp <blockmpec.solvers.engines.scaling.LoadUnits.mcp>` (shared with ``milp``), each pair slack
-    in the reciprocal unit of its multiplier, so that the products ``z^ s^`` equal ``z s`` (works
-    in ``lam`` units) and Ipopt's absolute tolerances hold block by block.
-
-    Returns
-    -------
-    column_scale : ndarray, shape (n_columns,)
-    row_scale : ndarray, shape (rows of ``form.A``,)
-    slack_scale : ndarray, shape (n_pairs,)
-    """
-    column_scale, row_scale = units.mcp(form)
-    return column_scale, row_scale, 1.0 / column_scale[form.pair_column]
 
 
 @register_solver
@@ -502,8 +433,13 @@ class RelaxedNLP(SolverBase):
 
             method, start_options = _START_METHODS[self.start]
             self.start_solver = get_solver(method)(**start_options)
+            self.start_solver.verify_tol = self.verify_tol
             self.start_solver.setup(ops)
-        self.scaling = nlp_scaling(self.form, LoadUnits.of(ops))
+        st = self.settings
+        self.plan = plan.nlp_plan(self.route, self.start, opt.complementarity, len(eps_schedule(opt, st)),
+                                  polish=st.polish and st.polish_iterations > 0,
+                                  piece_lps=st.piece_lps if self.use_pieces else None, n_pairs=self.form.n_pairs)
+        self.scaling = LoadUnits.of(ops).mcp(self.form)
         self.nlp = None  # built in run(): its scale depends on the starting point
         self.start_time_s = 0.0  # seconds of the start's solve (part of the run's solve time)
 
@@ -513,16 +449,14 @@ class RelaxedNLP(SolverBase):
         ``v0 = (w0, s0)`` is the start's solution (associative: the static LP's; fixed-point: the
         registered method's, run here with the time left on ``stop``) with ``s0 = -G w0``
         (negative parts of ``z0`` and ``s0`` cut to 0), or None for a cold start.
-        ``P = max(z^0) max(s^0)`` in the units of :func:`nlp_scaling`; cold: ``max|f^_d| / sum|f^_l|``
+        ``P = max(z^0) max(s^0)`` in the units of :attr:`scaling`; cold: ``max|f^_d| / sum|f^_l|``
         (a force times the size of ``z`` implied by ``f_l^T u = 1``, in units).
         """
         from blockmpec import facts
 
         form = self.form
-        column_scale, row_scale, slack_scale = self.scaling
         if self.start_solver is None:
-            rows = row_scale[form.equilibrium]
-            f_d, f_l = rows * form.f_d, rows * form.f_l * column_scale[form.lam]
+            f_d, f_l = self.scaling.loads(form)
             force = float(np.max(np.abs(f_d))) if f_d.size else 1.0
             scale = force / max(float(np.sum(np.abs(f_l))), 1e-300)
             return None, (scale if scale > 0 else 1.0), None, "cold start", None
@@ -537,7 +471,7 @@ class RelaxedNLP(SolverBase):
         s0 = np.maximum(form.slack(w0), 0.0)
         z0 = np.maximum(form.multipliers(w0), 0.0)
         w0[form.pair_column] = z0
-        scale = _typical_work(z0 / column_scale[form.pair_column], s0 / slack_scale)
+        scale = _typical_work(*self.scaling.pair_sides(form, z0, s0))
         lam_associative = sol.multiplier if name == "associative" else start.extra.get(facts.ASSOCIATIVE_MULTIPLIER)
         return np.concatenate([w0, s0]), scale, None, f"{name} start lam = {sol.multiplier:.9g}", lam_associative
 
@@ -556,45 +490,60 @@ class RelaxedNLP(SolverBase):
         # the trace's measure: the stage's eps, or its rho in the penalty NLP
         stop = StoppingCriterion(opt.eps_final, 2 * len(schedule) + 2, deadline,
                                  measure_name="rho" if penalty else "eps").start()
+        self.plan.start("start")
         v0, scale, fail, start_msg, lam_associative = self._start_point(stop)
         if fail is not None:
             passed_on = (Status.UNBOUNDED, Status.INFEASIBLE, Status.INFEASIBLE_OR_UNBOUNDED, Status.TIME_LIMIT)
             return RunOutput(fail if fail in passed_on else Status.ERROR, message=start_msg,
                              raw_status="static LP" if self.start == "associative" else self.start)
-        nlp = (PenaltyMPEC if penalty else RelaxedMPEC)(self.form, scale, *self.scaling)
+        nlp = (PenaltyMPEC if penalty else RelaxedMPEC)(self.form, scale, self.scaling)
         self.nlp = nlp
         v = np.zeros(nlp.n) if v0 is None else nlp.to_units(v0)
-        mult = None
-        total_iter = 0
-        final = Status.LOCALLY_OPTIMAL
-        raw = ""
-        message = ""
+        final, raw, message, total_iter = Status.LOCALLY_OPTIMAL, "", "", 0
+        if self.use_ipopt:
+            self.plan.start("ipopt")
+            v, final, raw, message, total_iter = self._ipopt_stages(cyipopt, nlp, v, schedule, scale, stop)
+        trace = stop.trace
+        solution = without_free_sliding(self.form, nlp.split(v))
+        n_stages = len({t["stage"] for t in trace})
+        extra = {"stages": n_stages, "ipopt_solves": len(trace), "scale": scale, "start": self.start, "route": self.route,
+                 "start_time_s": self.start_time_s, "complementarity": opt.complementarity}
+        if lam_associative is not None:
+            extra[facts.ASSOCIATIVE_MULTIPLIER] = lam_associative
+        if not message and self.use_ipopt:
+            last = trace[-1]
+            final_value = (f"final rho = {last['rho']:.3g}, max z_i s_i / P = {last.get('max_work', math.nan):.3g}"
+                           if penalty else f"final eps = {last['eps']:.3g}")
+            message = f"{n_stages} stages ({len(trace)} Ipopt solves), {final_value}; {start_msg}"
+            if "polish" in self.plan:
+                self.plan.start("polish")
+                solution, note = self._polish(solution, stop)
+                message += f"; {note}"
+                extra["polish"] = note
+            # the lam of an exact solution of (3): the point finished on its pattern's piece LPs
+            self.plan.start("exact")
+            solution, note = exact_solution(self.form, self.scaling, solution, stop.deadline)
+            message += f"; {note}"
+        if "pieces" in self.plan and (not self.use_ipopt or final in (Status.LOCALLY_OPTIMAL, Status.ACCEPTABLE)):
+            self.plan.start("pieces")
+            solution, final, note = self._piece_finish(solution, final, stop, extra)
+            message = f"{message}; {note}" if message else f"{start_msg}; {note}"
+        return RunOutput(final, solution, iterations=total_iter, trace=trace, message=message, raw_status=raw,
+                         extra=extra)
+
+    def _ipopt_stages(self, cyipopt, nlp: RelaxedMPEC, v: np.ndarray, schedule: list[float], scale: float, stop):
+        """The Ipopt stages of ``schedule`` from the scaled point ``v``, each warm from the one before, until one
+        fails (penalty: until every product ``z^_i s^_i <= eps_final P``); ``(v, status, raw, message, iterations)``
+        with ``raw`` Ipopt's name of the last solve and ``message`` empty unless a stage failed."""
+        opt = self.options
+        penalty = isinstance(nlp, PenaltyMPEC)
+        mult, final, raw, message, total = None, Status.LOCALLY_OPTIMAL, "", "", 0
         for k, eps in enumerate(schedule):
-            attempts = [True, False] if st.warm_start and mult is not None else [False]
             if penalty:
                 nlp.rho = eps
-            for use_mult in attempts:
-                remaining = stop.remaining()
-                if remaining <= 0:
-                    status, name, info = Status.TIME_LIMIT, "time_limit", {"status_msg": "time limit before the stage"}
-                    v_new = v
-                    break
-                t0 = time.perf_counter()
-                v_new, info = self.solve_stage(cyipopt, nlp, eps, v, mult if use_mult else None, remaining)
-                dt = time.perf_counter() - t0
-                code = int(info["status"])
-                status, name = _IPOPT_STATUS.get(code, (Status.ERROR, f"ipopt_status_{code}"))
-                if nlp.deadline_hit and code == _USER_STOP:  # our callback stopped it: the time limit
-                    status, name = Status.TIME_LIMIT, "time_limit_callback"
-                total_iter += nlp.iterations
-                lam_k = float(v_new[self.form.lam] * nlp.column_scale[self.form.lam])
-                stop.check(eps, stage=k + 1, multiplier=lam_k, ipopt_status=name,
-                           ipopt_iterations=nlp.iterations, warm_multipliers=use_mult, stage_time_s=dt,
-                           longest_iteration_s=nlp.longest_iteration_s)
-                raw = name
-                # a failed warm-started stage is tried once more from the same primal point, cold
-                if status.is_success or status is Status.TIME_LIMIT:
-                    break
+            status, name, info, v_new, iterations, last_raw = self._stage(cyipopt, nlp, k, eps, v, mult, stop)
+            total += iterations
+            raw = raw if last_raw is None else last_raw
             if status in (Status.LOCALLY_OPTIMAL, Status.ACCEPTABLE):
                 v = np.asarray(v_new, float)
                 mult = (np.asarray(info["mult_g"], float), np.asarray(info["mult_x_L"], float),
@@ -613,33 +562,35 @@ class RelaxedNLP(SolverBase):
             final = status
             message = f"stage {k + 1} (eps = {eps:.3g}) ended with Ipopt status {name}: {info.get('status_msg', b'')!r}"
             break
-        trace = stop.trace
-        solution = without_free_sliding(self.form, nlp.split(v))
-        n_stages = len({t["stage"] for t in trace})
-        extra = {"stages": n_stages, "ipopt_solves": len(trace), "scale": scale, "start": self.start, "route": self.route,
-                 "start_time_s": self.start_time_s, "complementarity": opt.complementarity,
-                 "plan": [f"start: {self.start}"] + ([f"Ipopt: {n_stages} {opt.complementarity} stages"]
-                                                      if self.use_ipopt else [])}
-        if lam_associative is not None:
-            extra[facts.ASSOCIATIVE_MULTIPLIER] = lam_associative
-        if not message and self.use_ipopt:
-            last = trace[-1]
-            final_value = (f"final rho = {last['rho']:.3g}, max z_i s_i / P = {last.get('max_work', math.nan):.3g}"
-                           if penalty else f"final eps = {last['eps']:.3g}")
-            message = f"{n_stages} stages ({len(trace)} Ipopt solves), {final_value}; {start_msg}"
-            if st.polish and st.polish_iterations > 0:
-                solution, note = self._polish(solution, stop)
-                message += f"; {note}"
-                extra["polish"] = note
-            # the lam of an exact solution of (3): the piece LPs on the point's pattern (issue 53)
-            solution, note = exact_solution(self.form, self.scaling, solution, stop.deadline)
-            message += f"; {note}"
-        if self.use_pieces and (not self.use_ipopt or final in (Status.LOCALLY_OPTIMAL, Status.ACCEPTABLE)):
-            extra["plan"].append(f"piece LPs ({st.piece_lps})")
-            solution, final, note = self._piece_finish(solution, final, stop, extra)
-            message = f"{message}; {note}" if message else f"{start_msg}; {note}"
-        return RunOutput(final, solution, iterations=total_iter, trace=trace, message=message, raw_status=raw,
-                         extra=extra)
+        return v, final, raw, message, total
+
+    def _stage(self, cyipopt, nlp: RelaxedMPEC, k: int, eps: float, v: np.ndarray, mult, stop):
+        """Stage ``k`` at ``eps`` from ``v``: one Ipopt solve (warm with the multipliers ``mult`` when the settings
+        say so), and after a failed warm solve one more from ``v`` without them.  Each solve is a record of ``stop``.
+        Returns ``(status, Ipopt's name, info, point, Ipopt iterations, name of the last solve or None)``."""
+        attempts = [True, False] if self.settings.warm_start and mult is not None else [False]
+        iterations, last_raw = 0, None
+        for use_mult in attempts:
+            remaining = stop.remaining()
+            if remaining <= 0:
+                return (Status.TIME_LIMIT, "time_limit", {"status_msg": "time limit before the stage"}, v, iterations,
+                        last_raw)
+            t0 = time.perf_counter()
+            v_new, info = self.solve_stage(cyipopt, nlp, eps, v, mult if use_mult else None, remaining)
+            dt = time.perf_counter() - t0
+            code = int(info["status"])
+            status, name = _IPOPT_STATUS.get(code, (Status.ERROR, f"ipopt_status_{code}"))
+            if nlp.deadline_hit and code == _USER_STOP:  # our callback stopped it: the time limit
+                status, name = Status.TIME_LIMIT, "time_limit_callback"
+            iterations += nlp.iterations
+            lam_k = float(v_new[self.form.lam] * nlp.units[self.form.lam])
+            stop.check(eps, stage=k + 1, multiplier=lam_k, ipopt_status=name,
+                       ipopt_iterations=nlp.iterations, warm_multipliers=use_mult, stage_time_s=dt,
+                       longest_iteration_s=nlp.longest_iteration_s)
+            last_raw = name
+            if status.is_success or status is Status.TIME_LIMIT:
+                break
+        return status, name, info, v_new, iterations, last_raw
 
     def solve_stage(self, cyipopt, nlp: RelaxedMPEC, eps: float, v: np.ndarray, mult, remaining: float):
         """One Ipopt solve of the relaxed NLP ``nlp`` at ``eps`` from ``v`` (with multipliers ``mult`` if given),
@@ -721,9 +672,9 @@ class RelaxedNLP(SolverBase):
         # the interior-point LPs leave the free common part of zero-dilatancy sliding multipliers large
         # (two blocks: z_f+- = 7519), which without_free_sliding removes
         new = without_free_sliding(self.form, self.form.unpack(out.w))
-        new.x[self.form.t[self.form.friction == 0]] = 0.0  # tan(phi_k) = 0 forces t_k = 0 (exact zero)
+        new.x[self.form.shear_of(self.form.friction == 0)] = 0.0  # tan(phi_k) = 0 forces t_k = 0 (exact zero)
         # not certified: a limit, or a piece whose duals do not certify a local minimum; its point is an exact
-        # solution of (3) all the same (CONVERGED: a solution of the MCP, no claim of minimality; issue 53)
+        # solution of (3) all the same (CONVERGED: a solution of the MCP, no claim of minimality)
         status = (Status.LOCALLY_OPTIMAL if out.certified else
                   out.status if out.status in (Status.TIME_LIMIT, Status.ITERATION_LIMIT) else Status.CONVERGED)
         return new, status, out.message
@@ -752,7 +703,7 @@ class RelaxedNLP(SolverBase):
                    newton_iterations=out.iterations, newton_status=out.status.value, accepted=ok, stage_time_s=dt)
         if ok:
             # tan(phi_k) = 0 forces t_k = 0 (pair rows +-t_k <= 0): Newton's round-off there is set to the exact zero
-            out.solution.x[self.form.t[self.form.friction == 0]] = 0.0
+            out.solution.x[self.form.shear_of(self.form.friction == 0)] = 0.0
             note = f"polished by {out.iterations} Newton steps (lam {lam:.10g} -> {lam_new:.10g})"
             return out.solution, note
         return solution, f"polish rejected ({out.status.value}, lam {lam:.10g} -> {lam_new:.10g}); raw NLP point kept"

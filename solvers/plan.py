@@ -1,9 +1,11 @@
-"""Which engines a method runs on a structure: every size threshold of the library, and the rules that read them.
+"""Which engines a method runs on a structure: every size threshold of the library, the rules that read them, and
+the plan of a run.
 
 Each method asks this module once, in its set-up, which engines to run (:func:`lp_algorithm`,
-:func:`fixed_point_engine`, :func:`nlp_route`, :func:`milp_engine`, :func:`block_ipm_rules`), and records the
-chain that ran in ``Result.extra["plan"]`` (a list of steps, in order).  The thresholds were measured; each
-comment names the study that measured it.
+:func:`fixed_point_engine`, :func:`nlp_route`, :func:`milp_engine`, ...) and gets its :class:`Plan`: the stages its
+run may take, in order (the builders at the end of this module).  ``run`` starts each stage it runs
+(:meth:`Plan.start`), and :func:`blockmpec.run_solver` records :meth:`Plan.ran` as ``Result.extra["plan"]``: the
+plan that runs is the plan recorded.  The thresholds were measured; each comment names the study that measured it.
 
 Thresholds of the linear algebra (:mod:`blockmpec.solvers.linalg`) are handed to it as an
 :class:`~blockmpec.solvers.linalg.block_ipm.AutoRules` (it imports nothing of the library).
@@ -11,7 +13,21 @@ Thresholds of the linear algebra (:mod:`blockmpec.solvers.linalg`) are handed to
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 from blockmpec.solvers.linalg.block_ipm import AutoRules
+
+#: the documented API: the thresholds, the engine choices and the plans
+__all__ = ["LP_BLOCK_IPM_ROWS", "LP_BLOCK_IPM_LOAD_SPREAD", "FIXED_POINT_INTERIOR_BLOCKS",
+           "FIXED_POINT_SIMPLEX_FALLBACK_BLOCKS", "FIXED_POINT_STALL_STEPS", "NLP_PIECE_ROUTE_BLOCKS",
+           "PIECE_LP_BLOCK_IPM_PAIRS", "PIECE_LP_IPM_PAIRS", "MILP_BNB_MAX_PAIRS", "BLOCK_IPM_RULES",
+           "INTERIOR_FIXED_POINT_RULES", "HIGHS_ALGORITHMS", "LP_ALGORITHMS", "BASIS_ALGORITHMS",
+           "FIXED_POINT_ENGINES", "NLP_ROUTES", "MILP_ENGINES", "lp_algorithm", "fixed_point_engine",
+           "fixed_point_interior_fallback", "fixed_point_fallback", "fixed_point_relaxed_fallback",
+           "ENGINES_2D_ONLY", "FIXED_POINT_3D_RELAXATION", "nlp_route", "milp_engine",
+           "piece_lp_static_engine", "piece_lp_whole_engine", "describe_block_ipm", "static_lp_plan",
+           "kinematic_lp_plan", "slp_plan", "nlp_plan", "fixed_point_plan", "mcp_newton_plan", "milp_plan", "Stage",
+           "Plan"]
 
 # ---------------------------------------------------------------------------------------------- LP engines
 #: a cold LP with more rows than this, or whose block loads differ by more than ``LP_BLOCK_IPM_LOAD_SPREAD``,
@@ -46,7 +62,7 @@ FIXED_POINT_STALL_STEPS = 50
 NLP_PIECE_ROUTE_BLOCKS = 100
 #: the piece LPs' static halves run on the block IPM from this many complementarity pairs (HiGHS's dual simplex
 #: below), and their whole LPs on HiGHS's interior point from ``PIECE_LP_IPM_PAIRS``
-#: (``studies/lab/piece_lp_engines.py``)
+#: (``studies/lab/piece_lp_engines.py``, in git history up to e31e02c)
 PIECE_LP_BLOCK_IPM_PAIRS = 4_000
 PIECE_LP_IPM_PAIRS = 10_000
 
@@ -76,9 +92,6 @@ BLOCK_IPM_RULES = AutoRules(supernodal_rows=30_000, two_process_rows=30_000, cor
 #: 2,420 blocks 50-53 s against 62-73 s with numpy (two runs each)
 INTERIOR_FIXED_POINT_RULES = AutoRules(supernodal_rows=30_000, two_process_rows=30_000, corrector_rows=30_000,
                                        compiled_kernel_blocks=4_000, compiled_symbolic_rows=20_000)
-#: the supernodal Cholesky's fronts of at least this many rows get ``front_threads`` BLAS threads when that is
-#: set above 1 (smaller ones stay on one; ``studies/lab/cholesky_choice.py``)
-THREADED_FRONT_ROWS = 1_000
 
 #: HiGHS's algorithms
 HIGHS_ALGORITHMS = ("simplex", "dual-simplex", "primal-simplex", "ipm")
@@ -111,18 +124,38 @@ def lp_algorithm(algorithm: str, n_rows: int, load_spread: float = 1.0, need_bas
     return "dual-simplex"
 
 
-def fixed_point_engine(engine: str, n_free_blocks: int) -> str:
+#: engines whose kernels are written for 2D interfaces ``(t, n, m)`` with two no-tension and two friction rows:
+#: a 3D problem (contact points, a friction pyramid) runs on the generic engines instead
+ENGINES_2D_ONLY = ("interior",)
+
+
+def fixed_point_engine(engine: str, n_free_blocks: int, dim: int = 2) -> str:
     """The fixed-point engine ``"auto"`` stands for: ``"interior"`` from :data:`FIXED_POINT_INTERIOR_BLOCKS` free
-    blocks up, else ``"simplex"``."""
+    blocks up, else ``"simplex"``; always ``"simplex"`` in 3D (the interior engine's kernels are 2D)."""
     if engine != "auto":
         return engine
+    if dim == 3:
+        return "simplex"
     return "interior" if n_free_blocks >= FIXED_POINT_INTERIOR_BLOCKS else "simplex"
 
 
-def fixed_point_interior_fallback(engine: str, n_free_blocks: int) -> bool:
+def fixed_point_interior_fallback(engine: str, n_free_blocks: int, dim: int = 2) -> bool:
     """Whether a simplex run that does not verify falls back to the interior engine (``engine="auto"`` below
-    :data:`FIXED_POINT_INTERIOR_BLOCKS` free blocks, where the simplex engine runs first)."""
-    return engine == "auto" and n_free_blocks < FIXED_POINT_INTERIOR_BLOCKS
+    :data:`FIXED_POINT_INTERIOR_BLOCKS` free blocks, where the simplex engine runs first; never in 3D)."""
+    return engine == "auto" and n_free_blocks < FIXED_POINT_INTERIOR_BLOCKS and dim == 2
+
+
+#: 3D, ``engine="auto"``: after LP steps that do not reach a solution of (3) (the stall rule above), a second
+#: sequence with this relaxation and the "closest" tie-break, without the stall rule, in the time left.  On the
+#: built-in dome the 2D defaults wander (``||n - n*||/||n||`` 0.4-0.5 for 400 steps on 24 voussoirs); relaxation 0.3
+#: with "closest" converges (72 voussoirs: 203 steps, 32 s; 0.2: 517 steps, 41 s; ``studies/lab/three_d_fixed_point.py``)
+FIXED_POINT_3D_RELAXATION = 0.3
+
+
+def fixed_point_relaxed_fallback(engine: str, dim: int) -> bool:
+    """Whether unverified LP steps are followed by the relaxed "closest" sequence (:data:`FIXED_POINT_3D_RELAXATION`;
+    ``engine="auto"`` in 3D, where no interior engine follows)."""
+    return engine == "auto" and dim == 3
 
 
 def fixed_point_fallback(engine: str, n_free_blocks: int) -> bool:
@@ -159,60 +192,148 @@ def piece_lp_whole_engine(n_pairs: int) -> str:
 
 
 def describe_block_ipm(engine) -> str:
-    """One plan step naming what a block IPM engine chose (factorisation, processes, correctors, kernels)."""
-    factoriser = engine.factoriser
-    name = type(factoriser).__name__
-    if name == "SupernodalCholesky":
-        kind = f"supernodal Cholesky in {factoriser.processes} process{'es' if factoriser.processes > 1 else ''}"
+    """One plan step naming what a block IPM engine chooses (factorisation, processes, correctors, kernels), read
+    before it factorises anything."""
+    if engine.supernodal:
+        processes = engine.supernodal_processes
+        kind = f"supernodal Cholesky in {processes} process{'es' if processes > 1 else ''}"
     else:
         kind = "SuperLU LDL^T"
     kernels = "compiled kernels" if engine.block_kernels is not None else "numpy kernels"
     return f"block IPM ({kind}, {engine.corrector_count} correctors, {kernels})"
 
 
-def choose(method: str, ops, options) -> list[str]:
-    """The engine chain ``method`` will run on the structure of ``ops`` with ``options`` (its ``Options``), before
-    it runs: the rules above applied to the structure's size.  ``Result.extra["plan"]`` records what did run.
+# ---------------------------------------------------------------------------------------------- the plan of a run
+@dataclass(frozen=True)
+class Stage:
+    """One stage of a method's run: ``key`` (what ``run`` starts it by), ``name`` (the words recorded in
+    ``Result.extra["plan"]``) and ``when`` (empty: every run takes it; else the condition, in words)."""
 
-    Parameters
-    ----------
-    method : str
-        A registered method name.
-    ops : Operators
-        The assembled structure (only its sizes and load spread are read).
-    options : the method's ``Options``
+    key: str
+    name: str
+    when: str = ""
+
+
+class Plan:
+    """The stages a method's run may take, in order, as its set-up chose them (the builders below).
+
+    ``run`` starts each stage it runs by its key (:meth:`start`, which refuses a stage the plan does not hold), and
+    ``Result.extra["plan"]`` is :meth:`ran`: the names of the stages started, in order (a stage with a condition
+    appears only when it ran).  :meth:`describe` lists every stage with its condition.
     """
-    from blockmpec.solvers.engines.scaling import LoadUnits
 
-    blocks, interfaces = ops.n_free_blocks, ops.n_interfaces
-    static_rows = 3 * blocks + 4 * interfaces  # equilibrium, two no-tension and two friction rows per interface
-    pairs = 4 * interfaces
-    if method == "static-lp":
-        algorithm = lp_algorithm(options.algorithm, static_rows, LoadUnits.of(ops).load_spread)
-        return [f"static LP (1): {'block IPM' if algorithm == 'block-ipm' else f'HiGHS {algorithm}'}"]
-    if method == "kinematic-lp":
-        kinematic_rows = 3 * interfaces + 1  # compatibility, normalisation
-        return [f"kinematic LP (2): HiGHS {lp_algorithm(options.algorithm, kinematic_rows, need_basis=True)}"]
-    if method == "fixed-point":
-        engine = fixed_point_engine(options.engine, blocks)
-        if engine == "interior":
-            chain = ["interior fixed point on (3): block IPM"]
-            if fixed_point_fallback(options.engine, blocks):
-                chain.append("if unverified: the simplex engine's LP steps")
-            return chain
-        chain = [f"fixed point: HiGHS LP steps (start {options.start}, tie-break {options.tie_break})"]
-        if fixed_point_interior_fallback(options.engine, blocks):
-            chain.append("if unverified: the interior fixed point on (3)")
-        return chain
-    if method == "slp":
-        return ["SLP: HiGHS LP steps"]
-    if method == "nlp":
-        route = nlp_route(options.route, blocks)
-        if route == "pieces":
-            return ["start: fixed-point", f"piece LPs (static halves: {piece_lp_static_engine(pairs)})"]
-        return [f"start: {options.start}", f"Ipopt: {options.complementarity} stages"]
-    if method == "mcp-newton":
-        return [f"start: {options.start}", "semismooth Newton on (3)"]
-    if method == "milp":
-        return ["LP bounds", f"engine: {milp_engine(options.engine, options.sense, pairs)}", "polish: piece LPs"]
-    return []
+    def __init__(self, *stages: Stage) -> None:
+        self.stages = tuple(stages)
+        self._ran: list[str] = []
+
+    def __contains__(self, key: str) -> bool:
+        return any(stage.key == key for stage in self.stages)
+
+    def __getitem__(self, key: str) -> Stage:
+        for stage in self.stages:
+            if stage.key == key:
+                return stage
+        raise KeyError(f"the plan has no stage {key!r}: {[stage.key for stage in self.stages]}")
+
+    def __repr__(self) -> str:
+        return f"Plan({self.describe()})"
+
+    def begin(self) -> None:
+        """Forget the stages of an earlier run (:func:`blockmpec.run_solver` calls it before ``run``)."""
+        self._ran = []
+
+    def start(self, key: str) -> Stage:
+        """Record that the run starts the stage ``key``; returns it."""
+        stage = self[key]
+        self._ran.append(stage.name)
+        return stage
+
+    def ran(self) -> list[str]:
+        """The names of the stages started since :meth:`begin`, in order."""
+        return list(self._ran)
+
+    def describe(self) -> list[str]:
+        """Every stage's name, with its condition when it has one."""
+        return [f"{stage.name} ({stage.when})" if stage.when else stage.name for stage in self.stages]
+
+
+def static_lp_plan(algorithm: str, fallback: bool, block_ipm: str = "block IPM") -> Plan:
+    """``static-lp``: the static LP (1) by ``algorithm`` (resolved by :func:`lp_algorithm`), and with ``fallback``
+    HiGHS's interior point with crossover when the block IPM ends without a solution; ``block_ipm`` names the block
+    IPM's choices (:func:`describe_block_ipm`)."""
+    if algorithm != "block-ipm":
+        return Plan(Stage(algorithm, f"static LP (1): HiGHS {algorithm}"))
+    stages = [Stage("block-ipm", f"static LP (1): {block_ipm}")]
+    if fallback:
+        stages.append(Stage("fallback", "static LP (1): HiGHS ipm", "if the block IPM ends without a solution"))
+    return Plan(*stages)
+
+
+def kinematic_lp_plan(algorithm: str) -> Plan:
+    """``kinematic-lp``: the kinematic LP (2) by HiGHS's ``algorithm`` (resolved by :func:`lp_algorithm`), and one
+    static LP (1) when (2) has no mechanism, to tell an infeasible (1) from an unbounded one."""
+    return Plan(Stage("kinematic", f"kinematic LP (2): HiGHS {algorithm}"),
+                Stage("static", "static LP (1): HiGHS dual-simplex", "if the kinematic LP has no feasible mechanism"))
+
+
+def slp_plan(alpha: float, schedule: str) -> Plan:
+    """``slp``: the LP steps of the modified surfaces."""
+    return Plan(Stage("steps", f"SLP: HiGHS LP steps (alpha {alpha:g}, {schedule})"))
+
+
+def nlp_plan(route: str, start: str, complementarity: str, stages: int, polish: bool, piece_lps: str | None,
+             n_pairs: int) -> Plan:
+    """``nlp``: on the ``"pieces"`` route the fixed point's solution of (3) then the piece LPs; on the ``"ipopt"``
+    route the start, ``stages`` Ipopt stages, the Newton polish (``polish``), the exact point on the stages' pattern
+    and the piece LPs (``piece_lps`` not None), the last three when the stages succeed."""
+    pieces = f"piece LPs ({piece_lps}, static halves: {piece_lp_static_engine(n_pairs)})"
+    if route == "pieces":
+        return Plan(Stage("start", "start: fixed-point"), Stage("pieces", pieces))
+    plan = [Stage("start", f"start: {start}"), Stage("ipopt", f"Ipopt: {stages} {complementarity} stages")]
+    if polish:
+        plan.append(Stage("polish", "polish: semismooth Newton on (3)", "if the stages succeed"))
+    plan.append(Stage("exact", "exact point: piece LPs on the point's pattern", "if the stages succeed"))
+    if piece_lps is not None:
+        plan.append(Stage("pieces", pieces, "if the stages succeed"))
+    return Plan(*plan)
+
+
+def fixed_point_plan(engine: str, fallback: bool, start: str, tie_break: str, relaxed: bool = False) -> Plan:
+    """``fixed-point``: the interior fixed point on (3) or the simplex engine's LP steps, and with ``fallback`` the
+    other engine when the first does not verify; with ``relaxed`` (:func:`fixed_point_relaxed_fallback`, 3D) the
+    relaxed "closest" LP steps when the simplex engine's do not verify."""
+    interior = Stage("interior", "interior fixed point on (3): block IPM")
+    simplex = Stage("simplex", f"fixed point: HiGHS LP steps (start {start}, tie-break {tie_break})")
+    first, other = (interior, simplex) if engine == "interior" else (simplex, interior)
+    stages = [first]
+    if fallback:
+        stages.append(Stage(other.key, other.name, "if the first engine's point does not verify"))
+    if relaxed:
+        stages.append(Stage("relaxed", f"fixed point: HiGHS LP steps relaxed by {FIXED_POINT_3D_RELAXATION} "
+                            "(tie-break closest)", "if the LP steps do not verify"))
+    return Plan(*stages)
+
+
+def mcp_newton_plan(start: str, fallback: bool) -> Plan:
+    """``mcp-newton``: a start, then the semismooth Newton on (3); with ``fallback`` the associative start and the
+    continuation in the dilatancy when Newton from the start does not converge."""
+    stages = [Stage("start", f"start: {start}"), Stage("newton", "semismooth Newton on (3)")]
+    if fallback:
+        stages.append(Stage("fallback", "start: associative, then semismooth Newton on (3)",
+                            "if Newton from the start does not converge"))
+    return Plan(*stages)
+
+
+def milp_plan(engine: str, incumbent: bool) -> Plan:
+    """``milp``: incumbents from the associative pattern and the heuristics (``incumbent``), the LP bounds, the
+    engine (:func:`milp_engine`; not when the incumbent meets the LP bound) and, for a MILP engine, the polish of its
+    pattern by piece LPs (the branch and bound polishes its leaves itself)."""
+    stages = [Stage("incumbent", "incumbent: the associative pattern's and the heuristics' points, finished by piece "
+                    "LPs")] if incumbent else []
+    stages.append(Stage("bounds", "LP bounds"))
+    if engine == "bnb":
+        stages.append(Stage("engine", "engine: branch and bound over the pairs (leaves polished by piece LPs)",
+                            "unless the incumbent meets the LP bound"))
+        return Plan(*stages)
+    return Plan(*stages, Stage("engine", f"engine: {engine} MILP", "unless the incumbent meets the LP bound"),
+                Stage("polish", "polish: piece LPs on the engine's pattern", "if the engine found a point"))

@@ -120,9 +120,11 @@ class SLP(SolverBase):
         from blockmpec.formulations import step_lps
         from blockmpec.solvers.engines.lp_sequence import LPSequence
         from blockmpec.solvers.engines.scaling import LoadUnits
+        from blockmpec.solvers.plan import slp_plan
 
         self.ops = ops
         o, st = self.options, self.settings
+        self.plan = slp_plan(o.alpha, o.alpha_schedule)
         lps = step_lps(ops, alpha=o.alpha, tie_break=st.tie_break != "none", associative=True)
         self.sequence = LPSequence(lps, LoadUnits.of(ops), alpha=o.alpha, tie_break=st.tie_break,
                                    algorithm=st.algorithm)
@@ -131,13 +133,13 @@ class SLP(SolverBase):
         from blockmpec.solvers.engines.lp_sequence import run_sequence
 
         o = self.options
+        self.plan.start("steps")
         out, facts = run_sequence(self.sequence, start="associative", relaxation=o.beta, stop_on="multiplier",
                                   tol=o.tol, max_iterations=o.max_iterations, deadline=deadline,
                                   min_iterations=2,
                                   alpha_schedule=None if o.alpha_schedule == "constant"
                                   else (lambda k: alpha_of_step(o.alpha, o.alpha_schedule, k)))
-        out.extra.update({ASSOCIATIVE_MULTIPLIER: facts["lam_start"], "tie_break_failures": facts["tie_break_failures"],
-                          "plan": [f"SLP: {self.sequence.lp_solves} HiGHS LPs (alpha {o.alpha:g}, {o.alpha_schedule})"]})
+        out.extra.update({ASSOCIATIVE_MULTIPLIER: facts["lam_start"], "tie_break_failures": facts["tie_break_failures"]})
         if out.trace:
             last = out.trace[-1]
             out.extra["friction_admissibility"] = last["friction_admissibility"]

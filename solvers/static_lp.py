@@ -11,10 +11,8 @@ friction coefficient of about 1 or more.  There, wedged stones admit *self-stres
 with no load (``E x = 0``) that satisfy every row of (1) and compress some interfaces.  Adding any multiple of one
 to an optimal ``x`` keeps it optimal, so the optimal face is unbounded, the central path has no end point, and the
 interior iterates can lose accuracy near the optimum; a simplex vertex is unaffected.  ``lam`` and the mechanism are
-unique as usual; the forces are not.  Measured (``python studies/lab/stone_wall_self_stress.py --stones 500,1000
---reference``): of 16 walls (about 500 and 1,000 stones, irregularity 0.5 and 0.7, ``mu`` 0.65 to 1.2) 6 carry a
-self-stress; the block IPM alone ends ``numerical`` on 3 of them, and ``auto`` then solves 2 with HiGHS (the same
-``lam`` as HiGHS alone); on the third (1,029 stones, ``mu`` 1.2) HiGHS too reaches the 600 s limit.
+unique as usual; the forces are not (the measurements: ``docs/performance-irregular.md``).  The stages are the
+plan's (:func:`~blockmpec.solvers.plan.static_lp_plan`).
 """
 
 from __future__ import annotations
@@ -82,6 +80,7 @@ class StaticLP(SolverBase):
         from blockmpec.formulations.pyomo_compile import compiled_linear
         from blockmpec.solvers.engines.block_lp import BlockLP
         from blockmpec.solvers.engines.scaling import LoadUnits
+        from blockmpec.solvers.plan import describe_block_ipm, static_lp_plan
 
         processes = self.settings.factor_processes
         if isinstance(processes, bool) or processes not in ("auto", 1, 2):  # True == 1 is no choice of processes
@@ -91,22 +90,27 @@ class StaticLP(SolverBase):
         self.lp = compiled_linear(static_lp, ops)  # cached per structure (content hash of ops)
         self.units = LoadUnits.of(ops)
         self.engine = self._lp_engine(self.options.algorithm)
-        if isinstance(self.engine, BlockLP):
+        block_ipm = isinstance(self.engine, BlockLP)
+        if block_ipm:
             self.engine.settings(factor_processes=self.settings.factor_processes)
+        self.plan = static_lp_plan("block-ipm" if block_ipm else self.engine.algorithm,
+                                   fallback=self.options.algorithm == "auto",
+                                   block_ipm=describe_block_ipm(self.engine) if block_ipm else "")
 
     def _lp_engine(self, algorithm: str):
         """The LP's engine for ``algorithm`` (:func:`~blockmpec.solvers.engines.lp_engine.cold_lp_engine`, in load
         units); a HiGHS engine holds the mechanism's ``z >= 0`` (its duals) to FEASIBILITY_TOL."""
-        from blockmpec.solvers.engines.highs import HighsLP, set_feasibility_tolerances
+        from blockmpec.solvers.engines.highs import HighsLP
         from blockmpec.solvers.engines.lp_engine import cold_lp_engine
 
         engine = cold_lp_engine(self.lp, algorithm, self.units)
         if isinstance(engine, HighsLP):
-            set_feasibility_tolerances(engine.highs)
+            engine.set_feasibility_tolerances()
         return engine
 
     def _highs_after_block_ipm(self, failed, deadline):
         """HiGHS's interior point with crossover on the LP, after a block-IPM run ``failed`` (module docstring)."""
+        self.plan.start("fallback")
         out = self._lp_engine("ipm").solve(deadline=deadline)
         out.iterations += failed.iterations
         out.message = (f"{out.message} (HiGHS's interior point with crossover, after the block IPM ended "
@@ -114,34 +118,29 @@ class StaticLP(SolverBase):
         return out
 
     def run(self, deadline) -> RunOutput:
-        from blockmpec.solvers.engines.block_lp import BlockLP
         from blockmpec.solvers.engines.highs import static_lp_solution
-        from blockmpec.solvers.plan import describe_block_ipm
 
+        self.plan.start(self.plan.stages[0].key)
         out = self.engine.solve(deadline=deadline)
-        fell_back = (isinstance(self.engine, BlockLP) and self.options.algorithm == "auto"
-                     and out.status in BLOCK_IPM_FAILURES and not deadline.expired())
-        if fell_back:
-            block_ipm_status = out.status
+        if "fallback" in self.plan and out.status in BLOCK_IPM_FAILURES and not deadline.expired():
             out = self._highs_after_block_ipm(out, deadline)
         sol = static_lp_solution(self.lp, out) if out.status.is_success else Solution()
-        message = out.message
-        if out.status is Status.UNBOUNDED:
-            message = "the static LP is unbounded: no collapse mechanism exists for this live load"
-        elif out.status is Status.INFEASIBLE:
-            message = "the static LP is infeasible: no equilibrium exists (e.g. unstable under dead load)"
-        elif out.status is Status.INFEASIBLE_OR_UNBOUNDED:
-            message = (f"the static LP is infeasible or unbounded ({out.raw_status}): the structure may be unstable "
-                       "under dead load, or no mechanism exists")
         extra: dict = {}
-        if isinstance(self.engine, BlockLP):
-            extra["plan"] = [f"static LP (1): {describe_block_ipm(self.engine)}"]
-            if fell_back:
-                extra["plan"] += [f"static LP (1): HiGHS ipm (the block IPM ended {block_ipm_status.value})"]
-        else:
-            extra["plan"] = [f"static LP (1): HiGHS {self.engine.last_algorithm}"]
         factoriser = getattr(self.engine, "_factoriser", None)
         if getattr(factoriser, "processes", 1) == 2:  # the worker process's CPU is not in this process's clock
             extra.update({"factor_processes": 2, "factor_worker_cpu_s": factoriser.worker_cpu_s,
                           "factor_worker_factorisations": factoriser.worker_factorisations})
-        return RunOutput(out.status, sol, out.iterations, message=message, raw_status=out.raw_status, extra=extra)
+        return RunOutput(out.status, sol, out.iterations, message=self._message(out), raw_status=out.raw_status,
+                         extra=extra)
+
+    @staticmethod
+    def _message(out) -> str:
+        """The run's message: what an unbounded, infeasible or undecided static LP means."""
+        if out.status is Status.UNBOUNDED:
+            return "the static LP is unbounded: no collapse mechanism exists for this live load"
+        if out.status is Status.INFEASIBLE:
+            return "the static LP is infeasible: no equilibrium exists (e.g. unstable under dead load)"
+        if out.status is Status.INFEASIBLE_OR_UNBOUNDED:
+            return (f"the static LP is infeasible or unbounded ({out.raw_status}): the structure may be unstable "
+                    "under dead load, or no mechanism exists")
+        return out.message

@@ -11,7 +11,7 @@ with::
 
 (Deselection by marker was chosen over pytest-benchmark's ``--benchmark-skip`` because
 it also works where the plugin is not installed.)  Cost growth with size is measured
-by ``studies/lab/benchmark_scaling.py``, not here.
+by the studies of ``docs/performance.md``, not here.
 
 Each benchmark also checks its result, so a benchmark of a broken stage fails:
 

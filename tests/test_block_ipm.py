@@ -243,7 +243,7 @@ def test_interior_fixed_point_keeps_every_inner_direction_corrected():
 def test_solve_runs_blas_on_one_thread_and_restores_it():
     """Multithreaded OpenBLAS spends milliseconds per tiny call (block_ipm.single_blas_thread):
     every iteration runs with one BLAS thread, and the caller's setting comes back afterwards."""
-    threadpoolctl = pytest.importorskip("threadpoolctl")
+    import threadpoolctl
 
     def blas_threads():
         return [info["num_threads"] for info in threadpoolctl.threadpool_info() if info["user_api"] == "blas"]

@@ -14,9 +14,11 @@ import time
 
 import pandas as pd
 import pytest
+from references import ROUND_ARCH_ASSOCIATIVE, TWO_BLOCKS_ASSOCIATIVE
 
 import blockmpec as bm
 from blockmpec.cli import main
+from blockmpec.verify import RESIDUAL_NAMES
 
 
 @pytest.fixture
@@ -51,8 +53,10 @@ def test_solve_json_has_contract_keys(cli):
     for key in ("method", "status", "success", "multiplier", "residuals", "time_s", "iterations"):
         assert key in out
     assert out["method"] == "static-lp" and out["status"] == "optimal" and out["success"] is True
-    assert round(out["multiplier"], 5) == 0.41973
-    assert isinstance(out["residuals"], dict) and all(isinstance(v, float) for v in out["residuals"].values())
+    # 1 / 2.3825 (paper Sect. 3): one unit in the last place measured
+    assert out["multiplier"] == pytest.approx(TWO_BLOCKS_ASSOCIATIVE, rel=1e-12)
+    assert out["residuals"].keys() == set(RESIDUAL_NAMES)
+    assert max(out["residuals"].values()) <= 1e-15  # an exact LP vertex: 7e-17 measured
 
 
 def test_solve_plot_writes_the_mechanism_figure_and_refuses_an_unknown_format_before_solving(cli, tmp_path):
@@ -124,7 +128,8 @@ def test_methods_json_lists_every_method_and_its_user_facing_options(cli):
     for m in listing:
         cls = bm.get_solver(m["name"])
         assert set(m) == {"name", "problem", "summary", "available", "unavailable_reason", "certifies_minimum",
-                          "options"}
+                          "source", "options"}
+        assert m["source"] == bm.registry.solver_source(m["name"])  # "built-in", or where a plug-in came from
         assert m["problem"] == cls.problem and m["summary"] == cls.summary and m["summary"]
         assert m["available"] is (cls.unavailable_reason() is None)
         fields = {f.name: f for f in dataclasses.fields(cls.Options)}
@@ -210,7 +215,8 @@ def test_compare_main_job_prints_tables_summary_and_budget(cli, tmp_path):
     code, out, err = cli("compare", "--cases", "two-blocks,round-arch", "--methods", "static-lp,kinematic-lp",
                          "--out", tmp_path / "o", "--quiet", "--no-figures")
     assert code == 0, err
-    assert "Collapse multiplier" in out and "0.41973" in out and "0.16034" in out
+    # the two cases' associative lam to five digits: 1/2.3825 and the round arch's (references.py, the paper's Table 1)
+    assert "Collapse multiplier" in out and f"{TWO_BLOCKS_ASSOCIATIVE:.5f}" in out and f"{ROUND_ARCH_ASSOCIATIVE:.5f}" in out
     assert (tmp_path / "o" / "results.csv").exists()
     from blockmpec.bench.profiles import SOLVED_DEFINITION
 

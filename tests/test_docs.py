@@ -6,7 +6,9 @@ code.
 """
 
 import ast
+import contextlib
 import dataclasses
+import io
 import os
 import re
 import subprocess
@@ -34,7 +36,7 @@ def test_version_is_the_installed_distributions_and_the_cli_prints_it():
 
 def test_all_lists_exactly_the_public_names():
     public = {name for name, value in vars(bm).items()
-              if not name.startswith("_") and (not isinstance(value, types.ModuleType) or name in ("cases", "plot"))}
+              if not name.startswith("_") and (not isinstance(value, types.ModuleType) or name in ("cases", "plot", "three_d"))}
     assert set(bm.__all__) == public
     assert len(bm.__all__) == len(set(bm.__all__))
 
@@ -87,6 +89,50 @@ def _python_blocks(page: Path) -> list[str]:
     return [b for b in re.findall(r"```python\n(.+?)\n```", page.read_text(), re.S) if "--8<--" not in b]
 
 
+#: the line that marks the fenced block after it as the output of the page's Python blocks above it
+OUTPUT_MARK = "<!-- output -->"
+
+
+def _code_and_output(page: Path) -> list[tuple[str, str]]:
+    """The page's Python blocks (``("code", text)``) and the output blocks marked by :data:`OUTPUT_MARK`
+    (``("output", text)``), in page order."""
+    parts = []
+    for m in re.finditer(r"(?P<mark>^<!-- output -->\n)?^```(?P<lang>\w*)\n(?P<body>.*?)\n```", page.read_text(),
+                         re.S | re.M):
+        if m["mark"]:
+            parts.append(("output", m["body"]))
+        elif m["lang"] == "python" and "--8<--" not in m["body"]:
+            parts.append(("code", m["body"]))
+    return parts
+
+
+def output_matches(expected: str, printed: str) -> bool:
+    """``printed`` is what ``expected`` shows, line by line (trailing blanks ignored): ``...`` within a line stands for
+    any text (times, digits beyond those shown), a line that is only ``...`` for any number of lines."""
+    pattern = []
+    for line in expected.strip("\n").splitlines():
+        if line.strip() == "...":
+            pattern.append(r"(?:[^\n]*\n)*?")
+        else:
+            pattern.append(".*?".join(re.escape(part) for part in line.rstrip().split("...")) + r"\n")
+    text = "".join(line.rstrip() + "\n" for line in printed.strip("\n").splitlines())
+    return re.fullmatch("".join(pattern), text) is not None
+
+
+@pytest.mark.parametrize(("expected", "printed", "match"), [
+    ("0.65\n   a  b\n0  1  2", "0.65\n   a  b\n0  1  2\n", True),
+    ("0.65", "0.66", False),
+    ("lam = 0.4197271773...", "lam = 0.4197271773347324", True),
+    ("time 0.1 s", "time 0.2 s", False),
+    ("time ... s, done", "time 0.213 s, done", True),
+    ("a\n...\nz", "a\nb\nc\nz", True),
+    ("a\n...\nz", "a\nz", True),
+    ("a\nz", "a\nb\nz", False),
+])
+def test_output_matching(expected, printed, match):
+    assert output_matches(expected, printed) is match
+
+
 def _page_param(page: Path):
     # slow: the comparator's examples run worker processes (15-35 s), the maps solve 110 structures per panel
     # (about 40 s), the pushover example runs 20 steps of two methods and writes a GIF (about 60 s)
@@ -98,15 +144,26 @@ PAGES_WITH_CODE = [_page_param(p) for p in sorted(DOCS.rglob("*.md")) if _python
 
 
 @pytest.mark.parametrize("page", PAGES_WITH_CODE)
-def test_docs_examples_run(page, tmp_path, monkeypatch):
-    """Every Python example on a docs page runs (the page's blocks in order, in one namespace)."""
+def test_docs_examples_run_and_print_what_the_page_shows(page, tmp_path, monkeypatch):
+    """Every Python example on a docs page runs (the page's blocks in order, in one namespace), and what they print
+    is what the page shows: each block marked ``<!-- output -->`` is matched (:func:`output_matches`) against what
+    the Python blocks above it printed since the previous one, and nothing printed goes unshown."""
     import matplotlib
 
     matplotlib.use("Agg")
     monkeypatch.chdir(tmp_path)
     namespace: dict = {"__name__": "__docs__"}
-    for i, block in enumerate(_python_blocks(page)):
-        exec(compile(block, f"{page.relative_to(DOCS)} example {i}", "exec"), namespace)
+    printed = io.StringIO()
+    name = page.relative_to(DOCS)
+    for i, (kind, text) in enumerate(_code_and_output(page)):
+        if kind == "code":
+            with contextlib.redirect_stdout(printed):
+                exec(compile(text, f"{name} example {i}", "exec"), namespace)
+            continue
+        assert output_matches(text, printed.getvalue()), (
+            f"{name}: the output shown in its block {i}:\n{text}\nis not what the examples print:\n{printed.getvalue()}")
+        printed = io.StringIO()
+    assert not printed.getvalue().strip(), f"{name}: printed, but not shown on the page:\n{printed.getvalue()}"
     import matplotlib.pyplot as plt
 
     plt.close("all")

@@ -4,7 +4,7 @@ One interior-point run of Newton's method on (3), written as the step LP (5) wit
 ``n* = n`` (:mod:`blockmpec.solvers.engines.interior_fixed_point`).  Checked here: its
 answers are solutions of (3) by the shared verifier at 1e-8; they never exceed the
 associative multiplier nor fall below a closed-form minimum; the aim term brings them
-to the minimum on two blocks; where (3) has one multiplier they match the simplex
+near the minimum on two blocks (within 1e-3, not onto it); where (3) has one multiplier they match the simplex
 fixed point; the trace is the StoppingCriterion's; the ``auto`` rule and bad options.
 """
 
@@ -39,17 +39,18 @@ def test_two_blocks_verified_between_minimum_and_associative(eta, mu):
 
 
 @pytest.mark.parametrize(("eta", "mu"), [(3.0, 0.65), (5.0, 1.2)])
-def test_aim_term_reaches_the_two_block_minimum(eta, mu):
-    """Issue 13's cases: the associative 0.41973 / 0.353, the minimum 1/3 / 0.2.
+def test_aim_term_brings_the_two_block_multiplier_near_the_minimum(eta, mu):
+    """Issue 13's cases: the associative 0.41973 / 0.353, the minimum 1/3 / 0.2 (closed forms, paper Sect. 3).
 
-    Without the aim term the run stops inside the continuum of solutions (0.396 / 0.330)."""
+    The aim term brings the run near the minimum, not onto it: 7.7e-5 and 4.3e-4 above it (relative, measured), a
+    solution of (3) inside the continuum of solutions; without the aim term the run stops higher (0.396 / 0.330)."""
     ops = bm.assemble(bm.cases.two_blocks(eta=eta, mu=mu))
     minimum = closed_form("two-blocks", "non-associative", eta=eta, mu=mu)
     aimed = bm.solve(ops, "fixed-point", engine="interior", verify_tol=VERIFY_TOL)
     plain = solve_with(ops, "fixed-point", settings=dict(interior_weight=0.0), engine="interior",
                        verify_tol=VERIFY_TOL)
     assert aimed.success and plain.success
-    assert abs(aimed.multiplier - minimum) <= 1e-3 * minimum
+    assert minimum - 1e-9 <= aimed.multiplier <= (1 + 1e-3) * minimum  # 4.3e-4 above at most, measured
     assert plain.multiplier > aimed.multiplier + 1e-2
 
 
@@ -220,7 +221,7 @@ def test_warm_start_from_a_solution_of_3_is_a_fixed_point_of_the_step_lp():
 def test_kept_aim_forces_paired_with_their_step_lp_duals_solve_3():
     """``keep_aim``: the run solves the aimed problem, whose duals are no mechanism of (3); where the aimed
     forces are optimal for their own LP (5), that LP's duals complete them to a solution of (3)
-    (any optimal primal and dual of one LP are complementary; ``studies/lab/fixed_point_continuation.py``)."""
+    (any optimal primal and dual of one LP are complementary; the changelog, 2026-11-28)."""
     from blockmpec.result import Solution
     from blockmpec.solvers.engines.highs import static_lp_solution
     from blockmpec.verify import residuals

@@ -126,13 +126,15 @@ def test_lp_sequence_time_limit_counts_from_the_instance_clock():
     """HiGHS compares time_limit with an instance's cumulative run time: a remaining budget must be
     added to it, or later warm solves of the sequence stop at once."""
     from blockmpec.formulations import step_lps
-    from blockmpec.solvers.engines.highs import set_deadline
+    from blockmpec.solvers.engines.highs import highs_model, new_highs, set_deadline
     from blockmpec.solvers.engines.lp_sequence import LPSequence
 
     ops = bm.assemble(bm.cases.wall(10, 20))
     seq = LPSequence(step_lps(ops), LoadUnits.of(ops))
     assert seq.associative().status is bm.Status.OPTIMAL
-    h = seq.assoc_highs.highs
+    h = new_highs()  # an instance that has run once, as the sequence's has
+    h.passModel(highs_model(seq.assoc_highs.lp))
+    h.run()
     assert h.getRunTime() > 0
     assert set_deadline(h, Deadline(10.0))
     assert h.getOptionValue("time_limit")[1] >= h.getRunTime() + 9.0
@@ -318,7 +320,5 @@ def test_highs_lps_hold_the_tightened_feasibility_tolerances(method):
 
     solver = bm.get_solver(method)(algorithm="dual-simplex")
     solver.setup(bm.assemble(bm.cases.wall(courses=3, blocks_per_course=2)))
-    engine = solver.engine if method == "static-lp" else solver.highs
     expected = FEASIBILITY_TOL if method == "static-lp" else MECHANISM_FEASIBILITY_TOL
-    for name in ("primal_feasibility_tolerance", "dual_feasibility_tolerance"):
-        assert engine.highs.getOptionValue(name)[1] == expected
+    assert solver.engine.feasibility_tolerances() == (expected, expected)

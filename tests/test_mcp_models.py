@@ -1,18 +1,15 @@
 """Pyomo statements of the MCP (3) and the MPEC (4), cross-checked against the operator verifier."""
 
 import numpy as np
+import pyomo.environ as pyo
 import pytest
+from pyomo.mpec import Complementarity
 
-pyo = pytest.importorskip("pyomo.environ")
-pytest.importorskip("highspy")
-
-from pyomo.mpec import Complementarity  # noqa: E402
-
-import blockmpec as bm  # noqa: E402
-from blockmpec.formulations.mcp import evaluate_mcp, mcp, mcp_violation  # noqa: E402
-from blockmpec.formulations.mpec import mpec  # noqa: E402
-from blockmpec.operators import assemble  # noqa: E402
-from blockmpec.verify import positive_part_ratio, residuals  # noqa: E402
+import blockmpec as bm
+from blockmpec.formulations.mcp import evaluate_mcp, mcp, mcp_violation
+from blockmpec.formulations.mpec import mpec
+from blockmpec.operators import assemble
+from blockmpec.verify import positive_part_ratio, residuals
 
 
 @pytest.fixture(scope="module")

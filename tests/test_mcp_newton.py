@@ -4,20 +4,19 @@ Checks: the two-block bounds of Nodargi, Intrigila & Bisegna (Sect. 3: every
 solution of (3) lies between the non-associative minimum ``mu`` if ``mu <= 1/eta``
 else ``1/eta`` and the associative multiplier), the default start reaching that
 closed-form minimum and never falling below a certificate, the former associative
-start kept as an option, the round arch of their Table 1 (0.16034), the associative
+start kept as an option, the round arch of their Table 1 (0.16034; full precision from the
+independent LP, references.py), the associative
 control, the Fischer–Burmeister function, and failures (iteration and time limits)
 reported as statuses.
 """
 
 import numpy as np
 import pytest
+from references import ROUND_ARCH_ASSOCIATIVE, ROUND_ARCH_PUBLISHED
 
-pytest.importorskip("highspy")
-pytest.importorskip("pyomo")
-
-import blockmpec as bm  # noqa: E402
-from blockmpec.result import Status  # noqa: E402
-from helpers import (  # noqa: E402
+import blockmpec as bm
+from blockmpec.result import Status
+from helpers import (
     assert_residuals_within,
     solve_with,
     two_block_associative,
@@ -42,11 +41,12 @@ def test_two_blocks_between_bounds(eta, mu):
 @pytest.mark.parametrize(("eta", "mu"), [(3, 0.65), (5, 1.2), (1.5, 0.9)])
 def test_default_reaches_the_two_block_minimum(eta, mu):
     """The default start (the fixed point's solution) gives the closed-form minimum min(mu, 1/eta), which
-    lies below the associative multiplier here (0.41973 against 1/3 at eta = 3, mu = 0.65)."""
+    lies below the associative multiplier here (1/3 against 1/2.3825 = 0.41973 at eta = 3, mu = 0.65)."""
     res = bm.solve(bm.cases.two_blocks(eta=eta, mu=mu), "mcp-newton")
     assert_mcp_solution(res)
     assert two_block_nonassociative_min(eta, mu) < two_block_associative(eta, mu) - 1e-3
-    assert res.multiplier == pytest.approx(two_block_nonassociative_min(eta, mu), rel=1e-7)  # n converged to 1e-9
+    # 2.6e-9 measured at eta = 5, mu = 1.2 (the fixed point's start: n converged to 1e-9), 0 at the others
+    assert res.multiplier == pytest.approx(two_block_nonassociative_min(eta, mu), rel=1e-8)
     assert res.extra["start"] == "fixed-point"
 
 
@@ -64,7 +64,7 @@ def test_never_below_the_milp_certificate(case, start):
 def test_associative_start_keeps_the_former_behaviour():
     res = bm.solve(bm.cases.two_blocks(eta=3, mu=0.65), "mcp-newton", start="associative")
     assert_mcp_solution(res)
-    assert res.multiplier == pytest.approx(two_block_associative(3, 0.65), rel=1e-9)  # 0.41973, not 1/3
+    assert res.multiplier == pytest.approx(two_block_associative(3, 0.65), rel=1e-9)  # 1/2.3825, not 1/3 (0 measured)
 
 
 def test_time_limit_is_honoured():
@@ -78,7 +78,8 @@ def test_time_limit_is_honoured():
 def test_round_arch_table_1():
     res = bm.solve(bm.cases.round_arch(), "mcp-newton")
     assert_mcp_solution(res)
-    assert round(res.multiplier, 5) == 0.16034
+    assert res.multiplier == pytest.approx(ROUND_ARCH_ASSOCIATIVE, rel=1e-9)  # 1.1e-12 measured
+    assert round(res.multiplier, 5) == ROUND_ARCH_PUBLISHED
 
 
 @pytest.mark.parametrize("case", [bm.cases.two_blocks(eta=3, mu=0.65, dilatancy=0.65),

@@ -2,8 +2,8 @@
 
 The weights change the path the iterates follow, never the LP's solution: a weighted run must end at the central
 path's optimum (the same lambda, verified at 1e-8), and unit weights must give the central path itself, bit for bit.
-How much the path's iterations change with weights of every kind is ``studies/lab/ipm_crawl.py``'s question (its
-smallest case runs in ``.ci/run``).
+How much the path's iterations change with weights of every kind was ``studies/lab/ipm_crawl.py``'s question (in
+git history up to e31e02c).
 """
 
 import numpy as np

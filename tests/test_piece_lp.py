@@ -4,14 +4,10 @@
 import numpy as np
 import pytest
 
-pytest.importorskip("cyipopt")
-pytest.importorskip("highspy")
-pytest.importorskip("pyomo")
-
-import blockmpec as bm  # noqa: E402
-from blockmpec.result import Status  # noqa: E402
-from blockmpec.solvers.engines.scaling import LoadUnits  # noqa: E402
-from helpers import assert_residuals_within, two_block_associative, two_block_nonassociative_min  # noqa: E402
+import blockmpec as bm
+from blockmpec.result import Status
+from blockmpec.solvers.engines.scaling import LoadUnits
+from helpers import assert_residuals_within, two_block_associative, two_block_nonassociative_min
 
 TOL = 1e-6
 
@@ -23,12 +19,11 @@ def assert_verified(res):
 def _setup(case, engine="dual-simplex"):
     from blockmpec.formulations import compile_mcp
     from blockmpec.solvers.engines.piece_lp import SplitPieces
-    from blockmpec.solvers.nlp import nlp_scaling
 
     ops = bm.assemble(case)
     form = compile_mcp(ops)
-    scaling = nlp_scaling(form, LoadUnits.of(ops))
-    return ops, form, scaling, SplitPieces(form, *scaling, static_engine=engine)
+    scaling = LoadUnits.of(ops).mcp(form)
+    return ops, form, scaling, SplitPieces(form, scaling, static_engine=engine)
 
 
 def _start_rounding(pieces, w):
@@ -48,7 +43,7 @@ def test_split_halves_are_the_whole_piece_lp(case):
     ops, form, scaling, pieces = _setup(case)
     fp = bm.solve(case, "fixed-point")
     piece = _start_rounding(pieces, form.pack(fp.solution))
-    whole = PieceLP(form, *scaling)
+    whole = PieceLP(form, scaling)
     whole.set_piece(piece)
     out = whole.solve()
     static = pieces.static_lp(piece)
@@ -79,7 +74,7 @@ def test_certificate_fails_where_the_relaxed_lp_goes_lower():
     cert = pieces.certificate(w, static)
     assert not cert.holds and cert.wrong_signs > 0
     assert cert.stationarity <= 1e-9 and cert.complementarity <= 1e-9  # an exact solution of (3) ...
-    whole = PieceLP(form, *scaling)
+    whole = PieceLP(form, scaling)
 
     def relaxed_lam(point):
         z, s = whole.sides(point)
@@ -98,7 +93,7 @@ def test_certificate_fails_where_the_relaxed_lp_goes_lower():
 
 def test_certificate_fails_when_lam_is_not_the_lps_optimum():
     """The fixed point's own solution of (3) with the duals of the static LP of its support: lam is above that
-    LP's optimum (0.51447 against 0.50582 on the 10x5 wall), so those duals certify nothing."""
+    LP's optimum (0.51447 against 0.50582 on the 10x5 wall, measured), so those duals certify nothing."""
     case = bm.cases.wall(10, 5)
     ops, form, scaling, pieces = _setup(case)
     fp = bm.solve(case, "fixed-point")

@@ -17,8 +17,6 @@ from blockmpec.solvers.engines.lifted_lp import dual_bound
 from blockmpec.solvers.engines.node_lp import interior_point
 from helpers import CERTIFIED_TOL, margin
 
-pytest.importorskip("highspy")
-
 
 @pytest.fixture(scope="module")
 def minimum():

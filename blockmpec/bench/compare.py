@@ -404,6 +404,8 @@ def compare(
     check_backend(n_jobs, backend, scheduler)
     case_runs = normalise_cases(cases)
     method_runs = normalise_methods(methods)
+    if isolate:
+        _check_importable(method_runs)
     limits = _wall_limits(wall_limit, method_runs, default_wall_limit)
     from blockmpec.bench.profiles import check_budget
 
@@ -419,6 +421,17 @@ def compare(
     finally:
         if folder is not None and not isinstance(out, ResultsFolder):
             folder.close()
+
+
+def _check_importable(method_runs: list[MethodRun]) -> None:
+    """Worker processes find a method by its name (built-in, plug-in or ``module:Class``) or by importing the module
+    that registered it: a class defined in the script being run (``__main__``) cannot be found there."""
+    for run in method_runs:
+        cls = get_solver(run.name)
+        if cls.__module__ == "__main__":
+            raise OptionError(f"method {run.label!r}: its class {cls.__qualname__} is defined in the script being run, "
+                              "which the worker processes cannot import; move it into a module (my_method.py) and "
+                              "give 'my_method:" + cls.__qualname__ + "', or pass isolate=False")
 
 
 def _wall_limits(wall_limit, method_runs, default) -> dict[str, float]:

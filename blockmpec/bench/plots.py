@@ -351,6 +351,8 @@ def mechanisms(structure, panels: Sequence[tuple[str, Any]], path: str | Path | 
     import blockmpec as bm
     from blockmpec.plot import mechanism as draw
 
+    if getattr(structure, "dim", 2) == 3:
+        return _mechanisms_3d(structure, panels, path, ops=ops, amplitude=amplitude, title=title, fig=fig)
     xy = np.vstack([structure.polygon(i) for i in range(structure.n_blocks)])
     w, h = np.ptp(xy, axis=0)
     n = max(len(panels), 1)
@@ -370,6 +372,26 @@ def mechanisms(structure, panels: Sequence[tuple[str, Any]], path: str | Path | 
             note = note or ax.mechanism_note
         fig.legend(handles=list(handles.values()), loc="outside lower center", ncol=min(len(handles), 4),
                    frameon=False, title=note.replace("\n", " "), title_fontsize=7)
+        if title:
+            fig.suptitle(title)
+        return _save(fig, path) if path is not None else fig
+
+
+def _mechanisms_3d(structure, panels, path, *, ops, amplitude, title, fig):
+    """:func:`mechanisms` of a 3D structure: one 3D axes per panel (:func:`blockmpec.three_d.plot.mechanism`)."""
+    import blockmpec as bm
+    from blockmpec.three_d.plot import mechanism as draw
+
+    n = max(len(panels), 1)
+    with _style():
+        fig = _figure(fig, figsize=(4.6 * n, 5.0))
+        for k, (label, value) in enumerate(panels):
+            if isinstance(value, np.ndarray):
+                ops = ops if ops is not None else bm.assemble(structure)
+                value = bm.mechanism_frame(ops, value)
+            if value is None:
+                value = bm.mechanism_frame(None, None)
+            draw(value, structure, ax=fig.add_subplot(1, n, k + 1, projection="3d"), amplitude=amplitude, title=label)
         if title:
             fig.suptitle(title)
         return _save(fig, path) if path is not None else fig

@@ -8,15 +8,17 @@
 
 Readers (one per kind of file, chosen by the suffix in :func:`read_structure`):
 
-* ``.dxf``: :func:`blockmpec.drawings.dxf.read_dxf` (closed polylines; a ``fixed`` layer);
-* ``.svg``: :func:`blockmpec.drawings.svg.read_svg` (closed paths and polygons; class ``fixed``;
-  SVG's ``y`` axis points down and is turned up);
+* ``.dxf``: :func:`blockmpec.drawings.dxf.read_dxf` (closed polylines and loops of lines in world
+  coordinates, block references followed; a ``fixed`` layer);
+* ``.svg``: :func:`blockmpec.drawings.svg.read_svg` (closed shapes and loops of lines through their
+  transformations; class ``fixed``; SVG's ``y`` axis points down and is turned up);
 * ``.png``, ``.tif``, ``.tiff``, ``.bmp``, ``.npy``: :func:`blockmpec.drawings.image.read_image`
   (labelled or binary images; needs ``pip install 'blockmpec[image]'``).
 
 Every error names the file and the entity (DXF handle and layer, SVG id, image label).  The
-structure's ``metadata["drawing"]`` records the file's frame (scale, ``y`` direction) and the
-entity of each block; ``metadata["snapping"]`` what was snapped.
+structure's ``metadata["drawing"]`` records the file's frame (scale, ``y`` direction), the entity of
+each block, the summary line of what was read and left out (``summary``, counts in ``read``) and the
+warnings (``warnings``; each also a :class:`DrawingWarning`); ``metadata["snapping"]`` what was snapped.
 """
 
 from __future__ import annotations
@@ -24,6 +26,7 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
+from blockmpec.drawings._common import DrawingWarning
 from blockmpec.drawings.export import export_drawing
 from blockmpec.errors import OptionError
 from blockmpec.geometry import Structure
@@ -97,4 +100,4 @@ def reader_options(path: str | Path) -> dict[str, Any]:
     return {k: p.default for k, p in inspect.signature(reader(path)).parameters.items() if k != "path"}
 
 
-__all__ = ["READERS", "SUFFIXES", "export_drawing", "is_drawing", "read_structure", "reader", "reader_options"]
+__all__ = ["READERS", "SUFFIXES", "DrawingWarning", "export_drawing", "is_drawing", "read_structure", "reader", "reader_options"]

@@ -12,7 +12,9 @@ from __future__ import annotations
 import inspect
 import math
 import re
-from dataclasses import dataclass
+import warnings
+from collections import Counter
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Callable
 
@@ -27,6 +29,65 @@ DEFAULT_SNAP = 1e-3
 
 #: Metres per unit of the ``units`` option.
 LENGTH_UNITS = {"m": 1.0, "dm": 0.1, "cm": 0.01, "mm": 0.001, "km": 1000.0, "in": 0.0254, "ft": 0.3048}
+
+
+#: A drawing without a length unit "looks like millimetres" when its median stone size (square root
+#: of the median stone area), read as metres, is at least this: masonry stones are 0.05 - 2 m across,
+#: so 20 "m" is a stone of 20 mm or more drawn in millimetres (or of 20 cm or more in centimetres).
+MM_LIKE_SIZE = 20.0
+
+
+class DrawingWarning(UserWarning):
+    """A drawing read in a way its author may not mean: no length unit, and stones that look like millimetres."""
+
+
+@dataclass
+class Reading:
+    """What a reader read and left out, for the summary line of :func:`build_structure`.
+
+    ``skipped`` counts what was left out by kind (``"TEXT"``, ``"LINE"``, ``"<text>"``,
+    ``"LWPOLYLINE on layers not read"``); ``joined`` the segments joined into stones, by kind;
+    ``unit_missing``, when the drawing gives no length unit and none was given, is ``(how it was
+    read, what to do)`` for the warning of :func:`unit_warning` (None: the unit is known).
+    """
+
+    skipped: Counter = field(default_factory=Counter)
+    joined: Counter = field(default_factory=Counter)
+    unit_missing: tuple[str, str] | None = None
+
+
+def _counts(counter: Counter) -> str:
+    return ", ".join(f"{n} {kind}" for kind, n in sorted(counter.items(), key=lambda kv: (-kv[1], kv[0])))
+
+
+def summary_line(stones: list, reading: Reading) -> str:
+    """``read 42 stones and 1 support (3 joined from 12 LINE); skipped 3 TEXT, 2 LINE``."""
+    free = sum(not s.fixed for s in stones)
+    fixed = len(stones) - free
+    line = f"read {free} stone{'s' * (free != 1)} and {fixed} support{'s' * (fixed != 1)}"
+    loops = sum(s.name.startswith("loop of ") for s in stones)
+    if loops:
+        line += f" ({loops} joined from {_counts(reading.joined)})"
+    return line + (f"; skipped {_counts(reading.skipped)}" if reading.skipped else "; skipped nothing")
+
+
+def unit_warning(stones: list, reading: Reading, source: str) -> str | None:
+    """The warning for a drawing without a length unit whose stones look like millimetres (see
+    :data:`MM_LIKE_SIZE`), or None."""
+    if reading.unit_missing is None or not stones:
+        return None
+    size = math.sqrt(float(np.median([polygon_area(s.vertices) for s in stones])))
+    if size < MM_LIKE_SIZE:
+        return None
+    how, advice = reading.unit_missing
+    return f"{source}: {how}, its stones are {size:.3g} m across (median); {advice}"
+
+
+def polygon_area(p: np.ndarray) -> float:
+    """The area of a simple polygon (shoelace, either orientation)."""
+    q = np.asarray(p, float) - p[0]
+    r = np.roll(q, -1, axis=0)
+    return abs(float((q[:, 0] * r[:, 1] - r[:, 0] * q[:, 1]).sum())) / 2
 
 
 @dataclass
@@ -95,8 +156,9 @@ def _with_names(message: str, names: list[str]) -> str:
     message = re.sub(r"\bblocks (\d+) and (\d+)\b", lambda m: f"{name(m.group(1))} and {name(m.group(2))}", message)
     message = re.sub(r"\bblocks \[([\d, ]+)\]",
                      lambda m: "stones " + ", ".join(name(i) for i in m.group(1).split(",") if i.strip()), message)
-    message = re.sub(r"\[([\d, ]+)\]\)", lambda m: "[" + ", ".join(name(i) for i in m.group(1).split(",")
-                                                                 if i.strip()) + "])", message)
+    message = re.sub(r"\[([\d, ]+)\]((?: and \d+ more \(\d+ in all\))?\))",
+                     lambda m: "[" + ", ".join(name(i) for i in m.group(1).split(",") if i.strip()) + "]" + m.group(2),
+                     message)
     message = re.sub(r"\b(?:block|its minus block|its plus block) (\d+)\b", lambda m: name(m.group(1)), message)
     return message
 
@@ -107,6 +169,16 @@ def to_file(point: np.ndarray, frame: dict) -> np.ndarray:
     if frame.get("flip_y"):
         q = np.array([q[0], float(frame.get("y_offset", 0.0)) - q[1]])
     return q + 0.0
+
+
+def _outside_level() -> int:
+    """The ``stacklevel`` of a warning raised here that names the first caller outside blockmpec.drawings."""
+    import sys
+
+    level, frame = 2, sys._getframe(2)
+    while frame is not None and frame.f_globals.get("__name__", "").startswith("blockmpec.drawings"):
+        level, frame = level + 1, frame.f_back
+    return level
 
 
 def _check_outlines(stones: list[Stone], source: str, frame: dict) -> None:
@@ -135,7 +207,7 @@ def _check_outlines(stones: list[Stone], source: str, frame: dict) -> None:
 
 
 def build_structure(stones: list[Stone], source: str | Path, *, mu: float, dilatancy: float, density: float,
-                    live_direction: int, snap: float, frame: dict, support_hint: str,
+                    live_direction: int, snap: float, frame: dict, support_hint: str, reading: Reading,
                     name: str | None = None, min_contact: float = 0.0) -> Structure:
     """The structure of ``stones`` (errors name the entities; ``frame`` goes into ``metadata["drawing"]``).
 
@@ -150,6 +222,9 @@ def build_structure(stones: list[Stone], source: str | Path, *, mu: float, dilat
         ``flip_y``: whether the file's ``y`` points down, ``format``, ...); the export uses it.
     support_hint : str
         What marks a support in this kind of file (for the "no support" error).
+    reading : Reading
+        What the reader left out: ``metadata["drawing"]`` gets the summary line (``summary``), its
+        counts (``read``) and the warnings (``warnings``, each also a :class:`DrawingWarning`).
     min_contact : float
         Interfaces shorter than this (structure units) are dropped (contacts below an image's
         resolution); their number goes into ``metadata["drawing"]["dropped_contacts"]``.
@@ -164,7 +239,13 @@ def build_structure(stones: list[Stone], source: str | Path, *, mu: float, dilat
     names = [s.name for s in stones]
     _check_outlines(stones, source, frame)
     polygons = [counter_clockwise(s.vertices) for s in stones]
-    metadata = {"drawing": {**frame, "source": Path(source).name, "entities": names}}
+    notes = [w for w in [unit_warning(stones, reading, source)] if w]
+    for note in notes:
+        warnings.warn(note, DrawingWarning, stacklevel=_outside_level())
+    read = {"stones": sum(not s.fixed for s in stones), "supports": sum(s.fixed for s in stones),
+            "joined": dict(reading.joined), "skipped": dict(reading.skipped)}
+    metadata = {"drawing": {**frame, "source": Path(source).name, "entities": names,
+                            "summary": summary_line(stones, reading), "read": read, "warnings": notes}}
     try:
         structure = make_structure(
             polygons, [s.fixed for s in stones], friction=mu, dilatancy=dilatancy, density=density,

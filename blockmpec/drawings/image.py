@@ -23,13 +23,14 @@ image: the stones of its bottom row rest on it.
 from __future__ import annotations
 
 import math
+import warnings
 from pathlib import Path
 
 import numpy as np
 
-from blockmpec.drawings._common import Stone, build_structure, check_common
+from blockmpec.drawings._common import Reading, Stone, build_structure, check_common
 from blockmpec.errors import GeometryError, OptionError, SolverUnavailableError, StructureFileError
-from blockmpec.geometry import Structure
+from blockmpec.geometry import DEFAULT_FRICTION, Structure
 
 #: Image files read (besides ``.npy`` arrays).
 IMAGE_SUFFIXES = (".png", ".tif", ".tiff", ".bmp", ".npy")
@@ -58,12 +59,16 @@ def _load(p: Path) -> np.ndarray:
         except (OSError, ValueError) as exc:
             raise StructureFileError(f"{p}: cannot read as a numpy array ({exc})") from None
     skimage = _skimage()
+    if not p.is_file():
+        raise StructureFileError(f"{p}: cannot read ({'a folder' if p.is_dir() else 'no such file'})")
     try:
-        return np.asarray(skimage.io.imread(p))
-    except FileNotFoundError:
-        raise StructureFileError(f"{p}: cannot read (no such file)") from None
-    except Exception as exc:  # imageio raises several types
-        raise StructureFileError(f"{p}: not a readable image ({type(exc).__name__}: {exc})") from None
+        with warnings.catch_warnings():  # imageio's plug-ins, tried on a file that is no image, warn of themselves
+            warnings.simplefilter("ignore", DeprecationWarning)
+            return np.asarray(skimage.io.imread(p))
+    except Exception as exc:  # imageio and Pillow raise several types, imageio with advice on plug-ins
+        first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
+        reason = "no image reader recognises its contents" if "backend" in first else first
+        raise StructureFileError(f"{p}: not a readable {p.suffix.lstrip('.').upper()} image ({reason})") from None
 
 
 def _labels(image: np.ndarray, kind: str, invert: bool, p: Path) -> tuple[np.ndarray, bool]:
@@ -142,14 +147,14 @@ def _outlines(labels: np.ndarray) -> tuple[np.ndarray, list]:
 def read_image(
     path: str | Path,
     *,
-    pixel_size: float = 1.0,
+    pixel_size: float | None = None,
     fixed_labels: list | None = None,
     kind: str = "auto",
     invert: bool = False,
     joint_width: float | None = None,
     simplify: float | None = None,
     min_contact: float = 2.0,
-    mu: float = 0.65,
+    mu: float = DEFAULT_FRICTION,
     dilatancy: float = 0.0,
     density: float = 1.0,
     live_direction: int = 1,
@@ -160,8 +165,9 @@ def read_image(
     Parameters
     ----------
     path : path of a ``.png``, ``.tif``, ``.bmp`` image or a ``.npy`` array
-    pixel_size : float
-        Metres per pixel.
+    pixel_size : float, optional
+        Metres per pixel (default 1, with a :class:`~blockmpec.drawings.DrawingWarning` when the
+        stones are then 20 m across or more).
     fixed_labels : list of int, optional
         Labels of the supports; without them a fixed base is added under the image.
     kind : {"auto", "labels", "binary"}
@@ -194,6 +200,9 @@ def read_image(
     import shapely
 
     check_common(mu, dilatancy, density, live_direction, snap)
+    reading = Reading(unit_missing=None if pixel_size is not None else (
+        "no pixel_size given, so read at 1 m per pixel", "give -p pixel_size=METRES_PER_PIXEL"))
+    pixel_size = 1.0 if pixel_size is None else pixel_size
     for name, value in (("pixel_size", pixel_size), ("simplify", 0.0 if simplify is None else simplify),
                         ("min_contact", min_contact)):
         if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value) or value < 0:
@@ -262,5 +271,5 @@ def read_image(
     frame = {"format": "image", "scale": float(pixel_size), "flip_y": True, "y_offset": float(h),
              "width_px": int(w), "height_px": int(h), "simplify_px": float(simplify)}
     return build_structure(stones, p, mu=mu, dilatancy=dilatancy, density=density, live_direction=live_direction,
-                           snap=snap, frame=frame, min_contact=float(min_contact) * pixel_size,
+                           snap=snap, frame=frame, min_contact=float(min_contact) * pixel_size, reading=reading,
                            support_hint="no fixed label (give fixed_labels, or none for a base under the image)")

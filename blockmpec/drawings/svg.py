@@ -1,20 +1,25 @@
-"""Stones from an SVG drawing (svgelements): every closed path or polygon is a stone.
+"""Stones from an SVG drawing (svgelements): every closed shape is a stone.
 
 Read are ``<path>`` (each closed sub-path a stone), ``<polygon>``, ``<rect>``, closed ``<polyline>``
-and ``<circle>``/``<ellipse>`` elements, with their transformations (``transform`` attributes of
-the element and its groups, ``<use>``).  Curved segments are replaced by ``curve_segments``
-chords each.  A stone is a support when its ``class`` (or that of a group around it) contains
-``fixed_class``, or its id or a group's id or Inkscape layer name is ``fixed_class``.
+and ``<circle>``/``<ellipse>`` elements, also inside groups and as ``<use>`` clones, each through its
+whole chain of transformations (its own ``transform``, its groups', its ``<use>``'s and the root's
+``viewBox``: svgelements' transformed segments).  Open shapes and ``<line>`` elements are joined
+where they close loops (:mod:`blockmpec.drawings._loops`).  Curved segments are replaced by
+``curve_segments`` chords each.  A stone is a support when its ``class`` (or that of a group around
+it) contains ``fixed_class``, or its id or a group's id or Inkscape layer name is ``fixed_class``
+(all compared without case).  Texts, images, lines on no stone's outline and shapes hidden by
+``display:none`` are left out and counted in the summary line.
 
 Frame: SVG's ``y`` axis points *down*; the structure's points *up*.  A point ``(x, y)`` of the
 drawing (in the user units of the root ``<svg>``, i.e. of its ``viewBox``) is ``(s x, -s y)`` in the
 structure, ``s`` the metres per user unit (``scale``, else ``units``, else from the root's
-``width`` and ``viewBox`` when the width has a physical unit such as ``mm``, else 1).
+``width``/``height`` and ``viewBox`` when they have a physical unit such as ``mm``, else 1).
 """
 
 from __future__ import annotations
 
 import re
+import xml.etree.ElementTree as ET
 from pathlib import Path
 
 import numpy as np
@@ -22,6 +27,7 @@ import numpy as np
 from blockmpec.drawings._common import (
     DEFAULT_SNAP,
     LENGTH_UNITS,
+    Reading,
     Stone,
     build_structure,
     check_common,
@@ -29,11 +35,17 @@ from blockmpec.drawings._common import (
     closing_gap,
     scale_option,
 )
+from blockmpec.drawings._loops import Segment, join_loops
 from blockmpec.errors import OptionError, StructureFileError
-from blockmpec.geometry import Structure
+from blockmpec.geometry import DEFAULT_FRICTION, Structure
 
 _INKSCAPE_LABEL = "{http://www.inkscape.org/namespaces/inkscape}label"
-_PHYSICAL = {"mm": 0.001, "cm": 0.01, "m": 1.0, "in": 0.0254, "pt": 0.0254 / 72, "pc": 0.0254 / 6}
+#: Metres per CSS absolute unit of a root ``width``/``height`` (which give the drawing a physical size).
+_PHYSICAL = {"mm": 0.001, "cm": 0.01, "q": 0.00025, "in": 0.0254, "pt": 0.0254 / 72, "pc": 0.0254 / 6}
+#: Elements that draw something (counted when hidden by ``display:none``).
+_DRAWN = {"path", "rect", "polygon", "polyline", "circle", "ellipse", "line", "text", "image", "use"}
+#: Containers whose content is not drawn where it stands.
+_NOT_DRAWN = {"defs", "clipPath", "mask", "pattern", "symbol", "marker", "metadata"}
 
 
 def _attributes(element) -> dict:
@@ -42,9 +54,10 @@ def _attributes(element) -> dict:
 
 def _marks_fixed(element, fixed_class: str) -> bool:
     attrs = _attributes(element)
-    classes = str(attrs.get("class", "")).split()
-    label = attrs.get(_INKSCAPE_LABEL, attrs.get("inkscape:label"))
-    return fixed_class in classes or attrs.get("id") == fixed_class or label == fixed_class
+    key = fixed_class.lower()
+    classes = str(attrs.get("class", "")).lower().split()
+    label = str(attrs.get(_INKSCAPE_LABEL, attrs.get("inkscape:label", ""))).lower()
+    return key in classes or str(attrs.get("id", "")).lower() == key or label == key
 
 
 def _entity_name(element, number: int, subpath: int | None) -> str:
@@ -54,44 +67,175 @@ def _entity_name(element, number: int, subpath: int | None) -> str:
     return name if subpath is None else f"{name} sub-path {subpath}"
 
 
-def _user_units_per_px(svg) -> tuple[np.ndarray, float | None]:
-    """The inverse of the root's viewBox transformation (a 2x3 matrix) and the metres per user unit
-    that the root's ``width`` gives, when it has a physical unit."""
+def _viewbox(svg):
+    """The root's viewBox transformation (svgelements' Matrix: user units -> svgelements' pixels)."""
     from svgelements import Matrix
 
     transform = getattr(svg, "viewbox_transform", None)
-    m = ~Matrix(transform) if transform else Matrix()
-    inverse = np.array([[m.a, m.c, m.e], [m.b, m.d, m.f]], float)
-    width = str(_attributes(svg).get("width", ""))
-    found = re.fullmatch(r"\s*([0-9.eE+-]+)\s*(mm|cm|m|in|pt|pc)\s*", width)
-    per_unit = None
-    if found and svg.viewbox is not None and svg.viewbox.width:
-        per_unit = float(found.group(1)) * _PHYSICAL[found.group(2)] / float(svg.viewbox.width)
-    return inverse, per_unit
+    return Matrix(transform) if transform else Matrix()
 
 
-def _subpaths(shape, curve_segments: int) -> list[tuple[np.ndarray, bool]]:
-    """``(points, closed)`` of each sub-path of a shape (in the parser's px), curves as chords."""
-    from svgelements import Close, Line, Move, Path
+def _physical_scale(svg, p: Path) -> float | None:
+    """Metres per user unit from the root's ``width``/``height`` when one has a physical unit (else None).
 
-    out: list[tuple[list, bool]] = []
+    With a ``viewBox``, the user units are scaled into the width and height as ``preserveAspectRatio``
+    says (default: uniformly, to fit); without one, a user unit is a CSS pixel (1/96 inch)."""
+    attrs = _attributes(svg)
+    size = {}
+    for key in ("width", "height"):
+        found = re.fullmatch(r"\s*([0-9.eE+-]+)\s*([a-zA-Z]*)\s*", str(attrs.get(key, "")))
+        if found and found.group(2).lower() in _PHYSICAL:
+            size[key] = float(found.group(1)) * _PHYSICAL[found.group(2).lower()]
+    if not size:
+        return None
+    box = svg.viewbox
+    if box is None or not box.width or not box.height:
+        return _PHYSICAL["in"] / 96
+    sx, sy = (size[k] / d if k in size else None for k, d in (("width", box.width), ("height", box.height)))
+    aspect = str(attrs.get("preserveAspectRatio", "")).split()
+    if aspect[:1] == ["none"] and sx and sy and not np.isclose(sx, sy, rtol=1e-9):
+        raise StructureFileError(f"{p}: the root's viewBox is stretched unequally (preserveAspectRatio=\"none\": "
+                                 f"{sy / sx:.6g} times as much in y as in x); give the drawing's unit with "
+                                 "-p units=... (it is then read in its user units)")
+    if sx and sy:
+        return max(sx, sy) if "slice" in aspect else min(sx, sy)
+    return sx or sy
+
+
+def _hidden_count(root) -> int:
+    """Drawn elements inside ``display:none`` (svgelements leaves them out)."""
+    def hidden(e) -> bool:
+        style = e.get("style", "")
+        return e.get("display", "").strip() == "none" or re.search(r"display\s*:\s*none", style) is not None
+
+    def visit(e, inside: bool) -> int:
+        tag = e.tag.rsplit("}", 1)[-1]
+        if tag in _NOT_DRAWN:
+            return 0
+        inside = inside or hidden(e)
+        return int(inside and tag in _DRAWN) + sum(visit(c, inside) for c in e)
+
+    return visit(root, False)
+
+
+def _subpaths(shape, curve_segments: int) -> list[tuple[np.ndarray, bool, int]]:
+    """``(points, closed, pieces)`` of each sub-path of a shape, transformed (svgelements' pixels),
+    curves as chords; ``pieces`` counts its segments."""
+    from svgelements import Close, Line, Move
+
+    out: list[tuple[list, bool, int]] = []
     current: list = []
-    closed = False
-    for seg in Path(shape):
+    closed, pieces = False, 0
+    for seg in shape.segments(transformed=True):
         if isinstance(seg, Move):
             if current:
-                out.append((current, closed))
-            current, closed = [(seg.end.x, seg.end.y)], False
+                out.append((current, closed, pieces))
+            current, closed, pieces = [(seg.end.x, seg.end.y)], False, 0
         elif isinstance(seg, Close):
             closed = True
         elif isinstance(seg, Line):
             current.append((seg.end.x, seg.end.y))
+            pieces += 1
         else:  # curves and arcs: chords
+            if not current:
+                current = [(seg.start.x, seg.start.y)]
             t = np.linspace(0.0, 1.0, curve_segments + 1)[1:]
             current += [tuple(p) for p in np.asarray(seg.npoint(t), float)]
+            pieces += 1
     if current:
-        out.append((current, closed))
-    return [(np.array(points, float).reshape(-1, 2), c) for points, c in out]
+        out.append((current, closed, pieces))
+    return [(np.array(points, float).reshape(-1, 2), c, n) for points, c, n in out]
+
+
+def _shapes(svg, fixed_class: str, reading: Reading):
+    """``(shape, fixed, via)`` of every drawn shape (groups and ``<use>`` clones followed); texts and
+    images counted as skipped."""
+    from svgelements import Group, Shape, Use
+
+    uses = [0]
+
+    def visit(container, fixed: bool, via: str):
+        for element in container:
+            if isinstance(element, Use):
+                uses[0] += 1
+                attrs = _attributes(element)
+                use = f'<use id="{attrs["id"]}">' if attrs.get("id") else f"<use> number {uses[0]}"
+                yield from visit(element, fixed or _marks_fixed(element, fixed_class), f" (cloned by {use}){via}")
+            elif isinstance(element, Group):
+                yield from visit(element, fixed or _marks_fixed(element, fixed_class), via)
+            elif isinstance(element, Shape):
+                yield element, fixed or _marks_fixed(element, fixed_class), via
+            else:
+                tag = _attributes(element).get("tag", "")
+                if tag in ("text", "image"):  # a <text>'s <tspan>s are part of it
+                    reading.skipped[f"<{tag}>"] += 1
+
+    yield from visit(svg, _marks_fixed(svg, fixed_class), "")
+
+
+def _read_shapes(svg, inverse: np.ndarray, fixed_class: str, curve_segments: int, p: Path,
+                 reading: Reading) -> tuple[list[Stone], list[Segment]]:
+    """Stones (closed sub-paths) and segments (open ones, lines) in user units (``y`` down)."""
+    from svgelements import SimpleLine
+
+    stones, segments = [], []
+    for number, (element, fixed, via) in enumerate(_shapes(svg, fixed_class, reading), 1):
+        subpaths = _subpaths(element, curve_segments)
+        tag = _attributes(element).get("tag", type(element).__name__.lower())
+        for k, (points, closed, pieces) in enumerate(subpaths):
+            if points.shape[0] < 2:
+                continue  # a lone move-to draws nothing
+            name = _entity_name(element, number, k + 1 if len(subpaths) > 1 else None)
+            user = points @ inverse[:, :2].T + inverse[:, 2]
+            size = float(np.hypot(*np.ptp(user, axis=0)))
+            if closed or (points.shape[0] > 2 and closing_gap(user) <= 1e-9 * size):
+                outline = clean_outline(user)
+                if outline.shape[0] < 3:
+                    raise StructureFileError(f"{p}: {name}{via} has {outline.shape[0]} distinct points; "
+                                             "a stone needs at least 3")
+                stones.append(Stone(outline, fixed, name + via))
+            else:
+                line = isinstance(element, SimpleLine) or pieces == 1
+                segments.append(Segment(user, name, via, f"<{tag}>", fixed, line))
+    return stones, segments
+
+
+def _refuse_inner_viewboxes(root, p: Path) -> None:
+    """A nested ``<svg>``, or a ``<symbol>`` that a ``<use>`` draws, with a viewBox of its own is a
+    StructureFileError: svgelements places their content without that viewBox's scaling (1.9)."""
+    used = {str(v).lstrip("#") for e in root.iter() if e.tag.rsplit("}", 1)[-1] == "use"
+            for k, v in e.attrib.items() if k.rsplit("}", 1)[-1] == "href"}
+    for e in root.iter():
+        tag = e.tag.rsplit("}", 1)[-1]
+        if e is not root and e.get("viewBox") and (tag == "svg" or tag == "symbol" and e.get("id") in used):
+            name = f'<{tag} id="{e.get("id")}">' if e.get("id") else f"a nested <{tag}>"
+            raise StructureFileError(f"{p}: {name} has a viewBox of its own, whose scaling blockmpec cannot apply; "
+                                     "ungroup it into plain groups (Inkscape: Object > Ungroup) or remove its viewBox")
+
+
+def _parse(p: Path):
+    """The svgelements document and the number of drawn elements that ``display:none`` hides."""
+    import io
+
+    from svgelements import SVG
+
+    try:
+        text = p.read_bytes()
+    except OSError as exc:
+        raise StructureFileError(f"{p}: cannot read ({exc.strerror or exc})") from None
+    try:
+        root = ET.fromstring(text)
+    except ET.ParseError as exc:
+        raise StructureFileError(f"{p}: not valid XML ({exc})") from None
+    if not root.tag.endswith("svg"):
+        raise StructureFileError(f"{p}: not an SVG file (its root element is <{root.tag}>)")
+    _refuse_inner_viewboxes(root, p)
+    try:
+        svg = SVG.parse(io.BytesIO(text), reify=True)
+    except Exception as exc:  # svgelements raises several types for broken files
+        raise StructureFileError(f"{p}: not a readable SVG file ({type(exc).__name__}: "
+                                 f"{str(exc).splitlines()[0] if str(exc) else ''})") from None
+    return svg, _hidden_count(root)
 
 
 def read_svg(
@@ -100,20 +244,20 @@ def read_svg(
     fixed_class: str = "fixed",
     units: str | None = None,
     scale: float | None = None,
-    mu: float = 0.65,
+    mu: float = DEFAULT_FRICTION,
     dilatancy: float = 0.0,
     density: float = 1.0,
     live_direction: int = 1,
     snap: float = DEFAULT_SNAP,
     curve_segments: int = 8,
 ) -> Structure:
-    """A structure from the closed paths and polygons of an SVG drawing (``y`` turned to point up).
+    """A structure from the closed shapes (and the closed loops of lines) of an SVG drawing (``y`` turned up).
 
     Parameters
     ----------
     path : path of an ``.svg`` file
     fixed_class : str
-        Class (or id, or Inkscape layer name) that marks supports.
+        Class (or id, or Inkscape layer name) that marks supports; compared without case.
     units : {"m", "dm", "cm", "mm", "km", "in", "ft"}, optional
         The length of one user unit of the drawing.
     scale : float, optional
@@ -126,74 +270,51 @@ def read_svg(
     Raises
     ------
     StructureFileError
-        Not an SVG file, no closed shape, or an open shape.
+        Not an SVG file, no closed shape, an open path that closes no loop, lines whose loops are
+        ambiguous.
     GeometryError, StructureError
         Naming the element (its id, or its number in document order).
     """
-    from svgelements import SVG, Group, Shape
-
     check_common(mu, dilatancy, density, live_direction, snap)
     if not isinstance(fixed_class, str) or not fixed_class:
         raise OptionError(f"fixed_class: expected a class name; got {fixed_class!r}")
     if isinstance(curve_segments, bool) or not isinstance(curve_segments, int) or curve_segments < 1:
         raise OptionError(f"curve_segments: must be an integer >= 1; got {curve_segments!r}")
     p = Path(path)
-    try:
-        text = p.read_bytes()
-    except OSError as exc:
-        raise StructureFileError(f"{p}: cannot read ({exc.strerror or exc})") from None
-    import io
-    import xml.etree.ElementTree as ET
-
-    try:
-        root = ET.fromstring(text)
-    except ET.ParseError as exc:
-        raise StructureFileError(f"{p}: not valid XML ({exc})") from None
-    if not root.tag.endswith("svg"):
-        raise StructureFileError(f"{p}: not an SVG file (its root element is <{root.tag}>)")
-    try:
-        svg = SVG.parse(io.BytesIO(text))
-    except Exception as exc:  # svgelements raises several types for broken files
-        raise StructureFileError(f"{p}: not a readable SVG file ({type(exc).__name__}: {exc})") from None
-    inverse, per_unit = _user_units_per_px(svg)
+    svg, hidden = _parse(p)
+    reading = Reading()
+    if hidden:
+        reading.skipped["hidden (display:none)"] += hidden
+    explicit = units is not None or scale is not None
+    forward = _viewbox(svg)
+    m = ~forward
+    inverse = np.array([[m.a, m.c, m.e], [m.b, m.d, m.f]], float)  # svgelements' pixels -> user units
+    per_unit = None if explicit else _physical_scale(svg, p)
     factor = scale_option(units, scale, per_unit or 1.0, str(p))
-    stones: list[Stone] = []
-    counts = {"shapes": 0}
-
-    def visit(group, fixed: bool) -> None:
-        for element in group:
-            if isinstance(element, Group):
-                visit(element, fixed or _marks_fixed(element, fixed_class))
-            elif isinstance(element, Shape):
-                counts["shapes"] += 1
-                is_fixed = fixed or _marks_fixed(element, fixed_class)
-                subpaths = _subpaths(element, curve_segments)
-                for k, (points, closed) in enumerate(subpaths):
-                    name = _entity_name(element, counts["shapes"], k + 1 if len(subpaths) > 1 else None)
-                    if points.shape[0] < 3 and not closed:
-                        if points.shape[0] == 1:
-                            continue  # a lone move-to draws nothing
-                        raise StructureFileError(f"{p}: {name} is an open line, not an outline; close it "
-                                                 "(or remove it)")
-                    user = points @ inverse[:, :2].T + inverse[:, 2]
-                    size = float(np.hypot(*np.ptp(user, axis=0)))
-                    if not closed and closing_gap(user) > 1e-9 * size:
-                        raise StructureFileError(
-                            f"{p}: {name} is open (its ends are {closing_gap(user):.3g} user units apart); "
-                            "close it with Z (or remove it)")
-                    outline = clean_outline(user)
-                    if outline.shape[0] < 3:
-                        raise StructureFileError(f"{p}: {name} has {outline.shape[0]} distinct points; "
-                                                 "a stone needs at least 3")
-                    stones.append(Stone(outline * [factor, -factor] + 0.0, is_fixed, name))  # + 0.0: no -0.0
-
-    visit(svg, _marks_fixed(svg, fixed_class))
+    if per_unit is None and not explicit:
+        reading.unit_missing = ("no length unit (a width or height in mm, cm, in, pt or pc) on the root <svg>, so "
+                                "one user unit is read as a metre",
+                                "that looks like millimetres: give -p units=mm (or the drawing's unit)")
+    stones, segments = _read_shapes(svg, inverse, fixed_class, curve_segments, p, reading)
+    loops, used = join_loops(segments, snap, str(p))
+    for s, u in zip(segments, used):
+        if u:
+            reading.joined[s.kind] += 1
+        elif not s.line:
+            raise StructureFileError(f"{p}: {s.name} is open (its ends are {closing_gap(s.points):.3g} user units "
+                                     "apart); close it with Z (or remove it)")
+        else:
+            reading.skipped[s.kind] += 1
+    stones += loops
     if not stones:
-        raise StructureFileError(f"{p}: no closed path, polygon or rect (found {counts['shapes']} shapes); "
+        found = ", ".join(f"{v} {k}" for k, v in sorted(reading.skipped.items())) or "no shapes"
+        raise StructureFileError(f"{p}: no closed path, polygon or rect (found {found}); "
                                  "draw each stone as a closed shape")
+    for s in stones:
+        s.vertices = s.vertices * [factor, -factor] + 0.0  # y up; + 0.0: no -0.0
     frame = {"format": "svg", "scale": factor, "flip_y": True}
     return build_structure(stones, p, mu=mu, dilatancy=dilatancy, density=density, live_direction=live_direction,
-                           snap=snap, frame=frame,
+                           snap=snap, frame=frame, reading=reading,
                            support_hint=f"no shape with class {fixed_class!r} (the supports; another class with "
                                         "-p fixed_class=NAME)")
 

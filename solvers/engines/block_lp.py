@@ -13,7 +13,10 @@ import numpy as np
 from blockmpec.deadline import Deadline
 from blockmpec.result import Status
 from blockmpec.solvers.engines.highs import LPOutcome
+from blockmpec.solvers.engines.scaling import Scaling
 from blockmpec.solvers.linalg.block_ipm import BlockIPM, IPMOutcome
+
+__all__ = ["BlockLP", "interface_blocks", "lp_outcome"]
 
 
 def lp_outcome(out: IPMOutcome) -> LPOutcome:
@@ -23,7 +26,17 @@ def lp_outcome(out: IPMOutcome) -> LPOutcome:
 
 
 class BlockLP(BlockIPM):
-    """:class:`~blockmpec.solvers.linalg.block_ipm.BlockIPM` returning :class:`LPOutcome` (see the module docstring)."""
+    """:class:`~blockmpec.solvers.linalg.block_ipm.BlockIPM` returning :class:`LPOutcome` (see the module docstring).
+
+    ``scaling``: the :class:`~blockmpec.solvers.engines.scaling.Scaling` of ``lp`` (load units), handed to the
+    block IPM as its ``row_scale`` and ``column_scale`` (which it applies to the equality rows and the columns, and
+    inverts on its answer); the other arguments are :class:`~blockmpec.solvers.linalg.block_ipm.BlockIPM`'s.
+    """
+
+    def __init__(self, lp, block_columns: np.ndarray, scaling: Scaling | None = None, **kwargs) -> None:
+        if scaling is not None:
+            kwargs.update(row_scale=scaling.row, column_scale=scaling.column)
+        super().__init__(lp, block_columns, **kwargs)
 
     def solve(self, deadline: Deadline | None = None) -> LPOutcome:
         """Solve the LP within ``deadline`` (None: the one given before; see :meth:`BlockIPM.solve`); the outcome

@@ -207,7 +207,9 @@ class ComplementarityBnB(RootLP):
         if self.node_lp == "interior" and self.nodes_in_null_space:
             return self._interior_node_lp(a, b)
         out = self._simplex()
-        if out.status is Status.INFEASIBLE and self._infeasibility_proven():
+        # a checked Farkas certificate proves infeasibility whatever HiGHS's status (after its presolve an
+        # infeasible node LP can end kUnknown with a valid dual ray)
+        if out.status not in (Status.OPTIMAL, Status.TIME_LIMIT) and self._infeasibility_proven():
             return Status.INFEASIBLE, None, None
         if out.status not in (Status.OPTIMAL, Status.TIME_LIMIT, Status.INFEASIBLE):
             ist, ibound, iv = self._interior_node(crossover=True)
@@ -217,7 +219,9 @@ class ComplementarityBnB(RootLP):
             # a cold re-solve: warm re-solves after coefficient changes were seen to end without an optimal status
             self.nodes.active().hl.clear_basis()
             out = self._simplex()
-            if out.status is Status.INFEASIBLE and not self._infeasibility_proven():
+            if out.status not in (Status.OPTIMAL, Status.TIME_LIMIT):
+                if self._infeasibility_proven():
+                    return Status.INFEASIBLE, None, None
                 return Status.ERROR, None, None  # not pruned: the node keeps its parent's bound
         if out.status is not Status.OPTIMAL:
             return out.status, None, None
@@ -260,7 +264,7 @@ class ComplementarityBnB(RootLP):
         self.nodes.use("sparse")
         try:
             out = self._simplex()
-            if out.status is Status.INFEASIBLE:
+            if out.status not in (Status.OPTIMAL, Status.TIME_LIMIT):  # a checked Farkas proof, whatever the status
                 return (Status.INFEASIBLE, None, None) if self._infeasibility_proven() else (Status.ERROR, None, None)
             if out.status is Status.OPTIMAL:  # the sparse LP is a relaxation: its minimum bounds the node's
                 return out.status, float(out.objective), self.nodes.lift(out.v)

@@ -28,9 +28,9 @@ def exact_point(form, scaling, w: np.ndarray, deadline: Deadline = NEVER) -> tup
     ----------
     form : CompiledMCP
         Problem (3).
-    scaling : tuple of ndarray
-        ``(column_scale, row_scale, slack_scale)``, the units of :func:`blockmpec.solvers.nlp.nlp_scaling` in which
-        the pattern is read and the LPs are solved.
+    scaling : MCPScaling
+        The units of (3) (:meth:`LoadUnits.mcp <blockmpec.solvers.engines.scaling.LoadUnits.mcp>`) in which the
+        pattern is read and the LPs are solved.
     w : ndarray
         The approximate solution, packed (:meth:`~blockmpec.formulations.compiled.CompiledMCP.pack`).
     deadline : Deadline
@@ -44,7 +44,7 @@ def exact_point(form, scaling, w: np.ndarray, deadline: Deadline = NEVER) -> tup
     """
     from blockmpec.solvers.engines.piece_lp import SplitPieces
 
-    pieces = SplitPieces(form, *scaling, deadline=deadline)
+    pieces = SplitPieces(form, scaling, deadline=deadline)
     z, s = pieces.sides(np.asarray(w, float))
     pattern = z > s
     static = pieces.static_lp(pattern)

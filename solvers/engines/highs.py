@@ -1,10 +1,21 @@
-"""A thin wrapper over highspy for compiled :class:`~blockmpec.formulations.LinearProgram` s.
+"""The one HiGHS wrapper: every highspy object lives in this module, and HiGHS's statuses are mapped here once.
 
-Shared by every HiGHS-based adapter.  highspy is imported when a model is loaded,
-never at module import.
+* :class:`HighsLP`: one LP held by HiGHS, re-solved warm after changes.  It is built from a compiled
+  :class:`~blockmpec.formulations.LinearProgram` and, optionally, the
+  :class:`~blockmpec.solvers.engines.scaling.Scaling` that puts it in load units; every setter (costs, row and
+  column bounds, coefficients, rows added, tolerances, basis, presolve, iteration limit) takes values in the
+  problem's units and every answer (:class:`LPOutcome`, :meth:`HighsLP.dual_ray`) comes back in them, through the
+  scaling.  The deadline is an argument of :meth:`HighsLP.solve`.
+* :func:`highs_mip`: HiGHS's branch and cut on a MILP, with its :class:`MipInfo`.
+* :func:`solve_lp`, :func:`small_lp`: one-off LPs; :func:`static_lp_solution`: ``(lam, x, u, z)`` from the duals.
 
-Dual signs: HiGHS reports row duals ``y`` with ``c - A^T y = reduced costs`` for the
-minimisation it solves; for a ``<=`` row active in a minimisation ``y <= 0``.
+HiGHS's model status becomes a :class:`~blockmpec.result.Status` by :data:`HIGHS_STATUS` only; ``raw_status``
+keeps HiGHS's name for messages.  Modules outside this one import only the names in ``__all__``, never highspy
+(``tests/test_layering.py``); the functions below that take a ``highspy.Highs`` are this module's own (and the
+tests').  highspy is imported when a model is loaded, never at module import.
+
+Dual signs: HiGHS reports row duals ``y`` with ``c - A^T y = reduced costs`` for the minimisation it solves; for
+a ``<=`` row active in a minimisation ``y <= 0``.
 """
 
 from __future__ import annotations
@@ -17,7 +28,12 @@ import scipy.sparse as sp
 from blockmpec.deadline import NEVER, Deadline
 from blockmpec.formulations import LinearProgram
 from blockmpec.result import Solution, Status
+from blockmpec.solvers.engines.scaling import Scaling
 from blockmpec.solvers.plan import BASIS_ALGORITHMS, lp_algorithm
+
+__all__ = ["AT_LOWER", "AT_UPPER", "BASIC", "FEASIBILITY_TOL", "HIGHS_DEFAULT_FEASIBILITY_TOL", "HIGHS_STATUS",
+           "IPM_WITHOUT_CROSSOVER", "LPOutcome", "HighsLP", "MECHANISM_FEASIBILITY_TOL", "MipInfo", "highs_mip",
+           "small_lp", "solve_lp", "static_lp_solution"]
 
 
 @dataclass
@@ -65,6 +81,11 @@ def highs_lp(A, c, row_lower, row_upper, col_lower, col_upper):
     model.a_matrix_.format_ = highspy.MatrixFormat.kColwise
     model.a_matrix_.start_, model.a_matrix_.index_, model.a_matrix_.value_ = A.indptr, A.indices, A.data
     return model
+
+
+def highs_model(lp: LinearProgram):
+    """A compiled LP as a ``highspy.HighsLp`` (:func:`highs_lp` of its arrays)."""
+    return highs_lp(lp.A, lp.c, lp.row_lower, lp.row_upper, lp.col_lower, lp.col_upper)
 
 
 def new_highs():
@@ -308,45 +329,63 @@ def static_lp_solution(lp: LinearProgram, outcome: LPOutcome) -> Solution:
 #: HiGHS's interior point IPX without its crossover (no basis; the run ends ``kUnknown`` at its tolerances, read
 #: as ``OPTIMAL`` when HiGHS calls both points feasible): an algorithm of :class:`HighsLP` only, not a user's choice
 IPM_WITHOUT_CROSSOVER = "ipm-without-crossover"
+#: ``highspy.HighsBasisStatus`` values of the basis arrays of :meth:`HighsLP.basis_status` and
+#: :meth:`HighsLP.set_basis`
+AT_LOWER, BASIC, AT_UPPER = 0, 1, 2
 
 
 class HighsLP:
-    """A HiGHS instance holding one compiled LP; re-solves after bound changes are warm.
+    """One LP held by HiGHS, in the units of its problem; re-solves after changes are warm.
 
-    ``row_scale`` and ``column_scale`` (positive) make HiGHS solve ``R A C`` with
-    ``R`` row bounds, ``C^-1`` column bounds and ``C c`` costs; values and duals are
-    returned in the compiled LP's units (``v = C v^``, ``y = R y^``).  See
-    :mod:`blockmpec.solvers.engines.scaling`.
+    Parameters
+    ----------
+    lp : LinearProgram
+        The problem (its arrays are read once; :meth:`set_row_upper` also updates ``lp.row_upper``, every other
+        setter changes HiGHS's model only, so ``lp`` may be shared between several models).
+    algorithm : str
+        One of :data:`~blockmpec.solvers.plan.BASIS_ALGORITHMS` or :data:`IPM_WITHOUT_CROSSOVER`
+        (``"auto"``: :func:`~blockmpec.solvers.plan.lp_algorithm`).
+    threads : int
+        HiGHS's ``threads`` (0: HiGHS's default).
+    scaling : Scaling, optional
+        The units reduction HiGHS solves in (:class:`~blockmpec.solvers.engines.scaling.Scaling`: ``R A C``);
+        values go in and come out in ``lp``'s units.  ``row_scale``, ``column_scale``: the same as two arrays.
     """
 
-    def __init__(self, lp: LinearProgram, algorithm: str = "auto", threads: int = 0,
+    def __init__(self, lp: LinearProgram, algorithm: str = "auto", threads: int = 0, scaling: Scaling | None = None,
                  row_scale: np.ndarray | None = None, column_scale: np.ndarray | None = None) -> None:
         if algorithm not in (*BASIS_ALGORITHMS, IPM_WITHOUT_CROSSOVER):
             raise ValueError(f"algorithm must be one of {BASIS_ALGORITHMS}; got {algorithm!r}")
         self.lp = lp
+        self.scaling = scaling if scaling is not None else Scaling.of(lp, row_scale, column_scale)
         h = new_highs()
         if threads:
             set_threads(h, threads)
-        m, n = lp.A.shape
-        self.row_scale = np.ones(m) if row_scale is None else np.asarray(row_scale, float)
-        self.column_scale = np.ones(n) if column_scale is None else np.asarray(column_scale, float)
-        A = sp.diags(self.row_scale) @ lp.A @ sp.diags(self.column_scale)
-        model = highs_lp(A, self.column_scale * lp.c, self.row_scale * lp.row_lower, self.row_scale * lp.row_upper,
-                         lp.col_lower / self.column_scale, lp.col_upper / self.column_scale)
-        h.passModel(model)
-        self.highs = h
+        h.passModel(highs_model(self.scaling.apply(lp)))
+        self._highs = h
         self.algorithm = algorithm
+        #: the algorithm of the latest solve (for the run's plan)
         self.last_algorithm = algorithm
         self._first = True
 
+    @property
+    def row_scale(self) -> np.ndarray:
+        """``R`` of :attr:`scaling`."""
+        return self.scaling.row
+
+    @property
+    def column_scale(self) -> np.ndarray:
+        """``C`` of :attr:`scaling`."""
+        return self.scaling.column
+
+    # ------------------------------------------------------------------ algorithm and options
     def set_algorithm(self, algorithm: str) -> None:
         """Set HiGHS's solver for the next solve: ``algorithm`` as :func:`~blockmpec.solvers.plan.lp_algorithm`
         resolves it (``"auto"``: the dual simplex on a warm re-solve), recorded in :attr:`last_algorithm`.  Every
-        :meth:`solve` calls it; a subclass may choose other HiGHS options here (e.g. another interior point)."""
-        h = self.highs
+        :meth:`solve` calls it."""
+        h = self._highs
         if algorithm != IPM_WITHOUT_CROSSOVER:
             algorithm = lp_algorithm(algorithm, self.lp.A.shape[0], need_basis=True, warm=not self._first)
-        #: the algorithm of the latest solve (for the run's plan)
         self.last_algorithm = algorithm
         if algorithm in ("ipm", IPM_WITHOUT_CROSSOVER):
             use_interior_point(h, crossover=algorithm == "ipm")
@@ -355,9 +394,78 @@ class HighsLP:
             strategy = {"simplex": 0, "dual-simplex": 1, "primal-simplex": 4}[algorithm]
             h.setOptionValue("simplex_strategy", strategy)
 
+    def set_feasibility_tolerances(self, tol: float | None = None, *, primal: float | None = None,
+                                   dual: float | None = None) -> None:
+        """HiGHS's primal and dual feasibility tolerances (absolute, in the scaled LP's units): both ``tol``, or
+        only those given as ``primal``, ``dual``; without any, both :data:`FEASIBILITY_TOL`."""
+        if tol is None and primal is None and dual is None:
+            tol = FEASIBILITY_TOL
+        primal, dual = (tol, tol) if tol is not None else (primal, dual)
+        for name, value in (("primal_feasibility_tolerance", primal), ("dual_feasibility_tolerance", dual)):
+            if value is not None:
+                self._highs.setOptionValue(name, float(value))
+
+    def feasibility_tolerances(self) -> tuple[float, float]:
+        """HiGHS's ``(primal, dual)`` feasibility tolerances now."""
+        return (float(_option_value(self._highs, "primal_feasibility_tolerance")),
+                float(_option_value(self._highs, "dual_feasibility_tolerance")))
+
+    def set_presolve(self, on: bool) -> None:
+        """HiGHS's presolve: ``"choose"`` (its default) or ``"off"``."""
+        self._highs.setOptionValue("presolve", "choose" if on else "off")
+
+    def set_iteration_limit(self, iterations: int) -> None:
+        """HiGHS's simplex iteration limit of each later solve (the status is then ``ITERATION_LIMIT``)."""
+        self._highs.setOptionValue("simplex_iteration_limit", int(iterations))
+
+    # ------------------------------------------------------------------ the model, in the problem's units
+    def set_costs(self, columns, costs) -> None:
+        """Costs of ``columns`` (HiGHS's model only)."""
+        columns = np.asarray(columns, dtype=np.int32)
+        self._highs.changeColsCost(columns.size, columns, self.scaling.costs(columns, costs))
+
+    def set_row_bounds(self, rows, lower, upper) -> None:
+        """Lower and upper bounds of ``rows`` (HiGHS's model only; ``+-inf`` for none)."""
+        rows = np.asarray(rows, dtype=np.int32)
+        _checked(self._highs.changeRowsBounds(rows.size, rows, self.scaling.row_values(rows, lower),
+                                              self.scaling.row_values(rows, upper)))
+
+    def set_row_upper(self, rows: np.ndarray, upper: np.ndarray) -> None:
+        """Change the upper bounds of ``rows`` (lower bounds kept), in HiGHS's model and in ``lp.row_upper``."""
+        rows = np.asarray(rows, dtype=np.int32)
+        self.lp.row_upper[rows] = upper
+        self._highs.changeRowsBounds(rows.size, rows, self.scaling.row_values(rows, self.lp.row_lower[rows]),
+                                     self.scaling.row_values(rows, upper))
+
+    def set_column_bounds(self, columns, lower, upper) -> None:
+        """Lower and upper bounds of ``columns`` (HiGHS's model only; ``+-inf`` for none)."""
+        columns = np.asarray(columns, dtype=np.int32)
+        _checked(self._highs.changeColsBounds(columns.size, columns, self.scaling.column_values(columns, lower),
+                                              self.scaling.column_values(columns, upper)))
+
+    def set_coefficients(self, rows, columns, values) -> None:
+        """Matrix entries ``A[rows[j], columns[j]] = values[j]`` (HiGHS's model only; the basis is kept)."""
+        rows, columns = np.asarray(rows, dtype=np.int64), np.asarray(columns, dtype=np.int64)
+        scaled = self.scaling.coefficients(rows, columns, values)
+        for r, c, v in zip(rows.tolist(), columns.tolist(), scaled.tolist()):
+            _checked(self._highs.changeCoeff(r, c, v))
+
+    def add_rows(self, matrix, lower, upper) -> None:
+        """Append the rows ``lower <= matrix v <= upper`` (``matrix`` sparse, one row per new row; the new rows are
+        unscaled: the scaling gets a 1 per row)."""
+        rows = sp.csr_array(matrix)
+        cols = self.scaling.column
+        scaled = rows @ sp.diags(cols)
+        scaled = sp.csr_array(scaled)
+        _checked(self._highs.addRows(rows.shape[0], np.asarray(lower, float), np.asarray(upper, float), int(scaled.nnz),
+                                     scaled.indptr[:-1].astype(np.int32), scaled.indices.astype(np.int32), scaled.data))
+        self.scaling = Scaling(np.concatenate([self.scaling.row, np.ones(rows.shape[0])]), cols)
+
+    # ------------------------------------------------------------------ basis
     def basis_status(self) -> tuple[np.ndarray, np.ndarray] | None:
-        """The current basis as integer arrays (``highspy.HighsBasisStatus`` values) of columns and rows."""
-        basis = self.highs.getBasis()
+        """The current basis as integer arrays (:data:`AT_LOWER`, :data:`BASIC`, :data:`AT_UPPER` ...) of columns
+        and rows, or None without a valid basis."""
+        basis = self._highs.getBasis()
         if not basis.valid:
             return None
         return (np.fromiter((int(s) for s in basis.col_status), int, len(basis.col_status)),
@@ -371,73 +479,23 @@ class HighsLP:
         basis.col_status = [hs.HighsBasisStatus(int(v)) for v in col_status]
         basis.row_status = [hs.HighsBasisStatus(int(v)) for v in row_status]
         basis.valid = True
-        ok = self.highs.setBasis(basis) == hs.HighsStatus.kOk
+        ok = self._highs.setBasis(basis) == hs.HighsStatus.kOk
         if ok:
             self._first = False
         return ok
 
-    # ------------------------------------------------------------------ setters in the problem's units
-    # (the names and signatures of issue 50's wrapper, added here minimally for issue 53's engines)
-    def set_costs(self, columns, costs) -> None:
-        """Costs of ``columns`` (HiGHS's model only)."""
-        columns = np.asarray(columns, dtype=np.int32)
-        self.highs.changeColsCost(columns.size, columns, self.column_scale[columns] * np.asarray(costs, float))
-
-    def set_row_bounds(self, rows, lower, upper) -> None:
-        """Lower and upper bounds of ``rows`` (HiGHS's model only; ``+-inf`` for none)."""
-        rows = np.asarray(rows, dtype=np.int32)
-        scale = self.row_scale[rows]
-        self.highs.changeRowsBounds(rows.size, rows, scale * np.asarray(lower, float), scale * np.asarray(upper, float))
-
-    def set_column_bounds(self, columns, lower, upper) -> None:
-        """Lower and upper bounds of ``columns`` (HiGHS's model only; ``+-inf`` for none)."""
-        columns = np.asarray(columns, dtype=np.int32)
-        scale = self.column_scale[columns]
-        self.highs.changeColsBounds(columns.size, columns, np.asarray(lower, float) / scale,
-                                    np.asarray(upper, float) / scale)
-
-    def set_coefficients(self, rows, columns, values) -> None:
-        """Matrix entries ``A[rows[j], columns[j]] = values[j]`` (HiGHS's model only; the basis is kept)."""
-        rows, columns = np.asarray(rows, dtype=np.int64), np.asarray(columns, dtype=np.int64)
-        scaled = self.row_scale[rows] * np.asarray(values, float) * self.column_scale[columns]
-        for r, c, v in zip(rows.tolist(), columns.tolist(), scaled.tolist()):
-            if not change_applied(self.highs.changeCoeff(r, c, v)):
-                raise RuntimeError("HiGHS rejected a change of its LP")
-
-    def add_rows(self, matrix, lower, upper) -> None:
-        """Append the rows ``lower <= matrix v <= upper`` (``matrix`` sparse, one row per new row; unscaled)."""
-        rows = sp.csr_array(sp.csr_array(matrix) @ sp.diags(self.column_scale))
-        status = self.highs.addRows(rows.shape[0], np.asarray(lower, float), np.asarray(upper, float), int(rows.nnz),
-                                    rows.indptr[:-1].astype(np.int32), rows.indices.astype(np.int32), rows.data)
-        if not change_applied(status):
-            raise RuntimeError("HiGHS rejected a change of its LP")
-        self.row_scale = np.concatenate([self.row_scale, np.ones(rows.shape[0])])
-
-    def set_iteration_limit(self, iterations: int) -> None:
-        """HiGHS's simplex iteration limit of each later solve (the status is then ``ITERATION_LIMIT``)."""
-        self.highs.setOptionValue("simplex_iteration_limit", int(iterations))
-
-    def dual_ray(self) -> np.ndarray | None:
-        """HiGHS's dual ray after an infeasible solve (a Farkas certificate to check), or None when it has none."""
-        try:
-            _, has_ray, ray = self.highs.getDualRay()
-        except Exception:  # noqa: BLE001 - highspy raises when no ray is held
-            return None
-        return self.row_scale * np.asarray(ray, float) if has_ray else None
-
-    def set_feasibility_tolerances(self, tol: float | None = None) -> None:
-        """HiGHS's primal and dual feasibility tolerances (default :data:`FEASIBILITY_TOL`)."""
-        set_feasibility_tolerances(self.highs, FEASIBILITY_TOL if tol is None else tol)
-
     def clear_basis(self) -> None:
         """Forget the basis and the factorisation (the next solve is cold)."""
-        self.highs.clearSolver()
+        self._highs.clearSolver()
 
+    # ------------------------------------------------------------------ solve
     def solve(self, algorithm: str | None = None, deadline: Deadline = NEVER, cold: bool = False) -> LPOutcome:
         """Solve within ``deadline`` (warm from the previous basis unless ``cold``); ``algorithm`` overrides once.
 
-        A deadline already passed returns ``TIME_LIMIT`` without running HiGHS."""
-        h = self.highs
+        A deadline already passed returns ``TIME_LIMIT`` without running HiGHS.  After a solve error at feasibility
+        tolerances tighter than HiGHS's own, one run at :data:`HIGHS_DEFAULT_FEASIBILITY_TOL`
+        (:meth:`_retry_at_default_tolerances`)."""
+        h = self._highs
         if not set_deadline(h, deadline):
             nan = np.full(self.lp.c.size, np.nan)
             return LPOutcome(Status.TIME_LIMIT, "kTimeLimit", float("nan"), nan, np.full(self.lp.A.shape[0], np.nan),
@@ -447,23 +505,31 @@ class HighsLP:
         self.set_algorithm(algorithm or self.algorithm)
         h.run()
         self._first = False
-        interior = self.last_algorithm == IPM_WITHOUT_CROSSOVER
-        status, raw = highs_status(h, interior_without_crossover=True) if interior else highs_status(h)
+        status, raw = highs_status(h, interior_without_crossover=self.last_algorithm == IPM_WITHOUT_CROSSOVER)
         retried = ""
         if status is Status.ERROR:
             status, raw, retried = self._retry_at_default_tolerances(raw)
         info = h.getInfo()
         iterations = int(max(info.simplex_iteration_count, 0) + max(info.ipm_iteration_count, 0))
         sol = h.getSolution()
-        v = self.column_scale * np.asarray(sol.col_value, float)
-        y = self.row_scale * np.asarray(sol.row_dual, float)
-        if v.size != self.lp.c.size:
-            v = np.full(self.lp.c.size, np.nan)
-            y = np.full(self.lp.A.shape[0], np.nan)
+        v, y = np.asarray(sol.col_value, float), np.asarray(sol.row_dual, float)
+        if v.size == self.lp.c.size and y.size == self.scaling.row.size:
+            v, y = self.scaling.primal(v), self.scaling.dual(y)
+        else:
+            v, y = np.full(self.lp.c.size, np.nan), np.full(self.scaling.row.size, np.nan)
         obj = float(info.objective_function_value) if status is Status.OPTIMAL else float("nan")
         return LPOutcome(status, raw, obj, v, y, iterations,
                          message=h.modelStatusToString(h.getModelStatus()) + retried,
                          has_feasible_point=has_feasible_point(h))
+
+    def dual_ray(self) -> np.ndarray | None:
+        """HiGHS's dual ray after an infeasible solve (a Farkas certificate to check), in the problem's units, or
+        None when HiGHS has none."""
+        try:
+            _, has_ray, ray = self._highs.getDualRay()
+        except Exception:  # noqa: BLE001 - highspy raises when it holds no ray
+            return None
+        return self.scaling.dual(ray) if has_ray else None
 
     def _retry_at_default_tolerances(self, raw: str) -> tuple[Status, str, str]:
         """After a solve error (``kSolveError``, ``kNotset``) at feasibility tolerances tighter than HiGHS's own:
@@ -472,7 +538,7 @@ class HighsLP:
         Measured: the static LP of a 304-stone ``stone-wall`` with ``mu`` 1.2, whose optimal forces are unbounded
         (self-stress, see :mod:`blockmpec.solvers.static_lp`), ends ``kSolveError`` by every HiGHS algorithm at
         1e-9 and ``kOptimal`` at 1e-7 (its kinematic LP alike); the verifier then judges the point."""
-        h = self.highs
+        h = self._highs
         names = ("primal_feasibility_tolerance", "dual_feasibility_tolerance")
         tight = {name: float(_option_value(h, name)) for name in names}
         if all(value >= HIGHS_DEFAULT_FEASIBILITY_TOL for value in tight.values()):
@@ -488,9 +554,8 @@ class HighsLP:
                 f"default {HIGHS_DEFAULT_FEASIBILITY_TOL:g})")
         return status, retried_raw, note
 
-    def set_row_upper(self, rows: np.ndarray, upper: np.ndarray) -> None:
-        """Change the upper bounds of ``rows`` (lower bounds kept)."""
-        rows = np.asarray(rows, dtype=np.int32)
-        self.lp.row_upper[rows] = upper
-        scale = self.row_scale[rows]
-        self.highs.changeRowsBounds(rows.size, rows, scale * self.lp.row_lower[rows], scale * np.asarray(upper, float))
+
+def _checked(status) -> None:
+    """Raise when HiGHS refused a model change (its ``HighsStatus`` is ``kError``)."""
+    if not change_applied(status):
+        raise RuntimeError("HiGHS refused a model change")

@@ -60,7 +60,7 @@ Measured (``studies/lab/fixed_point_strategies.py``, ``studies/lab/fixed_point_r
   stalled at the same complementarity.
 
 **The stall: Mehrotra's iterates leave a strongly curved central path, and no closing stage
-repairs it** (``studies/lab/fixed_point_polish.py``, ``studies/lab/fixed_point_continuation.py``).  On the 10,000-block wall (no aim term) ``mu`` falls
+repairs it** (the changelog, 2026-11-27/28).  On the 10,000-block wall (no aim term) ``mu`` falls
 from 552 to 5.8e-6 in 17 iterations and stays there for 34 more: ``sigma`` near 1, the
 complementarity products evenly spread (none above 100 ``mu``; the relative complementarity
 is 0.5 only because there are 119,400 pairs), steps of 1e-6..1e-2.  The path from
@@ -89,7 +89,7 @@ from the stalled point (``best_iterate``):
   residuals of (3) between 9e-4 and 0.28 at 2,400 blocks.
 
 **The closing stage that works: continuation of the central path**
-(:func:`continue_central_path`, ``studies/lab/fixed_point_continuation.py``; 2,420-block wall
+(:func:`continue_central_path`, the changelog, 2026-11-28; 2,420-block wall
 ``40x60``, where the run stalls at ``mu`` ~ 8.6e-8, worst residual of (3) 1.3e-3).  At the
 stalled point even pure centring (``sigma = 1``, damped) drives the smallest product
 ``s_i y_i`` from 0.13 ``mu`` to 3e-7 ``mu`` in 60 steps: the iterate is off the path.
@@ -119,8 +119,8 @@ Without the continuation the interior engine ends ``NUMERICAL`` at 10,000 blocks
 one cold block-IPM LP (CPU, both runs: with and without the aim term); issue 14's 3x target
 is not met there.
 
-**Other routes to the 10,000-block target, measured and failed** (``studies/lab/fixed_point_routes.py``,
-its docstring has the table):
+**Other routes to the 10,000-block target, measured and failed** (the changelog, 2026-11-23,
+which has the table):
 
 * the paper's sequence of LPs (5), each by the block IPM (``coupling="fixed"``, symmetric ``K``) warm
   from the previous step's iterate (new slacks, ``s, y >= sqrt(mu_t)``): warm steps cost 5-7
@@ -234,7 +234,7 @@ class InteriorFixedPoint(BlockLP):
         self.base_c = self.c.copy()
         self.current_fold = 0.0
         #: keep the aim term to the end: the run then solves the aimed problem, not (3)
-        #: (a measurement of ``studies/lab/fixed_point_continuation.py``)
+        #: (a measurement recorded in the changelog, 2026-11-28)
         self.keep_aim = False
         self.mu0: float | None = None
         self.n_star = np.zeros(factor.size)
@@ -566,7 +566,6 @@ def run_interior(lp, coulomb_lp, units, *, tol: float, max_iterations: int, dead
     from blockmpec.result import RunOutput, Solution, Status
     from blockmpec.solvers.engines.highs import static_lp_solution
     from blockmpec.solvers.engines.stopping import StoppingCriterion
-    from blockmpec.solvers.plan import describe_block_ipm
 
     crit = StoppingCriterion(tol, max_iterations, deadline, measure_name="kkt_residual").start()
     runs, seconds = 0, 0.0
@@ -622,8 +621,6 @@ def run_interior(lp, coulomb_lp, units, *, tol: float, max_iterations: int, dead
              "continuation_steps": continued["steps"] if continued else 0,
              "continuation_factorisations": continued["factorisations"] if continued else 0,
              **(sequenced or {"sequence_lps": 0, "sequence_newton_runs": 0, "sequence_stalled": False})}
-    if engine is not None and engine._factoriser is not None:
-        facts["plan"] = describe_block_ipm(engine)
     if out is None:
         return RunOutput(Status.TIME_LIMIT, Solution(), crit.iterations, crit.trace,
                          "time limit reached before the interior run", extra=facts), facts

@@ -10,11 +10,9 @@ Engines: HiGHS (:class:`~blockmpec.solvers.engines.highs.HighsLP`: ``dual-simple
 from __future__ import annotations
 
 from blockmpec.formulations import LinearProgram
-from blockmpec.solvers.plan import BASIS_ALGORITHMS, HIGHS_ALGORITHMS, LP_ALGORITHMS, lp_algorithm
+from blockmpec.solvers.plan import lp_algorithm
 
-#: kept under their former names for callers of this module
-ALGORITHMS = LP_ALGORITHMS
-__all__ = ["ALGORITHMS", "BASIS_ALGORITHMS", "HIGHS_ALGORITHMS", "cold_lp_engine"]
+__all__ = ["cold_lp_engine"]
 
 
 def cold_lp_engine(lp: LinearProgram, algorithm: str = "auto", units=None):
@@ -24,11 +22,12 @@ def cold_lp_engine(lp: LinearProgram, algorithm: str = "auto", units=None):
     :class:`~blockmpec.solvers.engines.scaling.LoadUnits` (None: unscaled)."""
     from blockmpec.solvers.engines.block_lp import BlockLP, interface_blocks
     from blockmpec.solvers.engines.highs import HighsLP
+    from blockmpec.solvers.engines.scaling import Scaling
     from blockmpec.solvers.plan import BLOCK_IPM_RULES
 
     spread = units.load_spread if units is not None else 1.0
     algorithm = lp_algorithm(algorithm, lp.A.shape[0], spread)
-    row_scale, column_scale = units.static(lp) if units is not None else (None, None)
+    scaling = units.static(lp) if units is not None else Scaling.identity(lp)
     if algorithm == "block-ipm":
-        return BlockLP(lp, interface_blocks(lp), row_scale=row_scale, column_scale=column_scale, rules=BLOCK_IPM_RULES)
-    return HighsLP(lp, algorithm, row_scale=row_scale, column_scale=column_scale)
+        return BlockLP(lp, interface_blocks(lp), scaling=scaling, rules=BLOCK_IPM_RULES)
+    return HighsLP(lp, algorithm, scaling=scaling)

@@ -66,8 +66,9 @@ import numpy as np
 from blockmpec import facts as fact_names
 from blockmpec.deadline import NEVER, Deadline
 from blockmpec.formulations.sequence import StepLPs
+from blockmpec.formulations.static_lp import cohesion_factor, surface_slope
 from blockmpec.result import RunOutput, Solution, Status
-from blockmpec.solvers.engines.highs import FEASIBILITY_TOL, static_lp_solution
+from blockmpec.solvers.engines.highs import AT_LOWER, AT_UPPER, BASIC, FEASIBILITY_TOL, static_lp_solution
 from blockmpec.verify import positive_part_ratio
 
 TIE_BREAKS = ("closest", "least-compressed", "min-lambda", "on-oscillation", "none")
@@ -81,9 +82,10 @@ FOLD_STALL_STEPS = 8
 CLOSENESS_WEIGHT = 1e-3
 
 
-def _normal(x: np.ndarray) -> np.ndarray:
-    """The normal forces ``n_k`` of interface forces ``x = (t_k, n_k, m_k)``."""
-    return x[1::3]
+def _normal(x: np.ndarray, lps: StepLPs) -> np.ndarray:
+    """The normal forces ``n_k`` of contact forces ``x`` (at ``lps.normal_index``: ``x = (t_k, n_k, m_k)`` per
+    interface in 2D, ``(t1, t2, n)`` per contact point in 3D)."""
+    return x[lps.normal_index]
 
 
 def tie_break_delta(lam: float) -> float:
@@ -135,7 +137,7 @@ class LPSequence:
 
     def __init__(self, lps: StepLPs, units, alpha: float = 0.0, tie_break: str = "closest",
                  algorithm: str = "auto", feasibility_tol: float = FEASIBILITY_TOL, fold_weight: float = 0.0) -> None:
-        from blockmpec.solvers.engines.highs import HighsLP, set_feasibility_tolerances
+        from blockmpec.solvers.engines.highs import HighsLP
 
         if tie_break != "none" and lps.tie_break is None:
             raise ValueError(f"LP sequence: tie-break rule {tie_break!r} needs the tie-break LP (step_lps(tie_break=True))")
@@ -157,7 +159,7 @@ class LPSequence:
         self._step_folded = False  # the step LP's objective now carries folded costs
 
         self.step_lp = lps.step
-        self.step_highs = HighsLP(self.step_lp, algorithm, **_scales(self.step_lp, units))
+        self.step_highs = HighsLP(self.step_lp, algorithm, scaling=units.static(self.step_lp))
 
         self.tie_lp = None
         self.tie_highs = None
@@ -168,17 +170,17 @@ class LPSequence:
             a = self.tie_lp.A[[row], :].toarray().ravel()
             if not (a[col] == -1.0 and np.count_nonzero(a) == 1 and np.isfinite(self.tie_lp.row_upper[row])):
                 raise RuntimeError("tie-break LP: the floor row did not compile to -lam <= -lam_floor")
-            self.tie_highs = HighsLP(self.tie_lp, algorithm, **_scales(self.tie_lp, units, ("d",)))
-            self._normal_columns = self.tie_lp.columns["x"][1::3]
+            self.tie_highs = HighsLP(self.tie_lp, algorithm, scaling=units.static(self.tie_lp, ("d",)))
+            self._normal_columns = self.tie_lp.columns["x"][lps.normal_index]
             self._d_columns = self.tie_lp.columns["d"]
 
         self.assoc_lp = lps.associative
         self.assoc_highs = None
         if self.assoc_lp is not None:
-            self.assoc_highs = HighsLP(self.assoc_lp, algorithm, **_scales(self.assoc_lp, units))
+            self.assoc_highs = HighsLP(self.assoc_lp, algorithm, scaling=units.static(self.assoc_lp))
         for highs in (self.step_highs, self.tie_highs, self.assoc_highs):
             if highs is not None:
-                set_feasibility_tolerances(highs.highs, feasibility_tol)
+                highs.set_feasibility_tolerances(feasibility_tol)
 
     # ------------------------------------------------------------------ warm starts
     def _start_from_associative_basis(self) -> str | None:
@@ -251,13 +253,12 @@ class LPSequence:
             raise RuntimeError("the associative LP was not compiled")
         if deadline.expired():
             return Step(Status.TIME_LIMIT, "", "time limit reached before the dead-load LP")
-        h = self.assoc_highs.highs
-        col = int(self.assoc_lp.columns["lam"][0])
-        h.changeColBounds(col, 0.0, 0.0)
+        col = self.assoc_lp.columns["lam"][:1]
+        self.assoc_highs.set_column_bounds(col, [0.0], [0.0])
         try:
             out = self._timed("associative", self.assoc_highs.solve, deadline=deadline)
         finally:
-            h.changeColBounds(col, -np.inf, np.inf)
+            self.assoc_highs.set_column_bounds(col, [-np.inf], [np.inf])
         if out.status is not Status.OPTIMAL:
             return Step(out.status, out.raw_status, f"dead-load start LP: {out.message}",
                         lp_iterations=out.iterations)
@@ -272,19 +273,15 @@ class LPSequence:
         if alpha == self.alpha:
             return
         lps = self.lps
-        slope = lps.dilatancy + alpha * (lps.friction - lps.dilatancy)
-        slope = np.broadcast_to(slope, (self.n_interfaces,))
+        slope = np.broadcast_to(surface_slope(lps.friction, lps.dilatancy, alpha), (self.n_interfaces,))
         for lp, highs in ((self.step_lp, self.step_highs), (self.tie_lp, self.tie_highs)):
             if highs is None:
                 continue
-            rows = lp.rows["friction"]
-            cols = np.repeat(lp.columns["x"][1::3], 2)
-            values = highs.row_scale[rows] * np.repeat(slope, 2) * highs.column_scale[cols]
-            for r, col, v in zip(rows.tolist(), cols.tolist(), values.tolist()):
-                highs.highs.changeCoeff(r, col, v)
+            contact = lps.friction_contact  # the contact of each friction row (2D: two rows per interface)
+            highs.set_coefficients(lp.rows["friction"], lp.columns["x"][lps.normal_index][contact], slope[contact])
         self.alpha = float(alpha)
         self.slope = slope
-        self.cohesion_factor = lps.friction - slope
+        self.cohesion_factor = cohesion_factor(lps.friction, slope)
 
     def set_sensitivity(self, z_f: np.ndarray | None) -> None:
         """Friction multipliers for the first folded ``"min-lambda"`` step (e.g. the associative LP's)."""
@@ -295,16 +292,16 @@ class LPSequence:
         c = self.n_interfaces
         weight = self.cohesion_factor * np.ones(c)
         if rule == "min-lambda":
-            zeta = np.zeros(c) if z_f is None else np.maximum(z_f[0::2], 0.0) + np.maximum(z_f[1::2], 0.0)
+            zeta = np.zeros(c) if z_f is None else np.bincount(self.lps.friction_contact, np.maximum(z_f, 0.0), c)
             weight = weight * zeta
         top = float(np.max(weight, initial=0.0))
         return weight / top if top > 0 else np.zeros(c)
 
     def _fold_costs(self, weights: np.ndarray | None) -> None:
         """Step LP objective ``min -lam - fold_weight sum_k w_k n_k`` (``weights=None``: plain ``-lam``)."""
-        cols = self.step_lp.columns["x"][1::3].astype(np.int32)
+        cols = self.step_lp.columns["x"][self.lps.normal_index].astype(np.int32)
         cost = np.zeros(cols.size) if weights is None else -self.fold_weight * weights
-        self.step_highs.highs.changeColsCost(cols.size, cols, cost * self.step_highs.column_scale[cols])
+        self.step_highs.set_costs(cols, cost)
         self._step_folded = weights is not None
 
     def _set_tie_costs(self, rule: str, z_f: np.ndarray | None) -> None:
@@ -317,8 +314,7 @@ class LPSequence:
         else:
             n_cost, d_cost = -self._rule_weights(rule, z_f), np.full(c, CLOSENESS_WEIGHT)
         cols = np.concatenate([self._normal_columns, self._d_columns]).astype(np.int32)
-        cost = np.concatenate([n_cost, d_cost]) * self.tie_highs.column_scale[cols]
-        self.tie_highs.highs.changeColsCost(cols.size, cols, cost)
+        self.tie_highs.set_costs(cols, np.concatenate([n_cost, d_cost]))
         self._tie_rule = rule
 
     def step(self, n_star: np.ndarray, deadline: Deadline = NEVER, rule: str | None = None,
@@ -332,7 +328,7 @@ class LPSequence:
         """
         rule = self.tie_break if rule is None else rule
         cohesion = -self.cohesion_factor * n_star
-        rhs = np.repeat(cohesion, 2)  # rows 2k, 2k+1 of interface k
+        rhs = cohesion[self.lps.friction_contact]  # every friction row of contact k
         lp = self.step_lp
         folded = self.fold_weight > 0 and rule in ("least-compressed", "min-lambda")
         if folded:
@@ -364,7 +360,7 @@ class LPSequence:
         self.tie_highs.set_row_upper(tie.rows["floor"], np.array([-(lam - tie_break_delta(lam))]))
         if deadline.expired():
             return Step(Status.TIME_LIMIT, "", "time limit reached before a tie-break LP", sol, iterations)
-        first_algorithm = self._start_tie_break_from_step_basis(_normal(sol.x), n_star) if self._tie_cold else None
+        first_algorithm = self._start_tie_break_from_step_basis(_normal(sol.x, self.lps), n_star) if self._tie_cold else None
         self._tie_cold = False
         tout = self._timed("tie_break", self.tie_highs.solve, first_algorithm, deadline=deadline)
         iterations += tout.iterations
@@ -376,15 +372,6 @@ class LPSequence:
         return Step(Status.OPTIMAL, out.raw_status, out.message, sol, iterations, True)
 
 
-def _scales(lp, units, normal_like=()) -> dict:
-    """HiGHS works in load units (:class:`~blockmpec.solvers.engines.scaling.LoadUnits`): each block's tolerances
-    its own."""
-    row_scale, column_scale = units.static(lp, normal_like)
-    return {"row_scale": row_scale, "column_scale": column_scale}
-
-
-#: highspy.HighsBasisStatus values
-AT_LOWER, BASIC, AT_UPPER = 0, 1, 2
 
 
 def _map_basis(src, dst, col_status, row_status, column_groups, row_groups):
@@ -510,7 +497,7 @@ def run_sequence(
             return output(first.status, None, first.message, first.raw_status)
         facts["lam_start"] = first.solution.multiplier
         seq.set_sensitivity(first.solution.z_f)
-        n_star = np.minimum(_normal(first.solution.x), 0.0)
+        n_star = np.minimum(_normal(first.solution.x, seq.lps), 0.0)
         if start == "random":
             n_star = n_star * np.random.default_rng(seed).uniform(0.0, 1.0, n_star.size)
     elif start == "dead-load":
@@ -525,7 +512,7 @@ def run_sequence(
                 seq.set_sensitivity(first.solution.z_f)
         if first.status is not Status.OPTIMAL:
             return output(first.status, None, first.message, first.raw_status)
-        n_star = np.minimum(_normal(first.solution.x), 0.0)
+        n_star = np.minimum(_normal(first.solution.x, seq.lps), 0.0)
     else:
         n_star = np.zeros(seq.n_interfaces)
 
@@ -562,7 +549,7 @@ def run_sequence(
         if step.tie_break_used is False:
             facts["tie_break_failures"] += 1
         sol = step.solution
-        n = _normal(sol.x)
+        n = _normal(sol.x, seq.lps)
         n_norm = float(np.linalg.norm(n))
         n_change = float(np.linalg.norm(n - n_star)) / n_norm if n_norm > 0 else float(np.linalg.norm(n - n_star))
         lam = float(sol.multiplier)

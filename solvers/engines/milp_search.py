@@ -193,6 +193,7 @@ def bigm_search(solver, bd, stop, deadline: Deadline, extra: dict) -> RunOutput:
     at_bound = ~active & (slack >= mip.bigm - ACTIVE_TOL * solver.settings.bigm_scale * scale) & (mip.bigm > 0)
     extra.update({"bigm_active": np.flatnonzero(at_bound).tolist(), "engine_multiplier": float(run.point[solver.form.lam]),
                   "n_active_pairs": int(active.sum())})
+    solver.plan.start("polish")
     sol, why = solver.polish(active)
     if sol is None:
         extra["polish"] = why

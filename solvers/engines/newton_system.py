@@ -23,6 +23,8 @@ from blockmpec.formulations import CompiledMCP
 from blockmpec.result import Solution, Status
 from blockmpec.solvers.engines.stopping import StoppingCriterion
 
+__all__ = ["MCPSystem", "NewtonOutcome", "fischer_burmeister", "semismooth_newton"]
+
 # --------------------------------------------------------------------------- semismooth Newton
 
 

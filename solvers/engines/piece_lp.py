@@ -40,23 +40,20 @@ LP each: if (RLP) goes lower, each biactive pair that its minimiser leaves posit
 that piece, and the next piece is solved (at most ``rounds`` pieces).
 
 Rounding the start.  A start that solves (3) only approximately (an interior-point fixed point,
-products ``z_i s_i`` of 1e-10) may round onto an empty piece (measured on the 2,032-block wall:
-HiGHS proves the rounded piece infeasible).  So the first LP leaves *ambiguous* pairs free (both
-sides ``>= 0``, as in (RLP)): those whose smaller side, relative to its largest value over all pairs,
-is more than a fraction (:data:`AMBIGUOUS`, first 1e-3) of the larger side; if its minimiser leaves both sides of a free pair
-positive, the pair goes to its relatively smaller side and the LP is solved again.  When that
+products ``z_i s_i`` of 1e-10) may round onto an empty piece.  So the first LP leaves *ambiguous* pairs free
+(both sides ``>= 0``, as in (RLP)): those whose smaller side, relative to its largest value over all pairs, is
+more than a fraction (:data:`AMBIGUOUS`, first 1e-3) of the larger side; if its minimiser leaves both sides of a
+free pair positive, the pair goes to its relatively smaller side and the LP is solved again.  When that
 ends without a solution of (3), a coarser threshold is tried (:data:`AMBIGUOUS`).  The split route lets
 the first mechanism use the same pairs (slack the smaller side, or ambiguous).
 
 LP algorithms.  Whole route: dual simplex (a vertex, exact zeros) below
-:data:`~blockmpec.solvers.plan.PIECE_LP_IPM_PAIRS` pairs; above,
-HiGHS's interior point without crossover (measured on the 2,032-block wall, first piece: dual simplex
-110 s CPU, interior point with crossover 102 s, without 34 s).  Split route: mechanisms by HiGHS's dual
-simplex (warm; primal feasibility 1e-10); static halves by HiGHS's dual simplex below
-:data:`~blockmpec.solvers.plan.PIECE_LP_BLOCK_IPM_PAIRS` pairs and by the block interior-point method above (:func:`static_piece_ipm`;
-measured on the 2,032-block wall, first static half: dual simplex 32 s CPU, block IPM ~2 s).
+:data:`~blockmpec.solvers.plan.PIECE_LP_IPM_PAIRS` pairs, HiGHS's interior point without crossover above.  Split
+route: mechanisms by HiGHS's dual simplex (warm; primal feasibility 1e-10); static halves by HiGHS's dual simplex
+below :data:`~blockmpec.solvers.plan.PIECE_LP_BLOCK_IPM_PAIRS` pairs and by the block interior-point method above
+(:func:`static_piece_ipm`).  The measurements behind both thresholds are in the changelog.
 
-Units: HiGHS solves in the units of :func:`blockmpec.solvers.nlp.nlp_scaling` (each block's rows
+Units: HiGHS solves in the units of :meth:`LoadUnits.mcp <blockmpec.solvers.engines.scaling.LoadUnits.mcp>` (each block's rows
 over its load, pair slacks in the reciprocal units of their multipliers), so that "zero" means
 ``<= zero_tol`` in units for every pair alike.
 """
@@ -73,8 +70,13 @@ import scipy.sparse as sp
 
 from blockmpec.deadline import NEVER, Deadline
 from blockmpec.result import Status
-from blockmpec.solvers.engines.highs import MECHANISM_FEASIBILITY_TOL, highs_status, set_deadline
+from blockmpec.solvers.engines.highs import IPM_WITHOUT_CROSSOVER, MECHANISM_FEASIBILITY_TOL, HighsLP, LPOutcome
+from blockmpec.solvers.engines.scaling import MCPScaling, Scaling
 from blockmpec.solvers.plan import BLOCK_IPM_RULES, piece_lp_static_engine, piece_lp_whole_engine
+
+__all__ = ["Certificate", "PieceLP", "PieceOutcome", "STATIC_ENGINES", "SplitPieces", "closed_interfaces",
+           "kinematic_program", "mechanism_piece", "piece_descent", "static_piece", "static_piece_ipm",
+           "static_program", "whole_piece_descent"]
 
 if TYPE_CHECKING:
     from blockmpec.formulations.pyomo_compile import LinearProgram
@@ -106,26 +108,24 @@ class PieceLP:
     Parameters
     ----------
     form : CompiledMCP
-    column_scale, row_scale, slack_scale : ndarray
-        The units of :func:`blockmpec.solvers.nlp.nlp_scaling`.
+    scaling : MCPScaling
+        The units of (3) (:meth:`LoadUnits.mcp <blockmpec.solvers.engines.scaling.LoadUnits.mcp>`).
     deadline : Deadline
         The run's deadline (HiGHS's time limit of each solve is the time left).
     interior : bool
         HiGHS's interior point without crossover (else dual simplex, warm after a bound change).
     """
 
-    def __init__(self, form, column_scale: np.ndarray, row_scale: np.ndarray, slack_scale: np.ndarray,
-                 deadline: Deadline = NEVER, interior: bool = False) -> None:
+    def __init__(self, form, scaling: MCPScaling, deadline: Deadline = NEVER, interior: bool = False) -> None:
         from blockmpec.formulations.pyomo_compile import LinearProgram
-        from blockmpec.solvers.engines.highs import HighsLP, use_interior_point
 
         self.form = form
         n, p = form.n_columns, form.n_pairs
         m_eq = form.A.shape[0]
         self.pair_rows = (m_eq + np.arange(p)).astype(np.int32)
         self.z_cols = np.asarray(form.pair_column)
-        self.z_unit = column_scale[self.z_cols]
-        self.s_unit = slack_scale
+        self.z_unit = scaling.column[self.z_cols]
+        self.s_unit = scaling.slack
         c = np.zeros(n)
         c[form.lam] = 1.0
         col_lower = np.full(n, -math.inf)
@@ -135,14 +135,9 @@ class PieceLP:
                            row_upper=np.concatenate([form.rhs, np.zeros(p)]),
                            col_lower=col_lower, col_upper=np.full(n, math.inf), columns={}, rows={},
                            objective_sign=1.0)
-        self.lp = HighsLP(lp, row_scale=np.concatenate([row_scale, 1.0 / slack_scale]), column_scale=column_scale)
-        h = self.lp.highs
         self.interior = interior
-        if interior:
-            use_interior_point(h, crossover=False)
-        else:
-            h.setOptionValue("solver", "simplex")
-            h.setOptionValue("simplex_strategy", 1)  # dual
+        self.lp = HighsLP(lp, IPM_WITHOUT_CROSSOVER if interior else "dual-simplex",
+                          scaling=scaling.lp_scaling(np.arange(m_eq), np.arange(n)))
         self.deadline = deadline
         self.lp_solves = 0
         self.lp_time_s = 0.0
@@ -156,15 +151,13 @@ class PieceLP:
     def set_piece(self, slack_zero: np.ndarray, free: np.ndarray | None = None) -> None:
         """Pairs with ``slack_zero`` on side ``S``, the others on ``Z``; pairs in ``free`` relaxed (RLP)."""
         free = np.zeros_like(slack_zero) if free is None else free
-        h, lp = self.lp.highs, self.lp
         p = slack_zero.size
         row_lower = np.where(slack_zero & ~free, 0.0, -math.inf)
         col_upper = np.where(~slack_zero & ~free, 0.0, math.inf)
-        h.changeRowsBounds(p, self.pair_rows, lp.row_scale[self.pair_rows] * row_lower, np.zeros(p))
-        cols = self.z_cols.astype(np.int32)
-        h.changeColsBounds(p, cols, np.zeros(p), col_upper / lp.column_scale[cols])
+        self.lp.set_row_bounds(self.pair_rows, row_lower, np.zeros(p))
+        self.lp.set_column_bounds(self.z_cols, np.zeros(p), col_upper)
 
-    def dual_sign_violations(self, out: LPSolution, slack_zero: np.ndarray, biactive: np.ndarray,
+    def dual_sign_violations(self, out: LPOutcome, slack_zero: np.ndarray, biactive: np.ndarray,
                              tol: float) -> int:
         """How many biactive pairs' duals of a solved piece are infeasible for (RLP) (0: ``out`` is optimal for it).
 
@@ -179,44 +172,29 @@ class PieceLP:
         bad_z = biactive & ~slack_zero & (col_dual < -tol)
         return int(bad_s.sum() + bad_z.sum())
 
-    def solve(self, cold: bool = False) -> LPSolution | None:
+    def solve(self, cold: bool = False) -> LPOutcome | None:
         """Solve the current piece (dual simplex: warm from the last basis unless ``cold``); None past the deadline.
+        Its ``objective`` is ``lam`` of its point; any status but ``OPTIMAL``, ``TIME_LIMIT`` and ``INFEASIBLE`` is
+        ``NUMERICAL``.
 
         Measured on the 510-block wall: after relaxing the biactive pairs' bounds the warm dual simplex
         took 14,514 iterations (10.9 s), a cold solve 4,118 (2.3 s); (RLP) is solved cold.
         """
-        h = self.lp.highs
-        if not set_deadline(h, self.deadline):
+        if self.deadline.expired():
             return None
-        if cold:
-            h.clearSolver()
         # HiGHS's presolve declared the 2,032-block wall's relaxed LP infeasible before its interior point
         # (which then ended "kInfeasible"); it contains the piece's minimiser, and without presolve it
         # solves (kOptimal, lam 0.42265 < the piece's 0.42327).  The pieces keep presolve (without it the
         # first piece took 2x longer)
-        h.setOptionValue("presolve", "off" if (cold and self.interior) else "choose")
+        self.lp.set_presolve(not (cold and self.interior))
         t0 = time.perf_counter()
-        h.run()
+        out = self.lp.solve(deadline=self.deadline, cold=cold)
         self.lp_time_s += time.perf_counter() - t0
         self.lp_solves += 1
-        status, raw = highs_status(h, interior_without_crossover=self.interior)
-        if status not in (Status.OPTIMAL, Status.TIME_LIMIT, Status.INFEASIBLE):
-            status = Status.NUMERICAL
-        sol = h.getSolution()
-        w = self.lp.column_scale * np.asarray(sol.col_value, float)
-        y = self.lp.row_scale * np.asarray(sol.row_dual, float)
-        return LPSolution(status, raw, float(w[self.form.lam]) if w.size else math.nan, w, y)
-
-
-@dataclass
-class LPSolution:
-    """One piece LP solve: status, HiGHS's name for it, ``lam``, the point ``w`` and the row duals."""
-
-    status: Status
-    raw_status: str
-    objective: float
-    v: np.ndarray
-    row_dual: np.ndarray
+        if out.status not in (Status.OPTIMAL, Status.TIME_LIMIT, Status.INFEASIBLE):
+            out.status = Status.NUMERICAL
+        out.objective = float(out.v[self.form.lam]) if out.v.size else math.nan
+        return out
 
 
 #: a side of a pair counts as zero at most this (units); the certificate's relative tolerance on lam
@@ -257,7 +235,7 @@ def whole_piece_descent(form, scaling, w_start: np.ndarray, deadline: Deadline =
         failure of an LP (``w`` None when no complementary point was found).
     """
     interior = piece_lp_whole_engine(form.n_pairs) == "ipm" if interior is None else interior
-    plp = PieceLP(form, *scaling, deadline=deadline, interior=interior)
+    plp = PieceLP(form, scaling, deadline=deadline, interior=interior)
     z, s = plp.sides(np.asarray(w_start, float))
     zr, sr = relative_to_largest(z), relative_to_largest(s)
     trace: list[dict] = []
@@ -385,32 +363,25 @@ def kinematic_program(form) -> LinearProgram:
         objective_sign=1.0)
 
 
-def _set_cost(hl, cost: np.ndarray) -> None:
-    """Costs of a :class:`~blockmpec.solvers.engines.highs.HighsLP` in its compiled LP's units (HiGHS's model
-    only: the compiled LP, which a caller may share between several models, is not changed)."""
-    hl.highs.changeColsCost(cost.size, np.arange(cost.size, dtype=np.int32), hl.column_scale * np.asarray(cost, float))
-
-
-def static_piece(hl, slack_zero: np.ndarray, sense: float = 1.0, deadline: Deadline = NEVER):
+def static_piece(hl: HighsLP, slack_zero: np.ndarray, sense: float = 1.0, deadline: Deadline = NEVER):
     """``min sense * lam`` over the static half of the piece: ``G_i x = 0`` where ``slack_zero``, else ``<= 0``.
 
     ``hl`` is a :class:`~blockmpec.solvers.engines.highs.HighsLP` of :func:`static_program` (any scaling);
-    re-solves are warm (dual simplex after a bound change).  Only HiGHS's model changes, not ``hl.lp``.  Returns its ``LPOutcome`` (``v = (lam, x)``, the
-    row duals in HiGHS's signs), or None when ``deadline`` has passed.
+    re-solves are warm (dual simplex after a bound change).  Only HiGHS's model changes, not ``hl.lp``.  Returns its
+    ``LPOutcome`` (``v = (lam, x)``, the row duals in HiGHS's signs), or None when ``deadline`` has passed.
     """
     lp = hl.lp
-    rows = lp.rows["pairs"].astype(np.int32)
-    lower = np.where(slack_zero, 0.0, -np.inf)
-    hl.highs.changeRowsBounds(rows.size, rows, hl.row_scale[rows] * lower, np.zeros(rows.size))
+    rows = lp.rows["pairs"]
+    hl.set_row_bounds(rows, np.where(slack_zero, 0.0, -np.inf), np.zeros(rows.size))
     cost = np.zeros(lp.c.size)
     cost[lp.columns["lam"][0]] = sense
-    _set_cost(hl, cost)
+    hl.set_costs(np.arange(cost.size), cost)
     if deadline.expired():
         return None
     return hl.solve(deadline=deadline)
 
 
-def mechanism_piece(hl, allowed: np.ndarray, cost: np.ndarray | None = None, deadline: Deadline = NEVER):
+def mechanism_piece(hl: HighsLP, allowed: np.ndarray, cost: np.ndarray | None = None, deadline: Deadline = NEVER):
     """A mechanism of the kinematic half of the piece: ``f_l^T u = 1``, ``z_i >= 0`` where ``allowed``, else 0.
 
     ``min cost^T z`` (default ``1^T z``, in the LP's units: the mechanism with the least total multiplier,
@@ -418,16 +389,13 @@ def mechanism_piece(hl, allowed: np.ndarray, cost: np.ndarray | None = None, dea
     ``LPOutcome`` (``v = (u, z)``), or None when ``deadline`` has passed.
     """
     lp = hl.lp
-    h = hl.highs
-    live, total = int(lp.rows["live"][0]), int(lp.rows["total"][0])
-    h.changeRowBounds(live, hl.row_scale[live], hl.row_scale[live])
-    h.changeRowBounds(total, -np.inf, np.inf)
-    zcols = lp.columns["z"].astype(np.int32)
-    upper = np.where(allowed, np.inf, 0.0)
-    h.changeColsBounds(zcols.size, zcols, np.zeros(zcols.size), upper / hl.column_scale[zcols])
+    hl.set_row_bounds(lp.rows["live"], [1.0], [1.0])
+    hl.set_row_bounds(lp.rows["total"], [-np.inf], [np.inf])
+    zcols = lp.columns["z"]
+    hl.set_column_bounds(zcols, np.zeros(zcols.size), np.where(allowed, np.inf, 0.0))
     c = np.zeros(lp.c.size)
     c[zcols] = 1.0 if cost is None else cost
-    _set_cost(hl, c)
+    hl.set_costs(np.arange(c.size), c)
     if deadline.expired():
         return None
     return hl.solve(deadline=deadline)
@@ -450,8 +418,7 @@ def closed_interfaces(slack_zero: np.ndarray, pair_interface: np.ndarray, pair_k
     return (count(UNILATERAL) >= 2) | (count(FRICTION) >= 2) | (count() >= 3)
 
 
-def static_piece_ipm(lp: LinearProgram, slack_zero: np.ndarray, row_scale: np.ndarray, column_scale: np.ndarray,
-                     deadline: Deadline, pair_interface: np.ndarray, pair_kind: np.ndarray, tol: float = 1e-9):
+def static_piece_ipm(lp: LinearProgram, slack_zero: np.ndarray, scaling: Scaling, deadline: Deadline, pair_interface: np.ndarray, pair_kind: np.ndarray, tol: float = 1e-9):
     """:func:`static_piece` (min ``lam``) by the block interior-point method (:mod:`~blockmpec.solvers.linalg.block_ipm`).
 
     An interior-point method needs a strictly feasible interior.  An interface that the piece closes
@@ -459,7 +426,7 @@ def static_piece_ipm(lp: LinearProgram, slack_zero: np.ndarray, row_scale: np.nd
     The block IPM needs the same number of inequality rows in every interface, so the other equalities
     ``G_i x = 0`` are extra equality rows and every pair row stays an inequality, ``G_i x <= S_i`` (slack one
     unit, never active) on the piece's equalities and ``G_i x <= 0`` elsewhere.  ``lp`` is a
-    :func:`static_program`, ``row_scale``/``column_scale`` its units.  Returns an ``LPOutcome`` in the terms of
+    :func:`static_program`, ``scaling`` its units (:class:`~blockmpec.solvers.engines.scaling.Scaling`).  Returns an ``LPOutcome`` in the terms of
     ``lp``: ``v = (lam, x)``; the dual of a pair row is the sum of its two rows' duals, and a closed
     interface's pair duals are the least-squares solution of its columns' stationarity (``<= 0`` on rows that
     are inequalities).  The point is not a vertex: it is near the analytic centre of the optimal face, exact to
@@ -469,7 +436,6 @@ def static_piece_ipm(lp: LinearProgram, slack_zero: np.ndarray, row_scale: np.nd
 
     from blockmpec.formulations.pyomo_compile import LinearProgram
     from blockmpec.solvers.engines.block_lp import BlockLP
-    from blockmpec.solvers.engines.highs import LPOutcome
 
     pairs = lp.rows["pairs"]
     eq_rows = lp.rows["equilibrium"]
@@ -483,7 +449,7 @@ def static_piece_ipm(lp: LinearProgram, slack_zero: np.ndarray, row_scale: np.nd
     A = lp.A.tocsr()
     rows = np.r_[eq_rows, keep_pairs, eq_pairs]
     A_ipm = sp.csr_array(A[rows][:, keep_cols])
-    p_unit = 1.0 / row_scale[keep_pairs]  # S_i
+    p_unit = scaling.row_units(keep_pairs)  # S_i
     upper = np.r_[lp.row_upper[eq_rows], np.where(slack_zero[open_pair], p_unit, 0.0), np.zeros(eq_pairs.size)]
     lower = np.r_[lp.row_lower[eq_rows], np.full(keep_pairs.size, -np.inf), np.zeros(eq_pairs.size)]
     c = np.zeros(keep_cols.size)
@@ -491,8 +457,8 @@ def static_piece_ipm(lp: LinearProgram, slack_zero: np.ndarray, row_scale: np.nd
     n_keep = keep_cols.size
     ipm_lp = LinearProgram(c=c, A=A_ipm, row_lower=lower, row_upper=upper, col_lower=np.full(n_keep, -np.inf),
                            col_upper=np.full(n_keep, np.inf), columns={}, rows={}, objective_sign=1.0)
-    ipm = BlockLP(ipm_lp, np.arange(1, n_keep).reshape(-1, 3), tol=tol, deadline=deadline.end,
-                  row_scale=row_scale[rows], column_scale=column_scale[keep_cols], rules=BLOCK_IPM_RULES)
+    ipm = BlockLP(ipm_lp, np.arange(1, n_keep).reshape(-1, 3), Scaling(scaling.row[rows], scaling.column[keep_cols]),
+                  tol=tol, deadline=deadline.end, rules=BLOCK_IPM_RULES)
     out = ipm.solve()
     status = Status.OPTIMAL if out.status in (Status.OPTIMAL, Status.ACCEPTABLE) else out.status
     v = np.zeros(lp.c.size)
@@ -557,14 +523,11 @@ class Certificate:
 class SplitPieces:
     """The two halves of (PLP) as two HiGHS models, re-solved warm: :func:`static_piece` and :func:`mechanism_piece`.
 
-    ``form``, the units ``column_scale, row_scale, slack_scale`` and ``deadline`` are those of :class:`PieceLP`;
+    ``form``, the units ``scaling`` and ``deadline`` are those of :class:`PieceLP`;
     ``static_engine="auto"`` is :func:`blockmpec.solvers.plan.piece_lp_static_engine`.
     """
 
-    def __init__(self, form, column_scale: np.ndarray, row_scale: np.ndarray, slack_scale: np.ndarray,
-                 deadline: Deadline = NEVER, static_engine: str = "auto") -> None:
-        from blockmpec.solvers.engines.highs import HighsLP
-
+    def __init__(self, form, scaling: MCPScaling, deadline: Deadline = NEVER, static_engine: str = "auto") -> None:
         if static_engine not in STATIC_ENGINES:
             raise ValueError(f"static_engine must be one of {STATIC_ENGINES}; got {static_engine!r}")
         if static_engine == "auto":
@@ -581,16 +544,14 @@ class SplitPieces:
         s_cols = np.r_[form.lam, np.arange(form.x.start, form.x.stop)]
         k_cols = np.r_[np.arange(form.u.start, form.u.stop), np.arange(form.z.start, form.z.stop)]
         self.s_cols, self.k_cols = s_cols, k_cols
-        self.z_unit = column_scale[form.pair_column]
-        self.s_unit = slack_scale
-        self.static_row_scale = np.r_[row_scale[eq], 1.0 / slack_scale]
-        self.static = HighsLP(static_program(form), "dual-simplex", row_scale=self.static_row_scale,
-                              column_scale=column_scale[s_cols])
+        self.z_unit = scaling.column[form.pair_column]
+        self.s_unit = scaling.slack
+        self.static = HighsLP(static_program(form), "dual-simplex", scaling=scaling.lp_scaling(np.r_[eq], s_cols))
         self.kinematic = HighsLP(kinematic_program(form), "dual-simplex",
-                                 row_scale=np.r_[row_scale[cp], row_scale[nm], 1.0], column_scale=column_scale[k_cols])
+                                 scaling=scaling.lp_scaling(np.r_[cp, nm], k_cols, pair_rows=False, ones=1))
         # HiGHS's default primal feasibility tolerance (1e-7 in units) left the compatibility rows of the 2,032-block
         # wall's mechanism at 8.8e-7 relative in the verifier (tolerance 1e-6); 1e-10 there: 3e-11 (one run)
-        self.kinematic.highs.setOptionValue("primal_feasibility_tolerance", MECHANISM_FEASIBILITY_TOL)
+        self.kinematic.set_feasibility_tolerances(primal=MECHANISM_FEASIBILITY_TOL)
         self.deadline = deadline
         self.lp_solves = 0
         self.lp_time_s = 0.0
@@ -619,8 +580,8 @@ class SplitPieces:
             if self.deadline.expired():
                 return None
             form = self.form
-            return self._timed(lambda: static_piece_ipm(self.static.lp, slack_zero, self.static_row_scale,
-                                                        self.static.column_scale, self.deadline, form.pair_interface,
+            return self._timed(lambda: static_piece_ipm(self.static.lp, slack_zero, self.static.scaling,
+                                                        self.deadline, form.pair_interface,
                                                         form.pair_kind), "static")
         return self._timed(lambda: static_piece(self.static, slack_zero, deadline=self.deadline), "static")
 
@@ -662,7 +623,7 @@ class SplitPieces:
         y = static_out.row_dual
         c = np.zeros(lp.c.size)
         c[lp.columns["lam"][0]] = 1.0  # min lam
-        reduced = (c - lp.A.T @ y) * self.static.column_scale
+        reduced = self.static.scaling.costs(np.arange(c.size), c - lp.A.T @ y)  # in units
         pair_dual = y[lp.rows["pairs"]] * self.s_unit  # dual of the row (G_i x) / S_i
         wrong = int(np.sum(~on & (pair_dual > tol)))
         g = (form.G @ w) / self.s_unit  # pair rows in units (<= 0 when admissible)
@@ -702,7 +663,7 @@ def piece_descent(form, scaling, w_start: np.ndarray, deadline: Deadline = NEVER
         ``NUMERICAL`` with that point when its certificate fails; ``TIME_LIMIT``; or, with ``w`` None, the
         failure of the first LPs (no mechanism or an empty static piece for every rounding).
     """
-    pieces = SplitPieces(form, *scaling, deadline=deadline, static_engine=static_engine)
+    pieces = SplitPieces(form, scaling, deadline=deadline, static_engine=static_engine)
     z, s = pieces.sides(np.asarray(w_start, float))
     zr, sr = relative_to_largest(z), relative_to_largest(s)
     trace: list[dict] = []

@@ -23,6 +23,8 @@ from typing import Any
 from blockmpec.deadline import NEVER, Deadline
 from blockmpec.result import Status
 
+__all__ = ["StoppingCriterion"]
+
 log = logging.getLogger(__name__)
 
 

@@ -64,10 +64,8 @@ costs``): ``y_row = w`` on equality rows, ``-y`` on ``<=`` rows and ``+y`` on ``
 rows (which are negated internally), so :func:`blockmpec.solvers.engines.highs.static_lp_solution`
 reads the mechanism as it does for HiGHS.
 
-Why not a general LP code: on a 10,000-block wall HiGHS's interior-point solver
-(IPX) needs ~16 s per iteration here and did not finish in 900 s; the block
-structure makes the same step a batch of 7-by-7 inversions plus one sparse
-factorisation of a mesh matrix (``studies/lab/lp_timing.py``).  Without a basis the
+Why not a general LP code: the block structure makes an interior-point step a batch of 7-by-7 inversions plus
+one sparse factorisation of a mesh matrix (the measurements against HiGHS's IPX: ``docs/performance.md``).  Without a basis the
 point returned is close to the analytic centre of the optimal face, not a vertex,
 so it cannot start HiGHS's warm simplex re-solves (the fixed point needs them).
 """
@@ -91,6 +89,12 @@ from .cholesky import (
     two_processes_available,
     usable_cpus,
 )
+from .ipm_direction import NewtonDirection, largest_magnitude
+from .reduced_system import FACTORISATIONS, ReducedSystem
+
+__all__ = ["AutoRules", "BlockIPM", "DEFAULT_SETTINGS", "EXACT_INNER_SETTINGS", "FACTORISATIONS", "IPMIterate",
+           "IPMOutcome", "IPMStatus", "KERNELS", "WIDE_DIAGONAL_SHIFT", "compiled_kernels_available",
+           "single_blas_thread"]
 
 
 class IPMStatus(str, Enum):
@@ -217,10 +221,6 @@ COMPILED_PRODUCTS = COMPILED_SOLVES
 #: this process may run on two or more CPUs, else 1), 1 or 2
 FACTOR_PROCESSES = ("auto", 1, 2)
 
-#: factorisations of K: ``"auto"`` (the supernodal Cholesky for a symmetric K of at least
-#: ``rules.supernodal_rows`` (:class:`AutoRules`) rows, SuperLU otherwise), ``"supernodal"``, ``"superlu"``
-#: (:mod:`blockmpec.solvers.linalg.cholesky`)
-FACTORISATIONS = ("auto", "supernodal", "superlu")
 #: the per-interface work (``kernels`` setting): the block inverses, the block products and the assembly of
 #: ``K``'s values.  ``"numpy"``: numpy's gufuncs (LAPACK/BLAS once per 7-by-7 block); ``"compiled"``: one compiled
 #: loop each (:mod:`blockmpec.solvers.linalg.block_kernels`, needs the optional numba); ``"auto"``: compiled when
@@ -260,10 +260,6 @@ class AutoRules:
 
 
 
-#: smallest s/y in the block systems (a primal regularisation of fully active blocks)
-SLACK_RATIO_FLOOR = 1e-14
-
-
 @dataclass
 class IPMIterate:
     """A primal-dual point ``(v, s, w, y)`` (internal signs, see the module docstring)."""
@@ -277,8 +273,10 @@ class IPMIterate:
         return IPMIterate(self.v.copy(), self.s.copy(), self.w.copy(), self.y.copy())
 
 
-class BlockIPM:
-    """Mehrotra predictor-corrector IPM for a compiled LP with block-separable inequalities.
+class BlockIPM(ReducedSystem, NewtonDirection):
+    """Mehrotra predictor-corrector IPM for a compiled LP with block-separable inequalities (its reduced Newton
+    system: :class:`~blockmpec.solvers.linalg.reduced_system.ReducedSystem`; its directions and measures:
+    :class:`~blockmpec.solvers.linalg.ipm_direction.NewtonDirection`).
 
     Parameters
     ----------
@@ -408,7 +406,7 @@ class BlockIPM:
         #: the iterates follow the weighted central path ``s_i y_i = w_i mu``, ``mu = mean(s o y / w)``.
         #: ``None``: all ones, the central path itself (the same iterates, bit for bit).  Read at every
         #: iteration (:meth:`before_iteration` may change them).  The weights change the path, never the
-        #: LP's solutions (studies/lab/ipm_crawl.py measures what they change)
+        #: LP's solutions (the study that measured what they change, studies/lab/ipm_crawl.py, is in git history up to e31e02c)
         self.path_weights: np.ndarray | None = None
         #: the structural pattern of ``K = A_B H^{-1} A_B^T`` (CSC, :func:`structural_pattern`): every entry any
         #: iterate can make nonzero; the iteration assembles and factorises ``K`` on it
@@ -421,14 +419,6 @@ class BlockIPM:
         #: first use
         self._products_cache: dict = {}
         self._reduced_assembly = None
-
-    def dense_blocks(self, G: sp.sparray) -> np.ndarray:
-        """The rows of an inequality matrix ``G`` (this LP's pattern) as dense per-block arrays,
-        shape ``(n_blocks, rows_per_block, k)``."""
-        G = sp.coo_array(G)
-        g = np.zeros((G.shape[0], self.k))
-        np.add.at(g, (G.row, self._local_of[G.col]), G.data)
-        return g[self.block_rows]
 
     def settings(self, **values) -> None:
         """Set iteration parameters (names of :data:`DEFAULT_SETTINGS`; the sets experiments compare: ``studies/lab/_ipm_settings.py``)."""
@@ -477,250 +467,6 @@ class BlockIPM:
 
         return block_kernels
 
-    def _sparse_products(self, M):
-        """The compiled products of the sparse matrix ``M``
-        (:class:`~blockmpec.solvers.linalg.block_kernels.SparseProducts`, made once per matrix object: a subclass
-        or study that replaces ``self.G`` gets new ones), or None where scipy multiplies (``compiled_products``:
-        ``"auto"`` with the compiled kernels, True, or False)."""
-        if not self.uses_compiled_products():
-            return None
-        from .block_kernels import SparseProducts
-
-        products = self._products_cache.get(id(M))
-        if products is None or products.matrix is not M:
-            products = self._products_cache[id(M)] = SparseProducts(M)
-        return products
-
-    def uses_compiled_products(self) -> bool:
-        """Whether the sparse products ``A v``, ``A^T y`` and ``G v`` and the assembly of ``K`` run compiled (the same
-        numbers): the ``compiled_products`` setting True, or ``"auto"`` with the compiled kernels
-        (:attr:`block_kernels`)."""
-        return self.compiled_products is True or (self.compiled_products == "auto" and self.block_kernels is not None)
-
-    def _times(self, M, x: np.ndarray) -> np.ndarray:
-        """``M @ x`` for one of the LP's sparse matrices (compiled where :meth:`_sparse_products` says so; the same
-        numbers)."""
-        products = self._sparse_products(M)
-        return M @ x if products is None else products.times(x)
-
-    def _offset_minus_times(self, M, offset: np.ndarray, x: np.ndarray) -> np.ndarray:
-        """``-offset - M @ x`` (compiled in one pass where :meth:`_sparse_products` says so; the same numbers)."""
-        products = self._sparse_products(M)
-        return -offset - M @ x if products is None else products.offset_minus_times(offset, x)
-
-    def _transpose_times(self, M, y: np.ndarray) -> np.ndarray:
-        """``M.T @ y`` (as :meth:`_times`)."""
-        products = self._sparse_products(M)
-        return M.T @ y if products is None else products.transpose_times(y)
-
-    def _A_B_times_with_bound(self, dv_B: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """``(A_B dv_B, |A_B| |dv_B|)``, compiled in one pass where :meth:`_sparse_products` says so."""
-        products = self._sparse_products(self.A_B)
-        if products is None:
-            return self.A_B @ dv_B, self._abs_A_B @ np.abs(dv_B)
-        return products.times_with_bound(dv_B)
-
-    def set_row_upper(self, rows: np.ndarray, upper: np.ndarray) -> None:
-        """Change the upper bounds of ``<=`` rows ``rows`` of the compiled LP (as :class:`HighsLP` does)."""
-        rows = np.asarray(rows)
-        position = self._in_position[rows]
-        if np.any(position < 0) or np.any(self.in_sign[position] < 0):
-            raise ValueError("block IPM: set_row_upper applies to '<=' inequality rows only")
-        self.lp.row_upper[rows] = upper
-        self.h[position] = self.in_scale[position] * upper
-
-    # ------------------------------------------------------------------ linear algebra
-    def block_systems(self, it: IPMIterate) -> tuple[np.ndarray, np.ndarray]:
-        r"""Per-block scaled augmented matrices and the scaling ``sqrt(d)``, ``d = y/s``.
-
-        The Newton step's block equations ``G_i^T dy_i = a_i``, ``G_i dv_i - S_i Y_i^{-1} dy_i = b_i``
-        have the matrix ``[[0, G_i^T], [G_i, -D_i^{-1}]]``; with ``P = diag(I, D_i^{1/2})`` it
-        becomes ``[[0, B_i^T], [B_i, -I]]``, ``B_i = D_i^{1/2} G_i``, whose condition number is
-        about ``cond(B_i)`` rather than ``max d / min d`` (near the optimum ``d`` spans
-        1e-10..1e10 within one interface).  ``H_i^{-1} = (G_i^T D_i G_i)^{-1}`` is the top-left
-        block of its inverse.  Forming ``H_i`` and inverting it instead loses all accuracy.
-        """
-        k, r = self.k, self.rows_per_block
-        sqrt_d = self.block_scaling(it)
-        M = np.zeros((self.n_blocks, k + r, k + r))
-        M[:, :k, k:] = np.swapaxes(self.g_dual_blocks * sqrt_d[:, :, None], 1, 2)  # B_dual^T (B^T for an LP)
-        M[:, k:, :k] = self.g_blocks * sqrt_d[:, :, None]  # B
-        idx = np.arange(r)
-        M[:, k + idx, k + idx] = -1.0
-        return M, sqrt_d
-
-    def block_scaling(self, it: IPMIterate) -> np.ndarray:
-        """The scaling ``sqrt(d)`` of the block systems at ``it`` (:meth:`block_systems`).
-
-        ``d_j = y_j / max(s_j, SLACK_RATIO_FLOOR y_j)`` for every inequality row ``j`` (``y`` its dual, ``s`` its
-        slack), gathered by block.
-
-        Returns
-        -------
-        ndarray, shape (n_blocks, rows_per_block)
-        """
-        d = it.y / np.maximum(it.s, SLACK_RATIO_FLOOR * it.y)
-        return np.sqrt(d)[self.block_rows]
-
-    def _reduced_scatter(self):
-        r"""Fixed maps that assemble ``K = A_B H^{-1} A_B^T`` on its structural pattern.
-
-        Block ``i`` of ``A_B`` (its ``k`` columns) touches a few rows ``r_i`` (the equilibrium rows of
-        the two blocks an interface joins): ``a_i = A_B[r_i, cols_i]``, dense, padded to the largest
-        count.  ``K = sum_i E_i a_i H_i^{-1} a_i^T E_i^T``: each product is scattered into the data
-        array of the pattern (CSC, :func:`structural_pattern`) by a precomputed index (padding goes
-        to a spare slot).  Returns ``(a, targets, diagonal positions)``.
-        """
-        k, nb = self.k, self.n_blocks
-        A = sp.coo_array(self.A_B)
-        A.sum_duplicates()
-        block = A.col // k
-        order = np.lexsort((A.row, block))
-        block, row, col, val = block[order], A.row[order], A.col[order], A.data[order]
-        key = block.astype(np.int64) * self.A_B.shape[0] + row
-        unique_key, first = np.unique(key, return_index=True)
-        unique_block = unique_key // self.A_B.shape[0]
-        counts = np.bincount(unique_block, minlength=nb)
-        slots = int(max(counts.max(initial=0), 1))
-        start = np.concatenate([[0], np.cumsum(counts)[:-1]])
-        slot_of_unique = np.arange(unique_key.size) - start[unique_block]
-        rows = np.full((nb, slots), -1, dtype=np.int64)
-        rows[unique_block, slot_of_unique] = unique_key % self.A_B.shape[0]
-        slot = slot_of_unique[np.searchsorted(unique_key, key)]
-        a = np.zeros((nb, slots, k))
-        a[block, slot, col % k] = val
-        P = self.K_pattern
-        n_rows = P.shape[0]
-        pattern_key = np.repeat(np.arange(n_rows, dtype=np.int64), np.diff(P.indptr)) * n_rows + P.indices
-        valid = (rows[:, :, None] >= 0) & (rows[:, None, :] >= 0)
-        entry_key = rows[:, None, :] * n_rows + rows[:, :, None]  # (i, j) -> column rows[j], row rows[i]
-        targets = np.full(valid.shape, P.nnz, dtype=np.int64)
-        targets[valid] = np.searchsorted(pattern_key, entry_key[valid])
-        if np.any(pattern_key[targets[valid]] != entry_key[valid]):
-            raise RuntimeError("block IPM: K has an entry outside its structural pattern")
-        diagonal = np.searchsorted(pattern_key, np.arange(n_rows, dtype=np.int64) * (n_rows + 1))
-        return a, targets.ravel(), diagonal
-
-    def inverse_blocks(self, it: IPMIterate):
-        r"""``(H^{-1} per block, block factors)`` at ``it``, with ``H_i = G_i^T D_i G_i`` (``D = diag(y / s)``) the
-        Hessian block of interface ``i``, inverted through its scaled augmented matrix (:meth:`block_systems`).
-
-        The block factors are ``(M^{-1}, sqrt(d), H~)``: the inverse of every block's scaled augmented
-        matrix (:meth:`block_systems`), the scaling, and ``H~`` the top-left ``k x k`` block of
-        ``M^{-1}`` (``H^{-1}`` before symmetrisation), contiguous, for solves whose primal right-hand
-        side is zero (:meth:`_block_dual_solve`).  (Folding the scaling into ``M^{-1}`` once,
-        ``diag(I, D^{1/2}) M^{-1} diag(I, D^{1/2})``, saves two products per solve but changes the
-        solutions by up to 4e-13 relative, through cancellation, and with them the iterates: the
-        10,050-block wall took 56 instead of 53 iterations.)"""
-        k = self.k
-        kernels = self.block_kernels
-        if kernels is not None and type(self).block_systems is BlockIPM.block_systems:
-            # compiled, M built inside the loop (the same numbers bit for bit); a subclass that changes the block
-            # systems (a study's regularised blocks) takes the general path below
-            sqrt_d = self.block_scaling(it)
-            M_inv, top_left, Hinv = kernels.inverse_scaled_blocks(self.g_blocks, self.g_dual_blocks, sqrt_d,
-                                                                  self.symmetric)
-            return Hinv, (M_inv, sqrt_d, top_left)
-        M, sqrt_d = self.block_systems(it)
-        # LU with partial pivoting, per block (compiled: Gauss-Jordan with the same pivots)
-        M_inv = np.linalg.inv(M) if kernels is None else kernels.inverse_blocks(M)
-        top_left = np.ascontiguousarray(M_inv[:, :k, :k])
-        Hinv = 0.5 * (top_left + np.swapaxes(top_left, 1, 2)) if self.symmetric else top_left
-        return Hinv, (M_inv, sqrt_d, top_left)
-
-    def reduced_values(self, Hinv: np.ndarray) -> np.ndarray:
-        """The values of the reduced matrix ``K = A_B H^{-1} A_B^T + delta diag(K)`` (``delta``: the
-        ``diagonal_shift`` setting, plus 1e-300 on the diagonal) on :attr:`K_pattern`.
-
-        Parameters
-        ----------
-        Hinv : ndarray, shape (n_blocks, k, k)
-            ``H_i^{-1}`` per block (:meth:`inverse_blocks`).
-
-        Returns
-        -------
-        ndarray, shape (K_pattern.nnz,)
-            In ``K_pattern.data`` order: ``K = sum_i E_i a_i H_i^{-1} a_i^T E_i^T`` scattered by :attr:`K_targets`.
-        """
-        a = self.K_slots
-        kernels = self.block_kernels
-        if kernels is None:
-            products = np.matmul(np.matmul(a, Hinv), np.swapaxes(a, 1, 2))
-            values = np.bincount(self.K_targets, weights=products.reshape(-1), minlength=self.K_pattern.nnz + 1)
-            values = values[:-1]
-        elif self.uses_compiled_products():
-            # on the usable CPUs, the same numbers bit for bit (kernels.ReducedAssembly)
-            if self._reduced_assembly is None:
-                self._reduced_assembly = kernels.ReducedAssembly(self.K_targets, self.K_pattern.nnz)
-            values = self._reduced_assembly.values(a, Hinv)
-        else:
-            values = kernels.reduced_values(a, Hinv, self.K_targets, self.K_pattern.nnz)
-        # a relative diagonal shift (diagonal_shift K_ii, plus 1e-300) keeps the pivots nonzero where a
-        # block's forces are all fixed by active rows; iterative refinement against the exact block solves
-        # removes its effect on the direction.  The larger the shift, the less accurate the factors as a
-        # preconditioner where K is ill-conditioned (late iterations of large walls), and the more solves the
-        # refinement needs: hence round-off level by default (a nonpositive pivot goes to SuperLU's LDL^T)
-        diagonal = self.K_diagonal
-        values[diagonal] += self.diagonal_shift * np.abs(values[diagonal]) + 1e-300
-        return values
-
-    def reduced_csc(self, values: np.ndarray) -> sp.csc_array:
-        """``K`` as a CSC matrix on :attr:`K_pattern` with the given values (:meth:`reduced_values`)."""
-        P = self.K_pattern
-        return sp.csc_array((values, P.indices, P.indptr), shape=P.shape)
-
-    def reduced_matrix(self, it: IPMIterate):
-        """``(K, blocks)``: ``K = A_B H^{-1} A_B^T + delta diag(K)`` at ``it`` by sparse products (scipy
-        drops the exact zeros, e.g. at the starting point) and the block factors ``(M^{-1}, sqrt(d))``.
-
-        For studies and tests: the iteration assembles the same matrix on its fixed structural
-        pattern (:meth:`reduced_values`; equal to round-off), without sparse products.
-        """
-        k, nb = self.k, self.n_blocks
-        Hinv, blocks = self.inverse_blocks(it)
-        indptr = np.arange(0, nb * k * k + 1, k)
-        indices = (np.arange(nb)[:, None, None] * k + np.arange(k)[None, None, :]).repeat(k, axis=1).ravel()
-        Hinv_mat = sp.csr_array((Hinv.ravel(), indices, indptr), shape=(nb * k, nb * k))
-        K = (self.A_B @ Hinv_mat @ self.A_B.T).tocsc()
-        K = K + sp.diags(self.diagonal_shift * np.abs(K.diagonal()) + 1e-300, format="csc")
-        return K, blocks
-
-    @property
-    def factoriser(self) -> SymmetricFactoriser | SupernodalCholesky:
-        """The factoriser of ``K``, its ordering computed once from ``K``'s structural pattern:
-        :class:`SupernodalCholesky` for a symmetric ``K`` (``factorisation`` ``"supernodal"``, or
-        ``"auto"`` from ``rules.supernodal_rows`` rows on), SuperLU (:class:`SymmetricFactoriser`) otherwise."""
-        if self._factoriser is None:
-            if self.factorisation not in FACTORISATIONS:
-                raise ValueError(f"block IPM: unknown factorisation {self.factorisation!r}; "
-                                 f"use one of {', '.join(FACTORISATIONS)}")
-            supernodal = self.symmetric and (self.factorisation == "supernodal" or (
-                self.factorisation == "auto" and self.K_pattern.shape[0] >= self.rules.supernodal_rows))
-            if self.factorisation == "supernodal" and not supernodal:
-                raise ValueError("block IPM: the supernodal Cholesky needs a symmetric K")
-            self._factoriser = (SupernodalCholesky(self.K_pattern, self.ordering,
-                                                   processes=self.supernodal_processes,
-                                                   compiled_symbolic_rows=self.rules.compiled_symbolic_rows,
-                                                   **self._cholesky_choices())
-                                if supernodal
-                                else SymmetricFactoriser(self.K_pattern, self.ordering))
-        return self._factoriser
-
-    def _cholesky_choices(self) -> dict[str, bool]:
-        """The supernodal Cholesky's ``compiled_solves`` and ``compiled_factorisation``: the settings, ``"auto"``
-        resolved to whether the block kernels are compiled (either way the same numbers bit for bit)."""
-        compiled = self.block_kernels is not None
-        return {name: compiled if getattr(self, name) == "auto" else getattr(self, name)
-                for name in ("compiled_solves", "compiled_factorisation")}
-
-    @property
-    def corrector_count(self) -> int:
-        """Gondzio correctors per iteration at most: the ``correctors`` setting, ``"auto"`` resolved by the size of
-        ``K`` (``rules.corrector_rows``)."""
-        if self.correctors != "auto":
-            return int(self.correctors)
-        return LARGE_CORRECTORS if self.K_pattern.shape[0] >= self.rules.corrector_rows else SMALL_CORRECTORS
-
     @property
     def supernodal_processes(self) -> int:
         """Processes of the supernodal Cholesky: the ``factor_processes`` setting, ``"auto"`` resolved to 2 when
@@ -731,274 +477,22 @@ class BlockIPM:
         return 2 if (self.K_pattern.shape[0] >= self.rules.two_process_rows and usable_cpus() >= 2
                      and two_processes_available()) else 1
 
-    def factorise(self, it: IPMIterate):
-        """Factorise the Newton system at ``it``: the block matrices, ``H^{-1}`` (top-left of their inverses),
-        ``K = A_B H^{-1} A_B^T`` and its factors.
+    def set_row_upper(self, rows: np.ndarray, upper: np.ndarray) -> None:
+        """Change the upper bounds of ``<=`` rows ``rows`` of the compiled LP (as :class:`HighsLP` does)."""
+        rows = np.asarray(rows)
+        position = self._in_position[rows]
+        if np.any(position < 0) or np.any(self.in_sign[position] < 0):
+            raise ValueError("block IPM: set_row_upper applies to '<=' inequality rows only")
+        self.lp.row_upper[rows] = upper
+        self.h[position] = self.in_scale[position] * upper
 
-        Returns
-        -------
-        factors : tuple
-            ``(blocks, solve_K, W_F, S_F_inverse)``: the scaled block systems (:meth:`block_systems` and their
-            inverses), a function solving with ``K``, ``K^{-1} A_F`` and the inverse of the border's Schur complement
-            ``A_F^T K^{-1} A_F``; what :meth:`direction` and :meth:`refined_direction` take.
-        """
-        Hinv, blocks = self.inverse_blocks(it)
-        values = self.reduced_values(Hinv)
-        factoriser = self.factoriser
-        solve_K = None
-        if isinstance(factoriser, SupernodalCholesky):
-            # the settings may have changed since it was made; a worker process keeps its first choice
-            for name, value in self._cholesky_choices().items():
-                setattr(factoriser, name, value)
-            solve_K = factoriser.factorise_values(values)
-            if solve_K is None:
-                # a pivot lost definiteness in floating point: SuperLU's LDL^T (same ordering), which
-                # takes any nonzero pivot; its solves are counted with the Cholesky's
-                if self._superlu is None:
-                    self._superlu = SymmetricFactoriser(self.K_pattern, self.ordering, perm=factoriser.perm)
-                self.cholesky_fallbacks += 1
-                solve_lu = self._superlu.factorise(self.reduced_csc(values))
-
-                def solve_K(rhs, _solve=solve_lu, _counter=factoriser):
-                    _counter.solves += 1
-                    return _solve(rhs)
-        else:
-            solve_K = factoriser.factorise(self.reduced_csc(values))
-        W_F = solve_K(self.A_F) if self.A_F.shape[1] else self.A_F
-        # the small dense Schur complement A_F^T K^{-1} A_F, inverted once (np.linalg.solve
-        # on a 1-by-1 matrix costs milliseconds per call)
-        S_F_inverse = np.linalg.inv(self.A_F.T @ W_F)
-        return blocks, solve_K, W_F, S_F_inverse
-
-    def block_solve(self, blocks, rhs_dual: np.ndarray, rhs_primal: np.ndarray, with_dy: bool = True):
-        """Solve ``G_i^T dy_i = rhs_dual_i``, ``G_i dv_i - (s/y)_i dy_i = rhs_primal_i`` for every block ``i``.
-
-        Parameters
-        ----------
-        blocks : tuple
-            The block factors ``(M^{-1}, sqrt(d), H~)`` of :meth:`inverse_blocks`.
-        rhs_dual : ndarray, shape (n_blocks * k,)
-        rhs_primal : ndarray, shape (inequality rows,)
-        with_dy : bool
-            False allows ``dy`` to be left out (None; the compiled kernel then reads only ``dv``'s rows of the block
-            inverses, with :meth:`uses_compiled_products`: the same ``dv``).
-
-        Returns
-        -------
-        tuple of ndarray
-            ``(dv, dy)``: ``dv`` in block order, ``dy`` in the inequality rows' order (or None).
-        """
-        M_inv, sqrt_d, _ = blocks
-        kernels = self.block_kernels
-        if kernels is not None:
-            with_dy = with_dy or not self.uses_compiled_products()
-            return kernels.block_solve(M_inv, sqrt_d, rhs_dual, rhs_primal, self.block_rows, with_dy)
-        k = self.k
-        rhs = np.empty((self.n_blocks, M_inv.shape[1]))
-        rhs[:, :k] = rhs_dual.reshape(self.n_blocks, k)
-        rhs[:, k:] = sqrt_d * rhs_primal[self.block_rows]
-        sol = self.block_product(M_inv, rhs)
-        # dy by a gather from the block-ordered solutions (a scatter into the rows is slower)
-        return sol[:, :k].ravel(), (sqrt_d * sol[:, k:]).reshape(-1)[self.dy_of_solution]
-
-    @staticmethod
-    def block_product(M_inv: np.ndarray, rhs: np.ndarray) -> np.ndarray:
-        """``M_inv[i] @ rhs[i]`` for every block (``(n, q, q)`` by ``(n, q)``), by ``matmul``: the numpy block solve
-        (a replaceable attribute: ``studies/lab/ipm_crawl.py --roundoff`` swaps in ``einsum``, the same sums in another
-        order)."""
-        return np.matmul(M_inv, rhs[:, :, None])[:, :, 0]
-
-    def _block_dual_solve(self, blocks, rhs_dual: np.ndarray) -> np.ndarray:
-        """``dv`` of :meth:`block_solve` with ``rhs_primal = 0``: ``H~_i rhs_dual_i`` (``dy`` not formed)."""
-        top_left = blocks[2]
-        rhs = rhs_dual.reshape(self.n_blocks, self.k)
-        kernels = self.block_kernels
-        if kernels is not None:
-            return kernels.block_product(top_left, rhs).reshape(-1)
-        # einsum: half the time of matmul on a stack of 3-by-3 products
-        return np.einsum("bij,bj->bi", top_left, rhs).reshape(-1)
-
-    def direction(self, it: IPMIterate, factors, r_b, r_h, r_c, r_mu, refinements: int | None = None,
-                   tolerance: float = 0.0):
-        r"""Newton direction for residuals ``r_*`` and complementarity target ``r_mu``.
-
-        Equations: ``A dv = -r_b``; ``G dv + ds = -r_h``; ``-A^T dw + G^T dy = -r_c``;
-        ``Y ds + S dy = r_mu``.  Per block, ``G dv - (s/y) dy = -r_h - r_mu/y``.  The block
-        equations hold exactly; ``dw`` is corrected (at most ``refinements`` times) until the
-        equality rows' error ``e = -r_b - A dv`` is at most ``max(0.1 tol (1 + ||b||),
-        tolerance || |A| |dv| ||)`` (infinity norms).
-        """
-        blocks, solve_K, W_F, S_F_inverse = factors
-        bc = self.block_columns.ravel()
-        kernels = self.block_kernels
-        rhs_primal = -r_h - r_mu / it.y if kernels is None else kernels.primal_rhs(r_h, r_mu, it.y)
-        rhs_dual = -r_c[bc]
-
-        def reduced_solve(e_eq: np.ndarray, e_border: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-            """``K dw + A_F dv_F = e_eq``, ``A_F^T dw = e_border`` (bordered solve)."""
-            W_r = solve_K(e_eq)
-            if not self.border.size:
-                return W_r, np.zeros(0)
-            dv_F = S_F_inverse @ (self.A_F.T @ W_r - e_border)
-            return W_r - W_F @ dv_F, dv_F
-
-        dv0, _ = self.block_solve(blocks, rhs_dual, rhs_primal, with_dy=False)  # the block step for dw = 0
-        dw, dv_F = reduced_solve(self._offset_minus_times(self.A_B, r_b, dv0), r_c[self.border])
-        target = 1e-1 * self.tol * (1 + _inf(self.b))
-        corrections = self.refinements if refinements is None else refinements
-        krylov = refinements is None and self.krylov_iterations > 0
-        best = None
-        previous_error = np.inf
-        for done in range(corrections + 1):
-            dv_B, dy = self.block_solve(blocks, rhs_dual + self._transpose_times(self.A_B, dw), rhs_primal)
-            if done == corrections and not krylov:
-                # a further correction of dw alone would leave dv_B and dy behind (one solve wasted)
-                break
-            # iterative refinement: K was assembled from inverted blocks, the block
-            # solves are exact; correct dw until A dv = -r_b holds to round-off
-            if tolerance > 0:
-                A_dv_B, bound_B = self._A_B_times_with_bound(dv_B)
-            else:
-                A_dv_B, bound_B = self._times(self.A_B, dv_B), None
-            e_eq, e_border = self._equality_errors(r_b, r_c, dw, dv_F, A_dv_B)
-            limit = target
-            if tolerance > 0:
-                limit = max(target, tolerance * _inf(bound_B + self._abs_A_F @ np.abs(dv_F)))
-            error = max(_inf(e_eq), _inf(e_border))
-            if error <= limit:
-                break
-            if krylov and (best is None or error < best[0]):
-                best = (error, dw, dv_F, dv_B, dy, e_eq, e_border)
-            # a correction that shrank the error by less than `krylov_switch` shows that the
-            # factors are too inaccurate for the stationary refinement (||I - T P|| not small):
-            # it would spend the remaining corrections slowly or not converge at all
-            slow = done > 0 and error > self.krylov_switch * previous_error
-            previous_error = error
-            if krylov and (done == corrections or slow):
-                # the stationary refinement did not converge (K's factors too inaccurate):
-                # GMRES from its best correction, preconditioned by the same factors
-                dw, dv_F, dv_B, dy = self._krylov_refinement(blocks, reduced_solve, rhs_primal, r_b, r_c, limit,
-                                                                  *best)
-                break
-            ddw, ddv_F = reduced_solve(e_eq, e_border)
-            dw = dw + ddw
-            dv_F = dv_F + ddv_F
-        dv = np.zeros(self.c.size)
-        dv[bc] = dv_B
-        dv[self.border] = dv_F
-        ds = self._offset_minus_times(self.G, r_h, dv)
-        return dv, ds, dw, dy
-
-    def _equality_errors(self, r_b, r_c, dw, dv_F, A_dv_B) -> tuple[np.ndarray, np.ndarray]:
-        """Errors of a direction in the equality rows, ``-r_b - A dv``, and in the border's dual
-        rows, ``r_c[F] - A_F^T dw`` (the rows the reduced solve answers for); ``A_dv_B = A_B dv_B``."""
-        return -r_b - A_dv_B - self.A_F @ dv_F, r_c[self.border] - self.A_F.T @ dw
-
-    def _krylov_refinement(self, blocks, reduced_solve, rhs_primal, r_b, r_c, limit, error, dw, dv_F, dv_B, dy,
-                           e_eq, e_border):
-        r"""Correct ``(dw, dv_F)`` by right-preconditioned GMRES on the bordered reduced system.
-
-        The exact reduced operator is ``T (x_w, x_F) = (A_B H^{-1} A_B^T x_w + A_F x_F, A_F^T x_w)``,
-        with ``H^{-1} A_B^T x_w`` taken from the exact block solves (``dv_B`` is affine in ``dw``).
-        The stationary refinement ``x += P e`` (``P``: the bordered solve with the factors of
-        ``K``) converges only while ``||I - T P|| < 1``; near the optimum of large walls ``K``
-        is so ill-conditioned that its factors violate this.  GMRES on ``T P z = e``,
-        ``x = P z`` (at most ``krylov_iterations`` steps, one solve with ``K`` each) only needs
-        ``T P`` to have clustered eigenvalues, and its residual is the true one.  The result
-        replaces the stationary one only if its equality-row error is smaller.
-        """
-        from scipy.sparse.linalg import LinearOperator, gmres
-
-        m, f = e_eq.size, e_border.size
-        bc = self.block_columns.ravel()
-
-        def preconditioned(z: np.ndarray) -> np.ndarray:
-            x_w, x_F = reduced_solve(z[:m], z[m:])
-            x_B = self._block_dual_solve(blocks, self._transpose_times(self.A_B, x_w))
-            return np.concatenate([self._times(self.A_B, x_B) + self.A_F @ x_F, self.A_F.T @ x_w])
-
-        operator = LinearOperator((m + f, m + f), matvec=preconditioned, dtype=float)
-        self.krylov_steps += 1
-        solves_before = self.factoriser.solves
-        budget = self.krylov_iterations
-        while budget > 0:
-            # restarted from the true residual: one cycle cannot reduce it by much more than
-            # 1e-10 in floating point; the 2-norm bound implies the infinity-norm target
-            steps = [0]
-            z, _ = gmres(operator, np.concatenate([e_eq, e_border]), rtol=0.0, atol=limit,
-                         restart=min(budget, 20), maxiter=1, callback=lambda _: steps.__setitem__(0, steps[0] + 1),
-                         callback_type="pr_norm")
-            budget -= max(steps[0], 1)
-            x_w, x_F = reduced_solve(z[:m], z[m:])
-            new_dw, new_dv_F = dw + x_w, dv_F + x_F
-            new_dv_B, new_dy = self.block_solve(blocks, -r_c[bc] + self._transpose_times(self.A_B, new_dw), rhs_primal)
-            new_e_eq, new_e_border = self._equality_errors(r_b, r_c, new_dw, new_dv_F, self._times(self.A_B, new_dv_B))
-            new_error = max(_inf(new_e_eq), _inf(new_e_border))
-            if not new_error < error:
-                break
-            dw, dv_F, dv_B, dy, e_eq, e_border, error = new_dw, new_dv_F, new_dv_B, new_dy, new_e_eq, new_e_border, new_error
-            if error <= limit:
-                break
-        self.krylov_solves += self.factoriser.solves - solves_before
-        return dw, dv_F, dv_B, dy
-
-    def refined_direction(self, it: IPMIterate, factors, r_b, r_h, r_c, r_mu, direction=None,
-                           sweeps: int = 2):
-        """:meth:`direction` (or a given ``direction``), then refinement on the whole (unreduced) Newton system.
-
-        The reduced solve loses accuracy when ``y/s`` spans many decades (thin
-        voussoirs carrying thrusts 1e3 times their weight); one or two corrections
-        with the same factors restore the linear equations to round-off.
-        """
-        dv, ds, dw, dy = self.direction(it, factors, r_b, r_h, r_c, r_mu) if direction is None else direction
-        scale = 1e-2 * self.tol
-        kernels = self.block_kernels
-        for _ in range(sweeps):
-            e_b = self._offset_minus_times(self.A, r_b, dv)
-            if kernels is not None:
-                e_h, e_mu, e_h_inf, e_mu_inf = kernels.newton_errors(r_h, self._times(self.G, dv), ds, r_mu, it.y,
-                                                                     it.s, dy)
-            else:
-                e_h = -r_h - self._times(self.G, dv) - ds
-                e_mu = r_mu - (it.y * ds + it.s * dy)
-                e_h_inf, e_mu_inf = _inf(e_h), _inf(e_mu)
-            e_c = -r_c + self._transpose_times(self.A, dw) - self._transpose_times(self.G_dual, dy)
-            if (_inf(e_b) <= scale * (1 + _inf(self.b)) and _inf(e_c) <= scale * (1 + _inf(self.c))
-                    and e_h_inf <= scale * (1 + _inf(self.h)) and e_mu_inf <= scale * max(_inf(r_mu), 1e-300)):
-                break
-            cv, cs, cw, cy = self.direction(it, factors, -e_b, -e_h, -e_c, e_mu)
-            dv, ds, dw, dy = dv + cv, ds + cs, dw + cw, dy + cy
-        return dv, ds, dw, dy
-
-    def max_step(self, z: np.ndarray, dz: np.ndarray) -> float:
-        """The longest step to the boundary of ``z >= 0`` along ``dz``, at most one:
-        ``min(1, min over dz_i < 0 of -z_i / dz_i)`` (no masked copies: one division in place; compiled, one pass
-        with the same divisions)."""
-        kernels = self.block_kernels
-        if kernels is not None:
-            return kernels.max_step(z, dz)
-        ratio = np.divide(z, dz, out=np.full(z.shape, -np.inf), where=dz < 0)
-        return float(min(1.0, -ratio.max())) if ratio.size else 1.0
-
-    # ------------------------------------------------------------------ iteration
-    def residuals(self, it: IPMIterate):
-        r_b = self._times(self.A, it.v) - self.b
-        r_h = self._times(self.G, it.v) + it.s - self.h
-        r_c = self.c - self._transpose_times(self.A, it.w) + self._transpose_times(self.G_dual, it.y)
-        return r_b, r_h, r_c
-
-    def measures(self, it: IPMIterate, residuals=None) -> tuple[float, float, float]:
-        """Relative (primal, dual, gap) of an iterate (``residuals``: its :meth:`residuals`, if known)."""
-        r_b, r_h, r_c = self.residuals(it) if residuals is None else residuals
-        primal = max(_inf(r_b) / (1 + _inf(self.b)), _inf(r_h) / (1 + _inf(self.h)))
-        dual = _inf(r_c) / (1 + _inf(self.c))
-        return primal, dual, self.gap(it)
-
-    def gap(self, it: IPMIterate) -> float:
-        """The relative duality gap ``|c^T v - (b^T w - h^T y)| / (1 + |c^T v|)``."""
-        pobj = self.c @ it.v
-        dobj = self.b @ it.w - self.h @ it.y
-        return abs(pobj - dobj) / (1 + abs(pobj))
+    @property
+    def corrector_count(self) -> int:
+        """Gondzio correctors per iteration at most: the ``correctors`` setting, ``"auto"`` resolved by the size of
+        ``K`` (``rules.corrector_rows``)."""
+        if self.correctors != "auto":
+            return int(self.correctors)
+        return LARGE_CORRECTORS if self.K_pattern.shape[0] >= self.rules.corrector_rows else SMALL_CORRECTORS
 
     def _path_weights(self) -> np.ndarray | None:
         """:attr:`path_weights` checked (one positive finite weight per inequality row), or None (all ones: the
@@ -1014,24 +508,6 @@ class BlockIPM:
         if bad.size:
             raise ValueError(f"block IPM: path_weights must be positive and finite; row {int(bad[0])} has {weights[bad[0]]}")
         return weights
-
-    def _centring_target(self, it: IPMIterate, ds, dy, scale: float, weights) -> np.ndarray:
-        """Mehrotra's corrector target ``scale w - s y - ds dy`` (``w``: the path weights, None: ones)."""
-        kernels = self.block_kernels
-        if kernels is not None:
-            return kernels.centring_target(it.s, it.y, ds, dy, scale, weights)
-        return (scale if weights is None else scale * weights) - it.s * it.y - ds * dy
-
-    def _centrality_correction(self, it: IPMIterate, ds, dy, tp: float, td: float, low: float, high: float,
-                               weights) -> np.ndarray:
-        """Gondzio's correction: the trial products ``p = (s + tp ds) (y + td dy)`` brought into ``[low w, high w]``,
-        ``max(clip(p, low w, high w) - p, -high w)`` (``w``: the path weights, None: ones)."""
-        kernels = self.block_kernels
-        if kernels is not None:
-            return kernels.centrality_correction(it.s, ds, it.y, dy, tp, td, low, high, weights)
-        products = (it.s + tp * ds) * (it.y + td * dy)
-        lo, hi = (low, high) if weights is None else (low * weights, high * weights)
-        return np.maximum(np.clip(products, lo, hi) - products, -hi)
 
     def before_iteration(self, it: IPMIterate) -> None:
         """Called at the start of every iteration with the current iterate; the LP's data
@@ -1111,7 +587,7 @@ class BlockIPM:
                            f"{best_measures[1]:.1e}, gap {best_measures[2]:.1e}; tolerance {self.tol:g}): "
                            "the reduced system lost accuracy")
                 break
-            big = max(_inf(it.v), _inf(it.w), _inf(it.y))
+            big = max(largest_magnitude(it.v), largest_magnitude(it.w), largest_magnitude(it.y))
             if not np.isfinite(big) or big > 1e13:
                 status = IPMStatus.NUMERICAL
                 message = ("interior-point iterates diverge (|v|, |w| or |y| > 1e13): the LP is probably "
@@ -1219,6 +695,3 @@ def single_blas_thread():
 
     return threadpool_limits(limits=1, user_api="blas")
 
-
-def _inf(a: np.ndarray) -> float:
-    return float(np.max(np.abs(a))) if a.size else 0.0

@@ -21,9 +21,6 @@ per-call overhead dominates: on 20,100 interfaces ``np.linalg.inv`` takes ~28 ms
   explicit copy of ``M^T``, with the sums in scipy's order (the same numbers bit for bit), on the CPUs this process
   may use (scipy's products run on one).
 
-(A compiled ``np.add.at`` for the supernodal Cholesky's extend-add was measured and dropped: it saved no time
-measurably, 2.11-2.18 s for one factorisation at 100,014 blocks with either, three of each in one process.)
-
 :func:`inverse_scaled_blocks`, :func:`block_solve`, :class:`ReducedAssembly` and :class:`SparseProducts` run their
 blocks (or rows) on the CPUs this process may use (numba's ``prange``; :func:`blockmpec.solvers.linalg.cpus.usable_cpus`).  Each
 block is independent, so the numbers are the same on any number of threads.  In the block IPM they run while the

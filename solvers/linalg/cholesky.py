@@ -21,9 +21,9 @@ factorisations of a symmetric permutation ``P K P^T``:
 
 ``SupernodalCholesky(..., processes=2)`` splits its elimination tree into two subtree halves and their top
 (:meth:`SupernodalCholesky.subtree_halves`) and hands one half of every factorisation and solve to a
-worker process (:class:`HalfWorker`, a fresh Python process, not a fork): 0.74x the block IPM's wall-clock on the
-100,014-block wall (251 s against 339 s, ``python studies/lab/lp_timing.py --walls 316x316 --algorithms block-ipm
---ipm-settings one_process,two_process``; the block IPM's default with this factorisation).  Threads cannot do it: scipy's LAPACK wrappers and each front's numpy work hold the GIL.
+worker process (:class:`HalfWorker`, a fresh Python process, not a fork; the block IPM's default from
+``rules.two_process_rows`` rows of ``K``).  Threads cannot do it: scipy's LAPACK wrappers and each front's numpy
+work hold the GIL.
 
 Orderings (:data:`ORDERINGS`):
 
@@ -33,15 +33,7 @@ Orderings (:data:`ORDERINGS`):
   fallback when pymetis is not installed;
 * ``"auto"``: ``"metis"`` if importable, else ``"mmd"``.
 
-Measured on one ``K`` of a wall at a generic interior point (``python studies/lab/cholesky_choice.py
---walls 100x100,316x316 --methods supernodal-metis,superlu-metis --extend-add-runs 2,8``, CPU time, idle machine): 100,014 blocks
-(300,042 rows), METIS: SuperLU 71.5M nonzeros in ``L+U``, 4.59 s per factorisation, 0.108 s per
-solve; the supernodal Cholesky 1.57 s (0.34x; 35.7M structural nonzeros in ``L``, 48.7M stored with
-the amalgamation zeros), 0.115 s per solve, 10.0 s of ordering and symbolic analysis (once), with
-:data:`EXTEND_ADD_RUNS` = 2.  No wheel on PyPI offers a faster
-permissive sparse Cholesky here: CHOLMOD (``sksparse-minimal``/``cholespy``) bundles its GPL
-Supernodal module, ``qdldl`` (Apache-2.0, AMD) took 29 s on the 100k matrix, and MUMPS/SPRAL
-(``python-mumps``, ``pyspral``) have no wheel for this platform.
+The factorisation packages measured against it (fill, time, licence) are in ``docs/performance.md``.
 """
 
 from __future__ import annotations
@@ -60,6 +52,11 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
 from .cpus import usable_cpus  # noqa: F401 - the CPUs "auto" counts, capped by BLOCKMPEC_CPUS
+from .subtree_split import SubtreeSplit
+from .supernodal_solves import SupernodalSolves
+
+__all__ = ["ORDERINGS", "SingularMatrixError", "SupernodalCholesky", "SymmetricFactoriser", "metis_available",
+           "structural_pattern", "two_processes_available"]
 
 ORDERINGS = ("auto", "metis", "mmd")
 
@@ -249,7 +246,7 @@ def column_structures(lower: sp.sparray) -> tuple[list[np.ndarray], np.ndarray]:
     return structure, parent
 
 
-class SupernodalCholesky:
+class SupernodalCholesky(SupernodalSolves, SubtreeSplit):
     r"""Multifrontal supernodal Cholesky ``P K P^T = L~ L~^T`` of matrices with one fixed SPD pattern.
 
     Symbolic analysis once: the fill-reducing ordering (as :class:`SymmetricFactoriser`), the
@@ -590,75 +587,6 @@ class SupernodalCholesky:
             self._worker.close()
             self._worker = None
 
-    def front_flops(self) -> np.ndarray:
-        """Each supernode's dense work: ``potrf``, ``trsm`` and ``syrk`` on its front, ``w^3/3 + r w^2 + r^2 w`` for
-        ``w`` columns and ``r`` rows below (multiply-adds counted once)."""
-        w = (self.end - self.first).astype(float)
-        r = np.array([R.size for R in self.rows], dtype=float) - w
-        return w ** 3 / 3 + r * w * w + r * r * w
-
-    def front_costs(self) -> np.ndarray:
-        """An estimate of each supernode's factorisation time (s): a fixed cost per front, its dense work
-        (:meth:`front_flops`) and the ``m^2`` entries of the front that are zeroed and assembled."""
-        m = np.array([R.size for R in self.rows], dtype=float)
-        return 3e-5 + 2.5e-10 * self.front_flops() + 2e-9 * m * m
-
-    def supernode_parents(self) -> np.ndarray:
-        """Each supernode's parent in the supernodal elimination tree (-1: a root)."""
-        parent = np.full(self.supernodes, -1, dtype=np.int64)
-        for s, kids in enumerate(self.children):
-            parent[kids] = s
-        return parent
-
-    def subtree_halves(self) -> tuple[list[np.ndarray], np.ndarray]:
-        """``([half_0, half_1], top)``: supernodes two processes can factorise side by side, then the rest.
-
-        From the roots of the supernodal elimination tree, the costliest subtree (:meth:`front_costs`) is split
-        into its root (to ``top``) and its children's subtrees, and the split with the least ``cost(top) + max(cost of
-        a half)`` is kept (the search stops once ``(cost(all) + cost(top)) / 2``, a bound below every later split's,
-        reaches the best); the subtrees are dealt to the halves longest first.  Each half is a union of whole subtrees,
-        so it needs no update matrix from the other, and the rows below its supernodes are its own or the top's.
-        Every list is in increasing supernode order."""
-        ns = self.supernodes
-        parent = self.supernode_parents()
-        cost = self.front_costs()
-        subtree = cost.copy()
-        for s in range(ns):  # children before their parent
-            if parent[s] >= 0:
-                subtree[parent[s]] += subtree[s]
-        frontier = [int(s) for s in np.flatnonzero(parent < 0)]
-        top: list[int] = []
-        best = None
-        total = float(cost.sum())
-        for _ in range(min(ns, 1000)):
-            top_cost = float(cost[top].sum())
-            if best is not None and (total + top_cost) / 2 >= best[0]:
-                break  # every makespan from here on is at least (total + cost(top)) / 2, and cost(top) only grows
-            loads, halves = [0.0, 0.0], [[], []]
-            for s in sorted(frontier, key=lambda s: -subtree[s]):
-                g = int(np.argmin(loads))
-                loads[g] += subtree[s]
-                halves[g].append(s)
-            makespan = top_cost + max(loads)
-            if best is None or makespan < best[0]:
-                best = (makespan, list(top), halves)
-            biggest = max(frontier, key=lambda s: subtree[s])
-            if not self.children[biggest]:
-                break
-            frontier.remove(biggest)
-            top.append(biggest)
-            frontier.extend(self.children[biggest])
-        _, top, halves = best
-        owner = np.full(ns, -1, dtype=np.int64)  # the half of each supernode, -1: the top
-        root_half = {s: g for g, roots in enumerate(halves) for s in roots}
-        in_top = set(top)
-        for s in range(ns - 1, -1, -1):  # parents before their children
-            if s in root_half:
-                owner[s] = root_half[s]
-            elif s not in in_top:
-                owner[s] = owner[parent[s]]
-        return [np.flatnonzero(owner == g) for g in (0, 1)], np.flatnonzero(owner < 0)
-
     def factor_supernodes(self, supernodes, values: np.ndarray, updates: dict[int, np.ndarray],
                           diagonal_blocks: list, below_blocks: list) -> bool:
         """Factorise the given supernodes in their order (each after its children): ``L11``/``L21`` into
@@ -721,96 +649,6 @@ class SupernodalCholesky:
     def drop_factor_plan(self, supernodes) -> None:
         """Forget the compiled factorisation's plan for this set of supernodes (its workspace freed), if made."""
         self._factor_plans.pop(np.fromiter(supernodes, dtype=np.int64).tobytes(), None)
-
-    def solve_structure(self) -> tuple:
-        """``(first, width, below_count, below, below_start)``: each supernode's first column, its columns, its rows
-        below them (all int64, by supernode) and those rows, concatenated (``below[below_start[s]:][:below_count[s]]``);
-        what :class:`~blockmpec.solvers.linalg.cholesky_kernels.SolvePanels` reads.  Made once."""
-        if self._solve_structure is None:
-            counts = np.array([b.size for b in self.below_rows], dtype=np.int64)
-            self._solve_structure = (self.first.astype(np.int64), (self.end - self.first).astype(np.int64), counts,
-                                     np.concatenate([*self.below_rows, np.zeros(0)]).astype(np.int64),
-                                     np.concatenate([[0], np.cumsum(counts)[:-1]]).astype(np.int64))
-        return self._solve_structure
-
-    def solve_panels(self, diagonal_blocks: list, below_blocks: list):
-        """The factors of one factorisation for the compiled solves (:attr:`compiled_solves`), else None."""
-        if not self.compiled_solves:
-            return None
-        from .cholesky_kernels import SolvePanels
-
-        return SolvePanels(self.solve_structure(), diagonal_blocks, below_blocks)
-
-    def forward(self, x: np.ndarray, supernodes, diagonal_blocks: list, below_blocks: list, panels=None) -> None:
-        """``L~ y = x`` over the given supernodes (in increasing order), in place on the vector ``x``: ``trsv`` on each
-        supernode's entries (BLAS offsets), ``gemv`` for the rows below; by the compiled loop with ``panels``
-        (:meth:`solve_panels`)."""
-        if panels is not None:
-            panels.forward(x, supernodes)
-            return
-        from scipy.linalg.blas import dgemv, dtrsv
-
-        first, below = self._first_columns, self.below_rows
-        for s in supernodes:
-            f = first[s]
-            dtrsv(diagonal_blocks[s], x, offx=f, lower=1, overwrite_x=1)
-            L21 = below_blocks[s]
-            if L21 is not None:
-                x[below[s]] -= dgemv(1.0, L21, x, offx=f)
-
-    def backward(self, x: np.ndarray, supernodes, diagonal_blocks: list, below_blocks: list, panels=None) -> None:
-        """``L~^T z = x`` over the given supernodes (in decreasing order), in place on the vector ``x`` (compiled with
-        ``panels``)."""
-        if panels is not None:
-            panels.backward(x, supernodes)
-            return
-        from scipy.linalg.blas import dgemv, dtrsv
-
-        first, below = self._first_columns, self.below_rows
-        for s in supernodes:
-            f = first[s]
-            L21 = below_blocks[s]
-            if L21 is not None:
-                dgemv(-1.0, L21, x[below[s]], beta=1.0, y=x, offy=f, trans=1, overwrite_y=1)
-            dtrsv(diagonal_blocks[s], x, offx=f, lower=1, trans=1, overwrite_x=1)
-
-    def solver(self, diagonal_blocks: list[np.ndarray], below_blocks: list[np.ndarray | None]):
-        """``solve(rhs)`` with the factors ``diagonal_blocks``, ``below_blocks`` of :meth:`factor_supernodes` (what
-        :meth:`factorise` returns): ``x = P^T L~^{-T} L~^{-1} P rhs`` by supernodes (BLAS ``trsv``/``trsm``,
-        ``gemv``/``gemm``); a vector or a matrix of columns."""
-        from scipy.linalg.blas import dtrsm
-
-        p, inv_p = self.perm, self.inverse_perm
-        spans = list(zip(self.first.tolist(), self.end.tolist()))
-        below = self.below_rows
-        panels = self.solve_panels(diagonal_blocks, below_blocks)
-        order = range(self.supernodes)
-
-        def solve(rhs: np.ndarray) -> np.ndarray:
-            t = time.process_time()
-            x = np.array(rhs[p], dtype=float, order="F")
-            if x.ndim == 1:
-                self.forward(x, order, diagonal_blocks, below_blocks, panels)
-                self.backward(x, order[::-1], diagonal_blocks, below_blocks, panels)
-            else:
-                for s in order:
-                    f, e = spans[s]
-                    xs = dtrsm(1.0, diagonal_blocks[s], x[f:e], lower=1)
-                    x[f:e] = xs
-                    L21 = below_blocks[s]
-                    if L21 is not None:
-                        x[below[s]] -= L21 @ xs
-                for s in reversed(order):
-                    f, e = spans[s]
-                    L21 = below_blocks[s]
-                    xs = x[f:e] if L21 is None else x[f:e] - L21.T @ x[below[s]]
-                    x[f:e] = dtrsm(1.0, diagonal_blocks[s], xs, lower=1, trans_a=1)
-            self.solves += 1
-            self.solve_s += time.process_time() - t
-            return x[inv_p]
-
-        return solve
-
 
 class HalfWorker:
     r"""One subtree half of a :class:`SupernodalCholesky`'s factorisations and solves, run by a worker process.

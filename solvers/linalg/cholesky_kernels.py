@@ -10,11 +10,7 @@ The Python loop calls scipy's BLAS wrappers once per supernode, and gathers and 
 at 100,014 blocks (5,878 supernodes) that overhead was about a third of a solve.  Here the same loop is compiled and
 calls the same BLAS routines (scipy's ``cython_blas``, the library scipy's own wrappers call) through their
 addresses, so every sum is the one the Python loop makes: the solutions are the same bit for bit.
-``python studies/lab/cholesky_choice.py --walls 100x100,316x316 --methods supernodal-metis,supernodal-compiled`` (one
-run): 10,050 blocks 0.013 s per solve with the Python loop against 0.008 s compiled; 100,014 blocks 0.166 s against
-0.109 s.  The 100,014-block LP took 228 s instead of 258 s (``studies/lab/lp_timing.py --ipm-settings
-python_solves,default``, docs/performance.md).  (A loop compiled *without* BLAS was slower than the Python loop:
-``--methods supernodal-numba``.)
+The measurements of the compiled solves are in ``docs/performance.md``.
 
 The numeric factorisation (:class:`FactorPlan`, the second half of this module) is compiled the same way: its loop
 over supernodes makes the Python loop's LAPACK and BLAS calls (``dpotrf``, ``dtrsm``, ``dsyrk``) on the same fronts,

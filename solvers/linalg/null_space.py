@@ -15,10 +15,7 @@ three forces of each block's tree interface, ``B = E[:, tree]``, block triangula
 ``x_d``, ``x_l`` the tree solutions (zero on the other interfaces) and ``N`` a sparse basis of self-stresses,
 one per force of a non-tree interface: unit on that force, the tree forces of its fundamental cycle elsewhere.
 (``basis="cycles"``: three per cycle of a short cycle basis of the contact graph, Horton's, unit on the forces of
-one interface of the cycle.  Its pair rows ``G N`` are sparser, 3.5-3.9 entries per row against 5.2-10.2 on the
-5x2, 4x3, 2x8, 6x3 and 8x4 walls, yet IPX was not faster: 5x2 3.41 against 2.85 s, 4x3 8.51 against 6.92 s, 2x8
-8.49 against 8.55 s, with bounds up to 6.9e-8 below the minimum against 3e-9; ``python studies/lab/root_lp_engines.py
---engines 5x2,4x3,2x8 --only ipx-null-space,ipx-null-space-cycles``, two runs.)  Kinematic side: ``u = L z`` with
+one interface of the cycle: sparser pair rows ``G N``, not faster.)  Kinematic side: ``u = L z`` with
 ``L = -B^{-T} F_tree`` solves the tree rows of compatibility ``E^T u + F z = 0``; the others hold exactly when
 ``C z = 0`` with ``C = (F + E^T L)[non-tree rows] = N^T F``.  With ``c^T = f_l^T L`` (each multiplier's live
 work) the normalisation ``f_l^T u = 1`` is ``c^T z = 1``.
@@ -41,11 +38,6 @@ Every point of the lifted LP maps to exactly one point of this LP with the same 
 bound for the other.  The reformulation needs every force tied (``rlt-full``) and every copy's statics
 (``static_copies="all"``).  It drops the ``3 (blocks)`` equilibrium rows and columns of every copy and all of
 ``W``: on the 2x15 running-bond wall 166,078 rows x 87,359 columns become 105,535 x 38,906.
-
-Measured (``python studies/lab/root_lp_engines.py --engines 2x4,5x2,4x3,2x8 --only ipx,ipx-null-space``, IPX without
-crossover, CPU s, one run, lifted -> null-space, the same bound to 1e-9): 2x4 1.59 -> 0.40, 5x2 8.32 -> 2.85,
-4x3 26.6 -> 6.92, 2x8 38.2 -> 8.55; 2x13 61.3 s and 2x15 122.9 s (``--engines 2x13,2x15 --only ipx-null-space``),
-where the lifted LP gave no bound in 1,500 s.
 
 Round-off: ``N``, ``x_d``, ``x_l`` and ``L`` come from one sparse LU of ``B``; their residuals are checked to
 ``NULL_SPACE_TOL`` relative (:func:`static_null_space` returns None otherwise, and the lifted LP is used).

@@ -45,7 +45,7 @@ Usage::
                                       [--extend-add-runs 2,8] [--side-by-side [--rounds 5]]
 
 ``--blas-threads 1,2`` measures each method with one and with two BLAS threads (wall and CPU side by side;
-for the supernodal Cholesky only its fronts of at least ``THREADED_FRONT_ROWS`` rows get them, whose
+for the supernodal Cholesky only its fronts of at least ``threaded_front_rows`` rows get them, whose
 dense updates are BLAS-3: multithreaded BLAS on every front spins its threads between tiny calls).
 ``--extend-add-runs 2,8`` measures the supernodal Cholesky with each ``extend_add_runs`` (children whose rows
 fall into at most that many runs of their parent's rows are added by slices, the others by a flat index) and

@@ -13,18 +13,16 @@ default from 30,000 rows of ``K`` when two CPUs are usable) the worker process's
 factorisation (``--factorisations``: ``auto``, ``supernodal``, ``superlu``), its per-interface kernels
 (``--kernels``: ``auto``, ``numpy``, ``compiled``, the last needing numba), the number of factorisations and
 solves with ``K`` and their CPU time.
-Algorithms are those of ``static-lp`` (``blockmpec.solvers.engines.lp_engine.ALGORITHMS``):
+Algorithms are those of ``static-lp`` (``blockmpec.solvers.plan.LP_ALGORITHMS``):
 HiGHS's ``dual-simplex``, ``primal-simplex``, ``ipm`` (with crossover), the
-``block-ipm``, or ``auto``; and, for a side-by-side measurement of the library
-alternative, HiGHS's new interior-point solver HiPO (``hipo``: without crossover,
-``hipo-crossover``: with), which needs the ``highspy-extras`` wheel, and Clarabel (pip ``clarabel``,
+``block-ipm``, or ``auto``; and, for a side-by-side measurement of a library
+alternative, Clarabel (pip ``clarabel``,
 Apache-2.0, not a dependency of blockmpec: ``clarabel`` with its default tolerances 1e-8, ``clarabel-1e-10``
 with gap and feasibility tolerances 1e-10; :class:`ClarabelLP`).  Usage::
 
     python studies/lab/lp_timing.py [--sizes 100,1000,10000] [--algorithms auto] [--time-limit 600]
                                 [--walls 100x100,316x316] [--orderings auto,mmd] [--ipm-settings previous,default]
                                 [--factorisations superlu,supernodal] [--kernels numpy,compiled]
-                                [--algorithms block-ipm,hipo,hipo-crossover]
                                 [--algorithms block-ipm,clarabel,clarabel-1e-10]
 
 ``--walls CxB`` gives walls of ``courses=C, blocks_per_course=B`` instead of sizes; options of
@@ -44,7 +42,6 @@ import time
 from pathlib import Path
 
 import numpy as np
-import scipy.sparse as sp
 
 import blockmpec as bm
 from blockmpec.errors import OptionError
@@ -70,20 +67,6 @@ def wall_or_size(wall: str) -> bm.Structure:
         raise SystemExit(f"lp_timing: {error}") from None
 
 
-def hipo_engine(lp, ops, crossover: bool):
-    """HiGHS's HiPO (``highspy-extras``) on the static LP in the same load units as the other engines."""
-    from blockmpec.solvers.engines.highs import HighsLP
-    from blockmpec.solvers.engines.scaling import LoadUnits
-
-    class HipoLP(HighsLP):
-        def set_algorithm(self, algorithm: str) -> None:
-            self.highs.setOptionValue("solver", "hipo")
-            self.highs.setOptionValue("run_crossover", "on" if crossover else "off")
-
-    row_scale, column_scale = LoadUnits.of(ops).static(lp)
-    return HipoLP(lp, "ipm", row_scale=row_scale, column_scale=column_scale)
-
-
 #: Clarabel's outcome -> :class:`Status` (any other: numerical)
 CLARABEL_STATUS = {"Solved": Status.OPTIMAL, "AlmostSolved": Status.ACCEPTABLE, "MaxTime": Status.TIME_LIMIT,
                    "MaxIterations": Status.ITERATION_LIMIT, "PrimalInfeasible": Status.INFEASIBLE,
@@ -102,10 +85,10 @@ class ClarabelLP:
         if np.any(np.isfinite(lp.col_lower)) or np.any(np.isfinite(lp.col_upper)):
             raise ValueError("ClarabelLP: the static LP's columns are free")
         self.lp = lp
-        self.row_scale, self.column_scale = LoadUnits.of(ops).static(lp)
-        A = sp.diags(self.row_scale) @ lp.A @ sp.diags(self.column_scale)
-        self.problem = ClarabelProblem(A, self.column_scale * lp.c, self.row_scale * lp.row_lower,
-                                       self.row_scale * lp.row_upper, lp.col_lower, lp.col_upper)
+        self.scaling = LoadUnits.of(ops).static(lp)
+        scaled = self.scaling.apply(lp)
+        self.problem = ClarabelProblem(scaled.A, scaled.c, scaled.row_lower, scaled.row_upper, lp.col_lower,
+                                       lp.col_upper)
         self.settings = {"time_limit": time_limit if np.isfinite(time_limit) else 1e9}
         if tolerance is not None:
             self.settings.update(tol_gap_abs=tolerance, tol_gap_rel=tolerance, tol_feas=tolerance)
@@ -113,9 +96,9 @@ class ClarabelLP:
     def solve(self, deadline=None) -> LPOutcome:
         """Solve within the ``time_limit`` given (``deadline`` is the other engines' and not read)."""
         x, row_dual, raw, iterations = self.problem.solve(**self.settings)
-        v = self.column_scale * x
+        v = self.scaling.primal(x)
         return LPOutcome(CLARABEL_STATUS.get(raw, Status.NUMERICAL), f"clarabel: {raw}", float(self.lp.c @ v), v,
-                         self.row_scale * row_dual, iterations, raw)
+                         self.scaling.dual(row_dual), iterations, raw)
 
 
 def time_one(wall: str, algorithm: str, time_limit: float = float("inf"), ordering: str = "auto",
@@ -139,9 +122,7 @@ def time_one(wall: str, algorithm: str, time_limit: float = float("inf"), orderi
     t3, c3 = time.perf_counter(), time.process_time()
     lp = compile_linear(problem)
     t4, c4 = time.perf_counter(), time.process_time()
-    if algorithm.startswith("hipo"):
-        engine = hipo_engine(lp, ops, crossover=algorithm == "hipo-crossover")
-    elif algorithm.startswith("clarabel"):
+    if algorithm.startswith("clarabel"):
         engine = ClarabelLP(lp, ops, time_limit, tolerance=1e-10 if algorithm == "clarabel-1e-10" else None)
     else:
         engine = cold_lp_engine(lp, algorithm, LoadUnits.of(ops))  # as static-lp runs it: in load units
@@ -160,7 +141,7 @@ def time_one(wall: str, algorithm: str, time_limit: float = float("inf"), orderi
     t5, c5 = time.perf_counter(), time.process_time()
     out = engine.solve(deadline=Deadline(time_limit))
     t6, c6 = time.perf_counter(), time.process_time()
-    # a point is verified even when its engine did not claim success (HiPO "stagnated"), to say how far off it is
+    # a point is verified even when its engine did not claim success (Clarabel "AlmostSolved"), to say how far off it is
     has_point = bool(np.all(np.isfinite(out.v)))
     lam = float(lp.values("lam", out.v)[0]) if has_point else math.nan
     residual = (max(bm.verify.residuals(ops, static_lp_solution(lp, out), associative=True).values())
