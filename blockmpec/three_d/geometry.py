@@ -30,7 +30,6 @@ from functools import cached_property
 
 import numpy as np
 
-from blockmpec.cases import _positive
 from blockmpec.errors import GeometryError, OptionError, StructureError
 from blockmpec.geometry import check_supported
 from blockmpec.three_d.contacts import Contacts, check_overlaps, detect_contacts
@@ -120,7 +119,7 @@ class Structure3D:
                    pyramid_sides: int | None = None) -> Structure3D:
         """A copy with another live load or friction pyramid, validated."""
         direction = self.live_direction if live_direction is None else _unit_direction(live_direction)
-        factor = self.live_factor if live_factor is None else _positive("live_factor", live_factor)
+        factor = self.live_factor if live_factor is None else _live_factor(live_factor)
         sides = self.pyramid_sides if pyramid_sides is None else _pyramid_sides(pyramid_sides)
         return replace(self, live_direction=direction, live_factor=factor, pyramid_sides=sides)
 
@@ -137,6 +136,16 @@ def _unit_direction(value) -> np.ndarray:
     if not np.all(np.isfinite(d)) or norm == 0:
         raise OptionError(f"live_direction: must be a finite non-zero 3-vector; got {value!r}")
     return d / norm
+
+
+def _live_factor(value) -> float:
+    try:
+        v = float(value)
+    except (TypeError, ValueError):
+        raise OptionError(f"live_factor: must be a number > 0; got {value!r}") from None
+    if not np.isfinite(v) or v <= 0:
+        raise OptionError(f"live_factor: must be a finite number > 0; got {value!r}")
+    return v
 
 
 def _pyramid_sides(value) -> int:
@@ -373,7 +382,7 @@ def make_structure_3d(
     contacts = detect_contacts(vertices, faces, tol, table)
     s = Structure3D(vertices=vertices, faces=faces, fixed=fixed_arr, density=dens, contacts=contacts,
                     friction=float(friction), dilatancy=float(dilatancy),
-                    live_direction=_unit_direction(live_direction), live_factor=_positive("live_factor", live_factor),
+                    live_direction=_unit_direction(live_direction), live_factor=_live_factor(live_factor),
                     pyramid_sides=_pyramid_sides(pyramid_sides), block_ids=names, name=name,
                     metadata=dict(metadata or {}))
     _check_connectivity(s)
