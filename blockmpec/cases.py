@@ -211,32 +211,72 @@ def wall(
     )
 
 
-def ferris_tinloi(mu: float = DEFAULT_FRICTION, dilatancy: float = 0.0) -> Structure:
-    """Wall 1 of Ferris & Tin-Loi (2001): six courses of 0.40 x 0.175 blocks in running bond on a fixed base.
+#: Ferris & Tin-Loi's six walls as published in MPECLib (``frictionalblock_1`` ... ``_6``): the courses from the
+#: bottom up, each a row of ``h`` (half block), ``f`` (full block) and ``_`` (an opening one full block long).
+FERRIS_TINLOI_WALLS = {
+    1: ("hffffh", "fffff") * 3,
+    2: ("hffffh", "fffff") * 5,
+    3: ("ffff", "hfffh", "ffff") + ("hf_fh", "fh_hf") * 2 + ("hf_fh", "ffff", "hfffh", "ffff"),
+    4: ("hffffh", "fffff", "hffffh") + ("f_f_f", "hh_hh_hh") * 2 + ("f_f_f", "hffffh", "fffff", "hffffh"),
+    5: (("hffh", "fff", "hffh") + ("f_f", "hh_hh") * 2 + ("f_f",)) * 2 + ("hffh", "fff", "hffh"),
+    6: ("hffffffh", "fffffff") * 2 + ("hf_ff_fh", "fh_hfh_hf") * 2 + ("hf_ff_fh", "fffffff", "hffffffh", "fffffff")
+       + ("hf_ff_fh", "fh_hfh_hf") * 2 + ("hf_ff_fh",) + ("fffffff", "hffffffh") * 2,
+}
 
-    The odd courses (counting the bottom one as the first) hold four full blocks between two half blocks, the even
-    ones five full blocks: 33 free blocks, 83 interfaces (six on the base).  Loads as in :func:`wall`: dead load
-    the weight, live load a horizontal body force equal to the weight.  Ferris & Tin-Loi publish the associative
-    multiplier of this wall as about 0.643 (M. C. Ferris, F. Tin-Loi, Limit analysis of frictional block
-    assemblies as a mathematical program with complementarity constraints, Int. J. Mech. Sci. 43 (2001)
-    209-224); the static LP gives 0.642859 at ``mu = 0.65``.  The non-associative minimum (``dilatancy = 0``) is
-    not published as certified; ``nlp`` reaches 0.63898 and ``fixed-point`` 0.63997.
+
+def ferris_tinloi(wall: int = 1, mu: float = DEFAULT_FRICTION, dilatancy: float = 0.0) -> Structure:
+    """Wall ``wall`` (1-6) of Ferris & Tin-Loi, as published in the MPEC test collection MPECLib.
+
+    M. C. Ferris, F. Tin-Loi, Limit analysis of frictional block assemblies as a mathematical program with
+    complementarity constraints, Int. J. Mech. Sci. 43 (2001) 209-224; MPECLib's models ``frictionalblock_1`` ...
+    ``frictionalblock_6`` (GAMS-dev/gamsworld, folder MPECLib: the block tables ``fr_block1.dat`` ...
+    ``fr_block6.dat`` and the contact generator ``fr_genct.gms``).  Blocks of 0.40 x 0.175 (MPECLib: 4 x 1.75,
+    the same multipliers) and half blocks, in running bond on a fixed base, course by course
+    (:data:`FERRIS_TINLOI_WALLS`):
+
+    ====  ==========  ==========  ==========  ===================================================
+    wall  free blocks  interfaces  courses     layout
+    ====  ==========  ==========  ==========  ===================================================
+    1     33          83          6           5 full blocks wide (the default)
+    2     55          141         10          as wall 1, taller
+    3     46          102         11          4 wide, one opening in courses 4-8
+    4     55          116         11          5 wide, two openings in courses 4-8 (the seed paper's "2x1 wall")
+    5     61          120         19          3 wide, an opening in courses 4-8 and one in 12-16
+    6     146         345         21          7 wide, 2 x 2 openings in courses 5-9 and 13-17 (the seed paper's
+                                              "2x2 wall")
+    ====  ==========  ==========  ==========  ===================================================
+
+    Loads as in :func:`wall`: dead load the weight, live load a horizontal body force equal to the weight.
+    The interfaces detected here are MPECLib's contacts one to one (the base counted once per bottom block).
+    Associative multipliers at ``mu = 0.65``: 0.6428590033, 0.5799986113, 0.4036941035, 0.3319483952,
+    0.2396425252, 0.3478245642 (the seed paper's Table 1 gives 0.33194 and 0.34782 for walls 4 and 6).
+
+    MPECLib's data error: ``fr_genct.gms`` gives the full blocks of the bottom course (its element type ``one``)
+    two wrong moment arms, ``elct('one','f3','e1','t') = lx/2`` (the shear on the left face; ``-lx/2`` as for every
+    other full block) and ``elct('one','f3','e4','n') = lx/2`` (the normal force on the top-right half; ``lx/4``).
+    The GAMS model is then not the equilibrium of any wall: it changes wall 3's associative multiplier from
+    0.4036941 to 0.3738285 (the other walls' stay).  The geometry here is the walls' own, so it has the
+    correct arms.
     """
-    lb, hb, nb, nc = 0.40, 0.175, 5, 6
-    total = nb * lb
+    number = _count("wall", wall)
+    if number not in FERRIS_TINLOI_WALLS:
+        raise OptionError(f"wall: must be one of {', '.join(map(str, FERRIS_TINLOI_WALLS))}; got {wall!r}")
+    lb, hb = 0.40, 0.175
+    size = {"h": lb / 2, "f": lb, "_": lb}
+    courses = FERRIS_TINLOI_WALLS[number]
+    total = sum(size[c] for c in courses[0])
     blocks = [_rect(-lb, -hb, total + lb, 0.0)]
-    for r in range(nc):
-        y0, y1 = r * hb, (r + 1) * hb
-        if r % 2 == 0:  # half blocks at both ends of the bottom course and every second one above it
-            xs = np.concatenate([[0.0], lb / 2 + lb * np.arange(nb), [total]])
-        else:
-            xs = lb * np.arange(nb + 1)
-        blocks += [_rect(x0, y0, x1, y1) for x0, x1 in zip(xs[:-1], xs[1:])]
+    for r, course in enumerate(courses):
+        x = 0.0
+        for c in course:
+            if c != "_":
+                blocks.append(_rect(x, r * hb, x + size[c], (r + 1) * hb))
+            x += size[c]
     fixed = [True] + [False] * (len(blocks) - 1)
     return make_structure(
         blocks, fixed, friction=mu, dilatancy=dilatancy, name="ferris-tinloi",
-        metadata={"case": "ferris-tinloi", "courses": nc, "blocks_per_course": nb, "block_length": lb,
-                  "block_height": hb},
+        metadata={"case": "ferris-tinloi", "wall": number, "courses": len(courses),
+                  "blocks_per_course": round(total / lb), "block_length": lb, "block_height": hb},
     )
 
 
@@ -530,8 +570,8 @@ CASES: dict[str, CaseSpec] = {
         CaseSpec("round-arch", round_arch, "semicircular arch on two fixed springings (paper Fig. 7)"),
         CaseSpec("arch-on-buttresses", arch_on_buttresses, "round arch on two block buttresses (paper Fig. 8)"),
         CaseSpec("wall", wall, "running- or stack-bond wall on a fixed base (paper Figs 9-10)"),
-        CaseSpec("ferris-tinloi", ferris_tinloi, "Ferris & Tin-Loi's wall 1: 6 courses of 0.40 x 0.175 blocks, running "
-                 "bond, 33 free blocks"),
+        CaseSpec("ferris-tinloi", ferris_tinloi, "Ferris & Tin-Loi's walls 1-6 as in MPECLib (wall=1..6): 33 to 146 "
+                 "free blocks of 0.40 x 0.175 in running bond, walls 3-6 with openings"),
         CaseSpec("stone-wall", stone_wall, "irregular stone wall on a fixed base: seeded Voronoi stones, "
                  "irregularity 0 (courses) ... 1 (rubble)"),
     )

@@ -24,7 +24,7 @@ optimum is a certified bound), ``tau_min > 0`` a restriction (every point solves
 
 Complementarity
 ---------------
-``complementarity="bigm"``: one binary ``y_i`` per pair, ::
+One binary ``y_i`` per pair, ::
 
     s_i <= M_i (1 - y_i),     z_i <= zmax_i y_i.
 
@@ -33,10 +33,6 @@ Complementarity
 force part of every solution of (3)).  ``zmax_i = max z_i`` over the kinematic
 set ``K = {compatibility, 1^T z = 1, z >= 0}`` (``<= 1``).  A slack at its ``M_i``
 in the answer means the bound was not proven (the solver then voids the certificate).
-
-``complementarity="sos1"``: explicit slacks ``s = -G w`` with ``0 <= s_i <= M_i``
-and one SOS1 set ``{s_i, z_i}`` per pair (no binaries; ``M_i`` only bounds a
-variable, so a wrong one cuts points off but is detected the same way).
 
 Valid cuts
 ----------
@@ -75,7 +71,7 @@ compiled matrices, not from a formula, so cohesion-free variants stay exact.
   and the linear row ``q = -f_d^T u + sum_e B_e p_e``.  Every point of (3) in
   normalisation (N) satisfies all of them with ``p_e = x_r z_i`` and ``q = lam tau``.
 * ``sliding_direction``: at most one sliding pair per interface
-  (``y_+ + y_- <= 1``; SOS1 ``{z_+, z_-}``).  Both friction rows active means
+  (``y_+ + y_- <= 1``).  Both friction rows active means
   ``t = n = 0``, hence ``m = 0`` and both rocking rows active; the common part
   ``min(z_+, z_-)`` of the two sliding multipliers is a pure opening that the
   rocking pair reproduces, so every solution of (3) has a representative with one
@@ -89,7 +85,7 @@ Column bounds ``lam_lower <= lam <= lam_upper`` hold at every solution of (3)
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 import scipy.sparse as sp
@@ -133,6 +129,9 @@ class MPECBounds:
         (conditional OBBT; a sliding joint that must carry load gets ``hi < 0``: dissipation ``> 0``).
     verified : bool
         Every LP behind the record reported optimal (False: the record must not certify).
+    models_complete : bool
+        Every ``slack_max`` and ``z_max`` was proven by its LP (False: some are the trivial ``inf`` or 1, left when
+        their LPs ran out of time or failed; the big-M model needs every ``slack_max`` finite).
     n_lps : int
     time_s : float
     """
@@ -152,23 +151,22 @@ class MPECBounds:
     product_lower: np.ndarray | None = None
     product_upper: np.ndarray | None = None
     verified: bool = True
+    models_complete: bool = True
     n_lps: int = 0
     time_s: float = 0.0
 
 
 @dataclass(kw_only=True)
 class MixedIntegerMPEC(LinearProgram):
-    r"""A :class:`~blockmpec.formulations.pyomo_compile.LinearProgram` with ``v[integer] in Z`` and, for
-    ``complementarity="sos1"``, one SOS1 set per row of ``sos1``.
+    r"""A :class:`~blockmpec.formulations.pyomo_compile.LinearProgram` with ``v[integer] in Z``.
 
     ``v = (w, extra columns)`` where ``w`` is the compiled MCP's vector (so ``v[form.lam]``
-    is ``lam``); ``columns`` names the extra ones (``y``, ``s``, ``tau``, ``p``, ``q``),
+    is ``lam``); ``columns`` names the extra ones (``y``, ``tau``, ``p``, ``q``),
     ``rows`` the row groups.  ``objective_sign`` is -1 for ``sense="max"`` (``c = -e_lam``).
     """
 
     integer: np.ndarray
     bigm: np.ndarray
-    sos1: list[tuple[int, int]] = field(default_factory=list)
     work_products: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
 
     @property
@@ -228,8 +226,8 @@ def _entries(n_rows: int, n_cols: int, rows, cols, vals) -> sp.csr_array:
     return sp.csr_array((vals, (rows, cols)), shape=(n_rows, n_cols))
 
 
-def mpec_milp(form: CompiledMCP, bounds: MPECBounds, sense: str = "min", complementarity: str = "bigm",
-              bigm: np.ndarray | None = None, envelope: bool = True, tau_min: float = 0.0) -> MixedIntegerMPEC:
+def mpec_milp(form: CompiledMCP, bounds: MPECBounds, sense: str = "min", bigm: np.ndarray | None = None,
+              envelope: bool = True, tau_min: float = 0.0) -> MixedIntegerMPEC:
     """Build the mixed-integer form of (4) described in the module docstring.
 
     Parameters
@@ -237,7 +235,6 @@ def mpec_milp(form: CompiledMCP, bounds: MPECBounds, sense: str = "min", complem
     form : CompiledMCP
     bounds : MPECBounds
     sense : {"min", "max"}
-    complementarity : {"bigm", "sos1"}
     bigm : ndarray, shape (4c,), optional
         ``M_i`` (default ``bounds.slack_max``; the solver passes a scaled copy only to test detection).
     envelope : bool
@@ -247,128 +244,114 @@ def mpec_milp(form: CompiledMCP, bounds: MPECBounds, sense: str = "min", complem
     """
     if sense not in ("min", "max"):
         raise ValueError(f"sense must be 'min' or 'max'; got {sense!r}")
-    if complementarity not in ("bigm", "sos1"):
-        raise ValueError(f"complementarity must be 'bigm' or 'sos1'; got {complementarity!r}")
     nw, npair = form.n_columns, form.n_pairs
     M = np.asarray(bounds.slack_max if bigm is None else bigm, float)
-    zcols = form.pair_column
-    col = nw
-    columns: dict[str, np.ndarray] = {}
-    if complementarity == "bigm":
-        columns["y"] = np.arange(col, col + npair)
-        col += npair
-    else:
-        columns["s"] = np.arange(col, col + npair)
-        col += npair
-    columns["tau"] = np.array([col])
-    col += 1
     Bw = work_matrix(form) if envelope else None
+    columns = {"y": np.arange(nw, nw + npair), "tau": np.array([nw + npair])}
     if envelope:
-        columns["p"] = np.arange(col, col + Bw.nnz)
-        col += Bw.nnz
-        columns["q"] = np.array([col])
-        col += 1
-    n = col
+        columns["p"] = np.arange(nw + npair + 1, nw + npair + 1 + Bw.nnz)
+        columns["q"] = np.array([nw + npair + 1 + Bw.nnz])
+    n = nw + npair + 1 + (Bw.nnz + 1 if envelope else 0)
     tau = int(columns["tau"][0])
-
-    lo = np.full(n, -np.inf)
-    hi = np.full(n, np.inf)
+    lo, hi = np.full(n, -np.inf), np.full(n, np.inf)
     lo[form.lam], hi[form.lam] = bounds.lam_lower, bounds.lam_upper
-    lo[zcols], hi[zcols] = 0.0, bounds.z_max
+    lo[form.pair_column], hi[form.pair_column] = 0.0, bounds.z_max
     lo[tau] = tau_min
     if np.isfinite(bounds.tau_max):
         hi[tau] = bounds.tau_max
+    lo[columns["y"]], hi[columns["y"]] = 0.0, 1.0
     integer = np.zeros(n, dtype=bool)
-
+    integer[columns["y"]] = True
     R = _Rows(n)
-    eq, cp, nm = form.equilibrium, form.compatibility, form.normalisation
-    R.add("equilibrium", _embed(form.A[eq], n), form.rhs[eq], form.rhs[eq])
-    R.add("compatibility", _embed(form.A[cp], n), 0.0, 0.0)
-    R.add("normalisation", _entries(1, n, np.zeros(npair), zcols, 1.0), 1.0, 1.0)
-    # live work: f_l^T u - tau = 0 (the compiled normalisation row is f_l^T u)
-    R.add("live_work", _embed(form.A[nm], n) - _entries(1, n, [0], [tau], 1.0), 0.0, 0.0)
-    G = _embed(form.G, n)
-    R.add("pairs", G, -np.inf, 0.0)
-    sos1: list[tuple[int, int]] = []
-    friction = np.flatnonzero(form.pair_kind == FRICTION)
-    by_interface: dict[int, list[int]] = {}
-    for i in friction:
-        by_interface.setdefault(int(form.pair_interface[i]), []).append(int(i))
-    two = [v for v in by_interface.values() if len(v) == 2]
-    if complementarity == "bigm":
-        y = columns["y"]
-        lo[y], hi[y] = 0.0, 1.0
-        integer[y] = True
-        # s_i <= M_i (1 - y_i):  -G_i w + M_i y_i <= M_i
-        R.add("bigm", -G + _entries(npair, n, np.arange(npair), y, M), -np.inf, M)
-        # z_i <= zmax_i y_i
-        R.add("switch", _entries(npair, n, np.arange(npair), zcols, 1.0)
-              - _entries(npair, n, np.arange(npair), y, bounds.z_max), -np.inf, 0.0)
-        if two:
-            a = np.array(two)
-            R.add("sliding_direction", _entries(len(two), n, np.repeat(np.arange(len(two)), 2),
-                                                y[a.ravel()], 1.0), -np.inf, 1.0)
-    else:
-        s = columns["s"]
-        lo[s], hi[s] = 0.0, M
-        # s + G w = 0
-        R.add("slack", G + _entries(npair, n, np.arange(npair), s, 1.0), 0.0, 0.0)
-        sos1 = [(int(s[i]), int(zcols[i])) for i in range(npair)]
-        sos1 += [(int(zcols[a]), int(zcols[b])) for a, b in two]
-
-    u_cols = np.arange(form.u.start, form.u.stop)
-    dead = -form.f_d  # -f_d^T u is the dead-load work
-    R.add("dead_work_cut", _entries(1, n, np.zeros(u_cols.size + 1),
-                                    np.append(u_cols, tau), np.append(dead, -bounds.lam_upper)), -np.inf, 0.0)
-    if bounds.lam_kinematic is not None:
-        R.add("dead_work_lower", _entries(1, n, np.zeros(u_cols.size + 1), np.append(u_cols, tau),
-                                          np.append(dead, -bounds.lam_kinematic)), 0.0, np.inf)
-    products = None
-    if envelope:
-        p, q = columns["p"], int(columns["q"][0])
-        xr = form.x.start + Bw.row  # column of x_r in w
-        zi = form.z.start + Bw.col  # column of z_i in w
-        L, U = bounds.x_lower[Bw.row], bounds.x_upper[Bw.row]
-        # the rows p >= L z and p <= U z may use the pair-active bounds (see MPECBounds)
-        Lz = L if bounds.product_lower is None else np.maximum(L, bounds.product_lower)
-        Uz = U if bounds.product_upper is None else np.minimum(U, bounds.product_upper)
-        Z = bounds.z_max[Bw.col]
-        ne = Bw.nnz
-        r = np.arange(ne)
-        products = (xr, zi, Bw.data.copy())
-        # q - (-f_d^T u) - sum_e B_e p_e = 0
-        R.add("work_identity", _entries(1, n, np.zeros(u_cols.size + ne + 1), np.concatenate([u_cols, p, [q]]),
-                                        np.concatenate([-dead, -Bw.data, [1.0]])), 0.0, 0.0)
-        fin_L, fin_U = np.isfinite(L), np.isfinite(U)
-        # p - L z >= 0 ; p - U z <= 0
-        k = np.flatnonzero(np.isfinite(Lz))
-        R.add("envelope_lz", _entries(k.size, n, np.r_[np.arange(k.size), np.arange(k.size)],
-                                      np.r_[p[k], zi[k]], np.r_[np.ones(k.size), -Lz[k]]), 0.0, np.inf)
-        k = np.flatnonzero(np.isfinite(Uz))
-        R.add("envelope_uz", _entries(k.size, n, np.r_[np.arange(k.size), np.arange(k.size)],
-                                      np.r_[p[k], zi[k]], np.r_[np.ones(k.size), -Uz[k]]), -np.inf, 0.0)
-        # p - U z - Z x >= -U Z ; p - L z - Z x <= -L Z
-        k = np.flatnonzero(fin_U)
-        rr = np.tile(np.arange(k.size), 3)
-        R.add("envelope_uzx", _entries(k.size, n, rr, np.r_[p[k], zi[k], xr[k]],
-                                       np.r_[np.ones(k.size), -U[k], -Z[k]]), -U[k] * Z[k], np.inf)
-        k = np.flatnonzero(fin_L)
-        rr = np.tile(np.arange(k.size), 3)
-        R.add("envelope_lzx", _entries(k.size, n, rr, np.r_[p[k], zi[k], xr[k]],
-                                       np.r_[np.ones(k.size), -L[k], -Z[k]]), -np.inf, -L[k] * Z[k])
-        del r
-        # q = lam tau: McCormick with lam in [ll, lu], tau in [0, T]
-        ll, lu, T = bounds.lam_lower, bounds.lam_upper, bounds.tau_max
-        lam = form.lam
-        R.add("lam_tau_lower", _entries(1, n, [0, 0], [q, tau], [1.0, -ll]), 0.0, np.inf)
-        R.add("lam_tau_upper", _entries(1, n, [0, 0], [q, tau], [1.0, -lu]), -np.inf, 0.0)
-        if np.isfinite(T):
-            R.add("lam_tau_lower_t", _entries(1, n, [0, 0, 0], [q, tau, lam], [1.0, -lu, -T]), -lu * T, np.inf)
-            R.add("lam_tau_upper_t", _entries(1, n, [0, 0, 0], [q, tau, lam], [1.0, -ll, -T]), -np.inf, -ll * T)
+    _mcp_rows(R, form, n, tau)
+    _bigm_rows(R, form, n, columns["y"], M, bounds.z_max)
+    _dead_work_rows(R, form, n, tau, bounds)
+    products = _envelope_rows(R, form, n, columns, Bw, bounds) if envelope else None
     A, rl, ru = R.matrix()
     c = np.zeros(n)
     sign = 1.0 if sense == "min" else -1.0
     c[form.lam] = sign
     return MixedIntegerMPEC(c=c, A=A, row_lower=rl, row_upper=ru, col_lower=lo, col_upper=hi, integer=integer,
-                            columns=columns, rows=R.groups, objective_sign=sign, bigm=M, sos1=sos1,
-                            work_products=products)
+                            columns=columns, rows=R.groups, objective_sign=sign, bigm=M, work_products=products)
+
+
+def _mcp_rows(R: _Rows, form: CompiledMCP, n: int, tau: int) -> None:
+    """The rows of (3) in normalisation (N): equilibrium, compatibility, ``1^T z = 1``, ``f_l^T u = tau`` and the
+    pair rows ``G w <= 0``."""
+    eq, cp, nm = form.equilibrium, form.compatibility, form.normalisation
+    R.add("equilibrium", _embed(form.A[eq], n), form.rhs[eq], form.rhs[eq])
+    R.add("compatibility", _embed(form.A[cp], n), 0.0, 0.0)
+    R.add("normalisation", _entries(1, n, np.zeros(form.n_pairs), form.pair_column, 1.0), 1.0, 1.0)
+    # live work: f_l^T u - tau = 0 (the compiled normalisation row is f_l^T u)
+    R.add("live_work", _embed(form.A[nm], n) - _entries(1, n, [0], [tau], 1.0), 0.0, 0.0)
+    R.add("pairs", _embed(form.G, n), -np.inf, 0.0)
+
+
+def _bigm_rows(R: _Rows, form: CompiledMCP, n: int, y: np.ndarray, M: np.ndarray, z_max: np.ndarray) -> None:
+    """Complementarity by big-M: ``s_i <= M_i (1 - y_i)``, ``z_i <= zmax_i y_i``, and one sliding direction per
+    interface (``y_+ + y_- <= 1``)."""
+    npair = form.n_pairs
+    G = _embed(form.G, n)
+    # s_i <= M_i (1 - y_i):  -G_i w + M_i y_i <= M_i
+    R.add("bigm", -G + _entries(npair, n, np.arange(npair), y, M), -np.inf, M)
+    R.add("switch", _entries(npair, n, np.arange(npair), form.pair_column, 1.0)
+          - _entries(npair, n, np.arange(npair), y, z_max), -np.inf, 0.0)
+    by_interface: dict[int, list[int]] = {}
+    for i in np.flatnonzero(form.pair_kind == FRICTION):
+        by_interface.setdefault(int(form.pair_interface[i]), []).append(int(i))
+    two = np.array([v for v in by_interface.values() if len(v) == 2])
+    if two.size:
+        R.add("sliding_direction", _entries(len(two), n, np.repeat(np.arange(len(two)), 2), y[two.ravel()], 1.0),
+              -np.inf, 1.0)
+
+
+def _dead_work_rows(R: _Rows, form: CompiledMCP, n: int, tau: int, bounds: MPECBounds) -> None:
+    """``-f_d^T u <= lam_upper tau`` and, when bounded, ``-f_d^T u >= lam_kinematic tau``."""
+    u_cols = np.arange(form.u.start, form.u.stop)
+    dead = -form.f_d  # -f_d^T u is the dead-load work
+    R.add("dead_work_cut", _entries(1, n, np.zeros(u_cols.size + 1), np.append(u_cols, tau),
+                                    np.append(dead, -bounds.lam_upper)), -np.inf, 0.0)
+    if bounds.lam_kinematic is not None:
+        R.add("dead_work_lower", _entries(1, n, np.zeros(u_cols.size + 1), np.append(u_cols, tau),
+                                          np.append(dead, -bounds.lam_kinematic)), 0.0, np.inf)
+
+
+def _envelope_rows(R: _Rows, form: CompiledMCP, n: int, columns: dict, Bw, bounds: MPECBounds) -> tuple:
+    """The work identity ``q = -f_d^T u + sum_e B_e p_e`` with McCormick envelopes of ``p_e = x_r z_i`` and
+    ``q = lam tau``; returns ``(x_r columns, z_i columns, B_e)`` of the products."""
+    p, q, tau = columns["p"], int(columns["q"][0]), int(columns["tau"][0])
+    u_cols = np.arange(form.u.start, form.u.stop)
+    xr, zi = form.x.start + Bw.row, form.z.start + Bw.col  # columns of x_r and z_i in w
+    L, U = bounds.x_lower[Bw.row], bounds.x_upper[Bw.row]
+    # the rows p >= L z and p <= U z may use the pair-active bounds (see MPECBounds)
+    Lz = L if bounds.product_lower is None else np.maximum(L, bounds.product_lower)
+    Uz = U if bounds.product_upper is None else np.minimum(U, bounds.product_upper)
+    Z = bounds.z_max[Bw.col]
+    ne = Bw.nnz
+    R.add("work_identity", _entries(1, n, np.zeros(u_cols.size + ne + 1), np.concatenate([u_cols, p, [q]]),
+                                    np.concatenate([form.f_d, -Bw.data, [1.0]])), 0.0, 0.0)
+
+    def two(name, k, coef, lower, upper):  # rows p_k + coef z_k in [lower, upper]
+        R.add(name, _entries(k.size, n, np.r_[np.arange(k.size), np.arange(k.size)], np.r_[p[k], zi[k]],
+                             np.r_[np.ones(k.size), coef]), lower, upper)
+
+    def three(name, k, cz, cx, lower, upper):  # rows p_k + cz z_k + cx x_k in [lower, upper]
+        R.add(name, _entries(k.size, n, np.tile(np.arange(k.size), 3), np.r_[p[k], zi[k], xr[k]],
+                             np.r_[np.ones(k.size), cz, cx]), lower, upper)
+
+    k = np.flatnonzero(np.isfinite(Lz))
+    two("envelope_lz", k, -Lz[k], 0.0, np.inf)  # p - L z >= 0
+    k = np.flatnonzero(np.isfinite(Uz))
+    two("envelope_uz", k, -Uz[k], -np.inf, 0.0)  # p - U z <= 0
+    k = np.flatnonzero(np.isfinite(U))
+    three("envelope_uzx", k, -U[k], -Z[k], -U[k] * Z[k], np.inf)  # p - U z - Z x >= -U Z
+    k = np.flatnonzero(np.isfinite(L))
+    three("envelope_lzx", k, -L[k], -Z[k], -np.inf, -L[k] * Z[k])  # p - L z - Z x <= -L Z
+    # q = lam tau: McCormick with lam in [ll, lu], tau in [0, T]
+    ll, lu, T, lam = bounds.lam_lower, bounds.lam_upper, bounds.tau_max, form.lam
+    R.add("lam_tau_lower", _entries(1, n, [0, 0], [q, tau], [1.0, -ll]), 0.0, np.inf)
+    R.add("lam_tau_upper", _entries(1, n, [0, 0], [q, tau], [1.0, -lu]), -np.inf, 0.0)
+    if np.isfinite(T):
+        R.add("lam_tau_lower_t", _entries(1, n, [0, 0, 0], [q, tau, lam], [1.0, -lu, -T]), -lu * T, np.inf)
+        R.add("lam_tau_upper_t", _entries(1, n, [0, 0, 0], [q, tau, lam], [1.0, -ll, -T]), -np.inf, -ll * T)
+    return xr, zi, Bw.data.copy()

@@ -43,7 +43,9 @@ in this run).  The NLP finds a *local* minimum of (4).
 
 Finishing.  With the setting ``polish`` a few semismooth Newton steps on (3) make the last stage's products
 ``z_i s_i`` exact zeros (kept only if Newton converged and ``lam`` moved by at most ``1e-6 max(1, |lam|)``).  With
-the setting ``piece_lp`` (and always on the ``pieces`` route) the point goes to
+the stages' point is then finished on its pattern (:func:`~blockmpec.solvers.engines.exact_point.exact_solution`:
+the piece LPs with every pair's zero side fixed as the point has it), so the reported ``lam`` is that of an exact
+solution of (3).  With the setting ``piece_lp`` (and always on the ``pieces`` route) the point goes to
 :func:`~blockmpec.solvers.engines.piece_lp.piece_descent`: with every pair's zero side fixed, (4) is an LP whose
 minimiser solves (3) exactly; its static half's duals certify a local minimum of (4) (checked, not assumed).  After
 the stages its point is kept only when certified and its ``lam`` is not higher.
@@ -56,7 +58,8 @@ gives the measurements).  The run's stages are its :func:`~blockmpec.solvers.pla
 Status: ``LOCALLY_OPTIMAL`` when Ipopt solved every stage (or the piece LPs certified their point), ``ACCEPTABLE``
 when some stage ended at Ipopt's "solved to acceptable level", otherwise the stage's failure
 (``ITERATION_LIMIT``, ``TIME_LIMIT``, ``NUMERICAL`` or ``ERROR``) with the last iterate; on the ``pieces`` route,
-the piece LPs' limit or ``NUMERICAL`` with their best point.  Ipopt's "Infeasible_Problem_Detected" is local, so it
+the piece LPs' limit, or ``CONVERGED`` with their best point when its certificate fails (an exact solution of (3),
+not proven a local minimum).  Ipopt's "Infeasible_Problem_Detected" is local, so it
 maps to ``NUMERICAL``; only an infeasible associative start LP gives ``INFEASIBLE``.
 """
 
@@ -476,6 +479,7 @@ class RelaxedNLP(SolverBase):
         import cyipopt
 
         from blockmpec import facts
+        from blockmpec.solvers.engines.exact_point import exact_solution
         from blockmpec.solvers.engines.stopping import StoppingCriterion
 
         opt, st = self.options, self.settings
@@ -516,6 +520,10 @@ class RelaxedNLP(SolverBase):
                 solution, note = self._polish(solution, stop)
                 message += f"; {note}"
                 extra["polish"] = note
+            # the lam of an exact solution of (3): the point finished on its pattern's piece LPs
+            self.plan.start("exact")
+            solution, note = exact_solution(self.form, self.scaling, solution, stop.deadline)
+            message += f"; {note}"
         if "pieces" in self.plan and (not self.use_ipopt or final in (Status.LOCALLY_OPTIMAL, Status.ACCEPTABLE)):
             self.plan.start("pieces")
             solution, final, note = self._piece_finish(solution, final, stop, extra)
@@ -665,9 +673,10 @@ class RelaxedNLP(SolverBase):
         # (two blocks: z_f+- = 7519), which without_free_sliding removes
         new = without_free_sliding(self.form, self.form.unpack(out.w))
         new.x[self.form.shear_of(self.form.friction == 0)] = 0.0  # tan(phi_k) = 0 forces t_k = 0 (exact zero)
-        # not certified: a limit, or an LP failure on a later piece (never a statement that (3) is infeasible)
+        # not certified: a limit, or a piece whose duals do not certify a local minimum; its point is an exact
+        # solution of (3) all the same (CONVERGED: a solution of the MCP, no claim of minimality)
         status = (Status.LOCALLY_OPTIMAL if out.certified else
-                  out.status if out.status in (Status.TIME_LIMIT, Status.ITERATION_LIMIT) else Status.NUMERICAL)
+                  out.status if out.status in (Status.TIME_LIMIT, Status.ITERATION_LIMIT) else Status.CONVERGED)
         return new, status, out.message
 
     def _polish(self, solution: Solution, stop) -> tuple[Solution, str]:

@@ -104,7 +104,7 @@ FIXED_POINT_ENGINES = ("auto", "simplex", "interior")
 #: nlp routes
 NLP_ROUTES = ("auto", "ipopt", "pieces")
 #: milp engines
-MILP_ENGINES = ("auto", "highs", "scip", "bnb")
+MILP_ENGINES = ("auto", "highs", "bnb")
 
 
 def lp_algorithm(algorithm: str, n_rows: int, load_spread: float = 1.0, need_basis: bool = False,
@@ -284,14 +284,15 @@ def slp_plan(alpha: float, schedule: str) -> Plan:
 def nlp_plan(route: str, start: str, complementarity: str, stages: int, polish: bool, piece_lps: str | None,
              n_pairs: int) -> Plan:
     """``nlp``: on the ``"pieces"`` route the fixed point's solution of (3) then the piece LPs; on the ``"ipopt"``
-    route the start, ``stages`` Ipopt stages, the Newton polish (``polish``) and the piece LPs (``piece_lps`` not
-    None), the last two when the stages succeed."""
+    route the start, ``stages`` Ipopt stages, the Newton polish (``polish``), the exact point on the stages' pattern
+    and the piece LPs (``piece_lps`` not None), the last three when the stages succeed."""
     pieces = f"piece LPs ({piece_lps}, static halves: {piece_lp_static_engine(n_pairs)})"
     if route == "pieces":
         return Plan(Stage("start", "start: fixed-point"), Stage("pieces", pieces))
     plan = [Stage("start", f"start: {start}"), Stage("ipopt", f"Ipopt: {stages} {complementarity} stages")]
     if polish:
         plan.append(Stage("polish", "polish: semismooth Newton on (3)", "if the stages succeed"))
+    plan.append(Stage("exact", "exact point: piece LPs on the point's pattern", "if the stages succeed"))
     if piece_lps is not None:
         plan.append(Stage("pieces", pieces, "if the stages succeed"))
     return Plan(*plan)
@@ -324,12 +325,12 @@ def mcp_newton_plan(start: str, fallback: bool) -> Plan:
 
 
 def milp_plan(engine: str, incumbent: bool) -> Plan:
-    """``milp``: the LP bounds, an incumbent from the heuristics (``incumbent``), the engine (:func:`milp_engine`;
-    not when the incumbent meets the LP bound) and, for a MILP engine, the polish of its pattern by piece LPs (the
-    branch and bound polishes its leaves itself)."""
-    stages = [Stage("bounds", "LP bounds")]
-    if incumbent:
-        stages.append(Stage("incumbent", "incumbent: the heuristics' points, polished by piece LPs"))
+    """``milp``: incumbents from the associative pattern and the heuristics (``incumbent``), the LP bounds, the
+    engine (:func:`milp_engine`; not when the incumbent meets the LP bound) and, for a MILP engine, the polish of its
+    pattern by piece LPs (the branch and bound polishes its leaves itself)."""
+    stages = [Stage("incumbent", "incumbent: the associative pattern's and the heuristics' points, finished by piece "
+                    "LPs")] if incumbent else []
+    stages.append(Stage("bounds", "LP bounds"))
     if engine == "bnb":
         stages.append(Stage("engine", "engine: branch and bound over the pairs (leaves polished by piece LPs)",
                             "unless the incumbent meets the LP bound"))

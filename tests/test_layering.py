@@ -342,11 +342,7 @@ def test_tests_and_studies_call_no_private_name(folder):
 
 # ------------------------------------------------------------------ one owner of HiGHS
 #: modules still holding raw HiGHS calls, each with its reason; the test fails once one no longer needs its entry
-HIGHS_NOT_YET_MOVED = {
-    "solvers/engines/complementarity_bnb.py": "its node LPs and the null-space LP pair are being rewritten by the "
-                                              "certificate's owner; they move onto HighsLP's setters after that lands",
-    "solvers/engines/mip.py": "the SCIP engine's pyscipopt calls (addVar) share a method name with highspy",
-}
+HIGHS_NOT_YET_MOVED: dict[str, str] = {}
 
 
 def test_nothing_outside_the_highs_wrapper_touches_highspy():
@@ -379,7 +375,6 @@ def test_the_highs_checker_finds_every_touch(tmp_path):
 
 # ------------------------------------------------------------------ units of code a reader can hold
 _FIXED_POINT = "the fixed point's engines are being rewritten by their owner: split after that lands"
-_CERTIFICATE = "the certificate's engines are being rewritten by their owner: split after that lands"
 _DRAWINGS = "the drawing readers are being changed by their owner: split after that lands"
 _BENCH = "the comparator is being changed by its owner (plug-ins): split after that lands"
 
@@ -396,18 +391,11 @@ LONG_FUNCTIONS = {
     "solvers/engines/lp_sequence.py:run_sequence": _FIXED_POINT,
     "solvers/engines/newton_system.py:semismooth_newton": _FIXED_POINT,
     "solvers/engines/interior_fixed_point.py:run_interior": _FIXED_POINT,
-    "solvers/engines/complementarity_bnb.py:solve": _CERTIFICATE,
-    "solvers/engines/complementarity_bnb.py:lifted_lp": _CERTIFICATE,
-    "solvers/milp.py:_run_scaled": _CERTIFICATE,
-    "formulations/mpec_milp.py:mpec_milp": _CERTIFICATE,
     "blockmpec/drawings/image.py:read_image": _DRAWINGS,
     "blockmpec/bench/compare.py:_run": _BENCH,
 }
 #: classes longer than code_counts.CLASS_LINES lines, each with its reason
-LONG_CLASSES = {
-    "solvers/milp.py:MILPSolver": _CERTIFICATE,
-    "solvers/engines/complementarity_bnb.py:ComplementarityBnB": _CERTIFICATE,
-}
+LONG_CLASSES: dict[str, str] = {}
 
 
 def test_no_library_function_or_class_is_longer_than_a_reader_can_hold():
@@ -428,11 +416,7 @@ _CERTIFICATE_STUDY = "a certificate study being reworked (or pruned) by the cert
 #: studies that still reach past the documented engine API, each with its reason; the test fails once one no
 #: longer needs its entry
 STUDIES_NOT_YET_MOVED = {
-    "studies/lab/certificate_study.py": _CERTIFICATE_STUDY,
     "studies/lab/certificate_vs_textbook.py": _CERTIFICATE_STUDY,
-    "studies/lab/plain_bigm.py": _CERTIFICATE_STUDY,
-    "studies/lab/root_lp_engines.py": _CERTIFICATE_STUDY,
-    "studies/lab/root_rows.py": _CERTIFICATE_STUDY,
     "studies/lab/fixed_point_irregular.py": _FIXED_POINT_STUDY,
 }
 

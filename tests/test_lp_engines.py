@@ -126,13 +126,15 @@ def test_lp_sequence_time_limit_counts_from_the_instance_clock():
     """HiGHS compares time_limit with an instance's cumulative run time: a remaining budget must be
     added to it, or later warm solves of the sequence stop at once."""
     from blockmpec.formulations import step_lps
-    from blockmpec.solvers.engines.highs import set_deadline
+    from blockmpec.solvers.engines.highs import highs_model, new_highs, set_deadline
     from blockmpec.solvers.engines.lp_sequence import LPSequence
 
     ops = bm.assemble(bm.cases.wall(10, 20))
     seq = LPSequence(step_lps(ops), LoadUnits.of(ops))
     assert seq.associative().status is bm.Status.OPTIMAL
-    h = seq.assoc_highs.highs
+    h = new_highs()  # an instance that has run once, as the sequence's has
+    h.passModel(highs_model(seq.assoc_highs.lp))
+    h.run()
     assert h.getRunTime() > 0
     assert set_deadline(h, Deadline(10.0))
     assert h.getOptionValue("time_limit")[1] >= h.getRunTime() + 9.0

@@ -5,7 +5,8 @@ the library against them.
   geometry) reproduces the pinned value to 1e-12, and ``static-lp`` and ``kinematic-lp`` reach it to 1e-9.
 * Non-associative references (the ``scip`` lane: ``pytest -m scip``; skipped, saying so, without pyscipopt): SCIP
   with SOS1 pairs reproduces each certified minimum, each quoted solution of (3), and the one proof that (3) has no
-  solution; the slow ones (SCIP over 5 s) also carry ``slow``.  The lane also runs ``milp``'s SCIP engine.
+  solution; the slow ones (SCIP over 5 s) also carry ``slow``.  The lane also checks ``milp``'s
+  certificates (both senses) against SCIP's.
 * The independent statement itself against closed forms, so that it is checked before it checks anything.
 """
 
@@ -96,11 +97,15 @@ def test_scip_meets_the_two_block_closed_forms(eta, mu):
     ("wall-4x2-stack", lambda: bm.cases.wall(4, 2, bond="stack"), STACK_WALL_4X2_MINIMUM, STACK_WALL_4X2_ASSOCIATIVE),
     ("round-arch", bm.cases.round_arch, ROUND_ARCH_ASSOCIATIVE, ROUND_ARCH_ASSOCIATIVE),
 ], ids=lambda v: v if isinstance(v, str) else "")
-def test_milp_on_its_scip_engine_certifies_the_references(name, build, least, largest):
-    """milp's ``engine="scip"`` (SOS1 sets on SCIP), which only this lane runs: the certified least and largest
-    multipliers of (3) (measured: 0 and 1.7e-13 from the references; the largest is the associative one)."""
+def test_milp_certifies_what_scip_certifies(name, build, least, largest):
+    """milp (its default engines) against SCIP's SOS1 model of (4) (tests/independent.py), both senses: the same
+    certified least and largest multipliers of (3), and those of the references (the largest is the associative
+    one)."""
     structure = build()
     for sense, expected in (("min", least), ("max", largest)):
-        res = bm.solve(structure, "milp", engine="scip", sense=sense)
+        res = bm.solve(structure, "milp", sense=sense)
         assert res.status is bm.Status.OPTIMAL and res.success, (sense, res.message)
+        scip = independent.mpec(structure, sense)
+        assert scip.status == "optimal", sense
+        assert res.multiplier == pytest.approx(scip.multiplier, rel=1e-9), sense
         assert res.multiplier == pytest.approx(expected, rel=1e-9), sense

@@ -6,15 +6,15 @@ same bound on fewer rows; a lifting without the products with the mechanism give
 Built here from the library (not from the study), so that the study's own port to the new API is not a condition of
 these checks."""
 
-import numpy as np
 import pytest
 import scipy.sparse as sp
 from milp_runs import milp_solver, solve_milp
 
 import blockmpec as bm
 from blockmpec.deadline import Deadline
-from blockmpec.solvers.engines.complementarity_bnb import INTERIOR_SOLVER, NULL_SPACE_IPM_TOL, dual_bound
-from blockmpec.solvers.engines.highs import highs_lp, new_highs, set_feasibility_tolerances, use_interior_point
+from blockmpec.solvers.engines.bnb_root import NULL_SPACE_IPM_TOL
+from blockmpec.solvers.engines.lifted_lp import dual_bound
+from blockmpec.solvers.engines.node_lp import interior_point
 from helpers import CERTIFIED_TOL, margin
 
 
@@ -42,16 +42,9 @@ def root_lp(lifting: str = "rlt-full", null_space: bool = False):
 def interior_bound(lp, tolerance=None) -> float:
     """The dual bound of IPX's row duals (no crossover) on ``lp``: the bound ``milp`` takes from it."""
     A, c, rl, ru, cl, cu = lp
-    h = new_highs()
-    h.passModel(highs_lp(A, c, rl, ru, cl, cu))
-    use_interior_point(h, crossover=False, solver=INTERIOR_SOLVER)
-    if tolerance is not None:
-        set_feasibility_tolerances(h, tolerance)
-    h.setOptionValue("time_limit", 60.0)
-    h.run()
-    sol = h.getSolution()
-    assert sol.dual_valid
-    return dual_bound(A, c, rl, ru, cl, cu, np.asarray(sol.row_dual, float))
+    point = interior_point(A, c, rl, ru, cl, cu, Deadline(60), tolerance=tolerance)
+    assert point.y is not None
+    return dual_bound(A, c, rl, ru, cl, cu, point.y)
 
 
 def test_ipx_bound_on_the_root_lp_is_the_certified_minimum(minimum):

@@ -67,7 +67,7 @@ def test_a_farkas_certificate_is_checked_not_trusted():
 def test_milp_bound_failures_that_prove_nothing_are_errors():
     """Only the associative LP's failure speaks for (3) (no statically admissible field: infeasible; no collapse:
     unbounded); any other bound LP that fails leaves milp without a bound: error, not unbounded or infeasible."""
-    from blockmpec.solvers.milp import BoundFailure
+    from blockmpec.solvers.engines.mpec_bounds import BoundFailure
 
     assert BoundFailure(Status.INFEASIBLE, "", proof=True).run_status is Status.INFEASIBLE
     assert BoundFailure(Status.UNBOUNDED, "", proof=True).run_status is Status.UNBOUNDED

@@ -149,8 +149,14 @@ def violate_normalisation(cases):
 
 
 def violate_unilateral_admissibility(cases):
-    ops, p = cases("sliding_bridge")  # opposite moments on the two joints: one resultant leaves its joint
-    return ops, changed(p, x=p.x + 0.2 * self_stress(ops, 2)), {"unilateral_admissibility", "local_admissibility"}
+    ops, p = cases("sliding_bridge")  # opposite moments on the two joints: each resultant leaves its joint
+    dx = self_stress(ops, 2)
+    # on every joint the moment change exceeds 1.5 (|m| + |n| L / 2), whatever moments the exact point carries
+    # (the solution of (3) is not unique in them): |m + a dm| >= a |dm| - |m| > |n| L / 2
+    m, n, dm = p.x[2::3], p.x[1::3], dx[2::3]
+    moved = dm != 0
+    a = 1.5 * float(np.max((np.abs(m) + np.abs(n) * ops.length / 2)[moved] / np.abs(dm[moved])))
+    return ops, changed(p, x=p.x + a * dx), {"unilateral_admissibility", "local_admissibility"}
 
 
 def violate_friction_admissibility(cases):

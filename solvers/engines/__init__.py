@@ -25,7 +25,7 @@ every value in the problem's units (the wrapper sends it through the LP's scalin
 
 Algorithms: :data:`~blockmpec.solvers.plan.BASIS_ALGORITHMS` and :data:`~.highs.IPM_WITHOUT_CROSSOVER`.  A MILP
 goes to :func:`~.highs.highs_mip`, a one-off LP to :func:`~.highs.solve_lp`.  No module but :mod:`.highs` calls a
-highspy method, reads ``HighsLP.highs`` or imports a name outside ``highs.__all__``
+highspy method or imports a name outside ``highs.__all__``
 (``tests/test_layering.py``, which lists the modules not yet moved).
 
 One units reduction

@@ -378,12 +378,6 @@ class HighsLP:
         """``C`` of :attr:`scaling`."""
         return self.scaling.column
 
-    @property
-    def highs(self):
-        """The ``highspy.Highs`` object, for the modules not yet moved onto the setters below (they are listed in
-        ``tests/test_layering.py``); nothing else may use it."""
-        return self._highs
-
     # ------------------------------------------------------------------ algorithm and options
     def set_algorithm(self, algorithm: str) -> None:
         """Set HiGHS's solver for the next solve: ``algorithm`` as :func:`~blockmpec.solvers.plan.lp_algorithm`

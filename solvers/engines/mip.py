@@ -1,17 +1,10 @@
-r"""Mixed-integer engines for :class:`~blockmpec.formulations.mpec_milp.MixedIntegerMPEC`: HiGHS and SCIP.
+r"""The mixed-integer engine of :class:`~blockmpec.formulations.mpec_milp.MixedIntegerMPEC` (HiGHS), and the record
+of one engine run that both of ``milp``'s engines return.
 
-Both take the same model and return a :class:`MIPRun` in the model's (minimisation)
-objective ``c^T v``, with a trace of ``(time_s, bound, incumbent, gap)`` over the
-run (bound = the engine's dual bound; ``incumbent`` = its best primal value).
-
-* ``solve_highs``: HiGHS branch and cut on the big-M form (``complementarity="bigm"``);
-  the trace comes from HiGHS's MIP interrupt callback.
-* ``solve_scip``: SCIP on either form; with ``complementarity="sos1"`` SCIP branches
-  on the SOS1 sets ``{s_i, z_i}`` directly (no binaries); the trace comes from an
-  event handler on dual-bound and best-solution events.
-
-Neither engine decides what is certified: the caller compares the polished point
-with the bound (:mod:`blockmpec.solvers.milp`).
+:func:`solve_highs` runs HiGHS's branch and cut on the big-M model and returns a :class:`MIPRun` in the model's
+(minimisation) objective ``c^T v``, with a trace of ``(time_s, bound, incumbent, gap)`` over the run from HiGHS's MIP
+callback (bound = the engine's dual bound; ``incumbent`` = its best primal value).  The engine does not decide what is
+certified: the caller compares the polished point with the bound (:mod:`blockmpec.solvers.engines.milp_search`).
 """
 
 from __future__ import annotations
@@ -82,99 +75,3 @@ def solve_highs(mip, deadline: Deadline = NEVER, *, rel_gap: float, abs_gap: flo
     tracer.record(info.dual_bound, info.primal_bound, force=True)
     return MIPRun(info.status, info.raw_status, info.message, point, info.primal_bound, info.dual_bound, info.nodes,
                   run_s, tracer.records)
-
-
-#: SCIP status -> Status (anything else: ERROR)
-SCIP_STATUS = {
-    "optimal": Status.OPTIMAL,
-    "gaplimit": Status.OPTIMAL,
-    "infeasible": Status.INFEASIBLE,
-    "unbounded": Status.UNBOUNDED,
-    "inforunbd": Status.INFEASIBLE_OR_UNBOUNDED,
-    "timelimit": Status.TIME_LIMIT,
-    "nodelimit": Status.ITERATION_LIMIT,
-    "userinterrupt": Status.ERROR,
-}
-
-
-def solve_scip(mip, deadline: Deadline = NEVER, *, rel_gap: float, abs_gap: float, feasibility_tol: float,
-               threads: int = 1, start: np.ndarray | None = None, t0: float | None = None,
-               bilinear: bool = False) -> MIPRun:
-    """SCIP on the model: binaries as ``B`` variables, each SOS1 set as an SOS1 constraint.
-
-    ``bilinear=True`` adds the work identity (W) itself, ``q = sum`` over the
-    model's ``work_products`` of ``x_r z_i`` as nonlinear constraints ``p_e = x_r z_i``
-    (SCIP relaxes them by its own McCormick/OBBT and branches spatially): exact
-    constraints of every solution of (3), so the result stays a relaxation.
-    """
-    import pyscipopt as scip
-
-    from blockmpec.progress import verbose_enabled
-
-    t0 = time.perf_counter() if t0 is None else t0
-    tracer = _Tracer(mip.objective_sign, t0)
-    m = scip.Model()
-    if not verbose_enabled():
-        m.hideOutput()
-    if deadline.finite:
-        m.setParam("limits/time", float(max(deadline.remaining(), 1e-3)))
-    m.setParam("limits/gap", float(rel_gap))
-    m.setParam("limits/absgap", float(abs_gap))
-    m.setParam("numerics/feastol", float(max(feasibility_tol, 1e-9)))
-    m.setParam("parallel/maxnthreads", int(threads))
-    n = mip.n_columns
-    inf = m.infinity()
-    v = [m.addVar(name=f"v{j}", vtype="B" if mip.integer[j] else "C",
-                  lb=(-inf if not np.isfinite(mip.col_lower[j]) else float(mip.col_lower[j])),
-                  ub=(inf if not np.isfinite(mip.col_upper[j]) else float(mip.col_upper[j])),
-                  obj=float(mip.c[j])) for j in range(n)]
-    A = mip.A.tocsr()
-    for i in range(A.shape[0]):
-        a, b = A.indptr[i], A.indptr[i + 1]
-        expr = scip.quicksum(float(c) * v[j] for j, c in zip(A.indices[a:b], A.data[a:b]))
-        lo, hi = mip.row_lower[i], mip.row_upper[i]
-        if lo == hi:
-            m.addCons(expr == float(lo))
-            continue
-        if np.isfinite(lo):
-            m.addCons(expr >= float(lo))
-        if np.isfinite(hi):
-            m.addCons(expr <= float(hi))
-    for a, b in mip.sos1:
-        m.addConsSOS1([v[a], v[b]], [1.0, 2.0])
-    if bilinear and mip.work_products is not None and "p" in mip.columns:
-        xr, zi, _ = mip.work_products
-        for e, pcol in enumerate(mip.columns["p"]):
-            m.addCons(v[int(pcol)] == v[int(xr[e])] * v[int(zi[e])])
-
-    class _Events(scip.Eventhdlr):
-        def eventinit(self):
-            self.model.catchEvent(scip.SCIP_EVENTTYPE.BESTSOLFOUND, self)
-            self.model.catchEvent(scip.SCIP_EVENTTYPE.NODESOLVED, self)
-
-        def eventexec(self, event):
-            best = event.getType() == scip.SCIP_EVENTTYPE.BESTSOLFOUND
-            tracer.record(self.model.getDualbound(), self.model.getPrimalbound(), force=best)
-
-    m.includeEventhdlr(_Events(), "trace", "records bound and incumbent over time")
-    if start is not None:
-        sol = m.createSol()
-        for j in range(n):
-            m.setSolVal(sol, v[j], float(start[j]))
-        m.addSol(sol, free=True)
-    t1 = time.perf_counter()
-    m.optimize()
-    run_s = time.perf_counter() - t1
-    raw = m.getStatus()
-    status = SCIP_STATUS.get(raw, Status.ERROR)
-    point = None
-    if m.getNSols() > 0:
-        best = m.getBestSol()
-        point = np.array([m.getSolVal(best, x) for x in v])
-    primal = m.getPrimalbound() if point is not None else np.inf
-    dual = m.getDualbound()
-    if raw == "infeasible":
-        dual = np.inf
-    tracer.record(dual, primal, force=True)
-    return MIPRun(status, raw, f"SCIP: {raw}", point, float(primal), float(dual), int(m.getNNodes()), run_s,
-                  tracer.records)

@@ -14,29 +14,19 @@ Three parts, each a table (markdown on stdout, CSV in ``studies/output/certifica
              (``studies/lab/heuristic_suite.py``: walls with openings, arches on buttresses,
              psi > 0, ...): certified or not, time, and whether the certified values agree.
 
-``--before DIR`` adds the method as it was before this work (``git show 9f29e3c``):
-extract it with ``mkdir -p DIR && git archive 9f29e3c solvers/milp.py
-formulations/mpec_bigm.py | tar -x -C DIR`` and it registers as ``milp-before``.
 Usage::
 
-    python studies/lab/certificate_study.py compare --configs highs,scip,before --cases 3x2,6x2s,2x4 --time-limit 60
-    python studies/lab/certificate_study.py targets --configs scip
-    python studies/lab/certificate_study.py largest --configs highs,before --time-limit 60 --families running,stack,arch
-    python studies/lab/certificate_study.py compare --configs bnb-rlt,bnb-rlt-ipm --cases 3x2,2x4,4x2,4x3,5x2
-    python studies/lab/certificate_study.py compare --configs bnb-rlt-ipm,bnb-rlt-ipm-choose \
-        --cases 4x3,2x4,3x2,4x2,5x2 --time-limit 60 --tag ipx
-    python studies/lab/certificate_study.py compare --configs bnb-rlt-ipm,bnb-rltfull-ipm \
-        --cases 5x2,4x3,3x4,2x4,3x2,4x2,2x3 --time-limit 60 --tag rltfull2
+    python studies/lab/certificate_study.py compare --configs highs,bnb-rltfull-ipm --cases 3x2,6x2s,2x4 --time-limit 60
+    python studies/lab/certificate_study.py targets --configs bnb-rltfull-ipm
+    python studies/lab/certificate_study.py largest --configs bnb-rltfull-ipm --time-limit 60 --families running,stack,arch
     python studies/lab/certificate_study.py suite --configs highs,bnb-rltfull-ipm --time-limit 60
 """
 
 from __future__ import annotations
 
 import argparse
-import importlib.util
 import sys
 import time
-import types
 from pathlib import Path
 
 import blockmpec as bm
@@ -52,50 +42,27 @@ CONFIGS = {
     "auto": ("milp", {}),  # the default: engine="auto"
     "highs": ("milp", {"engine": "highs"}),
     "highs+env": ("milp", {"engine": "highs", "envelope": True}),
-    "scip": ("milp", {"engine": "scip"}),
-    "scip+env": ("milp", {"engine": "scip", "envelope": True}),
-    "scip+bilinear": ("milp", {"engine": "scip", "envelope": True, "bilinear": True}),
     # the bnb engine as first measured (its defaults are now lifting="rlt-full", root_lp="ipm": "bnb-rltfull-ipm")
     "bnb": ("milp", {"engine": "bnb", "lifting": "friction", "root_lp": "simplex"}),
+    "bnb-friction-ipm": ("milp", {"engine": "bnb", "lifting": "friction", "root_lp": "ipm"}),
     "bnb+lam": ("milp", {"engine": "bnb", "lifting": "friction", "root_lp": "simplex", "lam_branching": True}),
     "bnb-mechanism": ("milp", {"engine": "bnb", "lifting": "mechanism", "root_lp": "simplex"}),
     "bnb-rlt": ("milp", {"engine": "bnb", "lifting": "rlt", "root_lp": "simplex"}),
     "bnb-rlt+lam": ("milp", {"engine": "bnb", "lifting": "rlt", "root_lp": "simplex", "lam_branching": True}),
     "bnb-rlt-ipm": ("milp", {"engine": "bnb", "lifting": "rlt", "root_lp": "ipm"}),
     "bnb-rltfull-ipm": ("milp", {"engine": "bnb", "lifting": "rlt-full", "root_lp": "ipm"}),
-    # root_lp="ipm" as before issue 12's third round: HiGHS's own "ipm" choice (HiPO first, IPX after it stalls)
-    "bnb-rlt-ipm-choose": ("milp", {"engine": "bnb", "lifting": "rlt", "root_lp": "ipm"}),
     "highs-nodiss": ("milp", {"engine": "highs", "dissipation_bound": False, "heuristic": ""}),
-    "before": ("milp-before", {}),
 }
-
-#: configuration name -> module constants of the bnb engine set for its runs (restored after each)
-ENGINE_CONSTANTS = {"bnb-rlt-ipm-choose": {"INTERIOR_SOLVER": "ipm"}}
 
 COLUMNS = ["case", "blocks", "config", "status", "certified", "multiplier", "root_bound", "bound", "gap_abs", "nodes",
            "crossover_runs", "bound_s", "solve_s", "message"]
 
 
-def load_before(root: str) -> None:
-    """Register the pre-change ``milp`` (extracted under ``root``) as ``milp-before``."""
-    if "milp-before" in bm.list_solvers():
-        return
-    spec = importlib.util.spec_from_file_location("milp_before_formulation", f"{root}/formulations/mpec_bigm.py")
-    fm = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(fm)
-    sys.modules["milp_before_formulation"] = fm
-    src = Path(root, "solvers", "milp.py").read_text()
-    src = src.replace('name = "milp"', 'name = "milp-before"')
-    src = src.replace("from blockmpec.formulations.mpec_bigm import", "from milp_before_formulation import")
-    mod = types.ModuleType("milp_before")
-    mod.__file__ = f"{root}/solvers/milp.py"
-    sys.modules["milp_before"] = mod
-    exec(compile(src, mod.__file__, "exec"), mod.__dict__)
-
-
 def case(spec: str) -> bm.Structure:
     """``CxB`` running-bond wall, ``CxBs`` stack wall, ``arch:N`` round arch of N voussoirs,
-    ``buttress:N:K`` arch on buttresses; mu = 0.65, psi = 0."""
+    ``buttress:N:K`` arch on buttresses, ``ft:N`` MPECLib's Ferris & Tin-Loi wall N; mu = 0.65, psi = 0."""
+    if spec.startswith("ft:"):
+        return bm.cases.build_case("ferris-tinloi", wall=int(spec.split(":")[1]))
     if spec.startswith("arch:"):
         return bm.cases.round_arch(n_voussoirs=int(spec.split(":")[1]))
     if spec.startswith("buttress:"):
@@ -114,18 +81,8 @@ def run(spec: str, config: str, time_limit: float, traces: list | None = None) -
 def run_structure(spec: str, structure: bm.Structure, config: str, time_limit: float,
                   traces: list | None = None) -> dict:
     """One certificate run of ``structure`` (labelled ``spec``) by ``config``."""
-    from blockmpec.solvers.engines import complementarity_bnb
-
     method, options = CONFIGS[config]
-    constants = ENGINE_CONSTANTS.get(config, {})
-    saved = {name: getattr(complementarity_bnb, name) for name in constants}
-    try:
-        for name, value in constants.items():
-            setattr(complementarity_bnb, name, value)
-        res = solve(structure, method, time_limit=time_limit, **options)
-    finally:
-        for name, value in saved.items():
-            setattr(complementarity_bnb, name, value)
+    res = solve(structure, method, time_limit=time_limit, **options)
     ex = res.extra
     bound = ex.get("bound", ex.get("dual_bound"))
     if traces is not None:
@@ -208,18 +165,13 @@ FAMILIES = {
 def main(argv: list[str] | None = None) -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("part", choices=["compare", "targets", "largest", "suite"])
-    ap.add_argument("--configs", default="highs,scip")
+    ap.add_argument("--configs", default="highs,bnb-rltfull-ipm")
     ap.add_argument("--cases", default="3x2,6x2s,2x4,4x3,5x2")
     ap.add_argument("--time-limit", type=float, default=60.0)
     ap.add_argument("--families", default="running,stack,arch")
-    ap.add_argument("--before", default=None, help="directory holding the pre-change milp (see the docstring)")
     ap.add_argument("--tag", default="")
     args = ap.parse_args(argv)
     configs = args.configs.split(",")
-    if "before" in configs:
-        if not args.before:
-            ap.error("config 'before' needs --before DIR")
-        load_before(args.before)
     rows: list[dict] = []
     traces: list[dict] = []
     tag = f"_{args.tag}" if args.tag else ""

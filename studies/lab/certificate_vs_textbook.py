@@ -17,7 +17,7 @@ Configurations (``--configs``):
   valid; it certifies when its optimum's pattern admits a mechanism with ``tau > 0`` and the exact point of that
   pattern meets the bound within 1e-7 (``milp``'s ``CERTIFICATE_TOL``).  Its time includes the bound LPs;
 * ``textbook-guess``: the same in the paper's own normalisation ``f_l^T u = 1`` with one *guessed* ``M`` (``--bigm``,
-  default 100) on slacks and multipliers (the model of ``studies/lab/plain_bigm.py``).  Its ``M`` is not proven, so it
+  default 100) on slacks and multipliers (a model whose big-M is a guess).  Its ``M`` is not proven, so it
   never certifies anything; it is measured only because issue 41 quotes such a model ("certifies both door walls in
   13-161 s"; measured here: neither in 300 s).
 

@@ -7,7 +7,7 @@ status, lam, the dual bound and gap, the node count and lam of the associative
 LP for comparison.  Usage::
 
     python studies/lab/milp_scaling.py [--walls 2,3,2x3,3x2,4,5,6,7,8] [--arches 10:8,20:16,30:35]
-                                   [--time-limit 60] [--options slack_bounds=normal,multiplier_bounds=0] [--tag fast]
+                                   [--time-limit 60] [--options multiplier_bounds=0] [--tag fast]
 
 ``--arches`` takes ``n_voussoirs:buttress_courses`` pairs.  Writes
 ``studies/output/milp/milp_scaling[_TAG].csv`` and prints a table.
@@ -69,7 +69,7 @@ def main(argv: list[str] | None = None) -> list[dict]:
     parser.add_argument("--arches", default="10:8,20:16,30:35",
                         help="n_voussoirs:buttress_courses pairs of arch_on_buttresses")
     parser.add_argument("--time-limit", type=float, default=60.0)
-    parser.add_argument("--options", default="", help="milp options and engine settings, e.g. slack_bounds=normal,multiplier_bounds=0")
+    parser.add_argument("--options", default="", help="milp options and engine settings, e.g. multiplier_bounds=0,envelope=1")
     parser.add_argument("--tag", default="", help="suffix of the CSV file name")
     args = parser.parse_args(argv)
     options = {}
