@@ -13,33 +13,8 @@ the LP's duals ``(u, z_u, z_f)`` satisfy compatibility with ``V_f`` (friction
 ``tan(psi)``), so ``(lam, x, u, z_u, z_f)`` solves (3).  Any solution of (3) has
 ``lam`` at most the associative multiplier, because its ``x`` is feasible for (1).
 
-Start (``start``): ``n*_0`` = normal forces of the associative static LP (1)
-(``"associative"``), ``0`` (``"zero"``), a statically admissible field under the
-dead load alone (``"dead-load"``; the associative start when the structure does
-not stand under its dead load, i.e. ``lam < 0``), or the associative forces scaled per interface
-by seeded uniform factors in [0, 1] (``"random"``, ``seed``).
-
-Tie-break (``tie_break``).  The LP's optimal forces are often not unique (e.g.
-running-bond walls): HiGHS then returns some vertex, ``n`` can keep wandering
-between optimal vertices while ``lam`` has levelled off, and the plain iteration
-(``"none"``) does not meet its test.  A second LP
-(:func:`blockmpec.formulations.tie_break_lp`) keeps ``lam >= lam* - 1e-10 max(1,
-|lam*|)`` and picks one optimal force field:
-
-* ``"closest"``: closest to ``n*`` in the 1-norm.  Once ``n*`` is optimal for its
-  own LP, ``F(n*) = n*`` exactly and the test is met.  With the associative start,
-  whenever the associative forces are optimal for their own LP (5) they are a
-  fixed point and the method stops after one step with the associative multiplier:
-  a genuine solution of (3), but the largest one (the behaviour before the
-  strategy study; ``start="associative", tie_break="closest"``).
-* ``"least-compressed"``: minimises the next step's total cohesion
-  ``-sum_k (tan(phi_k) - tan(psi_k)) n_k`` over the optimal forces (closeness
-  breaks the remaining ties).  Less cohesion can only lower the next ``lam``.
-* ``"min-lambda"``: minimises the first-order estimate of the next step's ``lam``,
-  ``sum_k zeta_k (tan(phi_k) - tan(psi_k)) (-n_k)``, where ``zeta_k`` are this step's
-  friction multipliers (the LP sensitivity ``d lam / d cohesion_k``).
-* ``"on-oscillation"``: the plain step until ``||n - n*||`` stops decreasing, then
-  ``"closest"``.
+The start ``n*_0`` (``start``) and the rule that picks one of a step's optimal force fields (``tie_break``) are
+described with :class:`FixedPointOptions`.
 
 ``u, z_u, z_f`` come from the duals of the step LP; ``x`` from the tie-break LP (any
 optimal primal and dual of one LP are complementary).  The setting ``fold_weight > 0`` folds a
@@ -47,10 +22,8 @@ weighted rule into the step LP's objective (one LP per step) and closes with exa
 ``"closest"`` steps (see :mod:`blockmpec.solvers.engines.lp_sequence`).
 
 Every rule keeps the paper's convergence test on ``n``; which solution of (3) is
-found depends on the start and the rule (the MCP has many).  The plain method's
-answer depends on which optimal vertex HiGHS returns: two blocks (``eta = 3``,
-``mu = 0.65``) with HiGHS's default feasibility tolerance 1e-7 it drifted to 1/3
-(the minimum) in 11 steps, with 1e-9 it stops at 0.41973 after one step.
+found depends on the start and the rule (the MCP has many), and the plain method's on which optimal vertex HiGHS
+returns.
 
 Update: ``relaxation`` ``omega`` as above, or Anderson mixing on ``n*`` (settings
 ``acceleration="anderson"``, depth ``memory``).  ``multistart > 1`` runs the
@@ -58,16 +31,10 @@ configured start and then seeded random starts (seeds ``seed + 1, ...``) and
 returns the converged run with the lowest verified multiplier (residuals of (3)
 at most the run's ``verify_tol``); nothing unverified is preferred over a verified run.
 
-Defaults (``start="dead-load", tie_break="least-compressed", fold_weight=1e-4``), chosen by
-``studies/lab/fixed_point_strategies.py`` (the changelog's strategy table): on the 56
-structures with a certified minimum it is verified on all and within 1 % of the
-minimum on all (28 of 28 where the minimum lies below the associative multiplier,
-against 1 of 28 for the former default ``start="associative", tie_break="closest"``),
-and it converges on the large walls to within 2 % of the best verified value.
-Folding the rule into the step LP gives the same table and was 2.5x faster than
-the separate tie-break LP on the 1,000-block wall (337 s against 854 s, one run).
+Defaults (``start="dead-load", tie_break="least-compressed", fold_weight=1e-4``) are those measured best by
+``studies/lab/fixed_point_strategies.py`` (docs/methods/fixed-point.md and the performance pages give the tables).
 
-Statuses (issue 41): a step LP (5) is the iteration's own problem, not (3), so a step LP that fails (infeasible,
+Statuses: a step LP (5) is the iteration's own problem, not (3), so a step LP that fails (infeasible,
 unbounded, ...) proves nothing of the structure.  The run then tries the other starts (:data:`FALLBACK_STARTS`,
 then one random start) and returns the first that ends without a failed step; failing all, it reports
 ``numerical`` with every start's failure in the message, never ``infeasible``.  Only the associative LP (1) of a
@@ -95,27 +62,10 @@ small structures' answers are those of the simplex engine), the interior one fro
 up, and falls back to the simplex engine in the time left when the interior run does not
 reach a solution of (3) (residuals above the run's ``verify_tol``), below :data:`~blockmpec.solvers.plan.FIXED_POINT_SIMPLEX_FALLBACK_BLOCKS` free
 blocks (above, the simplex engine cannot finish in the default time limit, and the interior run's
-failure is returned at once).  On the 1,010-block wall the interior
-engine costs 1.4x one cold block-IPM LP (CPU) against the simplex engine's 46x, with
-lam 0.44948 against 0.44946 (``studies/lab/fixed_point_ratio.py``); on the heuristic suite it
-is within 2 % of the certified minimum on 54/56 structures against the simplex engine's
-56/56 and takes 7x its median time on these small structures (hence the threshold).
-On 2,400- and 10,000-block walls Mehrotra's iterates leave the strongly curved central path
-of (3) and stall; no closing stage from the stalled point reached a solution of (3)
-(semismooth Newton, exact block-IPM fixed-point steps, restarts, proximal regularisation,
-aimed forces with LP duals), but arclength continuation of the central path from there does
-(setting ``interior_continuation``, on by default; its steps count as iterations): on the
-2,420-block wall a verified solution, lam 0.41939, in 78 s CPU (20x one cold block-IPM LP;
-aimed run, plain run, 155 continuation steps), where the simplex engine does not finish one
-step in 600 s.  On the 10,050-block wall the path through the stalled point turns back and
-the run still fails (the
-engine module's docstring and the changelog, 2026-11-27/28).  A run that still fails falls back as above.
-Replacing the engine at 10,000 blocks was measured too (the changelog, 2026-11-23): this
-sequence of LPs with each LP by the block IPM warm-started (5-7 iterations per warm LP, but the
-interior answers converge on ``n`` only linearly: 260 iterations at 1,010 blocks, still 3e-5), path
-following on (3) in a wide neighbourhood, a homotopy on the dilatancy gap (cold Newton on (3)
-converges at 10,050 blocks only up to ``tan(psi)`` 0.45 of 0.65, and the next stage stalls), ``n*``
-moved inside one LP run, and an active-set finish; none reached a solution of (3) within 3x one cold LP.
+failure is returned at once).  When Mehrotra's iterates stall on the curved central path of (3), arclength
+continuation of the path from there (setting ``interior_continuation``, on by default; its steps count as
+iterations) closes the run; a run that still fails falls back as above.  The measurements behind the thresholds and
+stages are in docs/methods/fixed-point.md and the performance pages.
 
 Options and settings.  The options (:class:`FixedPointOptions`) are what a user chooses; the engine settings
 (:class:`FixedPointSettings`: the fold weight, Anderson acceleration, the HiGHS algorithm, the interior engine's aim
@@ -144,7 +94,35 @@ FALLBACK_STARTS = ("dead-load", "associative", "zero")
 
 @dataclass
 class FixedPointOptions(CommonOptions):
-    """Options of the fixed-point method."""
+    """Options of the fixed-point method.
+
+    Start (``start``): ``n*_0`` = normal forces of the associative static LP (1)
+    (``"associative"``), ``0`` (``"zero"``), a statically admissible field under the
+    dead load alone (``"dead-load"``; the associative start when the structure does
+    not stand under its dead load, i.e. ``lam < 0``), or the associative forces scaled per interface
+    by seeded uniform factors in [0, 1] (``"random"``, ``seed``).
+
+    Tie-break (``tie_break``).  The LP's optimal forces are often not unique (e.g.
+    running-bond walls): HiGHS then returns some vertex, ``n`` can keep wandering
+    between optimal vertices while ``lam`` has levelled off, and the plain iteration
+    (``"none"``) does not meet its test.  A second LP
+    (:func:`blockmpec.formulations.tie_break_lp`) keeps ``lam >= lam* - 1e-10 max(1,
+    |lam*|)`` and picks one optimal force field:
+
+    * ``"closest"``: closest to ``n*`` in the 1-norm.  Once ``n*`` is optimal for its
+      own LP, ``F(n*) = n*`` exactly and the test is met.  With the associative start,
+      whenever the associative forces are optimal for their own LP (5) they are a
+      fixed point and the method stops after one step with the associative multiplier:
+      a genuine solution of (3), but the largest one (``start="associative", tie_break="closest"``).
+    * ``"least-compressed"``: minimises the next step's total cohesion
+      ``-sum_k (tan(phi_k) - tan(psi_k)) n_k`` over the optimal forces (closeness
+      breaks the remaining ties).  Less cohesion can only lower the next ``lam``.
+    * ``"min-lambda"``: minimises the first-order estimate of the next step's ``lam``,
+      ``sum_k zeta_k (tan(phi_k) - tan(psi_k)) (-n_k)``, where ``zeta_k`` are this step's
+      friction multipliers (the LP sensitivity ``d lam / d cohesion_k``).
+    * ``"on-oscillation"``: the plain step until ``||n - n*||`` stops decreasing, then
+      ``"closest"``.
+    """
 
     tol: float = field(default=1e-9, metadata={"help": "stop when ||n - n*|| <= tol ||n|| (normal forces)"})
     max_iterations: int = field(default=500, metadata={"help": "most LP steps (interior engine: iterations)"})

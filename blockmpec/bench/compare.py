@@ -15,22 +15,7 @@ a worker process under a wall-clock limit enforced from outside
 (:class:`blockmpec.bench.study.ResultsFolder`), so an interrupt keeps it and ``resume=True``
 skips it next time.
 
-Columns
--------
-``case`` (label), ``case_name``, ``blocks`` (free blocks), ``p_case_<param>``,
-``method``, ``method_label`` (``name[k=v,...]`` when options are given), ``problem``,
-``p_method_<option>``, ``repetition``, ``status``, ``success``, ``verified``,
-``certified`` (see below), ``multiplier``, one column per residual of
-:data:`blockmpec.verify.RESIDUAL_NAMES` and ``max_residual``, ``build_time_s``,
-``solve_time_s``, ``total_time_s`` (build + solve), ``iterations``,
-``wall_time_s`` (the whole task as the supervisor saw it) and ``wall_limit_s`` (its
-outside limit; ``inf``: none), ``reference``, ``reference_source``, ``reference_method`` (the method
-label that produced the reference; empty for a closed form), ``reference_note``,
-``abs_error``, ``rel_error`` (signed, see below), ``signed_error``, ``abs_rel_error``, ``new_best``,
-``anomaly``, ``closed_form`` (the case's closed form for the row's problem, or empty),
-``budget_s`` (the case's time budget, :func:`blockmpec.bench.profiles.case_budgets`), ``resumed``
-(the row was kept from an earlier run by ``resume``), ``message`` (the reason of a skip or failure)
-and ``run_key`` (case, case parameters, method, options and repetition: what ``resume`` matches).
+Columns: :data:`COLUMNS` and the docs' comparator page (``docs/comparator.md``) list and explain them.
 
 Reference multiplier
 --------------------
@@ -59,8 +44,8 @@ Errors
 With ``lam`` the row's multiplier,
 
 * ``signed_error = lam - lam_ref`` and ``abs_error = |lam - lam_ref|``;
-* ``rel_error = (lam - lam_ref) / |lam_ref|`` -- **signed** (until issue 41 it was
-  ``|lam - lam_ref| / |lam_ref|``; that value is now ``abs_rel_error``).  For the minimum of (4) a negative
+* ``rel_error = (lam - lam_ref) / |lam_ref|`` -- **signed** (its magnitude is ``abs_rel_error``).  For the minimum
+  of (4) a negative
   error is a lower verified multiplier than the reference: a better answer when the reference
   is only the best value of another method, a bug when the reference is exact (below);
 * ``lam_ref = 0``: ``rel_error`` is 0 when ``lam = 0``, else ``+-inf``.

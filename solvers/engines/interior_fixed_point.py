@@ -15,13 +15,8 @@ row by row.  In the block IPM's form (``v`` free, slacks ``s``, multipliers ``y`
 
 where ``G_phi`` and ``G_psi`` differ only in the ``n`` entries of the friction rows.
 
-**Lagging ``n*`` does not work.**  The lead's first proposal reset ``n* := n`` at the
-start of each iteration of the LP's interior-point method (Newton directions of the
-LP with ``G_psi`` on both sides).  Each step then moves the friction rows by
-``(tan(phi) - tan(psi)) dn``, which the next residual carries: on the two-block case
-and on 4x2 and 10x5 walls the residuals stalled at 1e-3..1e-5 (``NUMERICAL``) with
-``||n - n*||/||n||`` between 1e-6 and 0.3 (kept in :class:`InteriorFixedPoint` as
-``coupling="lagged"`` for that measurement, ``studies/lab/fixed_point_ratio.py``).
+The engine's ``coupling="lagged"`` (``n* := n`` reset at each interior-point iteration, ``G_psi`` on both
+sides) is kept for measurement; it stalls (CHANGELOG.md).
 
 **Newton on (3) itself** (the default, ``coupling="exact"``): the same Mehrotra
 predictor-corrector iteration, with ``G_phi`` in the primal rows and ``G_psi`` in the
@@ -44,101 +39,13 @@ once ``mu <= fold_off * mu_0`` (:data:`FOLD_KNEE`, :data:`FOLD_OFF`), so the poi
 returned solves (3) with the plain objective (1/3 on that case).  A run with the aim
 term that fails is repeated without it (:func:`run_interior`).
 
-Measured (``studies/lab/fixed_point_strategies.py``, ``studies/lab/fixed_point_ratio.py``):
-
-* on the heuristic suite the aimed run is verified on 56/56 structures and within 2 %
-  of the certified minimum on 54-55/56 (the simplex default: 56/56); it misses where
-  ``mu > 1`` on two blocks (it returns the associative 1.2 where the minimum is 2/3);
-* it costs about one cold block-IPM LP up to ~1,500 blocks;
-* on larger walls (2,400 and 10,000 blocks) the plain run stalls: primal and dual
-  residuals reach 1e-13 but the complementarity stays at ~2e-3 with steps shrinking to
-  0 (non-monotone: ``ds^T dy = -sum_k (tan(phi_k) - tan(psi_k)) dn_k (dy_k^+ + dy_k^-)``
-  in scaled form, which vanishes for an LP, here has either sign); the point it nears
-  carries multipliers on inactive friction rows.  Pivoting in ``K``, more refinement,
-  ``sigma_min`` 0.1/0.3, no correctors, a shorter ``step_fraction`` and a continuation
-  of the dual slope from ``tan(phi)`` to ``tan(psi)`` over 3-9 decades of ``mu`` all
-  stalled at the same complementarity.
-
-**The stall: Mehrotra's iterates leave a strongly curved central path, and no closing stage
-repairs it** (the changelog, 2026-11-27/28).  On the 10,000-block wall (no aim term) ``mu`` falls
-from 552 to 5.8e-6 in 17 iterations and stays there for 34 more: ``sigma`` near 1, the
-complementarity products evenly spread (none above 100 ``mu``; the relative complementarity
-is 0.5 only because there are 119,400 pairs), steps of 1e-6..1e-2.  The path from
-Mehrotra's start turns back before ``mu = 0``; its last point is not near a solution of
-(3): the verifier's complementarity is 0.33 at 10k blocks (1.4e-2 at 2,400).  Measured
-from the stalled point (``best_iterate``):
-
-* the semismooth Fischer-Burmeister Newton of ``mcp-newton``: out of memory at 10k blocks
-  (SuperLU on ``J^T J``); at 2,400 blocks 10 iterations in 63 s raise the residual of (3)
-  from 1.4e-2 to 0.44;
-* exact fixed-point steps with the LP (5) at ``n* = n`` by the block IPM
-  (``coupling="fixed"``): cold, ``||n - n*||/||n||`` is 0.49, 0.11, 0.09, 0.07 over 4 LPs at
-  2,400 blocks (the analytic centre moves between steps; on the 1,010-block wall, from the
-  converged interior answer, 8 cold steps wander between 1e-3 and 4e-2; at 10k blocks
-  0.53 then 0.36, lam 0.420 then 0.196, 59 s CPU for the 2 LPs); warm (``start_iterate``),
-  the first step takes 12-27 iterations and moves ``n`` by 30-53 %, the next one (started
-  at an optimal point) stalls at 2,400 blocks and at 10k moves ``n`` by 1.3e-3 but hits its
-  60 s limit after 71 iterations; warm and recentred (``s, y`` raised by ``sqrt(f mu)``,
-  ``f`` = 1e8), 18-22 iterations per LP but ``||n - n*||/||n||`` stays at 2.5e-2..4.1e-2
-  over 8 LPs at 2,400 blocks (the interior answer to each LP is not a consistent tie-break);
-* restarting Newton on (3) from the stalled iterate with ``s, y`` raised by
-  ``sqrt(f mu)`` (``f`` = 10..1e7): residuals 1.1e-3..2.5e-3 at 2,400 blocks, stalled again;
-* the lagged coupling from the stalled iterate: stalled (4e-3) within 10 iterations;
-* a different path: Newton on (3) started from the associative LP's interior iterate
-  (``tan(phi)`` on both sides, stopped at 1e-1..1e-6, recentred or not): stalled at
-  residuals of (3) between 9e-4 and 0.28 at 2,400 blocks.
-
-**The closing stage that works: continuation of the central path**
-(:func:`continue_central_path`, the changelog, 2026-11-28; 2,420-block wall
-``40x60``, where the run stalls at ``mu`` ~ 8.6e-8, worst residual of (3) 1.3e-3).  At the
-stalled point even pure centring (``sigma = 1``, damped) drives the smallest product
-``s_i y_i`` from 0.13 ``mu`` to 3e-7 ``mu`` in 60 steps: the iterate is off the path.
-Pseudo-arclength continuation of the weighted central path through a point follows it:
-from the run's 5th iterate (``mu`` = 2.4e-4, before its steps shorten) well below the stall
-with no turning point, about 40 steps per decade of ``mu`` while groups of friction rows
-switch between stick and slip one after another, then, once they have settled (``mu`` ~ 2e-9),
-long steps to a verified solution of (3) (2.3e-14, lam 0.41935) after 330 steps; from the
-stalled iterate itself (the path through it) in 155 steps, 74 s CPU in all (~25x one cold
-LP), lam 0.41939, verified at 3.2e-10.  :func:`run_interior` therefore continues a stalled run
-from its best iterate (``fixed-point`` option ``interior_continuation``).  On the 10,050-block
-wall, though, the path through the stalled point turns after ~30 steps and runs back to
-``mu`` ~ 4e9 (110 steps, 170 s CPU); the continuation gives up once ``mu`` has risen 1e3-fold.
-Also measured there, and failed:
-
-* proximal terms that make each Newton step monotone (``rho_k delta_k >= |a_k|^2 / 4`` on the
-  normal force and friction multipliers of each interface, ``a_k`` the entries of
-  ``G_phi - G_psi``), centred at every iterate or at each solved proximal subproblem: lam
-  drifts to ~0 (worst residual of (3) 0.97..5e5), at 2,420 blocks and on an 8x10 wall alike;
-* the aim term kept to the end (:attr:`InteriorFixedPoint.keep_aim`) and the aimed forces paired
-  with the duals of the LP (5) at those forces: a verified solution of (3) where the aimed
-  forces are optimal for their own LP (8x10 wall: lam 0.54245, below the plain run's 0.55122),
-  but not on the 1,010-block wall (aimed lam 0.449329 for weights 0.1..0.001, the LP at its
-  forces 0.449799), and at 2,420 blocks the aimed run itself stalls (4e-6..3.5e-4).
-
-Without the continuation the interior engine ends ``NUMERICAL`` at 10,000 blocks after 2.2x
-one cold block-IPM LP (CPU, both runs: with and without the aim term); issue 14's 3x target
-is not met there.
-
-**Other routes to the 10,000-block target, measured and failed** (the changelog, 2026-11-23,
-which has the table):
-
-* the paper's sequence of LPs (5), each by the block IPM (``coupling="fixed"``, symmetric ``K``) warm
-  from the previous step's iterate (new slacks, ``s, y >= sqrt(mu_t)``): warm steps cost 5-7
-  iterations once ``n*`` settles, but without an exact tie-break the analytic-centre answers converge
-  only linearly (1,010 blocks: 25 LPs, ~260 iterations, ``||n - n*||/||n||`` still 3e-5 with the
-  least-compressed fold 1e-4; Anderson mixing or damping did not help), against Mehrotra's 20 on (3);
-  at 10,050 blocks the second step LP alone took 107 iterations and the third ended ``NUMERICAL``
-  (3 LPs: 2.8x one cold LP);
-* Newton on (3) by path following in the wide neighbourhood ``s_i y_i >= 1e-3 mu``: at 2,420 blocks it
-  stalls at the same ``mu`` ~1e-7 as Mehrotra's iterates, with centred iterates and accurate
-  directions, so the central path of (3) itself is what the iterates cannot follow there;
-* a homotopy on the dilatancy gap: Newton on (3) converges cold up to ``tan(psi)`` 0.45 at 10,050
-  blocks (0.2 at 2,420; ``tan(phi)`` 0.65), 50-88 iterations, but from those answers the next stage
-  towards ``psi = 0`` stalls (4.2e-3 at 10,050 blocks, 3e-3 at 2,420);
-* moving ``n*`` inside one LP run only at centred iterates with a bounded step, or Newton on part
-  of the gap with the rest lagged: both stall at 1,010 blocks, where Newton on (3) converges;
-* a primal-dual active-set method from the converged answer diverges (the piece systems are
-  singular: the forces are not unique).
+Closing stage (:func:`continue_central_path`).  Where Mehrotra's iterates leave the strongly curved central path of
+(3) and stall (complementarity stuck while the primal and dual residuals are at round-off), :func:`run_interior`
+continues the weighted central path through the run's best iterate by pseudo-arclength continuation
+(``fixed-point``'s setting ``interior_continuation``): groups of friction rows switch between stick and slip along
+it, and once they have settled long steps reach a solution of (3).  The continuation gives up once ``mu`` has risen
+1e3-fold (the path turned back).  What was measured for these stages, and the routes that failed, are in
+CHANGELOG.md and docs/methods/fixed-point.md.
 """
 
 from __future__ import annotations
