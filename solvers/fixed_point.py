@@ -208,23 +208,18 @@ class FixedPoint(SolverBase):
     Options = FixedPointOptions
     Settings = FixedPointSettings
 
-    def skip_reason(self, ops) -> str | None:
-        if ops.dim == 3 and self.options.engine in plan.ENGINES_2D_ONLY:
-            return (f"engine={self.options.engine!r} is 2D only (its kernels are written for interfaces (t, n, m)); "
-                    "a 3D structure runs on engine='simplex' (what 'auto' chooses)")
-        return None
-
     def setup(self, ops):
         from blockmpec.solvers.engines.scaling import LoadUnits
 
         self.ops = ops
         self.units = LoadUnits.of(ops)
-        self.engine = plan.fixed_point_engine(self.options.engine, ops.n_free_blocks, ops.dim)
+        self.engine = plan.fixed_point_engine(self.options.engine, ops.n_free_blocks)
         self.fallback = plan.fixed_point_fallback(self.options.engine, ops.n_free_blocks)
         other = (self.fallback if self.engine == "interior"
-                 else plan.fixed_point_interior_fallback(self.options.engine, ops.n_free_blocks, ops.dim))
+                 else plan.fixed_point_interior_fallback(self.options.engine, ops.n_free_blocks))
+        self.relaxed = plan.fixed_point_relaxed_fallback(self.options.engine, ops.n_free_blocks, ops.dim)
         self.plan = plan.fixed_point_plan(self.engine, other, self.options.start, self.options.tie_break,
-                                          relaxed=plan.fixed_point_relaxed_fallback(self.options.engine, ops.dim))
+                                          relaxed=self.relaxed)
         self.sequence = None
         if self.engine == "interior":
             from blockmpec.formulations import step_lps
@@ -271,7 +266,7 @@ class FixedPoint(SolverBase):
         lps = self.interior_lps
         out, facts = run_interior(lps.step, lps.associative, self.units, tol=o.tol, max_iterations=o.max_iterations,
                                   deadline=deadline, fold_weight=st.interior_weight,
-                                  continuation=st.interior_continuation, sequence=st.interior_sequence)
+                                  continuation=st.interior_continuation, sequence=st.interior_sequence, layout=lps)
         out.extra[fact_names.ENGINE] = "interior"
         if o.engine != "auto" or not fallback or self._verified(out) or deadline.expired():
             return out
@@ -303,8 +298,10 @@ class FixedPoint(SolverBase):
         sequence = LPSequence(lps, self.units, alpha=0.0, tie_break="closest", algorithm=st.algorithm)
         relaxed, facts = run_sequence(sequence, start=o.start, relaxation=omega, stop_on="normal", tol=o.tol,
                                       max_iterations=o.max_iterations, deadline=deadline, seed=o.seed)
-        relaxed.extra = {**sequence.facts(), fact_names.ENGINE: "simplex, then relaxed simplex",
-                         "first_status": out.status.value, "start": facts["start_used"]}
+        interior = {"interior_status": out.extra["interior_status"]} if "interior_status" in out.extra else {}
+        engine = "simplex, then interior, then relaxed simplex" if interior else "simplex, then relaxed simplex"
+        relaxed.extra = {**sequence.facts(), fact_names.ENGINE: engine, "first_status": out.status.value,
+                         "start": facts["start_used"], **interior}
         relaxed.trace = out.trace + [{**rec, "iteration": rec["iteration"] + out.iterations} for rec in relaxed.trace]
         relaxed.iterations += out.iterations
         if relaxed.status is Status.CONVERGED:
@@ -318,22 +315,25 @@ class FixedPoint(SolverBase):
         if self.engine == "interior":
             return self._run_interior(deadline)
         out = self._run_simplex(deadline)
-        if (plan.fixed_point_relaxed_fallback(self.options.engine, self.ops.dim) and not self._verified(out)
-                and out.status is not Status.INFEASIBLE and not deadline.expired()):
-            return self._run_relaxed(out, deadline)
-        if (not plan.fixed_point_interior_fallback(self.options.engine, self.ops.n_free_blocks, self.ops.dim)
-                or self._verified(out)
-                or out.status is Status.INFEASIBLE or deadline.expired()):
+        if self._verified(out) or out.status is Status.INFEASIBLE or deadline.expired():
             return out  # infeasible: proven by the associative LP (1), which no engine can change
-        # the LP steps did not reach a solution of (3) (they wander on irregular stone walls): the interior engine,
-        # in the time left
-        self.plan.start("interior")
-        interior = self._run_interior(deadline, fallback=False)
-        if not self._verified(interior):
+        if plan.fixed_point_interior_fallback(self.options.engine, self.ops.n_free_blocks):
+            # the LP steps did not reach a solution of (3) (they wander on irregular stone walls and on the dome):
+            # the interior engine, in the time left
+            self.plan.start("interior")
+            interior = self._run_interior(deadline, fallback=False)
+            if self._verified(interior):
+                return self._after_simplex(interior, out)
             out.message = f"{out.message} (the interior engine, tried next, ended {interior.status.value}: " \
                           f"{interior.message})"
             out.extra["interior_status"] = interior.status.value
-            return out
+        if self.relaxed and not deadline.expired():
+            return self._run_relaxed(out, deadline)
+        return out
+
+    @staticmethod
+    def _after_simplex(interior: RunOutput, out: RunOutput) -> RunOutput:
+        """The verified interior run after unverified LP steps ``out``: both runs' LP counts, times and traces."""
         interior.extra[fact_names.ENGINE] = "simplex, then interior"
         interior.extra["simplex_status"] = out.status.value
         for kind, seconds in out.extra.get(fact_names.LP_TIME_S, {}).items():

@@ -24,7 +24,7 @@ __all__ = ["LP_BLOCK_IPM_ROWS", "LP_BLOCK_IPM_LOAD_SPREAD", "FIXED_POINT_INTERIO
            "INTERIOR_FIXED_POINT_RULES", "HIGHS_ALGORITHMS", "LP_ALGORITHMS", "BASIS_ALGORITHMS",
            "FIXED_POINT_ENGINES", "NLP_ROUTES", "MILP_ENGINES", "lp_algorithm", "fixed_point_engine",
            "fixed_point_interior_fallback", "fixed_point_fallback", "fixed_point_relaxed_fallback",
-           "ENGINES_2D_ONLY", "FIXED_POINT_3D_RELAXATION", "nlp_route", "milp_engine",
+           "FIXED_POINT_3D_RELAXATION", "nlp_route", "milp_engine",
            "piece_lp_static_engine", "piece_lp_whole_engine", "describe_block_ipm", "static_lp_plan",
            "kinematic_lp_plan", "slp_plan", "nlp_plan", "fixed_point_plan", "mcp_newton_plan", "milp_plan", "Stage",
            "Plan"]
@@ -124,38 +124,31 @@ def lp_algorithm(algorithm: str, n_rows: int, load_spread: float = 1.0, need_bas
     return "dual-simplex"
 
 
-#: engines whose kernels are written for 2D interfaces ``(t, n, m)`` with two no-tension and two friction rows:
-#: a 3D problem (contact points, a friction pyramid) runs on the generic engines instead
-ENGINES_2D_ONLY = ("interior",)
-
-
-def fixed_point_engine(engine: str, n_free_blocks: int, dim: int = 2) -> str:
+def fixed_point_engine(engine: str, n_free_blocks: int) -> str:
     """The fixed-point engine ``"auto"`` stands for: ``"interior"`` from :data:`FIXED_POINT_INTERIOR_BLOCKS` free
-    blocks up, else ``"simplex"``; always ``"simplex"`` in 3D (the interior engine's kernels are 2D)."""
+    blocks up, else ``"simplex"`` (2D and 3D alike)."""
     if engine != "auto":
         return engine
-    if dim == 3:
-        return "simplex"
     return "interior" if n_free_blocks >= FIXED_POINT_INTERIOR_BLOCKS else "simplex"
 
 
-def fixed_point_interior_fallback(engine: str, n_free_blocks: int, dim: int = 2) -> bool:
+def fixed_point_interior_fallback(engine: str, n_free_blocks: int) -> bool:
     """Whether a simplex run that does not verify falls back to the interior engine (``engine="auto"`` below
-    :data:`FIXED_POINT_INTERIOR_BLOCKS` free blocks, where the simplex engine runs first; never in 3D)."""
-    return engine == "auto" and n_free_blocks < FIXED_POINT_INTERIOR_BLOCKS and dim == 2
+    :data:`FIXED_POINT_INTERIOR_BLOCKS` free blocks, where the simplex engine runs first)."""
+    return engine == "auto" and n_free_blocks < FIXED_POINT_INTERIOR_BLOCKS
 
 
-#: 3D, ``engine="auto"``: after LP steps that do not reach a solution of (3) (the stall rule above), a second
+#: 3D, ``engine="auto"``: after LP steps and an interior run that do not reach a solution of (3), a second
 #: sequence with this relaxation and the "closest" tie-break, without the stall rule, in the time left.  On the
 #: built-in dome the 2D defaults wander (``||n - n*||/||n||`` 0.4-0.5 for 400 steps on 24 voussoirs); relaxation 0.3
 #: with "closest" converges (72 voussoirs: 203 steps, 32 s; 0.2: 517 steps, 41 s; ``studies/lab/three_d_fixed_point.py``)
 FIXED_POINT_3D_RELAXATION = 0.3
 
 
-def fixed_point_relaxed_fallback(engine: str, dim: int) -> bool:
-    """Whether unverified LP steps are followed by the relaxed "closest" sequence (:data:`FIXED_POINT_3D_RELAXATION`;
-    ``engine="auto"`` in 3D, where no interior engine follows)."""
-    return engine == "auto" and dim == 3
+def fixed_point_relaxed_fallback(engine: str, n_free_blocks: int, dim: int) -> bool:
+    """Whether unverified LP steps (and the interior run after them) are followed by the relaxed "closest" sequence
+    (:data:`FIXED_POINT_3D_RELAXATION`; ``engine="auto"`` in 3D where the simplex engine runs first)."""
+    return engine == "auto" and dim == 3 and n_free_blocks < FIXED_POINT_INTERIOR_BLOCKS
 
 
 def fixed_point_fallback(engine: str, n_free_blocks: int) -> bool:
@@ -310,7 +303,7 @@ def fixed_point_plan(engine: str, fallback: bool, start: str, tie_break: str, re
         stages.append(Stage(other.key, other.name, "if the first engine's point does not verify"))
     if relaxed:
         stages.append(Stage("relaxed", f"fixed point: HiGHS LP steps relaxed by {FIXED_POINT_3D_RELAXATION} "
-                            "(tie-break closest)", "if the LP steps do not verify"))
+                            "(tie-break closest)", "if the stages before do not verify"))
     return Plan(*stages)
 
 

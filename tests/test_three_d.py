@@ -86,16 +86,74 @@ def test_extruded_fixed_point_reaches_the_2d_value(case):
     assert lam(three, "fixed-point") == pytest.approx(lam(two, "fixed-point"), abs=1e-8)
 
 
-def test_the_relaxed_steps_are_a_stage_of_the_3d_fixed_points_plan():
-    # three LP steps do not converge on the corner wall (23 do), so the relaxed "closest" sequence follows, and the
-    # run's plan records both stages; a 2D run never plans it
+def test_the_interior_run_and_the_relaxed_steps_are_stages_of_the_3d_fixed_points_plan():
+    # three LP steps do not converge on the corner wall (23 do), nor do three interior-point iterations (15 do), so
+    # the relaxed "closest" sequence follows; the run's plan records the three stages in that order, and the engine
+    # fact the chain that ran; a 2D run never plans the relaxed steps
     res = bm.solve(c3.corner_wall(), "fixed-point", max_iterations=3)
-    assert res.status is bm.Status.ITERATION_LIMIT and len(res.extra["plan"]) == 2, (res.status, res.extra["plan"])
-    assert res.extra["plan"][1] == f"fixed point: HiGHS LP steps relaxed by {plan.FIXED_POINT_3D_RELAXATION} " \
-                                   "(tie-break closest)"
+    assert res.status is bm.Status.ITERATION_LIMIT, res.status
+    assert res.extra["plan"][1:] == ["interior fixed point on (3): block IPM",
+                                     f"fixed point: HiGHS LP steps relaxed by {plan.FIXED_POINT_3D_RELAXATION} "
+                                     "(tie-break closest)"], res.extra["plan"]
+    assert res.extra["engine"] == "simplex, then interior, then relaxed simplex"
     solver = bm.get_solver("fixed-point")()
     solver.setup(bm.assemble(bm.cases.two_blocks()))
     assert "relaxed" not in solver.plan
+
+
+# ---------------------------------------------------------------------------------------------- the interior engine
+#: the interior engine stops at residuals of (3) <= 1e-9: measured |lam - closed form| 8e-15 (block), |3D - 2D| 1.3e-12
+#: (round arch) and 2.8e-13 (arch on buttresses)
+INTERIOR_TOL = 1e-8
+
+
+@pytest.mark.parametrize(("params", "expected"), [
+    ({"mu": 0.65}, 0.5), ({"mu": 0.3}, 0.3), ({"mu": 0.65, "live_direction": [0, 1, 0]}, 0.25),
+    ({"mu": 0.2, "live_direction": [0, 1, 0]}, 0.2),
+    ({"mu": 0.3, "slope": 10.0}, math.tan(math.radians(10) + math.atan(0.3))),
+])
+def test_3d_interior_fixed_point_meets_the_closed_forms(params, expected):
+    res = bm.solve(c3.block_3d(**params), "fixed-point", engine="interior")
+    assert res.success and res.extra["engine"] == "interior", res
+    assert res.multiplier == pytest.approx(expected, abs=INTERIOR_TOL)
+
+
+@pytest.mark.parametrize("case", ["round-arch", "arch-on-buttresses"])
+def test_3d_interior_fixed_point_equals_the_2d_one(case):
+    # on these arches (3) has one multiplier; the 2D engine works on interfaces (t, n, m), the 3D one on contact points
+    # with a friction pyramid: an independent assembly and layout of the same structure
+    two = bm.build_case(case)
+    assert lam(c3.extrude(two), "fixed-point", engine="interior") == \
+        pytest.approx(lam(two, "fixed-point", engine="interior"), abs=INTERIOR_TOL)
+
+
+def test_3d_interior_cohesion_is_set_on_every_pyramid_side():
+    from blockmpec.formulations import step_lps
+    from blockmpec.solvers.engines.interior_fixed_point import InteriorFixedPoint
+    from blockmpec.solvers.engines.scaling import LoadUnits
+
+    ops = bm.assemble(c3.dome(mu=0.7, dilatancy=0.2, pyramid_sides=6))
+    lps = step_lps(ops, tie_break=False, associative=True)
+    with pytest.raises(ValueError, match="not planar"):
+        InteriorFixedPoint(lps.step, lps.associative, LoadUnits.of(ops))
+    engine = InteriorFixedPoint(lps.step, lps.associative, LoadUnits.of(ops), coupling="fixed", layout=lps)
+    n_star = -np.random.default_rng(0).uniform(0.5, 2.0, ops.n_contacts)
+    engine.set_n_star(n_star)
+    rows = engine.friction_position
+    expected = -(0.7 - 0.2) * n_star[ops.friction_contact]
+    assert np.allclose(engine.h[rows] / engine.in_scale[rows], expected, rtol=1e-14, atol=0.0)
+    assert ops.friction_contact.size == 6 * ops.n_contacts
+
+
+def test_the_3d_fixed_point_runs_the_interior_engine_from_500_free_blocks():
+    # the same rule as in 2D; the plan of a structure below it keeps the LP steps first
+    many = bm.assemble(c3.barrel_vault(rings=72))
+    few = bm.assemble(c3.barrel_vault())
+    assert few.n_free_blocks < plan.FIXED_POINT_INTERIOR_BLOCKS <= many.n_free_blocks
+    for ops, first in ((many, "interior"), (few, "simplex")):
+        solver = bm.get_solver("fixed-point")()
+        solver.setup(ops)
+        assert solver.plan.stages[0].key == first
 
 
 def test_extruded_non_convex_stones():

@@ -50,6 +50,8 @@ CHANGELOG.md and docs/methods/fixed-point.md.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 import scipy.sparse as sp
 
@@ -85,6 +87,32 @@ SEQUENCE_RECENTRING = (10.0, 30.0, 100.0)
 SEQUENCE_NEWTON_ITERATIONS = 300
 
 
+@dataclass(frozen=True)
+class ContactLayout:
+    """Where a contact's normal force sits in ``x`` and which contact each friction row belongs to.
+
+    ``normal_index`` (shape (c,)) and ``friction_contact`` (shape (friction rows,)) as
+    :class:`~blockmpec.formulations.StepLPs` (and the operators) give them: in 2D ``x = (t, n, m)`` per
+    interface with two friction rows each, in 3D ``x = (t1, t2, n)`` per contact point with one friction row per
+    side of the pyramid.  Each friction row's cohesion is ``-(tan(phi) - tan(psi)) n*`` of its contact.
+    """
+
+    normal_index: np.ndarray
+    friction_contact: np.ndarray
+
+    @classmethod
+    def of(cls, lp, layout=None) -> "ContactLayout":
+        """``layout``'s (any object with the two attributes, e.g. a ``StepLPs``), else the planar layout of ``lp``
+        (checked against its number of friction rows)."""
+        if layout is not None:
+            return cls(np.asarray(layout.normal_index), np.asarray(layout.friction_contact))
+        contacts = lp.columns["x"].size // 3
+        if lp.rows["friction"].size != 2 * contacts:
+            raise ValueError("interior fixed point: the LP is not planar (two friction rows per interface); pass "
+                             "layout= (its StepLPs)")
+        return cls(np.arange(1, 3 * contacts, 3), np.repeat(np.arange(contacts), 2))
+
+
 class InteriorFixedPoint(BlockLP):
     """:class:`BlockIPM` for the MCP (3) written as the step LP (5) with ``n* = n``.
 
@@ -106,6 +134,9 @@ class InteriorFixedPoint(BlockLP):
         The least-compressed objective term, where its weight starts to fall with ``mu`` and
         where it is switched off (module docstring); it is also switched off once the
         residuals are within ``1e3 tol``, so a run never stops on the aimed problem.
+    layout : ContactLayout or StepLPs, optional
+        Where the normal forces sit in ``x`` and which contact each friction row belongs to (2D or 3D); by
+        default the planar layout ``(t, n, m)`` with two friction rows per interface.
     **ipm : options of :class:`BlockIPM` (``tol``, ``max_iterations``, ``deadline``, ``ordering``).
     """
 
@@ -118,7 +149,7 @@ class InteriorFixedPoint(BlockLP):
     default_settings = EXACT_INNER_SETTINGS
 
     def __init__(self, lp, coulomb_lp, units, coupling: str = "exact", fold_weight: float = 0.0,
-                 fold_off: float = FOLD_OFF, fold_knee: float = FOLD_KNEE, **ipm) -> None:
+                 fold_off: float = FOLD_OFF, fold_knee: float = FOLD_KNEE, layout=None, **ipm) -> None:
         from blockmpec.solvers.plan import INTERIOR_FIXED_POINT_RULES
 
         if coupling not in COUPLINGS:
@@ -128,10 +159,14 @@ class InteriorFixedPoint(BlockLP):
         super().__init__(lp, interface_blocks(lp), row_scale=row_scale, column_scale=column_scale, **ipm)
         self.coupling = coupling
         self.friction_position = self._in_position[lp.rows["friction"]]
-        self.normal_columns = lp.columns["x"][1::3]
+        layout = ContactLayout.of(lp, layout)
+        self.friction_contact = layout.friction_contact
+        self.normal_columns = lp.columns["x"][layout.normal_index]
         # the cohesion factor tan(phi) - tan(psi) of each friction row's normal force, read off the two compiled LPs
-        difference = _friction_difference(lp, coulomb_lp)
-        factor = difference[lp.rows["friction"][0::2], self.normal_columns]
+        difference = _friction_difference(lp, coulomb_lp, layout.normal_index)
+        self.row_factor = np.asarray(difference[lp.rows["friction"], self.normal_columns[self.friction_contact]]).ravel()
+        factor = np.zeros(self.normal_columns.size)
+        np.maximum.at(factor, self.friction_contact, self.row_factor)
         self.cohesion_factor = factor
         self.fold_weight = float(fold_weight)
         self.fold_off = float(fold_off)
@@ -153,8 +188,8 @@ class InteriorFixedPoint(BlockLP):
             # the primal rows are the static LP's (Coulomb, tan(phi)): the step LP's plus the difference, scaled as
             # the step LP's rows are (the same numbers as the rows of the static LP itself, scaled alike)
             rows = self.friction_position
-            cols = np.repeat(self.normal_columns, 2)
-            values = np.asarray(difference[lp.rows["friction"], cols]).ravel()
+            cols = self.normal_columns[self.friction_contact]
+            values = self.row_factor
             extra = sp.csr_array((self.in_scale[rows] * values * self.column_scale[cols], (rows, cols)),
                                  shape=self.G.shape)
             self.G = (self.G + extra).tocsr()
@@ -178,9 +213,9 @@ class InteriorFixedPoint(BlockLP):
 
     # ------------------------------------------------------------------ the moving data
     def set_n_star(self, n_star: np.ndarray) -> None:
-        """Friction rows' right-hand side ``-(tan(phi) - tan(psi)) n*`` (both rows of each interface)."""
+        """Friction rows' right-hand side ``-(tan(phi) - tan(psi)) n*`` (every row of each contact)."""
         self.n_star = n_star
-        upper = np.repeat(-self.cohesion_factor * n_star, 2)
+        upper = -self.row_factor * n_star[self.friction_contact]
         self.h[self.friction_position] = self.in_scale[self.friction_position] * upper
 
     def set_fold(self, weight: float) -> None:
@@ -360,7 +395,7 @@ def recentred_start(newton: InteriorFixedPoint, iterate: IPMIterate, factor: flo
 
 
 def sequence_then_newton(lp, coulomb_lp, units, *, tol: float, max_steps: int, deadline: Deadline = NEVER,
-                         ordering: str = "auto", record=None):
+                         ordering: str = "auto", record=None, layout=None):
     r"""The paper's iteration with interior-point step LPs, damped, then Newton on (3) from near its fixed point.
 
     1. ``n*`` starts at the associative forces (the static LP (1) by the block IPM).  Each step solves the step
@@ -398,8 +433,9 @@ def sequence_then_newton(lp, coulomb_lp, units, *, tol: float, max_steps: int, d
     start = cold_lp_engine(coulomb_lp, "block-ipm", units).solve(deadline)
     if not start.status.is_success:
         return None, None, facts
-    n_star = np.minimum(static_lp_solution(coulomb_lp, start).x[1::3], 0.0)
-    steps = InteriorFixedPoint(lp, coulomb_lp, units, coupling="fixed", tol=tol, deadline=deadline.end,
+    layout = ContactLayout.of(lp, layout)
+    n_star = np.minimum(static_lp_solution(coulomb_lp, start).x[layout.normal_index], 0.0)
+    steps = InteriorFixedPoint(lp, coulomb_lp, units, coupling="fixed", tol=tol, deadline=deadline.end, layout=layout,
                                ordering=ordering)
     checkpoint = SEQUENCE_FIRST_CHECKPOINT
     smallest, smallest_at = np.inf, 0  # the stall rule: the smallest change must halve within FIXED_POINT_STALL_STEPS
@@ -428,6 +464,7 @@ def sequence_then_newton(lp, coulomb_lp, units, *, tol: float, max_steps: int, d
             if deadline.expired():
                 break
             newton = InteriorFixedPoint(lp, coulomb_lp, units, tol=tol, max_iterations=SEQUENCE_NEWTON_ITERATIONS,
+                                        layout=layout,
                                         deadline=deadline.end, ordering=ordering)
             newton.start_iterate = recentred_start(newton, iterate, factor)
             ended = newton.solve()
@@ -442,10 +479,10 @@ def sequence_then_newton(lp, coulomb_lp, units, *, tol: float, max_steps: int, d
 
 def run_interior(lp, coulomb_lp, units, *, tol: float, max_iterations: int, deadline: Deadline = NEVER,
                  fold_weight: float, fold_off: float = FOLD_OFF, ordering: str = "auto", continuation: bool = True,
-                 sequence: bool = True):
+                 sequence: bool = True, layout=None):
     r"""The interior-point fixed point on the compiled step LP ``lp``: ``(RunOutput, facts)``.
 
-    ``coulomb_lp`` and ``units`` as for :class:`InteriorFixedPoint`; ``deadline``: the run's.
+    ``coulomb_lp``, ``units`` and ``layout`` as for :class:`InteriorFixedPoint`; ``deadline``: the run's.
 
     One :class:`InteriorFixedPoint` run with the aim term ``fold_weight``; if it does not
     end with a success (``OPTIMAL`` or ``ACCEPTABLE``) and ``fold_weight > 0``, a second
@@ -482,7 +519,7 @@ def run_interior(lp, coulomb_lp, units, *, tol: float, max_iterations: int, dead
         if deadline.expired():
             break
         t0 = time.perf_counter()
-        engine = InteriorFixedPoint(lp, coulomb_lp, units, fold_weight=weight, fold_off=fold_off, tol=tol,
+        engine = InteriorFixedPoint(lp, coulomb_lp, units, fold_weight=weight, fold_off=fold_off, tol=tol, layout=layout,
                                     max_iterations=max_iterations, deadline=deadline.end, ordering=ordering)
         engine.criterion = crit
         out = engine.solve()
@@ -519,7 +556,8 @@ def run_interior(lp, coulomb_lp, units, *, tol: float, max_iterations: int, dead
 
         newton, ended, sequenced = sequence_then_newton(lp, coulomb_lp, units, tol=tol,
                                                         max_steps=max_iterations - crit.iterations,
-                                                        deadline=deadline, ordering=ordering, record=record_step)
+                                                        deadline=deadline, ordering=ordering, record=record_step,
+                                                        layout=layout)
         seconds += time.perf_counter() - t0
         if ended is not None:
             out, engine = ended, newton
@@ -557,7 +595,7 @@ def run_interior(lp, coulomb_lp, units, *, tol: float, max_iterations: int, dead
     return RunOutput(status, sol, crit.iterations, crit.trace, message, out.raw_status, extra=facts), facts
 
 
-def _friction_difference(lp, coulomb_lp) -> sp.csr_array:
+def _friction_difference(lp, coulomb_lp, normal_index: np.ndarray) -> sp.csr_array:
     """``coulomb_lp.A - lp.A`` after checking that the two compiled LPs have the same rows and columns and differ on
     the friction rows' normal-force columns only (the static LP (1) and the step LP (5) of one structure)."""
     same = (lp.A.shape == coulomb_lp.A.shape and lp.columns.keys() == coulomb_lp.columns.keys()
@@ -572,7 +610,7 @@ def _friction_difference(lp, coulomb_lp) -> sp.csr_array:
     friction_rows = np.zeros(lp.A.shape[0], bool)
     friction_rows[lp.rows["friction"]] = True
     normal = np.zeros(lp.A.shape[1], bool)
-    normal[lp.columns["x"][1::3]] = True
+    normal[lp.columns["x"][normal_index]] = True
     if not (np.all(friction_rows[coo.row]) and np.all(normal[coo.col])):
         raise ValueError("interior fixed point: the static LP and the step LP differ outside the friction rows' "
                          "normal forces")

@@ -8,12 +8,13 @@ planes), built in this process one after the other:
   ``contacts_s`` is the contact detection alone (:func:`blockmpec.three_d.contacts.detect_contacts`);
 * ``assemble_s``: the operators (:func:`blockmpec.assemble`);
 * ``static-lp``: its solve time (set-up apart), the engine its plan chose and lam;
-* with ``--fixed-point`` (sizes up to ``--fixed-point-max``): ``fixed-point``'s solve time, LP steps, status and lam.
+* with ``--fixed-point`` (sizes up to ``--fixed-point-max``): ``fixed-point``'s solve time, the engine its plan chose
+  (the LP steps below 500 free blocks, the interior engine from there), its iterations, status and lam.
 
 Usage::
 
     python studies/lab/three_d_scale.py                                   # 100, 1,000 and 10,000 blocks
-    python studies/lab/three_d_scale.py --sizes 1000 --fixed-point
+    python studies/lab/three_d_scale.py --fixed-point --fixed-point-max 10000
     python studies/lab/three_d_scale.py --smoke                           # 60 blocks, every step, checked
 
 Prints a markdown table and writes ``studies/output/three_d_scale/scale.csv``.
@@ -78,8 +79,8 @@ def measure(blocks: int, fixed_point: bool, time_limit: float) -> dict:
                lp_plan="; ".join(lp.extra.get("plan", [])))
     if fixed_point:
         fp = bm.solve(ops, "fixed-point", time_limit=time_limit)
-        row.update(fp_s=fp.solve_time_s, fp_steps=fp.iterations, fp_status=fp.status.value, fp_verified=fp.verified,
-                   fp_lam=fp.multiplier)
+        row.update(fp_s=fp.solve_time_s, fp_engine=fp.extra.get("engine", ""), fp_steps=fp.iterations,
+                   fp_status=fp.status.value, fp_verified=fp.verified, fp_lam=fp.multiplier)
     row["peak_mb"] = peak_memory_mb()
     return row
 
@@ -87,8 +88,9 @@ def measure(blocks: int, fixed_point: bool, time_limit: float) -> dict:
 COLUMNS = [("blocks", "blocks", "{:,}"), ("contacts", "contacts", "{:,}"), ("points", "points", "{:,}"),
            ("build_s", "build [s]", "{:.2f}"), ("contacts_s", "contacts [s]", "{:.2f}"),
            ("assemble_s", "assemble [s]", "{:.2f}"), ("lp_s", "static-lp [s]", "{:.2f}"), ("lam", "lam", "{:.6f}"),
-           ("lp_plan", "static-lp engine", "{}"), ("fp_s", "fixed-point [s]", "{:.1f}"), ("fp_steps", "LP steps", "{}"),
-           ("fp_status", "fixed-point", "{}"), ("fp_lam", "lam (3)", "{:.6f}"), ("peak_mb", "peak [MB]", "{:.0f}")]
+           ("lp_plan", "static-lp engine", "{}"), ("fp_s", "fixed-point [s]", "{:.1f}"),
+           ("fp_engine", "fixed-point engine", "{}"), ("fp_steps", "iterations", "{}"),
+           ("fp_status", "fixed-point", "{}"), ("fp_verified", "verified", "{}"), ("fp_lam", "lam (3)", "{:.6f}"), ("peak_mb", "peak [MB]", "{:.0f}")]
 
 
 def main(argv: list[str] | None = None) -> list[dict]:
