@@ -93,6 +93,8 @@ import scipy.sparse as sp
 from blockmpec.formulations.compiled import FRICTION, CompiledMCP
 from blockmpec.formulations.pyomo_compile import LinearProgram
 
+__all__ = ["MPECBounds", "MixedIntegerMPEC", "work_matrix", "mpec_milp"]
+
 
 @dataclass(frozen=True)
 class MPECBounds:

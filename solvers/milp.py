@@ -55,6 +55,9 @@ from blockmpec.result import RunOutput, Solution, Status
 from blockmpec.solvers import plan
 from blockmpec.solvers.engines.milp_search import CERTIFICATE_TOL, lifting_options  # noqa: F401 (lifting_options: API)
 
+__all__ = ["MILPSolver", "MILPOptions", "MILPSettings", "Budget", "BUDGET", "Stop", "ENGINES", "LIFTINGS", "ROOT_LPS",
+           "BNB_DEFAULT_LIFTING", "BNB_DEFAULT_ROOT_LP", "CERTIFICATE_TOL", "lifting_options", "heuristic_names"]
+
 ENGINES = plan.MILP_ENGINES
 #: defaults of the bnb engine's settings (None in MILPSettings: "not set")
 BNB_DEFAULT_LIFTING = "rlt-full"

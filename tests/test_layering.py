@@ -411,14 +411,9 @@ def test_no_library_function_or_class_is_longer_than_a_reader_can_hold():
 
 
 # ------------------------------------------------------------------ studies: the public API or a documented engine API
-_FIXED_POINT_STUDY = "a fixed-point study being reworked (or pruned) by the fixed point's owner"
-_CERTIFICATE_STUDY = "a certificate study being reworked (or pruned) by the certificate's owner"
 #: studies that still reach past the documented engine API, each with its reason; the test fails once one no
 #: longer needs its entry
-STUDIES_NOT_YET_MOVED = {
-    "studies/lab/certificate_vs_textbook.py": _CERTIFICATE_STUDY,
-    "studies/lab/fixed_point_irregular.py": _FIXED_POINT_STUDY,
-}
+STUDIES_NOT_YET_MOVED: dict[str, str] = {}
 
 
 def test_studies_use_the_public_api_or_a_documented_engine_api():

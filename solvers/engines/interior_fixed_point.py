@@ -59,6 +59,9 @@ from blockmpec.deadline import NEVER, Deadline
 from blockmpec.solvers.engines.block_lp import BlockLP, interface_blocks
 from blockmpec.solvers.linalg.block_ipm import EXACT_INNER_SETTINGS, IPMIterate
 
+__all__ = ["ContactLayout", "InteriorFixedPoint", "continue_central_path", "recentred_start", "sequence_then_newton",
+           "run_interior", "COUPLINGS"]
+
 COUPLINGS = ("exact", "lagged", "fixed")
 #: the aim term's weight is constant down to mu = FOLD_KNEE * mu_0, then falls with mu, and is
 #: exactly zero once mu <= FOLD_OFF * mu_0 (module docstring)

@@ -17,6 +17,8 @@ import numpy as np
 from blockmpec.deadline import NEVER, Deadline
 from blockmpec.result import Status
 
+__all__ = ["MIPRun", "solve_highs", "TRACE_PERIOD_S"]
+
 #: seconds between two trace records of a periodic callback
 TRACE_PERIOD_S = 0.25
 
