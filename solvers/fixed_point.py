@@ -60,9 +60,9 @@ the residuals of (3) are at most ``tol``; ``start``, ``tie_break``, ``fold_weigh
 default) takes the simplex engine below :data:`~blockmpec.solvers.plan.FIXED_POINT_INTERIOR_BLOCKS` free blocks (so the
 small structures' answers are those of the simplex engine), the interior one from there
 up, and falls back to the simplex engine in the time left when the interior run does not
-reach a solution of (3) (residuals above the run's ``verify_tol``), below :data:`~blockmpec.solvers.plan.FIXED_POINT_SIMPLEX_FALLBACK_BLOCKS` free
-blocks (above, the simplex engine cannot finish in the default time limit, and the interior run's
-failure is returned at once).  When Mehrotra's iterates stall on the curved central path of (3), arclength
+reach a solution of (3) (residuals above the run's ``verify_tol``), in 2D below
+:data:`~blockmpec.solvers.plan.FIXED_POINT_SIMPLEX_FALLBACK_BLOCKS` free blocks (above, and in 3D, the simplex engine
+cannot finish in the default time limit, and the interior run's failure is returned at once).  When Mehrotra's iterates stall on the curved central path of (3), arclength
 continuation of the path from there (setting ``interior_continuation``, on by default; its steps count as
 iterations) closes the run; a run that still fails falls back as above.  The measurements behind the thresholds and
 stages are in docs/methods/fixed-point.md and the performance pages.
@@ -214,7 +214,7 @@ class FixedPoint(SolverBase):
         self.ops = ops
         self.units = LoadUnits.of(ops)
         self.engine = plan.fixed_point_engine(self.options.engine, ops.n_free_blocks)
-        self.fallback = plan.fixed_point_fallback(self.options.engine, ops.n_free_blocks)
+        self.fallback = plan.fixed_point_fallback(self.options.engine, ops.n_free_blocks, ops.dim)
         other = (self.fallback if self.engine == "interior"
                  else plan.fixed_point_interior_fallback(self.options.engine, ops.n_free_blocks))
         self.relaxed = plan.fixed_point_relaxed_fallback(self.options.engine, ops.n_free_blocks, ops.dim)
@@ -271,8 +271,10 @@ class FixedPoint(SolverBase):
         if o.engine != "auto" or not fallback or self._verified(out) or deadline.expired():
             return out
         if not self.fallback:
-            out.message = (f"{out.message} (no simplex fallback: from {plan.FIXED_POINT_SIMPLEX_FALLBACK_BLOCKS:,} free "
-                           "blocks the simplex engine does not converge within the default time limit)")
+            where = (f"from {plan.FIXED_POINT_SIMPLEX_FALLBACK_BLOCKS:,} free blocks" if self.ops.dim == 2 else
+                     f"in 3D from {plan.FIXED_POINT_INTERIOR_BLOCKS:,} free blocks")
+            out.message = (f"{out.message} (no simplex fallback: {where} the simplex engine does not converge within "
+                           "the default time limit)")
             return out
         # the interior run did not reach a solution of (3): the simplex engine, in the time left
         self.plan.start("simplex")
@@ -314,10 +316,13 @@ class FixedPoint(SolverBase):
         self.plan.start(self.engine)
         if self.engine == "interior":
             return self._run_interior(deadline)
-        out = self._run_simplex(deadline)
+        interior_next = plan.fixed_point_interior_fallback(self.options.engine, self.ops.n_free_blocks)
+        # with the interior engine planned next, the LP steps leave it its share of the time
+        steps_deadline = deadline.within(plan.FIXED_POINT_STEPS_SHARE * deadline.remaining()) if interior_next else deadline
+        out = self._run_simplex(steps_deadline)
         if self._verified(out) or out.status is Status.INFEASIBLE or deadline.expired():
             return out  # infeasible: proven by the associative LP (1), which no engine can change
-        if plan.fixed_point_interior_fallback(self.options.engine, self.ops.n_free_blocks):
+        if interior_next:
             # the LP steps did not reach a solution of (3) (they wander on irregular stone walls and on the dome):
             # the interior engine, in the time left
             self.plan.start("interior")

@@ -51,6 +51,7 @@ def test_the_thresholds_switch_engines_where_the_plan_says():
     m = plan.FIXED_POINT_SIMPLEX_FALLBACK_BLOCKS
     assert plan.fixed_point_fallback("auto", m - 1) and not plan.fixed_point_fallback("auto", m)
     assert not plan.fixed_point_fallback("interior", 10)
+    assert not plan.fixed_point_fallback("auto", plan.FIXED_POINT_INTERIOR_BLOCKS, dim=3)
     k = plan.NLP_PIECE_ROUTE_BLOCKS
     assert (plan.nlp_route("auto", k - 1), plan.nlp_route("auto", k)) == ("ipopt", "pieces")
     p = plan.MILP_BNB_MAX_PAIRS

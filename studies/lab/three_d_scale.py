@@ -1,6 +1,6 @@
 """3D structures at scale (issue 52): contact detection, assembly, the associative LP and the fixed point.
 
-Each structure is a two-leaf 3D running-bond wall of about ``--sizes`` blocks (:func:`bonded_wall`: two leaves of
+Each structure (but the ``--domes``) is a two-leaf 3D running-bond wall of about ``--sizes`` blocks (:func:`bonded_wall`: two leaves of
 bricks side by side in ``y``, the courses alternating stretchers and headers, so that contacts lie in all three
 planes), built in this process one after the other:
 
@@ -15,6 +15,7 @@ Usage::
 
     python studies/lab/three_d_scale.py                                   # 100, 1,000 and 10,000 blocks
     python studies/lab/three_d_scale.py --fixed-point --fixed-point-max 10000
+    python studies/lab/three_d_scale.py --sizes= --domes 10x20,20x40 --fixed-point --time-limit 300
     python studies/lab/three_d_scale.py --smoke                           # 60 blocks, every step, checked
 
 Prints a markdown table and writes ``studies/output/three_d_scale/scale.csv``.
@@ -62,9 +63,16 @@ def bonded_wall(blocks: int, mu: float = 0.65) -> bm.three_d.Structure3D:
                              live_direction=[0.0, 1.0, 0.0], name=f"bonded-wall-{len(bricks)}")
 
 
-def measure(blocks: int, fixed_point: bool, time_limit: float) -> dict:
+def dome_of(size: str) -> bm.three_d.Structure3D:
+    """The built-in dome with ``RINGSxSEGMENTS`` voussoirs (``"20x40"``: 800)."""
+    rings, segments = (int(v) for v in size.split("x"))
+    return bm.three_d.cases.dome(rings=rings, segments=segments)
+
+
+def measure(blocks: int | str, fixed_point: bool, time_limit: float) -> dict:
+    """One row: a bonded wall of about ``blocks`` bricks, or the dome ``"RINGSxSEGMENTS"``."""
     t0 = time.perf_counter()
-    s = bonded_wall(blocks)
+    s = bonded_wall(blocks) if isinstance(blocks, int) else dome_of(blocks)
     build = time.perf_counter() - t0
     t0 = time.perf_counter()
     detect_contacts(s.vertices, s.faces)
@@ -72,7 +80,7 @@ def measure(blocks: int, fixed_point: bool, time_limit: float) -> dict:
     t0 = time.perf_counter()
     ops = bm.assemble(s)
     assemble = time.perf_counter() - t0
-    row = {"blocks": s.n_free, "contacts": len(s.contacts), "points": ops.n_contacts, "build_s": build,
+    row = {"structure": "wall" if isinstance(blocks, int) else f"dome {blocks}", "blocks": s.n_free, "contacts": len(s.contacts), "points": ops.n_contacts, "build_s": build,
            "contacts_s": contacts, "assemble_s": assemble}
     lp = bm.solve(ops, "static-lp", time_limit=time_limit)
     row.update(lp_s=lp.solve_time_s, lp_status=lp.status.value, lp_verified=lp.verified, lam=lp.multiplier,
@@ -85,7 +93,7 @@ def measure(blocks: int, fixed_point: bool, time_limit: float) -> dict:
     return row
 
 
-COLUMNS = [("blocks", "blocks", "{:,}"), ("contacts", "contacts", "{:,}"), ("points", "points", "{:,}"),
+COLUMNS = [("structure", "structure", "{}"), ("blocks", "blocks", "{:,}"), ("contacts", "contacts", "{:,}"), ("points", "points", "{:,}"),
            ("build_s", "build [s]", "{:.2f}"), ("contacts_s", "contacts [s]", "{:.2f}"),
            ("assemble_s", "assemble [s]", "{:.2f}"), ("lp_s", "static-lp [s]", "{:.2f}"), ("lam", "lam", "{:.6f}"),
            ("lp_plan", "static-lp engine", "{}"), ("fp_s", "fixed-point [s]", "{:.1f}"),
@@ -96,14 +104,17 @@ COLUMNS = [("blocks", "blocks", "{:,}"), ("contacts", "contacts", "{:,}"), ("poi
 def main(argv: list[str] | None = None) -> list[dict]:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--sizes", default="100,1000,10000", help="comma-separated numbers of blocks")
+    ap.add_argument("--domes", default="", help="comma-separated domes RINGSxSEGMENTS (e.g. 10x20,20x40), after the walls")
     ap.add_argument("--fixed-point", action="store_true", help="also the fixed point (sizes up to --fixed-point-max)")
     ap.add_argument("--fixed-point-max", type=int, default=2000)
     ap.add_argument("--time-limit", type=float, default=600.0)
     ap.add_argument("--smoke", action="store_true", help="60 blocks, every step, checked")
     args = ap.parse_args(argv)
     sizes = [60] if args.smoke else [int(v) for v in args.sizes.split(",") if v]
+    domes = [] if args.smoke else [v for v in args.domes.split(",") if v]
     rows = [measure(n, (args.fixed_point or args.smoke) and n <= args.fixed_point_max, args.time_limit)
             for n in sizes]
+    rows += [measure(d, args.fixed_point, args.time_limit) for d in domes]
     print(markdown(rows, COLUMNS))
     write_csv(OUT / "scale.csv", rows)
     if args.smoke:
