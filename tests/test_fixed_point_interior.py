@@ -171,6 +171,25 @@ def test_auto_skips_the_simplex_fallback_on_large_structures(monkeypatch):
     assert bm.solve(ops, "fixed-point", max_iterations=3).extra["engine"] == "interior, then simplex"
 
 
+def test_the_lp_steps_leave_the_interior_engine_its_share_of_the_time(monkeypatch):
+    """Below ``FIXED_POINT_INTERIOR_BLOCKS`` (``engine="auto"``) the LP steps run under a deadline of at most
+    ``FIXED_POINT_STEPS_SHARE`` of the time left, so that the interior engine planned after them gets the rest; with
+    ``engine="simplex"`` (nothing planned after them) they get the whole run's."""
+    from blockmpec.deadline import Deadline
+
+    ops = bm.assemble(bm.cases.two_blocks(eta=3.0, mu=0.65))
+    for engine, share in (("auto", plan.FIXED_POINT_STEPS_SHARE), ("simplex", 1.0)):
+        solver = bm.get_solver("fixed-point")(engine=engine)
+        solver.setup(ops)
+        given = []
+        run_simplex = solver._run_simplex
+        monkeypatch.setattr(solver, "_run_simplex", lambda deadline: given.append(deadline.remaining())
+                            or run_simplex(deadline))
+        run = Deadline(100.0)
+        solver.run(run)
+        assert given and given[0] <= share * 100.0 + 1e-9 and given[0] >= share * 100.0 - 5.0, (engine, given)
+
+
 def _lps(ops):
     """The compiled step LP (5) (``tan(psi)`` rows) and static LP (1) of ``ops`` (:func:`step_lps`)."""
     return step_lps(ops, tie_break=False)
