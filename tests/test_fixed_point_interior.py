@@ -175,19 +175,20 @@ def test_the_lp_steps_leave_the_interior_engine_its_share_of_the_time(monkeypatc
     """Below ``FIXED_POINT_INTERIOR_BLOCKS`` (``engine="auto"``) the LP steps run under a deadline of at most
     ``FIXED_POINT_STEPS_SHARE`` of the time left, so that the interior engine planned after them gets the rest; with
     ``engine="simplex"`` (nothing planned after them) they get the whole run's."""
-    from blockmpec.deadline import Deadline
+    from blockmpec.solvers.engines import lp_sequence
 
     ops = bm.assemble(bm.cases.two_blocks(eta=3.0, mu=0.65))
+    run_sequence = lp_sequence.run_sequence
     for engine, share in (("auto", plan.FIXED_POINT_STEPS_SHARE), ("simplex", 1.0)):
-        solver = bm.get_solver("fixed-point")(engine=engine)
-        solver.setup(ops)
         given = []
-        run_simplex = solver._run_simplex
-        monkeypatch.setattr(solver, "_run_simplex", lambda deadline: given.append(deadline.remaining())
-                            or run_simplex(deadline))
-        run = Deadline(100.0)
-        solver.run(run)
-        assert given and given[0] <= share * 100.0 + 1e-9 and given[0] >= share * 100.0 - 5.0, (engine, given)
+
+        def recording(*args, given=given, **kwargs):
+            given.append(kwargs["deadline"].remaining())
+            return run_sequence(*args, **kwargs)
+
+        monkeypatch.setattr(lp_sequence, "run_sequence", recording)
+        assert bm.solve(ops, "fixed-point", engine=engine, time_limit=100.0).success
+        assert given and share * 100.0 - 5.0 <= given[0] <= share * 100.0 + 1e-9, (engine, given)
 
 
 def _lps(ops):
