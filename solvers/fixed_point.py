@@ -62,10 +62,11 @@ small structures' answers are those of the simplex engine), the interior one fro
 up, and falls back to the simplex engine in the time left when the interior run does not
 reach a solution of (3) (residuals above the run's ``verify_tol``), in 2D below
 :data:`~blockmpec.solvers.plan.FIXED_POINT_SIMPLEX_FALLBACK_BLOCKS` free blocks (above, and in 3D, the simplex engine
-cannot finish in the default time limit, and the interior run's failure is returned at once).  When Mehrotra's iterates stall on the curved central path of (3), arclength
-continuation of the path from there (setting ``interior_continuation``, on by default; its steps count as
-iterations) closes the run; a run that still fails falls back as above.  The measurements behind the thresholds and
-stages are in docs/methods/fixed-point.md and the performance pages.
+cannot finish in the default time limit, and the interior run's failure is returned at once).  When Mehrotra's
+iterates stall on the curved central path of (3), arclength continuation of the path from there (setting
+``interior_continuation``, on by default; its steps count as iterations) closes the run; a run that still fails
+falls back as above.  The measurements behind the thresholds and stages are in docs/methods/fixed-point.md and the
+performance pages.
 
 Options and settings.  The options (:class:`FixedPointOptions`) are what a user chooses; the engine settings
 (:class:`FixedPointSettings`: the fold weight, Anderson acceleration, the HiGHS algorithm, the interior engine's aim
@@ -215,9 +216,11 @@ class FixedPoint(SolverBase):
         self.units = LoadUnits.of(ops)
         self.engine = plan.fixed_point_engine(self.options.engine, ops.n_free_blocks)
         self.fallback = plan.fixed_point_fallback(self.options.engine, ops.n_free_blocks, ops.dim)
-        other = (self.fallback if self.engine == "interior"
-                 else plan.fixed_point_interior_fallback(self.options.engine, ops.n_free_blocks))
+        #: after unverified LP steps: the interior engine, then (3D) the relaxed "closest" steps
+        self.interior_next = (self.engine == "simplex"
+                              and plan.fixed_point_interior_fallback(self.options.engine, ops.n_free_blocks))
         self.relaxed = plan.fixed_point_relaxed_fallback(self.options.engine, ops.n_free_blocks, ops.dim)
+        other = self.fallback if self.engine == "interior" else self.interior_next
         self.plan = plan.fixed_point_plan(self.engine, other, self.options.start, self.options.tie_break,
                                           relaxed=self.relaxed)
         self.sequence = None
@@ -316,13 +319,12 @@ class FixedPoint(SolverBase):
         self.plan.start(self.engine)
         if self.engine == "interior":
             return self._run_interior(deadline)
-        interior_next = plan.fixed_point_interior_fallback(self.options.engine, self.ops.n_free_blocks)
         # with the interior engine planned next, the LP steps leave it its share of the time
-        steps_deadline = deadline.within(plan.FIXED_POINT_STEPS_SHARE * deadline.remaining()) if interior_next else deadline
-        out = self._run_simplex(steps_deadline)
+        share = plan.FIXED_POINT_STEPS_SHARE if self.interior_next else 1.0
+        out = self._run_simplex(deadline.within(share * deadline.remaining()))
         if self._verified(out) or out.status is Status.INFEASIBLE or deadline.expired():
             return out  # infeasible: proven by the associative LP (1), which no engine can change
-        if interior_next:
+        if self.interior_next:
             # the LP steps did not reach a solution of (3) (they wander on irregular stone walls and on the dome):
             # the interior engine, in the time left
             self.plan.start("interior")

@@ -167,7 +167,8 @@ class InteriorFixedPoint(BlockLP):
         self.normal_columns = lp.columns["x"][layout.normal_index]
         # the cohesion factor tan(phi) - tan(psi) of each friction row's normal force, read off the two compiled LPs
         difference = _friction_difference(lp, coulomb_lp, layout.normal_index)
-        self.row_factor = np.asarray(difference[lp.rows["friction"], self.normal_columns[self.friction_contact]]).ravel()
+        row_columns = self.normal_columns[self.friction_contact]  # the normal force of each friction row's contact
+        self.row_factor = np.asarray(difference[lp.rows["friction"], row_columns]).ravel()
         factor = np.zeros(self.normal_columns.size)
         np.maximum.at(factor, self.friction_contact, self.row_factor)
         self.cohesion_factor = factor
@@ -190,10 +191,8 @@ class InteriorFixedPoint(BlockLP):
         if coupling == "exact":
             # the primal rows are the static LP's (Coulomb, tan(phi)): the step LP's plus the difference, scaled as
             # the step LP's rows are (the same numbers as the rows of the static LP itself, scaled alike)
-            rows = self.friction_position
-            cols = self.normal_columns[self.friction_contact]
-            values = self.row_factor
-            extra = sp.csr_array((self.in_scale[rows] * values * self.column_scale[cols], (rows, cols)),
+            rows, cols = self.friction_position, row_columns
+            extra = sp.csr_array((self.in_scale[rows] * self.row_factor * self.column_scale[cols], (rows, cols)),
                                  shape=self.G.shape)
             self.G = (self.G + extra).tocsr()
             self.g_blocks = self.dense_blocks(self.G)
@@ -467,8 +466,7 @@ def sequence_then_newton(lp, coulomb_lp, units, *, tol: float, max_steps: int, d
             if deadline.expired():
                 break
             newton = InteriorFixedPoint(lp, coulomb_lp, units, tol=tol, max_iterations=SEQUENCE_NEWTON_ITERATIONS,
-                                        layout=layout,
-                                        deadline=deadline.end, ordering=ordering)
+                                        deadline=deadline.end, ordering=ordering, layout=layout)
             newton.start_iterate = recentred_start(newton, iterate, factor)
             ended = newton.solve()
             facts["sequence_newton_runs"] += 1
@@ -522,8 +520,9 @@ def run_interior(lp, coulomb_lp, units, *, tol: float, max_iterations: int, dead
         if deadline.expired():
             break
         t0 = time.perf_counter()
-        engine = InteriorFixedPoint(lp, coulomb_lp, units, fold_weight=weight, fold_off=fold_off, tol=tol, layout=layout,
-                                    max_iterations=max_iterations, deadline=deadline.end, ordering=ordering)
+        engine = InteriorFixedPoint(lp, coulomb_lp, units, fold_weight=weight, fold_off=fold_off, tol=tol,
+                                    max_iterations=max_iterations, deadline=deadline.end, ordering=ordering,
+                                    layout=layout)
         engine.criterion = crit
         out = engine.solve()
         seconds += time.perf_counter() - t0

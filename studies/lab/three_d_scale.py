@@ -1,8 +1,8 @@
 """3D structures at scale (issue 52): contact detection, assembly, the associative LP and the fixed point.
 
-Each structure (but the ``--domes``) is a two-leaf 3D running-bond wall of about ``--sizes`` blocks (:func:`bonded_wall`: two leaves of
-bricks side by side in ``y``, the courses alternating stretchers and headers, so that contacts lie in all three
-planes), built in this process one after the other:
+Each structure (but the ``--domes``) is a two-leaf 3D running-bond wall of about ``--sizes`` blocks
+(:func:`bonded_wall`: two leaves of bricks side by side in ``y``, the courses alternating stretchers and headers, so
+that contacts lie in all three planes), built in this process one after the other:
 
 * ``build_s``: :func:`blockmpec.three_d.make_structure_3d` (checks, overlaps and the contact detection), of which
   ``contacts_s`` is the contact detection alone (:func:`blockmpec.three_d.contacts.detect_contacts`);
@@ -80,8 +80,9 @@ def measure(blocks: int | str, fixed_point: bool, time_limit: float) -> dict:
     t0 = time.perf_counter()
     ops = bm.assemble(s)
     assemble = time.perf_counter() - t0
-    row = {"structure": "wall" if isinstance(blocks, int) else f"dome {blocks}", "blocks": s.n_free, "contacts": len(s.contacts), "points": ops.n_contacts, "build_s": build,
-           "contacts_s": contacts, "assemble_s": assemble}
+    row = {"structure": "wall" if isinstance(blocks, int) else f"dome {blocks}", "blocks": s.n_free,
+           "contacts": len(s.contacts), "points": ops.n_contacts, "build_s": build, "contacts_s": contacts,
+           "assemble_s": assemble}
     lp = bm.solve(ops, "static-lp", time_limit=time_limit)
     row.update(lp_s=lp.solve_time_s, lp_status=lp.status.value, lp_verified=lp.verified, lam=lp.multiplier,
                lp_plan="; ".join(lp.extra.get("plan", [])))
@@ -93,18 +94,21 @@ def measure(blocks: int | str, fixed_point: bool, time_limit: float) -> dict:
     return row
 
 
-COLUMNS = [("structure", "structure", "{}"), ("blocks", "blocks", "{:,}"), ("contacts", "contacts", "{:,}"), ("points", "points", "{:,}"),
+COLUMNS = [("structure", "structure", "{}"), ("blocks", "blocks", "{:,}"), ("contacts", "contacts", "{:,}"),
+           ("points", "points", "{:,}"),
            ("build_s", "build [s]", "{:.2f}"), ("contacts_s", "contacts [s]", "{:.2f}"),
            ("assemble_s", "assemble [s]", "{:.2f}"), ("lp_s", "static-lp [s]", "{:.2f}"), ("lam", "lam", "{:.6f}"),
            ("lp_plan", "static-lp engine", "{}"), ("fp_s", "fixed-point [s]", "{:.1f}"),
            ("fp_engine", "fixed-point engine", "{}"), ("fp_steps", "iterations", "{}"),
-           ("fp_status", "fixed-point", "{}"), ("fp_verified", "verified", "{}"), ("fp_lam", "lam (3)", "{:.6f}"), ("peak_mb", "peak [MB]", "{:.0f}")]
+           ("fp_status", "fixed-point", "{}"), ("fp_verified", "verified", "{}"), ("fp_lam", "lam (3)", "{:.6f}"),
+           ("peak_mb", "peak [MB]", "{:.0f}")]
 
 
 def main(argv: list[str] | None = None) -> list[dict]:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--sizes", default="100,1000,10000", help="comma-separated numbers of blocks")
-    ap.add_argument("--domes", default="", help="comma-separated domes RINGSxSEGMENTS (e.g. 10x20,20x40), after the walls")
+    ap.add_argument("--domes", default="",
+                    help="comma-separated domes RINGSxSEGMENTS (e.g. 10x20,20x40), after the walls")
     ap.add_argument("--fixed-point", action="store_true", help="also the fixed point (sizes up to --fixed-point-max)")
     ap.add_argument("--fixed-point-max", type=int, default=2000)
     ap.add_argument("--time-limit", type=float, default=600.0)
